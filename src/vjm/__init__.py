@@ -1,0 +1,1 @@
+"""vjm: virtual-joint-method stiffness of parallel machines."""
