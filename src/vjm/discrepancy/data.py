@@ -1,0 +1,279 @@
+"""Measurement files: reading, validation and writing.
+
+Two kinds of CSV are accepted (header row required, comma separated):
+
+* **deflections** -- columns ``x,y,z,Fx,Fy,Fz,Mx,My,Mz,dx,dy,dz,rx,ry,rz``
+  and optional ``sigma_t,sigma_r``.  ``x,y,z`` is the commanded end-effector
+  position (mm), ``F``/``M`` the applied wrench at that point (N, N mm),
+  ``dx,dy,dz`` the measured displacement (mm) from the nominal rigid unloaded
+  position, ``rx,ry,rz`` the measured small rotation (rad).  Rotations (and
+  individual translations) may be left blank where they were not measured.
+  ``sigma_t``/``sigma_r`` are the standard deviations of one translation /
+  rotation component; when absent they are estimated from the residuals.
+* **stiffness observations** -- columns ``x,y,z,quantity,value`` with
+  ``quantity`` one of ``k_tran`` (mm/N) or ``k_rot`` (rad/(N mm)), and optional
+  ``sigma_rel`` (relative standard deviation of ``value``).  Extra columns
+  (e.g. ``architecture``) are kept as text.
+
+Every error names the file row (1-based, header is row 1) and column.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import VjmError
+
+POS = ("x", "y", "z")
+WRENCH = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+TWIST = ("dx", "dy", "dz", "rx", "ry", "rz")
+SIGMA = ("sigma_t", "sigma_r")
+STIFF = ("x", "y", "z", "quantity", "value")
+QUANTITIES = ("k_tran", "k_rot")
+
+
+@dataclass(frozen=True)
+class Deflections:
+    """Measured deflections under applied wrenches.
+
+    Attributes
+    ----------
+    P : (n, 3) commanded positions, mm.
+    W : (n, 6) applied wrenches, N and N mm.
+    T : (n, 6) measured twists, mm and rad; NaN where not measured.
+    sigma_t, sigma_r : (n,) standard deviations, or None when absent from the file.
+    rows : (n,) 1-based row numbers in the source file (header = row 1).
+    source : file name, for messages.
+    """
+
+    P: np.ndarray
+    W: np.ndarray
+    T: np.ndarray
+    sigma_t: np.ndarray | None = None
+    sigma_r: np.ndarray | None = None
+    rows: np.ndarray | None = None
+    source: str = "<memory>"
+
+    @property
+    def n(self) -> int:
+        return self.P.shape[0]
+
+    @property
+    def mask(self) -> np.ndarray:
+        """(n, 6) bool: which twist components were measured."""
+        return np.isfinite(self.T)
+
+
+@dataclass(frozen=True)
+class StiffnessObs:
+    """Per-posture stiffness observations (e.g. the seed's Table 1).
+
+    Attributes
+    ----------
+    P : (n, 3) positions, mm.
+    quantity : (n,) int, 0 for ``k_tran`` (mm/N), 1 for ``k_rot`` (rad/(N mm)).
+    value : (n,) observed values (> 0).
+    sigma_rel : (n,) relative standard deviations or None.
+    extra : other text columns, name -> list of str.
+    """
+
+    P: np.ndarray
+    quantity: np.ndarray
+    value: np.ndarray
+    sigma_rel: np.ndarray | None = None
+    rows: np.ndarray | None = None
+    source: str = "<memory>"
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return self.P.shape[0]
+
+
+def _err(source, row, col, msg):
+    where = f"{os.path.basename(str(source))}: row {row}"
+    if col is not None:
+        where += f", column '{col}'"
+    return VjmError(f"{where}: {msg}")
+
+
+def _float(text, source, row, col, required):
+    t = (text or "").strip()
+    if t == "":
+        if required:
+            raise _err(source, row, col, "value is missing (required column)")
+        return math.nan
+    try:
+        v = float(t)
+    except ValueError:
+        raise _err(source, row, col, f"'{t}' is not a number") from None
+    if required and not math.isfinite(v):
+        raise _err(source, row, col, f"value is {t} (required column must be a finite number)")
+    if not required and math.isinf(v):
+        raise _err(source, row, col, f"value is {t} (must be finite or blank)")
+    return v
+
+
+def _read_table(path):
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            text = fh.read()
+    except OSError as exc:
+        raise VjmError(f"cannot read measurement file {path}: {exc.strerror}") from None
+    lines = [ln for ln in text.splitlines()]
+    # keep row numbers aligned with the file: comment lines starting with '#' are skipped
+    rows = []
+    reader = csv.reader(io.StringIO(text))
+    for i, rec in enumerate(reader, start=1):
+        if not rec or all(not c.strip() for c in rec):
+            continue
+        if rec[0].lstrip().startswith("#"):
+            continue
+        rows.append((i, [c.strip() for c in rec]))
+    if not rows:
+        raise VjmError(f"{os.path.basename(str(path))}: file is empty (expected a header row)")
+    del lines
+    return rows
+
+
+def read_csv(path) -> Deflections | StiffnessObs:
+    """Read a measurement CSV of either kind (see module docstring).
+
+    Raises
+    ------
+    VjmError
+        Naming the row and column of the first problem found.
+    """
+    rows = _read_table(path)
+    hdr_row, header = rows[0]
+    if len(set(header)) != len(header):
+        dup = [h for h in header if header.count(h) > 1][0]
+        raise _err(path, hdr_row, dup, "duplicate column name")
+    body = rows[1:]
+    if "quantity" in header:
+        return _parse_stiffness(path, header, hdr_row, body)
+    missing = [c for c in POS + WRENCH + TWIST if c not in header]
+    if missing:
+        raise _err(path, hdr_row, missing[0],
+                   f"missing column(s) {', '.join(missing)}; expected "
+                   f"{','.join(POS + WRENCH + TWIST)} [+ sigma_t,sigma_r] or {','.join(STIFF)}")
+    if not body:
+        raise _err(path, hdr_row + 1, None, "no data rows")
+    col = {h: i for i, h in enumerate(header)}
+    n = len(body)
+    P = np.empty((n, 3))
+    W = np.empty((n, 6))
+    T = np.empty((n, 6))
+    has_sig = {s: s in col for s in SIGMA}
+    sig = {s: np.empty(n) for s in SIGMA if has_sig[s]}
+    rownums = np.empty(n, dtype=int)
+    for k, (r, rec) in enumerate(body):
+        if len(rec) != len(header):
+            raise _err(path, r, None, f"has {len(rec)} fields, header has {len(header)} (malformed CSV)")
+        rownums[k] = r
+        for j, c in enumerate(POS):
+            P[k, j] = _float(rec[col[c]], path, r, c, True)
+        for j, c in enumerate(WRENCH):
+            W[k, j] = _float(rec[col[c]], path, r, c, True)
+        for j, c in enumerate(TWIST):
+            T[k, j] = _float(rec[col[c]], path, r, c, False)
+        for s in sig:
+            v = _float(rec[col[s]], path, r, s, True)
+            if v <= 0:
+                raise _err(path, r, s, f"standard deviation must be > 0, got {v}")
+            sig[s][k] = v
+    # a row with nothing measured carries no information: say so rather than silently dropping it
+    empty = ~np.isfinite(T).any(axis=1)
+    if empty.any():
+        raise _err(path, int(rownums[np.argmax(empty)]), "dx", "no measured twist component in this row")
+    zero = ~(np.abs(W) > 0).any(axis=1)
+    if zero.all():
+        raise _err(path, int(rownums[0]), "Fx",
+                   "all applied loads are zero in every row: deflections carry no stiffness information")
+    if "sigma_r" in sig and not np.isfinite(T[:, 3:]).any():
+        pass  # harmless: a rotation sigma with no rotations
+    return Deflections(P, W, T, sig.get("sigma_t"), sig.get("sigma_r"), rownums, str(path))
+
+
+def _parse_stiffness(path, header, hdr_row, body):
+    missing = [c for c in STIFF if c not in header]
+    if missing:
+        raise _err(path, hdr_row, missing[0], f"missing column(s) {', '.join(missing)}; expected {','.join(STIFF)}")
+    if not body:
+        raise _err(path, hdr_row + 1, None, "no data rows")
+    col = {h: i for i, h in enumerate(header)}
+    n = len(body)
+    P = np.empty((n, 3))
+    q = np.empty(n, dtype=int)
+    v = np.empty(n)
+    srel = np.empty(n) if "sigma_rel" in col else None
+    extra = {h: [] for h in header if h not in STIFF and h != "sigma_rel"}
+    rownums = np.empty(n, dtype=int)
+    for k, (r, rec) in enumerate(body):
+        if len(rec) != len(header):
+            raise _err(path, r, None, f"has {len(rec)} fields, header has {len(header)} (malformed CSV)")
+        rownums[k] = r
+        for j, c in enumerate(POS):
+            P[k, j] = _float(rec[col[c]], path, r, c, True)
+        name = rec[col["quantity"]]
+        if name not in QUANTITIES:
+            raise _err(path, r, "quantity", f"'{name}' is not one of {', '.join(QUANTITIES)}")
+        q[k] = QUANTITIES.index(name)
+        v[k] = _float(rec[col["value"]], path, r, "value", True)
+        if v[k] <= 0:
+            raise _err(path, r, "value", f"a compliance must be > 0, got {v[k]}")
+        if srel is not None:
+            srel[k] = _float(rec[col["sigma_rel"]], path, r, "sigma_rel", True)
+            if srel[k] <= 0:
+                raise _err(path, r, "sigma_rel", f"must be > 0, got {srel[k]}")
+        for h in extra:
+            extra[h].append(rec[col[h]])
+    return StiffnessObs(P, q, v, srel, rownums, str(path), extra)
+
+
+def atomic_write_text(path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file and ``os.replace``."""
+    path = os.fspath(path)
+    d = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".tmp_", dir=d)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_deflections(path, data: Deflections, header_comment: str | None = None) -> None:
+    """Write deflection measurements in the CSV format read by :func:`read_csv`."""
+    buf = io.StringIO()
+    if header_comment:
+        for line in header_comment.splitlines():
+            buf.write(f"# {line}\n")
+    cols = list(POS + WRENCH + TWIST)
+    if data.sigma_t is not None:
+        cols.append("sigma_t")
+    if data.sigma_r is not None:
+        cols.append("sigma_r")
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(cols)
+
+    def fmt(v):
+        return "" if not np.isfinite(v) else repr(float(v))
+
+    for k in range(data.n):
+        rec = [fmt(v) for v in data.P[k]] + [fmt(v) for v in data.W[k]] + [fmt(v) for v in data.T[k]]
+        if data.sigma_t is not None:
+            rec.append(fmt(data.sigma_t[k]))
+        if data.sigma_r is not None:
+            rec.append(fmt(data.sigma_r[k]))
+        w.writerow(rec)
+    atomic_write_text(path, buf.getvalue())

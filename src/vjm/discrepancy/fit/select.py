@@ -1,0 +1,297 @@
+"""Nonlinear least squares, evidence (BIC, likelihood ratio / F test, grouped
+cross-validation) and forward selection of model terms.
+
+The engine knows nothing about mechanics.  A :class:`Problem` is a function
+returning *whitened* residuals ``r = (y - f(theta)) / sigma`` for a tuple of
+term names (the always-present baseline terms first) and the stacked parameter
+vector of those terms, plus a posture label per residual for cross-validation.
+
+Statistics
+----------
+With known measurement sigmas the residuals are standard normal under the
+right model, so ``chi2 = sum r^2`` and
+
+* likelihood ratio test of a nested model with ``q`` more parameters:
+  ``chi2_0 - chi2_1 ~ chi2(q)``;
+* ``BIC = chi2 + k ln n``.
+
+With unknown sigmas (scaled by a common guess) the variance is a nuisance
+parameter:
+
+* F test: ``F = ((RSS_0 - RSS_1)/q) / (RSS_1/(n - k_1)) ~ F(q, n - k_1)``;
+* ``BIC = n ln(RSS/n) + k ln n``.
+
+Parameter covariance is ``s^2 (J^T J)^-1`` at the optimum (``s^2 = 1`` with
+known sigmas, ``RSS/(n-k)`` otherwise); intervals are ``theta +- 1.96 se``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy import optimize, stats
+
+Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True)
+class Param:
+    """One fitted parameter.
+
+    ``null`` is the value at which the term has no effect (the nested model),
+    ``scale`` a typical magnitude (used to scale the optimisation).
+    """
+
+    name: str
+    start: float
+    lower: float = -np.inf
+    upper: float = np.inf
+    scale: float = 1.0
+    null: float = 0.0
+    unit: str = ""
+
+
+@dataclass(frozen=True)
+class Term:
+    """A named block of parameters: the baseline calibration or one effect."""
+
+    name: str
+    params: tuple
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What the selection engine needs from a data set and a model.
+
+    Attributes
+    ----------
+    residuals : callable(names, theta) -> (m,) whitened residuals.
+    terms : dict name -> Term (baseline terms and candidates).
+    groups : (m,) int posture label of each residual (cross-validation unit).
+    sigma_known : whether residuals are whitened by known sigmas.
+    baseline : names of the always-fitted terms.
+    """
+
+    residuals: Callable
+    terms: dict
+    groups: np.ndarray
+    sigma_known: bool
+    baseline: tuple = ()
+
+    @property
+    def n(self) -> int:
+        return int(len(self.groups))
+
+    def params(self, names):
+        return [p for nm in names for p in self.terms[nm].params]
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Least-squares fit of a set of terms."""
+
+    names: tuple
+    theta: np.ndarray
+    se: np.ndarray
+    chi2: float  # sum of squared whitened residuals (RSS in guess units if sigma unknown)
+    n: int
+    k: int
+    sigma_known: bool
+    success: bool
+    residuals: np.ndarray = field(repr=False, default=None)
+
+    @property
+    def dof(self) -> int:
+        return self.n - self.k
+
+    @property
+    def bic(self) -> float:
+        if self.sigma_known:
+            return float(self.chi2 + self.k * np.log(self.n))
+        return float(self.n * np.log(max(self.chi2, 1e-300) / self.n) + self.k * np.log(self.n))
+
+    @property
+    def reduced_chi2(self) -> float:
+        return float(self.chi2 / max(self.dof, 1))
+
+    def values(self, problem: Problem) -> dict:
+        """name -> {param: {value, se, ci95, unit}} per term."""
+        out, i = {}, 0
+        for nm in self.names:
+            d = {}
+            for p in problem.terms[nm].params:
+                v, s = float(self.theta[i]), float(self.se[i])
+                d[p.name] = {"value": v, "se": s, "ci95": [v - Z95 * s, v + Z95 * s], "unit": p.unit}
+                i += 1
+            out[nm] = d
+        return out
+
+    def term_theta(self, problem: Problem, name: str) -> np.ndarray:
+        i = 0
+        for nm in self.names:
+            k = len(problem.terms[nm].params)
+            if nm == name:
+                return self.theta[i:i + k]
+            i += k
+        raise KeyError(name)
+
+
+def _start_vector(problem, names, warm):
+    x0 = []
+    for nm in names:
+        if warm is not None and nm in warm.names:
+            x0.extend(warm.term_theta(problem, nm))
+        else:
+            x0.extend(p.start for p in problem.terms[nm].params)
+    return np.array(x0, dtype=float)
+
+
+def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None) -> FitResult:
+    """Fit the parameters of ``names`` by nonlinear least squares.
+
+    Parameters
+    ----------
+    mask : optional bool (m,) selecting the residuals used (cross-validation).
+    warm : a previous fit whose values start the shared terms.
+    """
+    names = tuple(names)
+    params = problem.params(names)
+    lo = np.array([p.lower for p in params])
+    hi = np.array([p.upper for p in params])
+    xs = np.array([p.scale for p in params])
+    x0 = np.clip(_start_vector(problem, names, warm), lo, hi)
+    # strictly feasible start for trf: nudge off a bound by a small fraction of the scale
+    x0 = np.where(x0 <= lo, lo + 1e-3 * xs, x0)
+    x0 = np.where(x0 >= hi, hi - 1e-3 * xs, x0)
+
+    def fun(x):
+        r = problem.residuals(names, x)
+        return r if mask is None else r[mask]
+
+    if len(params) == 0:
+        r = fun(x0)
+        return FitResult(names, x0, np.zeros(0), float(r @ r), r.size, 0, problem.sigma_known, True, r)
+    sol = optimize.least_squares(fun, x0, bounds=(lo, hi), x_scale=xs, diff_step=1e-6,
+                                 method="trf", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200)
+    r = sol.fun
+    n, k = r.size, len(params)
+    chi2 = float(r @ r)
+    J = sol.jac
+    # pseudo-inverse: a parameter the data cannot see gets a huge (honest) standard error
+    JtJ = J.T @ J
+    try:
+        cov = np.linalg.pinv(JtJ, rcond=1e-12, hermitian=True)
+    except np.linalg.LinAlgError:
+        cov = np.full((k, k), np.inf)
+    s2 = 1.0 if problem.sigma_known else chi2 / max(n - k, 1)
+    se = np.sqrt(np.maximum(np.diag(cov) * s2, 0.0))
+    zero = np.diag(JtJ) <= 0
+    se[zero] = np.inf
+    return FitResult(names, sol.x, se, chi2, n, k, problem.sigma_known, bool(sol.success), r)
+
+
+def compare(problem: Problem, small: FitResult, big: FitResult) -> tuple[float, float]:
+    """(delta_bic, p_value) of ``big`` against the nested ``small``."""
+    q = big.k - small.k
+    dbic = big.bic - small.bic
+    if q <= 0:
+        return float(dbic), 1.0
+    if problem.sigma_known:
+        stat = max(small.chi2 - big.chi2, 0.0)
+        p = stats.chi2.sf(stat, q)
+    else:
+        d2 = big.dof
+        if d2 <= 0 or big.chi2 <= 0:
+            return float(dbic), 1.0
+        F = max(small.chi2 - big.chi2, 0.0) / q / (big.chi2 / d2)
+        p = stats.f.sf(F, q, d2)
+    return float(dbic), float(p)
+
+
+def grouped_folds(groups, k: int = 5, seed: int = 0) -> list:
+    """Boolean test masks of a k-fold split that keeps each group (posture) whole."""
+    g = np.asarray(groups)
+    uniq = np.unique(g)
+    k = int(min(k, uniq.size))
+    if k < 2:
+        return []
+    perm = np.random.default_rng(seed).permutation(uniq)
+    fold_of = {u: i % k for i, u in enumerate(perm)}
+    f = np.array([fold_of[x] for x in g])
+    return [f == i for i in range(k)]
+
+
+def cv_error(problem: Problem, names, folds, warm: FitResult | None = None) -> float:
+    """Root mean square held-out whitened residual over grouped folds (NaN if no folds)."""
+    if not folds:
+        return float("nan")
+    sq, cnt = 0.0, 0
+    for test in folds:
+        fr = fit_terms(problem, names, mask=~test, warm=warm)
+        r = problem.residuals(tuple(names), fr.theta)[test]
+        sq += float(r @ r)
+        cnt += r.size
+    return float(np.sqrt(sq / max(cnt, 1)))
+
+
+@dataclass(frozen=True)
+class Selection:
+    """Outcome of forward selection."""
+
+    baseline: FitResult
+    final: FitResult
+    selected: tuple
+    rounds: list  # per round: dict name -> {delta_bic, p_value, cv_error, fit, eligible}
+    cv_baseline: float
+    alpha: float
+
+
+def forward_select(problem: Problem, candidates, alpha: float = 0.01, max_effects: int = 3,
+                   folds: int = 5, seed: int = 0, log=None) -> Selection:
+    """Forward selection of candidate terms on top of the baseline.
+
+    At each round every remaining candidate is fitted together with the terms
+    already chosen.  A candidate is *eligible* when its test p-value is below
+    ``alpha / m`` (Bonferroni over the ``m`` candidates of the round, so that
+    clean data names nothing with probability >= 1 - alpha), its BIC is lower
+    and its held-out-posture CV error is not larger than the current model's.
+    The eligible candidate with the lowest BIC is added.  Selection stops when
+    no candidate is eligible: "no missing effect" if that happens at round 1.
+    """
+    fold_masks = grouped_folds(problem.groups, folds, seed)
+    base = fit_terms(problem, problem.baseline)
+    cur = base
+    cv_cur = cv_error(problem, problem.baseline, fold_masks, warm=base)
+    cv_base = cv_cur
+    remaining = [c for c in candidates if c not in problem.baseline]
+    selected, rounds = [], []
+    while remaining and len(selected) < max_effects:
+        m = len(remaining)
+        info = {}
+        for c in remaining:
+            fr = fit_terms(problem, cur.names + (c,), warm=cur)
+            dbic, p = compare(problem, cur, fr)
+            info[c] = {"fit": fr, "delta_bic": dbic, "p_value": p, "cv_error": float("nan")}
+        # CV for all candidates in round 1 (reported), later only where it can decide
+        for c in remaining:
+            if not rounds or (info[c]["p_value"] < alpha / m and info[c]["delta_bic"] < 0):
+                info[c]["cv_error"] = cv_error(problem, cur.names + (c,), fold_masks, warm=info[c]["fit"])
+        for c in remaining:
+            d = info[c]
+            cv_ok = not np.isfinite(d["cv_error"]) or not np.isfinite(cv_cur) or d["cv_error"] <= cv_cur
+            d["eligible"] = bool(d["p_value"] < alpha / m and d["delta_bic"] < 0 and cv_ok)
+        rounds.append(info)
+        if log:
+            log(f"round {len(rounds)}: " + ", ".join(
+                f"{c} dBIC={info[c]['delta_bic']:.1f} p={info[c]['p_value']:.2g}" for c in remaining))
+        elig = [c for c in remaining if info[c]["eligible"]]
+        if not elig:
+            break
+        best = min(elig, key=lambda c: info[c]["delta_bic"])
+        selected.append(best)
+        cur = info[best]["fit"]
+        cv_cur = info[best]["cv_error"]
+        remaining.remove(best)
+    return Selection(base, cur, tuple(selected), rounds, cv_base, alpha)
