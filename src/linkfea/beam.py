@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import LinkFeaError
+from .frames import twist_transform
 
 
 @dataclass(frozen=True)
@@ -130,3 +131,93 @@ def cantilever_compliance(L: float, section: Section, E: float, nu: float, shear
         C[1, 1] += L / (G * s.Asy)
         C[2, 2] += L / (G * s.Asz)
     return C
+
+
+# --- Beams in series -------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BeamSegment:
+    """A straight prismatic segment of a beam model, in the beam frame.
+
+    The beam frame has x along the beam and its origin at the point where the
+    model's compliance is wanted (the link tip).  The segment runs from
+    ``x_start`` to ``x_end`` (``x_start < x_end``) along a line parallel to x
+    through ``centroid`` = (y, z); its section's principal axes are the beam
+    frame's y and z rotated by ``angle`` (rad, right-handed about x).
+
+    Attributes
+    ----------
+    x_start, x_end : float
+        Ends of the segment along x, mm.
+    section : Section
+        Constants in the principal axes (``Iy`` about principal axis 1).
+    centroid : tuple of float
+        (y, z) of the section centroid, mm.
+    angle : float
+        Principal angle, rad.
+    """
+
+    x_start: float
+    x_end: float
+    section: Section
+    centroid: tuple = (0.0, 0.0)
+    angle: float = 0.0
+
+    def __post_init__(self):
+        vals = (self.x_start, self.x_end, self.angle, *self.centroid)
+        if not np.all(np.isfinite(vals)):
+            raise LinkFeaError(f"beam segment: ends, centroid and angle must be finite, got {vals}")
+        if not self.x_end > self.x_start:
+            raise LinkFeaError(f"beam segment: x_end must exceed x_start, got {self.x_start}..{self.x_end}")
+        object.__setattr__(self, "centroid", (float(self.centroid[0]), float(self.centroid[1])))
+
+    @property
+    def length(self) -> float:
+        return self.x_end - self.x_start
+
+    def tip_axes(self) -> np.ndarray:
+        """Rows: the segment's x, principal y and principal z axes in beam-frame components."""
+        c, s = np.cos(self.angle), np.sin(self.angle)
+        return np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
+
+    def tip_origin(self) -> np.ndarray:
+        return np.array([self.x_end, self.centroid[0], self.centroid[1]])
+
+
+def series_compliance(segments, E: float, nu: float, shear: bool = True) -> np.ndarray:
+    """Compliance of beam segments clamped end to end, at the beam frame's origin.
+
+    A serial chain of 6-dof springs: the tip wrench reaches every segment
+    unchanged (moved to that segment's tip), and the segments' elastic twists
+    add up once moved rigidly to the origin, so ``C = sum_i X_i C_i X_i^T`` with
+    ``X_i`` the twist map from segment ``i``'s tip frame to the beam frame
+    (:func:`linkfea.frames.twist_transform`).  Jumps of the centroid line
+    between segments are rigid.
+
+    Parameters
+    ----------
+    segments : sequence of BeamSegment
+    E, nu : float
+        Young's modulus (MPa) and Poisson's ratio.
+    shear : bool
+        Timoshenko shear terms (True) or exactly seed eq. 14 (False).
+
+    Returns
+    -------
+    ndarray (6, 6)
+        Compliance at the origin, axes of the beam frame (mm/N, rad/(N mm)).
+    """
+    segments = list(segments)
+    if not segments:
+        raise LinkFeaError("a beam model needs at least one segment")
+    Cs = np.stack([cantilever_compliance(s.length, s.section, E, nu, shear) for s in segments])
+    # Beam frame (origin 0, identity axes) seen from each segment tip frame.
+    Xs = np.stack([_twist_to_origin(s.tip_axes(), s.tip_origin()) for s in segments])
+    return np.einsum("nij,njk,nlk->il", Xs, Cs, Xs)
+
+
+def _twist_to_origin(axes: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    """Twist map from a frame (rows ``axes``, ``origin``, in beam coords) to the beam frame."""
+    # transform_compliance(C, R, p): R = target axes in source components, p = target origin in source.
+    return twist_transform(axes, axes @ (-origin))
