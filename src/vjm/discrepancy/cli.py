@@ -1,0 +1,71 @@
+"""Command functions ``diagnose`` and ``simulate``, registered on the ``vjm`` typer app.
+
+``register(app)`` adds both commands; errors (VjmError) become one line on
+stderr and exit status 2, like the other ``vjm`` commands.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+
+from ..errors import VjmError
+
+
+def _fail(exc: Exception):
+    typer.echo(f"error: {exc}", err=True)
+    raise typer.Exit(2)
+
+
+def diagnose_cmd(
+    model: Path = typer.Argument(..., help="model YAML (e.g. data/orthoglide/puu.yaml)"),
+    data: Path = typer.Argument(..., help="measurements CSV: x,y,z,Fx..Mz,dx..rz[,sigma_t,sigma_r] or x,y,z,quantity,value"),
+    out: Path = typer.Option(..., "--out", help="output directory (report.json, report.html, PNGs, model_updated.yaml)"),
+    alpha: float = typer.Option(0.01, "--alpha", help="family-wise significance level of each selection round"),
+    effect: Optional[List[str]] = typer.Option(None, "--effect", help="restrict the candidates (repeatable)"),
+    verbose: bool = typer.Option(False, "--verbose", "-v", help="print each selection round"),
+):
+    """Name the physical effect missing from MODEL that the measurements in DATA reveal."""
+    from .diagnose import run
+
+    try:
+        dg = run(model, data, out, alpha=alpha, effects=effect or None,
+                 log=(lambda s: typer.echo(s, err=True)) if verbose else None)
+    except VjmError as exc:
+        _fail(exc)
+    typer.echo(dg.report["summary"])
+    typer.echo(f"Report: {Path(out) / 'report.html'}")
+
+
+def simulate_cmd(
+    model: Path = typer.Argument(..., help="model YAML"),
+    effect: Optional[List[str]] = typer.Option(None, "--effect", help="hidden effect NAME[:param=value,...] (repeatable)"),
+    poses: str = typer.Option("grid:4", "--poses", help="grid:N | random:N | CSV with x,y,z"),
+    loads: str = typer.Option("axes:100", "--loads", help="axes:F[:M] | random:N:F | CSV with Fx..Mz"),
+    noise_t: float = typer.Option(0.001, "--noise-t", help="translation noise sigma, mm"),
+    noise_r: Optional[float] = typer.Option(None, "--noise-r", help="rotation noise sigma, rad (omit: rotations not measured)"),
+    seed: int = typer.Option(0, "--seed"),
+    out: Path = typer.Option(..., "--out", help="output CSV"),
+):
+    """Write synthetic measurements of MODEL with hidden effects."""
+    from .simulate import run
+
+    try:
+        d = run(model, effect or [], poses, loads, noise_t, noise_r, seed, out)
+    except VjmError as exc:
+        _fail(exc)
+    typer.echo(f"wrote {d.n} measurements to {out}")
+
+
+def register(app) -> None:
+    """Add ``diagnose`` and ``simulate`` to a typer app."""
+    app.command("diagnose")(diagnose_cmd)
+    app.command("simulate")(simulate_cmd)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    _app = typer.Typer(add_completion=False)
+    register(_app)
+    sys.exit(_app())

@@ -1,0 +1,197 @@
+"""The effect library: candidate physical effects a stiffness model may miss.
+
+An effect is one small class registered with :func:`register`.  It declares a
+``name``, a one-line ``description``, its parameters (:class:`Param`, with
+the ``null`` value at which the effect is absent) and implements one of two
+hooks:
+
+* ``kind = "model"``: ``apply(model, theta) -> model``, a modified (still
+  immutable) VJM model.  The prediction is then ``t = C'(p) w`` with the
+  modified model's compliance, and the fitted effect is saved as real model
+  parameters.
+* ``kind = "additive"``: ``extra(ctx, theta, C) -> (n, 6)`` twists added to
+  ``C(p) w`` (``ctx`` is the :class:`~vjm.discrepancy.predict.Context` of the
+  data set, ``C`` the (n, 6, 6) compliance of each measurement).  The fitted
+  effect is saved under the model file's ``effects:`` mapping.
+
+Adding an effect (see docs/discrepancy.md)::
+
+    @register
+    class MyEffect(Effect):
+        name = "my_effect"
+        description = "one line saying what physical thing this is"
+        kind = "additive"
+        params = (Param("a", start=0.0, scale=1e-3, unit="mm"),)
+
+        def extra(self, ctx, theta, C):
+            return theta[0] * some_unit_twist(ctx)   # (n, 6)
+
+It is then a candidate of ``vjm diagnose`` and usable in ``vjm simulate
+--effect my_effect:a=0.002``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import modelops as mo
+from .fit.select import Param
+
+REGISTRY: dict = {}
+
+
+def register(cls):
+    """Class decorator adding an effect to the library (name must be unique)."""
+    inst = cls()
+    if not inst.name or inst.name in REGISTRY:
+        raise ValueError(f"effect name {inst.name!r} is empty or already registered")
+    REGISTRY[inst.name] = inst
+    return cls
+
+
+class Effect:
+    """Base class.  Subclasses set the class attributes and one hook."""
+
+    name: str = ""
+    description: str = ""
+    kind: str = "additive"  # "model" or "additive"
+    params: tuple = ()
+    # which data kinds the effect can explain: "deflection" and/or "stiffness"
+    data_kinds: tuple = ("deflection", "stiffness")
+
+    def param_specs(self, model) -> tuple:
+        """Parameters, possibly depending on the baseline model (e.g. its current value as null)."""
+        return self.params
+
+    def apply(self, model, theta):
+        return model
+
+    def extra(self, ctx, theta, C):
+        return np.zeros((ctx.n, 6))
+
+    def save(self, model, theta):
+        """Model carrying the fitted effect, as written to model_updated.yaml."""
+        if self.kind == "model":
+            return self.apply(model, theta)
+        vals = {p.name: float(v) for p, v in zip(self.param_specs(model), theta)}
+        return mo.with_effect_entry(model, self.name, vals)
+
+    def applies_to(self, model, data_kind: str) -> str | None:
+        """None if the effect is a candidate for this model and data, else the reason it is not."""
+        if data_kind not in self.data_kinds:
+            return f"does not change the compliance matrix, so {data_kind} data cannot show it"
+        return None
+
+
+# ---------------------------------------------------------------- model-kind effects
+
+@register
+class LinkCoupling(Effect):
+    name = "link_coupling"
+    description = ("translation-rotation coupling of the legs (c26 = s 3/(2L) c22, c35 = -s 3/(2L) c33, "
+                   "s = 1 is the Euler-Bernoulli cantilever of eq. 14)")
+    kind = "model"
+
+    def param_specs(self, model):
+        s0 = mo.leg_coupling_scale(model)
+        # |s| < 2/sqrt(3) keeps the bending blocks positive definite
+        return (Param("scale", start=s0, lower=-1.15, upper=1.15, scale=0.1, null=s0, unit="1"),)
+
+    def apply(self, model, theta):
+        return mo.with_leg_coupling_scale(model, float(theta[0]))
+
+
+@register
+class FootCompliance(Effect):
+    name = "foot_compliance"
+    description = ("a flexible foot where the model has a rigid one: foot compliance = s x the leg's own "
+                   "compliance matrix (a beam-like foot)")
+    kind = "model"
+    params = (Param("scale", start=0.0, lower=0.0, upper=50.0, scale=0.1, null=0.0, unit="x leg compliance"),)
+
+    def applies_to(self, model, data_kind):
+        if not mo.foot_is_rigid(model):
+            return "the model already has a flexible foot (calibrate it instead)"
+        return None
+
+    def apply(self, model, theta):
+        return mo.with_foot_compliance_scale(model, float(theta[0]))
+
+
+@register
+class PassiveJointCompliance(Effect):
+    name = "passive_joint_compliance"
+    description = "elastic passive joints: 1-dof rotational springs in the constrained directions of the U-joints/pivots"
+    kind = "model"
+    params = (Param("compliance", start=0.0, lower=0.0, upper=1e-3, scale=1e-7, null=0.0, unit="rad/(N mm)"),)
+
+    def applies_to(self, model, data_kind):
+        if mo.passive_compliance(model) > 0:
+            return "the model already has elastic passive joints (calibrate them instead)"
+        return None
+
+    def apply(self, model, theta):
+        return mo.with_passive_compliance(model, float(theta[0]))
+
+
+@register
+class ActuatorTravelStiffness(Effect):
+    name = "actuator_travel_stiffness"
+    description = ("actuator compliance varying linearly along the travel, as a ball screw between bearing and nut: "
+                   "c(q) = c0 (1 + slope (q - q_ref))")
+    kind = "model"
+
+    def param_specs(self, model):
+        s0 = mo.actuator_slope(model)
+        return (Param("slope", start=s0, lower=-0.02, upper=0.02, scale=1e-3, null=s0, unit="1/mm"),)
+
+    def apply(self, model, theta):
+        return mo.with_actuator_slope(model, float(theta[0]))
+
+
+# ---------------------------------------------------------------- additive effects
+
+@register
+class Gravity(Effect):
+    name = "gravity"
+    description = "an unknown weight W on the platform: adds C(p) (0, 0, -W, 0, 0, 0) whatever the applied load"
+    kind = "additive"
+    data_kinds = ("deflection",)
+    params = (Param("weight", start=0.0, scale=1.0, null=0.0, unit="N"),)
+
+    def extra(self, ctx, theta, C):
+        return -theta[0] * C[:, :, 2]
+
+
+@register
+class Clearance(Effect):
+    name = "clearance"
+    description = ("backlash in the actuated joints: each actuator slips by b in the direction of its force, "
+                   "seen at the end-effector through the unit-load influence of that actuator")
+    kind = "additive"
+    data_kinds = ("deflection",)
+    params = (Param("backlash", start=0.0, lower=0.0, upper=1.0, scale=1e-3, null=0.0, unit="mm"),)
+
+    def extra(self, ctx, theta, C):
+        return theta[0] * ctx.clearance_unit()
+
+
+@register
+class GeometricNonlinearity(Effect):
+    name = "geometric_nonlinearity"
+    description = ("load-dependent stiffness: s x (nonlinear equilibrium deflection - linear C w) of the model "
+                   "itself; s = 1 is the model's own geometric nonlinearity, s > 1 a stronger one")
+    kind = "additive"
+    data_kinds = ("deflection",)
+    params = (Param("scale", start=0.0, scale=1.0, null=0.0, unit="x model nonlinearity"),)
+
+    def extra(self, ctx, theta, C):
+        return theta[0] * ctx.nonlinear_delta()
+
+
+def get(name: str) -> Effect:
+    from ..errors import VjmError
+
+    try:
+        return REGISTRY[name]
+    except KeyError:
+        raise VjmError(f"unknown effect '{name}'; known: {', '.join(REGISTRY)}") from None

@@ -1,0 +1,106 @@
+"""Where do model and measurements disagree?
+
+Normalized residuals (residual / sigma) are summarised as RMS values grouped
+by posture, by the dominant load direction and sign, by load magnitude and by
+each actuator coordinate.  A group whose RMS is much larger than the overall
+RMS is where the disagreement is concentrated.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+WRENCH_NAMES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+
+
+def _rms(r2_sum, cnt):
+    return float(np.sqrt(r2_sum / cnt)) if cnt else float("nan")
+
+
+def _group_rms(labels, r2, cnt):
+    """RMS per label of per-measurement squared sums ``r2`` over ``cnt`` components."""
+    out = {}
+    for lab in np.unique(labels):
+        m = labels == lab
+        out[lab] = (_rms(r2[m].sum(), cnt[m].sum()), int(m.sum()))
+    return out
+
+
+def _bins(v, nb=4):
+    """Quantile bin index (0..nb-1) and edges of values ``v``."""
+    edges = np.unique(np.quantile(v, np.linspace(0, 1, nb + 1)))
+    if edges.size < 2:
+        return np.zeros(v.size, int), np.array([v.min(), v.max()])
+    idx = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, edges.size - 2)
+    return idx, edges
+
+
+def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
+    """Summarise normalized residuals.
+
+    Parameters
+    ----------
+    P : (m, 3) unique postures; ``pose_idx`` (n,) maps measurements to them.
+    W : (n, 6) applied wrenches.
+    rnorm : (n, 6) normalized residuals (NaN/ignored where ``mask`` is False).
+    mask : (n, 6) measured components.
+    q : optional (m, k) actuator coordinates of the unique postures (mm or rad).
+    """
+    r2 = np.where(mask, np.nan_to_num(rnorm) ** 2, 0.0).sum(axis=1)
+    cnt = mask.sum(axis=1)
+    overall = _rms(r2.sum(), cnt.sum())
+    out = {"overall_rms_normalized": overall}
+
+    per = _group_rms(pose_idx, r2, cnt)
+    posture = [{"x": float(P[i, 0]), "y": float(P[i, 1]), "z": float(P[i, 2]),
+                "rms_normalized": v[0], "n": v[1]} for i, v in sorted(per.items())]
+    out["by_posture"] = posture
+    out["worst_postures"] = sorted(posture, key=lambda d: -d["rms_normalized"])[:top]
+
+    dom = np.argmax(np.abs(W) / np.where(np.arange(6) < 3, 1.0, 100.0), axis=1)  # moments in N mm vs N: 100 mm arm
+    sgn = np.sign(W[np.arange(W.shape[0]), dom])
+    labels = np.array([("+" if s >= 0 else "-") + WRENCH_NAMES[d] for d, s in zip(dom, sgn)])
+    out["by_load_direction"] = {k: {"rms_normalized": v[0], "n": v[1]} for k, v in _group_rms(labels, r2, cnt).items()}
+
+    fmag = np.linalg.norm(W[:, :3], axis=1)
+    bi, edges = _bins(fmag)
+    g = _group_rms(bi, r2, cnt)
+    out["by_load_magnitude"] = [{"force_N": [float(edges[b]), float(edges[b + 1])], "rms_normalized": v[0], "n": v[1]}
+                                for b, v in sorted(g.items())]
+    if q is not None:
+        qa = np.asarray(q)[pose_idx]
+        act = {}
+        for j in range(qa.shape[1]):
+            bi, edges = _bins(qa[:, j])
+            g = _group_rms(bi, r2, cnt)
+            act[f"q{j + 1}"] = [{"range": [float(edges[b]), float(edges[b + 1])], "rms_normalized": v[0], "n": v[1]}
+                                for b, v in sorted(g.items())]
+        out["by_actuator"] = act
+    out["summary"] = _summary(out)
+    return out
+
+
+def _summary(loc) -> str:
+    """One sentence naming the groups where the RMS is most above the overall level."""
+    ov = loc["overall_rms_normalized"]
+    if not np.isfinite(ov) or ov <= 0:
+        return "no residuals"
+    parts = []
+    w = loc["worst_postures"][0] if loc["worst_postures"] else None
+    if w:
+        parts.append(f"worst posture ({w['x']:.1f}, {w['y']:.1f}, {w['z']:.1f}) mm at "
+                     f"{w['rms_normalized'] / ov:.1f}x the overall RMS")
+    d = loc["by_load_direction"]
+    if d:
+        k = max(d, key=lambda s: d[s]["rms_normalized"])
+        parts.append(f"largest for loads along {k} ({d[k]['rms_normalized'] / ov:.1f}x)")
+    mags = loc["by_load_magnitude"]
+    if len(mags) > 1:
+        lo, hi = mags[0]["rms_normalized"], mags[-1]["rms_normalized"]
+        trend = "grows" if hi > 1.3 * lo else ("shrinks" if lo > 1.3 * hi else "is flat")
+        parts.append(f"residual {trend} with load magnitude ({lo:.2f} -> {hi:.2f})")
+    for name, bins in loc.get("by_actuator", {}).items():
+        if len(bins) > 1:
+            lo, hi = bins[0]["rms_normalized"], bins[-1]["rms_normalized"]
+            if hi > 1.5 * lo or lo > 1.5 * hi:
+                parts.append(f"varies along actuator {name} ({lo:.2f} -> {hi:.2f})")
+    return f"overall normalized RMS {ov:.2f}; " + "; ".join(parts)

@@ -1,0 +1,152 @@
+"""Batched predictions of a data set by a model with calibration and effects.
+
+All measurements are predicted at once: the compliance is computed once per
+unique posture (``stiffness_map``), gathered per measurement and contracted
+with the wrenches by ``einsum``.  Quantities that depend only on the nominal
+model (actuator influence for ``clearance``, nonlinear-minus-linear deflection
+for ``geometric_nonlinearity``) are computed once, lazily, per data set.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import effects as fx
+from . import modelops as mo
+from .data import Deflections, StiffnessObs
+from .fit.select import Param, Problem, Term
+
+CALIBRATION = "calibration"
+
+
+def unique_postures(P, decimals=6):
+    """Unique postures (m, 3) and the index (n,) of each row into them."""
+    key = np.round(np.asarray(P, float), decimals)
+    U, idx = np.unique(key, axis=0, return_inverse=True)
+    return U, idx.reshape(-1)
+
+
+@dataclass
+class Context:
+    """Per-data-set precomputations on the nominal model (cached lazily)."""
+
+    model: object
+    P: np.ndarray  # (m, 3) unique postures
+    idx: np.ndarray  # (n,) measurement -> posture
+    W: np.ndarray  # (n, 6) wrenches (zeros for stiffness observations)
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n(self) -> int:
+        return int(self.idx.size)
+
+    def clearance_unit(self) -> np.ndarray:
+        """(n, 6) twist of a unit backlash in every actuator, each slipping in the direction of its force.
+
+        By the unit-load theorem an imposed slip ``e`` of actuator i moves the
+        end-effector by ``a_i e``, where ``a_i`` maps the applied wrench to that
+        actuator's force (``tau_i = a_i . w``).  With the slip following the
+        force sign, ``t = sum_i a_i sign(a_i . w)``, whose work ``w . t`` is >= 0.
+        """
+        if "clear" not in self._cache:
+            A = mo.actuator_influence(self.model, self.P)[self.idx]  # (n, nc, 6)
+            tau = np.einsum("ncj,nj->nc", A, self.W)
+            # forces below 1e-9 of the largest are "zero": no preferred side, no slip
+            s = np.where(np.abs(tau) > 1e-9 * np.abs(tau).max(initial=1e-300), np.sign(tau), 0.0)
+            self._cache["clear"] = np.einsum("nc,ncj->nj", s, A)
+        return self._cache["clear"]
+
+    def nonlinear_delta(self) -> np.ndarray:
+        """(n, 6) nonlinear-equilibrium deflection minus the linear ``C w`` of the nominal model."""
+        if "nl" not in self._cache:
+            self._cache["nl"] = mo.nonlinear_delta(self.model, self.P[self.idx], self.W)
+        return self._cache["nl"]
+
+
+def calibration_term(model) -> Term:
+    """Baseline calibration: multipliers on the model's own nominal stiffness parameters."""
+    ps = [Param("actuator_scale", start=1.0, lower=0.02, upper=50.0, scale=0.1, null=1.0,
+                unit="x nominal actuator stiffness")]
+    if mo.leg_is_flexible(model):
+        ps.append(Param("link_scale", start=1.0, lower=0.02, upper=50.0, scale=0.1, null=1.0,
+                        unit="x nominal leg compliance"))
+    return Term(CALIBRATION, tuple(ps), "refit of the model's nominal actuator stiffness and leg compliance")
+
+
+def apply_calibration(model, theta):
+    model = mo.with_actuator_scale(model, float(theta[0]))
+    if len(theta) > 1:
+        model = mo.with_leg_scale(model, float(theta[1]))
+    return model
+
+
+@dataclass
+class Predictor:
+    """Predicts a data set for any combination of calibration and effects."""
+
+    model: object
+    ctx: Context
+    terms: dict  # name -> Term (calibration + effects)
+
+    def build_model(self, names, theta):
+        """Model with the calibration and the model-kind effects of ``names`` applied."""
+        model, i = self.model, 0
+        blocks = []
+        for nm in names:
+            k = len(self.terms[nm].params)
+            blocks.append((nm, np.asarray(theta[i:i + k], float)))
+            i += k
+        for nm, th in blocks:
+            if nm == CALIBRATION:
+                model = apply_calibration(model, th)
+        for nm, th in blocks:
+            if nm != CALIBRATION and fx.REGISTRY[nm].kind == "model":
+                model = fx.REGISTRY[nm].apply(model, th)
+        return model, blocks
+
+    def compliance(self, names, theta):
+        model, blocks = self.build_model(names, theta)
+        return mo.compliance_map(model, self.ctx.P), blocks
+
+    def twists(self, names, theta) -> np.ndarray:
+        """(n, 6) predicted twists of all measurements."""
+        Cu, blocks = self.compliance(names, theta)
+        C = Cu[self.ctx.idx]
+        t = np.einsum("nij,nj->ni", C, self.ctx.W)
+        for nm, th in blocks:
+            if nm != CALIBRATION and fx.REGISTRY[nm].kind == "additive":
+                t = t + fx.REGISTRY[nm].extra(self.ctx, th, C)
+        return t
+
+    def kvalues(self, names, theta) -> np.ndarray:
+        """(m, 2) k_tran, k_rot of the unique postures."""
+        model, _ = self.build_model(names, theta)
+        return mo.kvalues_map(model, self.ctx.P)
+
+
+def deflection_problem(pred: Predictor, data: Deflections, sig_t, sig_r, sigma_known, candidates) -> Problem:
+    """Whitened residual problem for deflection data (measured components only)."""
+    mask = data.mask
+    sig = np.where(np.arange(6) < 3, 1.0, 0.0) * sig_t[:, None] + np.where(np.arange(6) >= 3, 1.0, 0.0) * sig_r[:, None]
+    y = data.T[mask]
+    s = sig[mask]
+    groups = np.broadcast_to(pred.ctx.idx[:, None], mask.shape)[mask]
+
+    def residuals(names, theta):
+        return (y - pred.twists(names, theta)[mask]) / s
+
+    return Problem(residuals, pred.terms, groups, sigma_known, (CALIBRATION,))
+
+
+def stiffness_problem(pred: Predictor, data: StiffnessObs, sig_rel, sigma_known) -> Problem:
+    """Residuals of stiffness observations in log space: ln(pred/obs)/sigma_rel."""
+    pidx = pred.ctx.idx
+    q = data.quantity
+    ly = np.log(data.value)
+
+    def residuals(names, theta):
+        k = pred.kvalues(names, theta)[pidx, q]
+        return (np.log(np.maximum(k, 1e-300)) - ly) / sig_rel
+
+    return Problem(residuals, pred.terms, pidx.copy(), sigma_known, (CALIBRATION,))

@@ -1,0 +1,148 @@
+"""Report of a diagnosis: report.json, report.html, PNG figures, model file.
+
+Everything is written into a fresh temporary directory next to the target and
+renamed into place at the end, so a failure leaves nothing partial behind.
+"""
+from __future__ import annotations
+
+import html
+import json
+import os
+import shutil
+import tempfile
+
+import numpy as np
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, (np.floating, float)):
+        v = float(x)
+        return v if np.isfinite(v) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return x
+
+
+def plot_residuals(path, P, rms_before, rms_after, title):
+    """Bar chart of normalized RMS residual per posture, before and after."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    m = len(rms_before)
+    fig, axs = plt.subplots(2, 1, figsize=(max(6.0, 0.18 * m + 2), 6.5), constrained_layout=True)
+    x = np.arange(m)
+    axs[0].bar(x - 0.2, rms_before, 0.4, label="before", color="tab:red")
+    axs[0].bar(x + 0.2, rms_after, 0.4, label="after", color="tab:blue")
+    axs[0].axhline(1.0, color="k", lw=0.8, ls="--", label="noise level")
+    axs[0].set_xlabel("posture index")
+    axs[0].set_ylabel("RMS normalized residual")
+    axs[0].set_title(title)
+    axs[0].legend()
+    sc = axs[1].scatter(P[:, 0] - P[:, 1], P[:, 2], c=rms_before, cmap="magma", s=40, label="before")
+    axs[1].set_xlabel("x - y (mm)")
+    axs[1].set_ylabel("z (mm)")
+    axs[1].set_title("where the gap was: RMS normalized residual before, per posture")
+    fig.colorbar(sc, ax=axs[1])
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _table(rows, header):
+    h = "".join(f"<th>{html.escape(c)}</th>" for c in header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
+    return f"<table><tr>{h}</tr>{body}</table>"
+
+
+def _fmt(v, f="{:.4g}"):
+    if v is None:
+        return "-"
+    try:
+        return f.format(v)
+    except (TypeError, ValueError):
+        return str(v)
+
+
+def render_html(rep: dict, figures) -> str:
+    named = rep["named_effects"]
+    verdict = ("Named missing effect(s): <b>" + ", ".join(named) + "</b>") if named else "<b>No missing effect</b>: no candidate is significant."
+    cand_rows = []
+    for name, c in rep["candidates"].items():
+        ps = "; ".join(f"{k} = {_fmt(v['value'])} [{_fmt(v['ci95'][0])}, {_fmt(v['ci95'][1])}] {v['unit']}"
+                       for k, v in c.get("params", {}).items())
+        cand_rows.append([name, _fmt(c.get("delta_bic"), "{:.1f}"), _fmt(c.get("p_value"), "{:.2g}"),
+                          _fmt(c.get("cv_error"), "{:.3f}"), "yes" if name in named else "", ps,
+                          c.get("description", "")])
+    loc = rep["localization"]
+    worst = [[_fmt(w["x"], "{:.1f}"), _fmt(w["y"], "{:.1f}"), _fmt(w["z"], "{:.1f}"),
+              _fmt(w["rms_normalized"], "{:.2f}"), w["n"]] for w in loc.get("worst_postures", [])]
+    dirs = [[k, _fmt(v["rms_normalized"], "{:.2f}"), v["n"]] for k, v in loc.get("by_load_direction", {}).items()]
+    figs = "".join(f'<figure><img src="{html.escape(f)}" alt="{html.escape(f)}"></figure>' for f in figures)
+    final = rep.get("final_params", {})
+    fin_rows = [[t, k, _fmt(v["value"]), f"[{_fmt(v['ci95'][0])}, {_fmt(v['ci95'][1])}]", v["unit"]]
+                for t, d in final.items() for k, v in d.items()]
+    return f"""<!doctype html><html><head><meta charset="utf-8"><title>VJM discrepancy report</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:auto}}table{{border-collapse:collapse}}
+td,th{{border:1px solid #ccc;padding:3px 6px;font-size:90%}}img{{max-width:100%}}</style></head><body>
+<h1>Discrepancy report</h1>
+<p>Model: <code>{html.escape(rep['model'])}</code>; data: <code>{html.escape(rep['data'])}</code>
+({rep['n_observations']} observations, {rep['n_postures']} postures, sigma {html.escape(rep['sigma_source'])}).</p>
+<h2>Verdict</h2><p>{verdict}</p><p>{html.escape(rep['summary'])}</p>
+<h2>Gap before and after</h2>
+{_table([["RMS (data units)", _fmt(rep['rms_before']), _fmt(rep['rms_after'])],
+         ["reduced chi2", _fmt(rep['chi2_before'], '{:.3f}'), _fmt(rep['chi2_after'], '{:.3f}')]],
+        ["", "before (calibrated baseline)", "after"])}
+<p>Before = baseline model after calibration of its nominal parameters; the uncalibrated
+nominal model gave RMS {_fmt(rep.get('rms_nominal'))} and reduced chi2 {_fmt(rep.get('chi2_nominal'), '{:.3f}')}.</p>
+<h2>Evidence per candidate (each alone on top of the calibrated baseline)</h2>
+<p>delta_bic &lt; 0 favours the candidate; p from the {html.escape(rep['test'])}; cv_error is the RMS normalized
+residual on held-out postures (baseline: {_fmt(rep.get('cv_baseline'), '{:.3f}')}). Significance threshold
+alpha = {rep['alpha']} (Bonferroni over the candidates of each round).</p>
+{_table(cand_rows, ["effect", "delta_bic", "p_value", "cv_error", "named", "parameters (95% CI)", "description"])}
+<h2>Final model parameters</h2>
+{_table(fin_rows, ["term", "parameter", "value", "95% CI", "unit"])}
+<h2>Where the gap was</h2><p>{html.escape(loc.get('summary', ''))}</p>
+<h3>Worst postures (before)</h3>{_table(worst, ["x", "y", "z", "RMS normalized", "n"])}
+<h3>By dominant load direction (before)</h3>{_table(dirs, ["load", "RMS normalized", "n"])}
+{figs}
+</body></html>"""
+
+
+def write_report_dir(out_dir, rep: dict, model_writer, figure_writer) -> None:
+    """Write ``report.json``, ``report.html``, figures and the model file into ``out_dir``.
+
+    ``model_writer(path)`` writes model_updated.yaml; ``figure_writer(dir)``
+    writes PNGs and returns their file names.  Files are produced in a
+    temporary sibling directory; an existing ``out_dir`` is replaced only once
+    everything succeeded.
+    """
+    out_dir = os.path.abspath(os.fspath(out_dir))
+    parent = os.path.dirname(out_dir)
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(prefix=".tmp_report_", dir=parent)
+    try:
+        model_writer(os.path.join(tmp, "model_updated.yaml"))
+        figures = figure_writer(tmp)
+        with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as fh:
+            json.dump(_jsonable(rep), fh, indent=2)
+        with open(os.path.join(tmp, "report.html"), "w", encoding="utf-8") as fh:
+            fh.write(render_html(_jsonable(rep), figures))
+        if os.path.isdir(out_dir):
+            old = tempfile.mkdtemp(prefix=".old_report_", dir=parent)
+            os.replace(out_dir, os.path.join(old, "d"))
+            os.replace(tmp, out_dir)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

@@ -1,0 +1,221 @@
+"""Synthetic measurements from a model with hidden effects (``vjm simulate``).
+
+Design of the experiment
+------------------------
+``poses``:
+  * ``grid:N``   -- N x N x N grid over the model's workspace box, unreachable points dropped;
+  * ``random:N`` -- N uniform random points in the box (reachable ones kept, drawn until N);
+  * ``PATH.csv`` -- a CSV with columns x,y,z (mm).
+``loads`` (applied at every posture):
+  * ``axes:F[:M]``   -- +-F N along x, y, z (and +-M N mm about x, y, z if M is given);
+  * ``random:N:F``   -- N random force directions of magnitude F N (drawn per posture);
+  * ``PATH.csv``     -- a CSV with columns Fx,Fy,Fz,Mx,My,Mz.
+Noise: independent Gaussian, ``noise_t`` (mm) on dx, dy, dz and ``noise_r``
+(rad) on rx, ry, rz; without ``noise_r`` rotations are left blank (translation-only
+data, the common case).  The sigmas are written in ``sigma_t``/``sigma_r``.
+"""
+from __future__ import annotations
+
+import csv
+import os
+
+import numpy as np
+
+from ..errors import VjmError
+from . import effects as fx
+from . import modelops as mo
+from .data import Deflections
+from .predict import Context, unique_postures
+
+
+def parse_effect(spec: str):
+    """``NAME[:param=value,...]`` -> (name, {param: value})."""
+    name, _, rest = spec.partition(":")
+    eff = fx.get(name.strip())
+    vals = {}
+    for item in filter(None, (s.strip() for s in rest.split(","))):
+        k, eq, v = item.partition("=")
+        if not eq:
+            raise VjmError(f"--effect {spec}: expected param=value, got '{item}'")
+        try:
+            vals[k.strip()] = float(v)
+        except ValueError:
+            raise VjmError(f"--effect {spec}: '{v}' is not a number") from None
+    return eff.name, vals
+
+
+def _effect_theta(model, name, vals):
+    eff = fx.get(name)
+    specs = eff.param_specs(model)
+    known = {p.name for p in specs}
+    bad = set(vals) - known
+    if bad:
+        raise VjmError(f"effect {name}: unknown parameter(s) {', '.join(sorted(bad))}; known: {', '.join(sorted(known))}")
+    missing = [p.name for p in specs if p.name not in vals]
+    if missing:
+        raise VjmError(f"effect {name}: give a value for {', '.join(missing)} (e.g. {name}:{missing[0]}=...)")
+    return np.array([vals[p.name] for p in specs])
+
+
+def _read_cols(path, cols):
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith("#")]
+    except OSError as exc:
+        raise VjmError(f"cannot read {path}: {exc.strerror}") from None
+    if not rows:
+        raise VjmError(f"{path}: empty file")
+    hdr = [h.strip() for h in rows[0]]
+    miss = [c for c in cols if c not in hdr]
+    if miss:
+        raise VjmError(f"{os.path.basename(path)}: row 1: missing column(s) {', '.join(miss)}")
+    out = np.empty((len(rows) - 1, len(cols)))
+    for i, r in enumerate(rows[1:]):
+        for j, c in enumerate(cols):
+            try:
+                out[i, j] = float(r[hdr.index(c)])
+            except (ValueError, IndexError):
+                raise VjmError(f"{os.path.basename(path)}: row {i + 2}, column '{c}': not a number") from None
+    return out
+
+
+def _reachable(model, P):
+    ok = np.ones(len(P), bool)
+    try:
+        q = mo.actuator_coords(model, P)
+        return np.all(np.isfinite(q), axis=1)
+    except VjmError:
+        for k in range(len(P)):
+            try:
+                ok[k] = np.all(np.isfinite(mo.actuator_coords(model, P[k:k + 1])))
+            except VjmError:
+                ok[k] = False
+    return ok
+
+
+def design_poses(model, spec: str, rng) -> np.ndarray:
+    lo, hi = mo.workspace_box(model)
+    kind, _, arg = spec.partition(":")
+    if kind == "grid":
+        n = _int(arg, spec)
+        ax = [np.linspace(lo[i], hi[i], n) for i in range(3)]
+        P = np.stack(np.meshgrid(*ax, indexing="ij"), -1).reshape(-1, 3)
+        P = P[_reachable(model, P)]
+    elif kind == "random":
+        n = _int(arg, spec)
+        P = np.empty((0, 3))
+        for _ in range(20):
+            Q = lo + (hi - lo) * rng.random((2 * n, 3))
+            P = np.vstack([P, Q[_reachable(model, Q)]])
+            if len(P) >= n:
+                break
+        P = P[:n]
+    elif os.path.isfile(spec):
+        P = _read_cols(spec, ["x", "y", "z"])
+    else:
+        raise VjmError(f"--poses {spec}: expected grid:N, random:N or a CSV file with columns x,y,z")
+    if len(P) == 0:
+        raise VjmError(f"--poses {spec}: no reachable posture")
+    return P
+
+
+def design_loads(spec: str, n_poses: int, rng) -> np.ndarray:
+    """(n_poses, k, 6) wrenches applied at each posture."""
+    kind, _, arg = spec.partition(":")
+    if kind == "axes":
+        parts = arg.split(":")
+        F = _num(parts[0], spec)
+        M = _num(parts[1], spec) if len(parts) > 1 else 0.0
+        L = [s * F * np.eye(6)[i] for i in range(3) for s in (1, -1)]
+        if M:
+            L += [s * M * np.eye(6)[i] for i in range(3, 6) for s in (1, -1)]
+        return np.broadcast_to(np.array(L), (n_poses, len(L), 6)).copy()
+    if kind == "random":
+        parts = arg.split(":")
+        if len(parts) != 2:
+            raise VjmError(f"--loads {spec}: expected random:N:F")
+        k, F = _int(parts[0], spec), _num(parts[1], spec)
+        d = rng.standard_normal((n_poses, k, 3))
+        d /= np.linalg.norm(d, axis=2, keepdims=True)
+        out = np.zeros((n_poses, k, 6))
+        out[:, :, :3] = F * d
+        return out
+    if os.path.isfile(spec):
+        L = _read_cols(spec, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
+        return np.broadcast_to(L, (n_poses,) + L.shape).copy()
+    raise VjmError(f"--loads {spec}: expected axes:F[:M], random:N:F or a CSV file with columns Fx..Mz")
+
+
+def _int(s, spec):
+    try:
+        v = int(s)
+    except ValueError:
+        raise VjmError(f"'{spec}': '{s}' is not an integer") from None
+    if v < 1:
+        raise VjmError(f"'{spec}': count must be >= 1")
+    return v
+
+
+def _num(s, spec):
+    try:
+        return float(s)
+    except ValueError:
+        raise VjmError(f"'{spec}': '{s}' is not a number") from None
+
+
+def true_model(model, effects):
+    """Model with the model-kind hidden effects applied, and the additive ones as (effect, theta)."""
+    add = []
+    for name, vals in effects:
+        th = _effect_theta(model, name, vals)
+        eff = fx.get(name)
+        if eff.kind == "model":
+            model = eff.apply(model, th)
+        else:
+            add.append((eff, th))
+    return model, add
+
+
+def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: int) -> Deflections:
+    """Noisy deflections of ``model`` with hidden ``effects`` at postures P (n,3) under wrenches W (n,6)."""
+    if noise_t < 0 or (noise_r is not None and noise_r < 0):
+        raise VjmError("noise sigmas must be >= 0")
+    rng = np.random.default_rng(seed)
+    mt, add = true_model(model, effects)
+    U, idx = unique_postures(P)
+    C = mo.compliance_map(mt, U)[idx]
+    t = np.einsum("nij,nj->ni", C, W)
+    ctx = Context(mt, U, idx, W)
+    for eff, th in add:
+        t = t + eff.extra(ctx, th, C)
+    n = len(P)
+    T = t.copy()
+    T[:, :3] += noise_t * rng.standard_normal((n, 3))
+    if noise_r is None:
+        T[:, 3:] = np.nan
+        sr = None
+    else:
+        T[:, 3:] += noise_r * rng.standard_normal((n, 3))
+        sr = np.full(n, noise_r if noise_r > 0 else 1e-12)
+    st = np.full(n, noise_t if noise_t > 0 else 1e-12)
+    return Deflections(np.asarray(P, float), np.asarray(W, float), T, st, sr, np.arange(2, n + 2), "<simulated>")
+
+
+def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_r, seed: int, out) -> Deflections:
+    """Body of ``vjm simulate``: design, simulate, write the CSV atomically."""
+    from .data import write_deflections
+
+    model = mo.load_model(model_path)
+    effects = [parse_effect(s) for s in effect_specs]
+    rng = np.random.default_rng([seed, 1])
+    P0 = design_poses(model, poses, rng)
+    L = design_loads(loads, len(P0), rng)
+    k = L.shape[1]
+    P = np.repeat(P0, k, axis=0)
+    W = L.reshape(-1, 6)
+    data = simulate(model, effects, P, W, noise_t, noise_r, seed)
+    desc = ", ".join(f"{n}:" + ",".join(f"{a}={b:g}" for a, b in v.items()) for n, v in effects) or "none"
+    write_deflections(out, data, f"simulated by vjm simulate from {os.path.basename(str(model_path))}; "
+                                 f"poses {poses}; loads {loads}; noise_t {noise_t} mm; noise_r {noise_r} rad; "
+                                 f"seed {seed}; hidden effects: {desc}")
+    return data
