@@ -295,11 +295,32 @@ def compare_link(link, C_fea, beams=DEFAULT_BEAMS, axis=None, fea_info: dict | N
 
 
 def fea_compliance(spec, params=None, mesh_size=None, mode="rigid"):
-    """FEA compliance of a link spec in its frame, and the link: ``(C, link, info)``."""
-    from . import pipeline
+    """FEA compliance of a link spec in its frame, and the link: ``(C, link, info)``.
 
-    res = pipeline.compute(spec, params=params, mesh_size=mesh_size, mode=mode)
-    return _unpack_result(res, spec, params)
+    Uses :func:`linkfea.pipeline.compute` where available, otherwise the same
+    stages directly (mesh, P2 solve, rigid fit).
+    """
+    try:
+        from . import pipeline
+    except ImportError:
+        pipeline = None
+    if pipeline is not None and hasattr(pipeline, "compute"):
+        res = pipeline.compute(spec, params=params, mesh_size=mesh_size, mode=mode)
+        return _unpack_result(res, spec, params)
+    from .cad import build_link
+    from .fem import solve_link
+    from .fit import compliance_from_solution
+    from .mesh import mesh_link
+
+    if mode not in ("rigid", "block"):
+        raise LinkFeaError(f"mode must be 'rigid' or 'block', got {mode!r}")
+    link = build_link(spec, params)
+    mesh = mesh_link(link, mesh_size, with_block=(mode == "block"))
+    comp = compliance_from_solution(solve_link(mesh, get_material(link.material), mode))
+    info = {"mode": mode, "mesh": {"n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets),
+                                   "edge_length": float(mesh.edge_length)},
+            "diagnostics": {"symmetry_error": float(comp.symmetry_error), "fit_residual": float(comp.fit_residual)}}
+    return comp.to_frame(link.frame).matrix, link, info
 
 
 def _unpack_result(res, spec, params):
@@ -353,22 +374,25 @@ def figure_png(record: dict) -> bytes:
     k = len(models)
     fig, axs = plt.subplots(1, k + 1, figsize=(3.2 * k + 4.2, 3.6), gridspec_kw={"width_ratios": [1] * k + [1.3]})
     im = None
+    # One colour scale for all N, from 5 % to 100 %, so that small errors stay visible.
+    vmax = float(np.clip(max(100.0 * np.max(np.abs(m["timoshenko"]["entry_error"])) for m in models), 5.0, 100.0))
+    fmt = "{:.1f}" if vmax < 20 else "{:.0f}"
     for ax, m in zip(axs[:k], models):
         E = 100.0 * np.array(m["timoshenko"]["entry_error"])
-        im = ax.imshow(np.clip(E, -100, 100), cmap="RdBu_r", vmin=-100, vmax=100)
+        im = ax.imshow(np.clip(E, -vmax, vmax), cmap="RdBu_r", vmin=-vmax, vmax=vmax)
         for i, j in itertools.product(range(6), range(6)):
-            ax.text(j, i, f"{E[i, j]:.0f}", ha="center", va="center", fontsize=6)
+            ax.text(j, i, fmt.format(E[i, j] + 0.0), ha="center", va="center", fontsize=6)
         ax.set_xticks(range(6), LABELS, fontsize=7)
         ax.set_yticks(range(6), LABELS, fontsize=7)
         ax.set_title(f"N = {m['n']} (Timoshenko)", fontsize=9)
     fig.colorbar(im, ax=list(axs[:k]), shrink=0.8, label="entry error, % of sqrt(Cii Cjj)")
     ns = [m["n"] for m in models]
     ax = axs[k]
-    for key, style in (("timoshenko", "-o"), ("euler_bernoulli", "--s")):
+    for key, style, nm in (("timoshenko", "-o", "Timoshenko"), ("euler_bernoulli", "--s", "Euler-Bernoulli")):
         ax.plot(ns, [100 * m[key]["summary"]["max_principal_error_translation"] for m in models], style,
-                label=f"transl. ({key[:4]})")
+                label=f"translation, {nm}")
         ax.plot(ns, [100 * m[key]["summary"]["max_principal_error_rotation"] for m in models], style,
-                label=f"rot. ({key[:4]})")
+                label=f"rotation, {nm}")
     ax.set_xscale("log", base=2)
     ax.set_xticks(ns, [str(n) for n in ns])
     ax.set_xlabel("N beams")
@@ -398,17 +422,22 @@ def write_outputs(record: dict, out_dir) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = {}
     for name, data in blobs.items():
-        fd, tmp = tempfile.mkstemp(prefix=f".{name}.", dir=out_dir)
-        try:
-            with os.fdopen(fd, "wb") as f:
-                f.write(data)
-            os.replace(tmp, out_dir / name)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        _atomic_write(out_dir / name, data)
         paths[name] = str(out_dir / name)
     return paths
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    """Write to a temporary name in the same folder, then rename (no partial file)."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid", out=None, axis=None) -> dict:
@@ -441,3 +470,50 @@ def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid"
     if out is not None:
         write_outputs(record, out)
     return record
+
+
+# --------------------------------------------------------------------------- library report
+def library_report(names=None, beams=DEFAULT_BEAMS, img_dir="docs/img", mesh_size=None) -> str:
+    """Compare every bundled cad/ link at its default parameters; Markdown of the results.
+
+    PNGs go to ``img_dir/beam_vs_fea_<name>.png``.  A link whose comparison fails is
+    reported with its error message instead of numbers.
+    """
+    from .cad import CAD_DIR
+
+    names = names or sorted(p.stem for p in CAD_DIR.glob("*.py") if not p.stem.startswith("_"))
+    img_dir = Path(img_dir)
+    rows, details = [], []
+    for name in names:
+        try:
+            with tempfile.TemporaryDirectory() as tmp:
+                rec = compare(name, beams, mesh_size=mesh_size, out=tmp)
+                img_dir.mkdir(parents=True, exist_ok=True)
+                _atomic_write(img_dir / f"beam_vs_fea_{name}.png", (Path(tmp) / "compare.png").read_bytes())
+        except LinkFeaError as exc:
+            rows.append(f"| {name} | – | failed: {exc} | | | | |")
+            continue
+        for m in rec["beams"]:
+            t, e = m["timoshenko"]["summary"], m["euler_bernoulli"]["summary"]
+            rows.append(f"| {name} | {m['n']} | {100 * e['max_principal_error_translation']:.0f} / "
+                        f"{100 * e['max_principal_error_rotation']:.0f} | "
+                        f"{100 * t['max_principal_error_translation']:.0f} / {100 * t['max_principal_error_rotation']:.0f}"
+                        f" | {t['max_angle_deg']:.1f} | {100 * t['max_abs_diagonal_error']:.0f} | "
+                        f"{100 * t['max_abs_coupling_error']:.0f} |")
+        mesh = rec["fea"].get("mesh", {})
+        details.append(markdown_table(rec) + f"\nFEA: {mode_text(rec)}; mesh {mesh}.\n\n"
+                       f"![{name}](img/beam_vs_fea_{name}.png)\n")
+    head = ("| link | N | EB max principal error, transl. / rot. (%) | Timoshenko, transl. / rot. (%) | "
+            "Timoshenko max angle (deg) | Timoshenko max abs diagonal (%) | Timoshenko max abs coupling (%) |\n"
+            "|---|---:|---:|---:|---:|---:|---:|\n")
+    return head + "\n".join(rows) + "\n\n" + "\n".join(details)
+
+
+def mode_text(rec: dict) -> str:
+    return str(rec["fea"].get("mode", "rigid")) + " tip coupling"
+
+
+if __name__ == "__main__":  # python -m linkfea.compare [names...]: the library results as Markdown
+    import sys
+
+    print(library_report(sys.argv[1:] or None))
