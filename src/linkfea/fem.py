@@ -377,6 +377,44 @@ def rigid_motion_matrix(points: np.ndarray, origin: np.ndarray, axes: np.ndarray
     return out
 
 
+def _block_flags(mesh) -> np.ndarray:
+    block = np.asarray(mesh.block, dtype=bool).reshape(-1)
+    if len(block) != len(mesh.tets):
+        raise LinkFeaError(f"mesh.block has {len(block)} entries for {len(mesh.tets)} tets")
+    return block
+
+
+def interface_nodes(p2: P2Mesh, mesh, mode: str):
+    """Clamped P2 nodes and reference nodes of a link mesh.
+
+    The clamp holds every P2 node of the base facets.  The reference nodes are
+    the P2 nodes of the block cells and of the tip facets (rigid mode) or of
+    the block cells (block mode).
+
+    Returns
+    -------
+    clamped, ref_nodes : ndarray of int (sorted)
+    """
+    block = _block_flags(mesh)
+    clamped = p2.facet_nodes(mesh.base_facets)
+    if len(clamped) == 0:
+        raise LinkFeaError("no base facets: the link must be clamped at its base interface")
+    block_nodes = np.unique(p2.cells[block]) if block.any() else np.zeros(0, dtype=np.int64)
+    if mode == "rigid":
+        ref_nodes = np.union1d(block_nodes, p2.facet_nodes(mesh.tip_facets))
+        if len(ref_nodes) == 0:
+            raise LinkFeaError("rigid mode needs tip facets or block cells to couple to the reference node")
+    elif mode == "block":
+        if len(block_nodes) == 0:
+            raise LinkFeaError("block mode needs pseudo-rigid block cells (mesh.block is all False)")
+        ref_nodes = block_nodes
+    else:
+        raise LinkFeaError(f"unknown reference mode {mode!r}; use one of {', '.join(MODES)}")
+    if np.intersect1d(clamped, ref_nodes).size:
+        raise LinkFeaError("the base (clamped) and tip (reference) interfaces share nodes: they overlap")
+    return clamped, ref_nodes
+
+
 def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float = 1000.0,
                solver: Optional[Callable] = None, progress: Optional[Callable[[str], None]] = None) -> FeaSolution:
     """Solve the 6 unit-wrench load cases of a clamped link with P2 tets.
@@ -407,33 +445,17 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     report = progress or (lambda stage: None)
     factorizer = solver or default_factorizer
     frame = mesh.frame
-    block = np.asarray(mesh.block, dtype=bool).reshape(-1)
-    if len(block) != len(mesh.tets):
-        raise LinkFeaError(f"mesh.block has {len(block)} entries for {len(mesh.tets)} tets")
+    block = _block_flags(mesh)
     timing = {}
 
     report("assemble")
     t0 = time.perf_counter()
     p2 = p2_mesh(mesh.points, mesh.tets)
+    clamped, ref_nodes = interface_nodes(p2, mesh, mode)
     lam0, mu0 = lame(material)
-    scale = np.where(block, block_ratio, 1.0) if mode == "block" else np.ones(len(block))
+    scale = np.where(block, block_ratio, 1.0) if mode == "block" else None
     U = assemble_upper(p2, lam0, mu0, scale)
     n_nodes = len(p2.points)
-
-    clamped = p2.facet_nodes(mesh.base_facets)
-    if len(clamped) == 0:
-        raise LinkFeaError("no base facets: the link must be clamped at its base interface")
-    block_nodes = np.unique(p2.cells[block]) if block.any() else np.zeros(0, dtype=np.int64)
-    if mode == "rigid":
-        ref_nodes = np.union1d(block_nodes, p2.facet_nodes(mesh.tip_facets))
-        if len(ref_nodes) == 0:
-            raise LinkFeaError("rigid mode needs tip facets or block cells to couple to the reference node")
-    else:
-        if len(block_nodes) == 0:
-            raise LinkFeaError("block mode needs pseudo-rigid block cells (mesh.block is all False)")
-        ref_nodes = block_nodes
-    if np.intersect1d(clamped, ref_nodes).size:
-        raise LinkFeaError("the base (clamped) and tip (reference) interfaces share nodes: they overlap")
 
     fixed = np.zeros(n_nodes, dtype=bool)
     fixed[clamped] = True
@@ -443,11 +465,12 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     Rm = rigid_motion_matrix(p2.points[ref_nodes], frame.origin, frame.axes).reshape(-1, 6)
     ref_dofs = (3 * ref_nodes[:, None] + np.arange(3)).ravel()
 
-    U_ff = U[free_dofs][:, free_dofs]
+    U_f = U[free_dofs]
+    U_ff = U_f[:, free_dofs]
     nf = len(free_dofs)
     if mode == "rigid":
         # K_fs Rm from the upper triangle: rows free < slave come from U, the others from U^T.
-        U_fs = U[free_dofs][:, ref_dofs]
+        U_fs = U_f[:, ref_dofs]
         U_sf = U[ref_dofs][:, free_dofs]
         K_fs = U_fs + U_sf.T  # disjoint supports: an entry sits either above or below the diagonal
         U_ss = U[ref_dofs][:, ref_dofs]
