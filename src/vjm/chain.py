@@ -1,0 +1,264 @@
+"""Serial chains as products of elementary transforms (seed eq. 1) and their Jacobians (eq. 2-5).
+
+A :class:`Chain` is an immutable description: a product of constant 4x4
+matrices and elementary factors ``kind(coef * q[var])`` (kind in Tx..Rz).
+Each variable has a role:
+
+* ``actuated``: an actuator coordinate ``q0`` carrying a 1-dof virtual spring
+  ``theta0`` (``Va(q0 + theta0)``): its column belongs to ``J_theta``;
+* ``passive``: an ideal passive joint: its column belongs to ``J_q``;
+* ``spring``: a coordinate of a virtual spring (1-dof, or 6-dof
+  ``Tx Ty Tz Rx Ry Rz`` as in eq. 18, with a full 6x6 stiffness).
+
+A variable may appear in several factors (``coef`` = +1/-1), which is how
+the parallelogram's coupled rotations ``Ry(q) Tx(L) Ry(-q)`` (eq. 20) are
+written.
+
+Twists are those of the end-effector frame, expressed in the base (world)
+frame at the end-effector point: ``(dp, omega)`` with ``omega = vee(dR R^T)``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import VjmError
+from .transforms import AXIS, KINDS, ROTATION, elementary, generator, vee
+
+ROLES = ("actuated", "passive", "spring")
+
+
+@dataclass(frozen=True)
+class Factor:
+    """One factor of the product: a constant ``T`` or ``kind(coef * q[var])``."""
+
+    kind: str
+    var: int = -1
+    coef: float = 1.0
+    T: np.ndarray | None = field(default=None, compare=False)
+
+
+@dataclass(frozen=True)
+class Spring:
+    """A virtual spring acting on chain variables ``vars`` (1 or 6 of them).
+
+    ``name`` is the key under which its compliance is supplied to the
+    stiffness solver (e.g. ``"actuator"``, ``"foot"``, ``"leg"``, ``"u1"``).
+    """
+
+    name: str
+    vars: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Chain:
+    """Immutable kinematic chain description."""
+
+    name: str
+    factors: tuple[Factor, ...]
+    var_names: tuple[str, ...]
+    roles: tuple[str, ...]
+    springs: tuple[Spring, ...]
+
+    @property
+    def n_vars(self) -> int:
+        return len(self.var_names)
+
+    @property
+    def passive(self) -> tuple[int, ...]:
+        return tuple(i for i, r in enumerate(self.roles) if r == "passive")
+
+    @property
+    def actuated(self) -> tuple[int, ...]:
+        return tuple(i for i, r in enumerate(self.roles) if r == "actuated")
+
+    def index(self, name: str) -> int:
+        try:
+            return self.var_names.index(name)
+        except ValueError:
+            raise VjmError(f"chain {self.name!r} has no variable {name!r}") from None
+
+    def spring(self, name: str) -> Spring:
+        for s in self.springs:
+            if s.name == name:
+                return s
+        raise VjmError(f"chain {self.name!r} has no spring {name!r}")
+
+
+class ChainBuilder:
+    """Write a chain left to right, as the product reads (eq. 1).
+
+    Examples
+    --------
+    >>> b = ChainBuilder("x")
+    >>> b.actuated("tx", "q0", spring="actuator"); b.spring6("leg"); b.const(np.eye(4))
+    >>> b.build().n_vars
+    7
+    """
+
+    def __init__(self, name: str):
+        self.name = name
+        self._factors: list[Factor] = []
+        self._names: list[str] = []
+        self._roles: list[str] = []
+        self._springs: list[Spring] = []
+
+    def _var(self, name: str, role: str) -> int:
+        if name in self._names:
+            i = self._names.index(name)
+            if self._roles[i] != role:
+                raise VjmError(f"chain {self.name!r}: variable {name!r} used with two roles")
+            return i
+        self._names.append(name)
+        self._roles.append(role)
+        return len(self._names) - 1
+
+    def const(self, T) -> None:
+        T = np.asarray(T, dtype=float)
+        if T.shape != (4, 4):
+            raise VjmError(f"chain {self.name!r}: constant factor must be 4x4, got {T.shape}")
+        self._factors.append(Factor("const", T=T))
+
+    def _joint(self, kind: str, var: int, coef: float) -> None:
+        if kind not in KINDS:
+            raise VjmError(f"chain {self.name!r}: unknown elementary transform {kind!r}")
+        self._factors.append(Factor(kind, var, float(coef)))
+
+    def actuated(self, kind: str, name: str, spring: str = "actuator") -> None:
+        """Actuated joint ``kind(q0 + theta0)`` with its 1-dof spring named ``spring``."""
+        i = self._var(name, "actuated")
+        self._joint(kind, i, 1.0)
+        self._springs.append(Spring(spring, (i,)))
+
+    def passive(self, kind: str, name: str, coef: float = 1.0) -> None:
+        """Ideal passive joint; reuse ``name`` with ``coef=-1`` for coupled rotations."""
+        self._joint(kind, self._var(name, "passive"), coef)
+
+    def spring1(self, kind: str, name: str) -> None:
+        """1-dof virtual spring ``kind(theta)`` (e.g. the compliance of a joint)."""
+        i = self._var(name, "spring")
+        self._joint(kind, i, 1.0)
+        self._springs.append(Spring(name, (i,)))
+
+    def spring6(self, name: str) -> None:
+        """6-dof virtual spring ``Tx Ty Tz Rx Ry Rz`` (eq. 18) at the current frame."""
+        idx = []
+        for k in KINDS:
+            i = self._var(f"{name}.{k}", "spring")
+            self._joint(k, i, 1.0)
+            idx.append(i)
+        self._springs.append(Spring(name, tuple(idx)))
+
+    def build(self) -> Chain:
+        return Chain(self.name, tuple(self._factors), tuple(self._names),
+                     tuple(self._roles), tuple(self._springs))
+
+
+def _as_values(chain: Chain, values) -> np.ndarray:
+    v = np.asarray(values)
+    if v.ndim == 1:
+        v = v[None, :]
+    if v.ndim != 2 or v.shape[1] != chain.n_vars:
+        raise VjmError(f"chain {chain.name!r}: expected values of shape (n, {chain.n_vars}), got {np.shape(values)}")
+    return v
+
+
+def forward(chain: Chain, values) -> np.ndarray:
+    """End transforms (n, 4, 4) of the chain for variable values (n, n_vars)."""
+    v = _as_values(chain, values)
+    n = v.shape[0]
+    P = np.broadcast_to(np.eye(4, dtype=v.dtype), (n, 4, 4))
+    for f in chain.factors:
+        if f.kind == "const":
+            P = P @ f.T
+        else:
+            a = f.coef * v[:, f.var]
+            if np.any(a != 0):
+                P = P @ elementary(f.kind, a)
+    return np.ascontiguousarray(P)
+
+
+def jacobian(chain: Chain, values) -> tuple[np.ndarray, np.ndarray]:
+    """End transform and Jacobian of every variable, by the semi-analytic method (eq. 3-5).
+
+    Splitting the product at a factor ``V(a)`` as ``T = P V(a) S`` and
+    inserting the generator gives ``dT/da = coef * (P V) G S`` (eq. 3-4).  The
+    twist is read from ``dT T^-1 = (P V) G (P V)^-1`` (eq. 5): with
+    ``P V = (R, o)`` and axis ``e = R[:, axis]``, a rotation gives
+    ``omega = e, v = e x (p_end - o)`` and a translation gives ``v = e``.
+    This closed form of the product is what is evaluated (it needs only the
+    prefix frames); :func:`jacobian_semi_analytic` multiplies the 4x4
+    matrices literally and the tests check that both agree.
+
+    Parameters
+    ----------
+    chain : Chain
+    values : array (n, n_vars)
+        Nominal values: actuator and passive coordinates from the inverse
+        kinematics, 0 for spring coordinates in the linear model.
+
+    Returns
+    -------
+    T : array (n, 4, 4)
+    J : array (n, 6, n_vars)
+        Columns ``(dx, dy, dz, rx, ry, rz)`` of the end-effector twist in the
+        world frame at the end-effector point, per unit of each variable.
+    """
+    v = _as_values(chain, values)
+    n = v.shape[0]
+    P = np.broadcast_to(np.eye(4), (n, 4, 4))
+    recs = []
+    for f in chain.factors:
+        if f.kind == "const":
+            P = P @ f.T
+            continue
+        a = f.coef * v[:, f.var]
+        if np.any(a != 0):
+            P = P @ elementary(f.kind, a)
+        recs.append((f.var, f.kind, f.coef, P[:, :3, AXIS[f.kind]], P[:, :3, 3]))
+    pe = P[:, :3, 3]
+    J = np.zeros((n, 6, chain.n_vars))
+    for var, kind, coef, e, o in recs:
+        if ROTATION[kind]:
+            J[:, 3:, var] += coef * e
+            J[:, :3, var] += coef * np.cross(e, pe - o)
+        else:
+            J[:, :3, var] += coef * e
+    return np.ascontiguousarray(P), J
+
+
+def jacobian_semi_analytic(chain: Chain, values) -> np.ndarray:
+    """Literal eq. 3-5: ``dT = coef * P V G S`` and read ``(dT[:3,3], vee(dT[:3,:3] R^T))``.
+
+    Reference implementation (slower): kept to show that :func:`jacobian`
+    evaluates exactly the seed's product.
+    """
+    v = _as_values(chain, values)
+    n = v.shape[0]
+    mats = []
+    for f in chain.factors:
+        if f.kind == "const":
+            mats.append(np.broadcast_to(f.T, (n, 4, 4)))
+        else:
+            mats.append(elementary(f.kind, f.coef * v[:, f.var]))
+    m = len(mats)
+    pre = [None] * m
+    P = np.broadcast_to(np.eye(4), (n, 4, 4))
+    for k in range(m):
+        P = P @ mats[k]
+        pre[k] = P
+    suf = [None] * m
+    S = np.broadcast_to(np.eye(4), (n, 4, 4))
+    for k in range(m - 1, -1, -1):
+        suf[k] = S
+        S = mats[k] @ S
+    T = pre[-1]
+    J = np.zeros((n, 6, chain.n_vars))
+    for k, f in enumerate(chain.factors):
+        if f.kind == "const":
+            continue
+        dT = f.coef * (pre[k] @ generator(f.kind) @ suf[k])
+        J[:, :3, f.var] += dT[:, :3, 3]
+        J[:, 3:, f.var] += vee(dT[:, :3, :3] @ np.swapaxes(T[:, :3, :3], 1, 2))
+    return J

@@ -1,0 +1,63 @@
+"""What an architecture provides to :class:`vjm.model.Model`.
+
+An architecture turns a model's parameters into chains (built once per
+model) and, for a batch of end-effector points, into each chain's nominal
+variable values (inverse kinematics) and spring compliances.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..chain import Chain
+from ..errors import VjmError
+
+
+class Architecture:
+    """Base class; subclasses set ``name``, ``geometry_keys`` and implement the hooks."""
+
+    name = ""
+    geometry_keys: tuple[str, ...] = ()
+    #: unit of the actuator stiffness (prismatic N/mm, rotary N mm/rad)
+    actuator_unit = "N/mm"
+
+    def chains(self, model) -> tuple[Chain, ...]:
+        raise NotImplementedError
+
+    def inverse_kinematics(self, model, P: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Actuator coordinates (n, n_chains) and each chain's variable values (n, n_vars)."""
+        raise NotImplementedError
+
+    def compliances(self, model, P, chain_values, q_act) -> list[dict]:
+        """Per chain, ``{spring name: compliance (k,k) or (n,k,k)}`` (rigid springs omitted)."""
+        raise NotImplementedError
+
+
+def actuator_compliance(model, q: np.ndarray) -> np.ndarray:
+    """Actuator compliance (n, 1, 1) at actuator coordinates ``q`` (n,).
+
+    ``c(q) = 1/k0 + slope * (q - q_ref)`` (e.g. a ball screw whose nut moves away
+    from the bearing); constant when ``slope == 0``.
+    """
+    a = model.actuator
+    c = 1.0 / a.stiffness + a.compliance_slope * (np.asarray(q, dtype=float) - a.q_ref)
+    if np.any(c <= 0):
+        bad = np.asarray(q)[c <= 0].ravel()[0]
+        raise VjmError(f"actuator.compliance_slope gives a non-positive actuator compliance at q = {bad:.6g}; "
+                       "reduce the slope or the travel")
+    return c[:, None, None]
+
+
+def joint_spring_compliance(model) -> np.ndarray | None:
+    k = model.joints.passive_stiffness
+    return None if k is None else np.array([[1.0 / k]])
+
+
+def as_points(P) -> np.ndarray:
+    P = np.asarray(P, dtype=float)
+    if P.ndim == 1:
+        P = P[None, :]
+    if P.ndim != 2 or P.shape[1] != 3:
+        raise VjmError(f"end-effector points must have shape (n, 3), got {np.shape(P)}")
+    if not np.all(np.isfinite(P)):
+        raise VjmError("end-effector points must be finite numbers")
+    return P
