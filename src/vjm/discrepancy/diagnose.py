@@ -95,6 +95,11 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     W = data.W if kind == "deflection" else np.zeros((data.n, 6))
     ctx = Context(model, U, idx, W)
     cands, skipped = _candidates(model, kind, effects)
+    for nm in list(cands):
+        why = fx.get(nm).prepare(ctx)
+        if why:
+            cands.remove(nm)
+            skipped[nm] = why
     terms = {CALIBRATION: calibration_term(model)}
     for nm in cands:
         e = fx.get(nm)

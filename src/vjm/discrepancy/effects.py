@@ -75,6 +75,10 @@ class Effect:
         vals = {p.name: float(v) for p, v in zip(self.param_specs(model), theta)}
         return mo.with_effect_entry(model, self.name, vals)
 
+    def prepare(self, ctx) -> str | None:
+        """Precompute what the effect needs on the data set; a reason string if it cannot."""
+        return None
+
     def applies_to(self, model, data_kind: str) -> str | None:
         """None if the effect is a candidate for this model and data, else the reason it is not."""
         if data_kind not in self.data_kinds:
@@ -87,17 +91,29 @@ class Effect:
 @register
 class LinkCoupling(Effect):
     name = "link_coupling"
-    description = ("translation-rotation coupling of the legs (c26 = s 3/(2L) c22, c35 = -s 3/(2L) c33, "
-                   "s = 1 is the Euler-Bernoulli cantilever of eq. 14)")
+    description = ("translation-rotation coupling of the legs that the model lacks: extension-torsion "
+                   "c14 = kappa sqrt(c11 c44) (beam models of eq. 14 have none)")
     kind = "model"
 
+    # Why not scale eq. 14's bending coupling c26, c35 (or the lateral-torsion
+    # terms c24, c34): in the chains of this package every 6-dof spring is
+    # followed, or preceded, by passive joints that release the rotations (and,
+    # for a U-U leg, the lateral tip translations) those terms couple, so they
+    # cannot change the end-effector deflection (checked: setting them changes
+    # the 3-PUU compliance by ~1e-16 relative).  A U-U leg carries only axial
+    # force and torsion, so the coupling that shows is extension-torsion.
+
     def param_specs(self, model):
-        s0 = mo.leg_coupling_scale(model)
-        # |s| < 2/sqrt(3) keeps the bending blocks positive definite
-        return (Param("scale", start=s0, lower=-1.15, upper=1.15, scale=0.1, null=s0, unit="1"),)
+        k0 = mo.leg_coupling(model)
+        return (Param("kappa", start=k0, lower=-0.9, upper=0.9, scale=0.1, null=k0, unit="1"),)
+
+    def applies_to(self, model, data_kind):
+        if not mo.leg_is_flexible(model):
+            return "the model's leg is rigid"
+        return super().applies_to(model, data_kind)
 
     def apply(self, model, theta):
-        return mo.with_leg_coupling_scale(model, float(theta[0]))
+        return mo.with_leg_coupling(model, float(theta[0]))
 
 
 @register
@@ -137,12 +153,14 @@ class PassiveJointCompliance(Effect):
 class ActuatorTravelStiffness(Effect):
     name = "actuator_travel_stiffness"
     description = ("actuator compliance varying linearly along the travel, as a ball screw between bearing and nut: "
-                   "c(q) = c0 (1 + slope (q - q_ref))")
+                   "c(q) = 1/k + slope (q - q_ref)")
     kind = "model"
 
     def param_specs(self, model):
         s0 = mo.actuator_slope(model)
-        return (Param("slope", start=s0, lower=-0.02, upper=0.02, scale=1e-3, null=s0, unit="1/mm"),)
+        b = mo.actuator_slope_bound(model)
+        return (Param("compliance_slope", start=s0, lower=-b, upper=b, scale=b / 100.0, null=s0,
+                      unit="(mm/N)/mm"),)
 
     def apply(self, model, theta):
         return mo.with_actuator_slope(model, float(theta[0]))
@@ -183,6 +201,15 @@ class GeometricNonlinearity(Effect):
     kind = "additive"
     data_kinds = ("deflection",)
     params = (Param("scale", start=0.0, scale=1.0, null=0.0, unit="x model nonlinearity"),)
+
+    def prepare(self, ctx):
+        from ..errors import VjmError
+
+        try:
+            ctx.nonlinear_delta()
+        except VjmError as exc:
+            return f"the model's nonlinear equilibrium failed: {exc}"
+        return None
 
     def extra(self, ctx, theta, C):
         return theta[0] * ctx.nonlinear_delta()

@@ -166,30 +166,35 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
     x0 = np.where(x0 <= lo, lo + 1e-3 * xs, x0)
     x0 = np.where(x0 >= hi, hi - 1e-3 * xs, x0)
 
-    def fun(x):
-        r = problem.residuals(names, x)
+    # optimise u = theta / scale so that finite-difference steps and tolerances are
+    # relative to each parameter's typical magnitude (compliances are ~1e-7)
+    def fun(u):
+        r = problem.residuals(names, u * xs)
         return r if mask is None else r[mask]
 
     if len(params) == 0:
-        r = fun(x0)
+        r = problem.residuals(names, x0)
+        r = r if mask is None else r[mask]
         return FitResult(names, x0, np.zeros(0), float(r @ r), r.size, 0, problem.sigma_known, True, r)
-    sol = optimize.least_squares(fun, x0, bounds=(lo, hi), x_scale=xs, diff_step=1e-6,
+    sol = optimize.least_squares(fun, x0 / xs, bounds=(lo / xs, hi / xs), diff_step=1e-6,
                                  method="trf", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200)
     r = sol.fun
     n, k = r.size, len(params)
     chi2 = float(r @ r)
-    J = sol.jac
-    # pseudo-inverse: a parameter the data cannot see gets a huge (honest) standard error
-    JtJ = J.T @ J
+    # covariance in u (well-conditioned columns), mapped back to theta; the
+    # pseudo-inverse gives a parameter the data cannot see a huge (honest) standard error
+    Js = sol.jac
+    JtJ = Js.T @ Js
     try:
-        cov = np.linalg.pinv(JtJ, rcond=1e-12, hermitian=True)
+        cov = np.linalg.pinv(JtJ, rcond=1e-12, hermitian=True) * np.outer(xs, xs)
     except np.linalg.LinAlgError:
         cov = np.full((k, k), np.inf)
     s2 = 1.0 if problem.sigma_known else chi2 / max(n - k, 1)
     se = np.sqrt(np.maximum(np.diag(cov) * s2, 0.0))
     zero = np.diag(JtJ) <= 0
     se[zero] = np.inf
-    return FitResult(names, sol.x, se, chi2, n, k, problem.sigma_known, bool(sol.success), r)
+    theta = sol.x * xs
+    return FitResult(names, theta, se, chi2, n, k, problem.sigma_known, bool(sol.success), r)
 
 
 def compare(problem: Problem, small: FitResult, big: FitResult) -> tuple[float, float]:

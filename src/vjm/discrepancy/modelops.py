@@ -1,0 +1,187 @@
+"""Everything the discrepancy workflow reads from, or changes in, a :class:`vjm.model.Model`.
+
+One home for the coupling to the VJM core: effects and the calibration call
+these helpers, which only use the public model API (immutable ``Model``,
+``replace``, ``stiffness_map``, ``inverse_kinematics``, ``joint_forces``,
+``vjm.nonlinear``) so a change there is absorbed here.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import VjmError
+
+# --------------------------------------------------------------- files
+
+
+def load_model(path):
+    from .. import load_model as _load
+
+    return _load(path)
+
+
+def save_model(model, path) -> None:
+    from .. import save_model as _save
+
+    _save(model, path)
+
+
+# --------------------------------------------------------------- per-pose quantities
+
+
+def compliance_map(model, P) -> np.ndarray:
+    """(m, 6, 6) compliance C at postures P (world axes at the end-effector point)."""
+    return model.stiffness_map(P).C
+
+
+def kvalues_map(model, P) -> np.ndarray:
+    """(m, 2) ``k_tran``, ``k_rot`` at postures P (vjm's definitions)."""
+    r = model.stiffness_map(P)
+    return np.stack([r.k_tran, r.k_rot], axis=1)
+
+
+def actuator_coords(model, P) -> np.ndarray:
+    """(m, n_chains) actuator coordinates; VjmError if a posture is unreachable."""
+    return np.asarray(model.inverse_kinematics(P), float)
+
+
+def actuator_influence(model, P) -> np.ndarray:
+    """(m, n_chains, 6): ``a_i`` with actuator force ``tau_i = a_i . w`` for a wrench w at the end-effector.
+
+    Linear in w, so the six unit wrenches give it column by column.
+    """
+    m = len(P)
+    cols = [np.asarray(model.joint_forces(P, np.broadcast_to(np.eye(6)[j], (m, 6)))["actuator"]) for j in range(6)]
+    return np.stack(cols, axis=-1)
+
+
+def nonlinear_delta(model, P, W) -> np.ndarray:
+    """(n, 6) nonlinear-equilibrium deflection minus the linear one, per (posture, wrench) row."""
+    from .. import nonlinear
+
+    C = model.stiffness_map(P).C
+    lin = np.einsum("nij,nj->ni", C, W)
+    fn = getattr(nonlinear, "deflection_map", None)
+    if fn is not None:
+        nl = np.asarray(fn(model, P, W), float)
+    else:
+        nl = np.array([np.asarray(nonlinear.deflection(model, P[k], W[k]), float) for k in range(len(P))])
+    return nl - lin
+
+
+def workspace_box(model):
+    """(lo, hi) corners of the design box, mm.
+
+    ``geometry.workspace: [lo, hi]`` (a cube) if the model gives it; else, for
+    the Orthoglide family, the cube between the seed's critical points scaled
+    with the leg length (Q1 = -73.65, Q2 = +126.35 mm for L = 310 mm), and a
+    cube of +-L/4 otherwise.
+    """
+    g = model.geometry
+    if "workspace" in g:
+        lo, hi = g["workspace"]
+        return np.full(3, float(lo)), np.full(3, float(hi))
+    L = float(g.get("L", 100.0))
+    if model.architecture.startswith("orthoglide"):
+        return np.full(3, -73.65 / 310.0 * L), np.full(3, 126.35 / 310.0 * L)
+    return np.full(3, -L / 4), np.full(3, L / 4)
+
+
+# --------------------------------------------------------------- parameters
+
+
+def _link(C):
+    from ..model import Link
+
+    return Link(np.asarray(C, float), None)
+
+
+def leg_is_flexible(model) -> bool:
+    return model.leg.compliance is not None
+
+
+def foot_is_rigid(model) -> bool:
+    return model.foot.compliance is None
+
+
+def with_actuator_scale(model, s: float):
+    """Actuator stiffness multiplied by ``s``."""
+    if s == 1.0:
+        return model
+    a = model.actuator
+    return model.replace(actuator=type(a)(a.stiffness * s, a.compliance_slope, a.q_ref))
+
+
+def with_leg_scale(model, s: float):
+    """Leg compliance multiplied by ``s`` (written inline in the saved model)."""
+    if s == 1.0 or model.leg.compliance is None:
+        return model
+    return model.replace(leg=_link(model.leg.compliance * s))
+
+
+def leg_coupling(model) -> float:
+    """Current extension-torsion coupling coefficient ``kappa = c14 / sqrt(c11 c44)`` of the leg."""
+    C = model.leg.compliance
+    if C is None or C[0, 0] <= 0 or C[3, 3] <= 0:
+        return 0.0
+    return float(C[0, 3] / np.sqrt(C[0, 0] * C[3, 3]))
+
+
+def with_leg_coupling(model, kappa: float):
+    """Leg compliance with the extension-torsion coupling ``c14 = c41 = kappa sqrt(c11 c44)``.
+
+    An axial force then twists the link and a torque stretches it (pretwisted
+    or helically stiffened links, unsymmetric FEA links); ``|kappa| < 1``
+    keeps the compliance positive definite.  Straight prismatic beams (eq. 14)
+    have ``kappa = 0``.
+    """
+    if model.leg.compliance is None:
+        raise VjmError("link_coupling needs a flexible leg")
+    C = model.leg.compliance.copy()
+    C[0, 3] = C[3, 0] = kappa * np.sqrt(C[0, 0] * C[3, 3])
+    return model.replace(leg=_link(C))
+
+
+def with_foot_compliance_scale(model, s: float):
+    """Foot compliance = ``s`` x the leg's compliance (rigid at s = 0)."""
+    from ..model import Link
+
+    if s <= 0:
+        return model.replace(foot=Link.rigid())
+    if model.leg.compliance is None:
+        raise VjmError("foot_compliance is shaped on the leg compliance, but the leg is rigid")
+    return model.replace(foot=_link(model.leg.compliance * s))
+
+
+def passive_compliance(model) -> float:
+    k = model.joints.passive_stiffness
+    return 0.0 if k is None else 1.0 / float(k)
+
+
+def with_passive_compliance(model, c: float):
+    """Passive-joint springs of compliance ``c`` rad/(N mm) (ideal joints at c = 0)."""
+    from ..model import Joints
+
+    return model.replace(joints=Joints(None if c <= 0 else 1.0 / c))
+
+
+def actuator_slope(model) -> float:
+    return float(model.actuator.compliance_slope)
+
+
+def actuator_slope_bound(model) -> float:
+    """|slope| keeping the actuator compliance positive over +-L of travel around q_ref."""
+    L = float(model.geometry.get("L", 100.0))
+    return 0.9 / model.actuator.stiffness / L
+
+
+def with_actuator_slope(model, slope: float):
+    a = model.actuator
+    return model.replace(actuator=type(a)(a.stiffness, float(slope), a.q_ref))
+
+
+def with_effect_entry(model, name: str, values: dict):
+    """Model whose ``effects:`` mapping carries ``name: values``."""
+    eff = dict(model.effects)
+    eff[name] = dict(values)
+    return model.replace(effects=eff)
