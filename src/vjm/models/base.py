@@ -20,7 +20,14 @@ class Architecture:
     #: unit of the actuator stiffness (prismatic N/mm, rotary N mm/rad)
     actuator_unit = "N/mm"
 
+    #: default workspace box ((xmin, ymin, zmin), (xmax, ymax, zmax)) in mm, for maps
+    workspace = ((-100.0, -100.0, -100.0), (100.0, 100.0, 100.0))
+
     def chains(self, model) -> tuple[Chain, ...]:
+        raise NotImplementedError
+
+    def reachable(self, model, P: np.ndarray) -> np.ndarray:
+        """Boolean mask (n,) of points the inverse kinematics accepts."""
         raise NotImplementedError
 
     def inverse_kinematics(self, model, P: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:

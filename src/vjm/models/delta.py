@@ -38,6 +38,22 @@ class DeltaRRPaR(Architecture):
     name = "delta-3RRPaR"
     geometry_keys = ("L", "r", "d", "R", "arm")
     actuator_unit = "N mm/rad"
+    workspace = ((-150.0, -150.0, -600.0), (150.0, 150.0, -350.0))
+
+    def reachable(self, model, P):
+        g = model.geometry
+        P = as_points(P)
+        ok = np.ones(len(P), dtype=bool)
+        for phi in PHI:
+            R = base_rotation(phi)
+            b = (P - R[:, 0] * g["R"]) @ R
+            b[:, 0] += g["r"]
+            sz = b[:, 2] / g["L"]
+            rho = g["L"] * np.sqrt(np.clip(1.0 - sz**2, 0.0, None))
+            Rb = np.hypot(b[:, 0], b[:, 1])
+            kap = (Rb**2 + g["arm"] ** 2 - rho**2) / (2.0 * g["arm"])
+            ok &= (np.abs(sz) <= 1.0 + 1e-12) & (np.abs(kap) <= (1.0 + 1e-12) * Rb)
+        return ok
 
     def chains(self, model):
         g = model.geometry

@@ -55,6 +55,16 @@ def tool_transform(i: str, r: float) -> np.ndarray:
     return homogeneous(BASE_R[i].T, (r, 0.0, 0.0))
 
 
+def _reach(model, P):
+    L, r = model.geometry["L"], model.geometry["r"]
+    ok = np.ones(len(P), dtype=bool)
+    for i in CHAINS:
+        R = BASE_R[i]
+        loc = (P - R @ np.array([-L - r, 0.0, 0.0])) @ R
+        ok &= (loc[:, 1] ** 2 + loc[:, 2] ** 2) / L**2 <= 1.0 + 1e-12
+    return ok
+
+
 def _leg_ik(model, P):
     """Chain-local leg direction and actuator coordinate for each chain: u (n,3,3), q0 (n,3)."""
     L, r = model.geometry["L"], model.geometry["r"]
@@ -81,6 +91,11 @@ def _leg_ik(model, P):
 class OrthoglidePUU(Architecture):
     name = "orthoglide-3PUU"
     geometry_keys = ("L", "r")
+    #: the Orthoglide's Cartesian workspace cube, Q1 to Q2 (seed Fig. 4c)
+    workspace = ((-73.65,) * 3, (126.35,) * 3)
+
+    def reachable(self, model, P):
+        return _reach(model, as_points(P))
 
     def chains(self, model):
         L, r = model.geometry["L"], model.geometry["r"]
@@ -136,6 +151,10 @@ class OrthoglidePUU(Architecture):
 class OrthoglidePRPaR(Architecture):
     name = "orthoglide-3PRPaR"
     geometry_keys = ("L", "r", "d")
+    workspace = OrthoglidePUU.workspace
+
+    def reachable(self, model, P):
+        return _reach(model, as_points(P))
 
     def chains(self, model):
         L, r = model.geometry["L"], model.geometry["r"]
