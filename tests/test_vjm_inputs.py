@@ -1,0 +1,160 @@
+"""Singular postures, linkfea JSON springs, bad input, and the extension points (a)(b)(d)(e)(f)."""
+import json
+import os
+
+import numpy as np
+import pytest
+import yaml
+
+import vjm
+from vjm import VjmError
+from vjm.model import Actuator, Joints, Link
+
+PUU = "data/orthoglide/puu.yaml"
+PRPAR = "data/orthoglide/prpar.yaml"
+
+
+@pytest.fixture(scope="module")
+def puu():
+    return vjm.load_model(PUU)
+
+
+def _write(tmp_path, d, name="m.yaml"):
+    p = tmp_path / name
+    p.write_text(yaml.safe_dump(d))
+    return p
+
+
+def _base():
+    with open(PUU) as fh:
+        return yaml.safe_load(fh)
+
+
+def test_singular_postures_finite_with_rank(puu):
+    """Issue 4 test 5.  At (0, 0, -L) every leg is parallel to z: the x leg is collinear with
+    its first U joint's axis (J_q loses a rank: serial singularity) and the
+    platform can translate in x and y with no resistance (K singular: parallel singularity).
+    The solver must return finite K, the ranks, C as a pseudo-inverse with invertible False,
+    and k = inf, without exception or NaN; 1e-6 mm and 1e-3 mm away the chains have full rank
+    and K stays finite."""
+    L = puu.geometry["L"]
+    P = np.array([[0.0, 0.0, -L], [0.0, 0.0, -L + 1e-6], [0.0, 1e-3, -L + 1e-3], [0.0, 0.0, 0.0]])
+    res = puu.stiffness_map(P)
+    assert np.all(np.isfinite(res.K)) and np.all(np.isfinite(res.C))
+    assert not np.any(np.isnan(res.k_tran)) and not np.any(np.isnan(res.k_rot))
+    assert res.chain_rank[0].tolist() == [3, 4, 4]
+    assert res.rank[0] < 6 and not res.invertible[0] and np.isinf(res.k_tran[0])
+    assert np.all(res.chain_rank[1:] == 4)
+    assert res.rank[3] == 6 and res.invertible[3]
+
+
+def test_linkfea_json_same_as_inline(tmp_path, puu):
+    """Issue 4 test 7: a leg read from a `linkfea compute` JSON gives the same K as the same
+    matrix inline (bit-identical input, so 1e-14 relative)."""
+    C = puu.leg.compliance
+    res = {"compliance": C.tolist(), "frame": {"origin": [0, 0, 0], "x_axis": [1, 0, 0], "y_axis": [0, 1, 0],
+                                               "z_axis": [0, 0, 1]}, "units": {"compliance": "mm/N, rad/(N mm)"}}
+    (tmp_path / "leg.json").write_text(json.dumps(res))
+    d = _base()
+    d["leg"] = {"linkfea": "leg.json"}
+    m1 = vjm.load_model(_write(tmp_path, d))
+    d["leg"] = {"compliance": C.tolist()}
+    m2 = vjm.load_model(_write(tmp_path, d, "m2.yaml"))
+    p = [20.0, -40.0, 60.0]
+    K1, K2 = m1.stiffness(p).K, m2.stiffness(p).K
+    assert np.max(np.abs(K1 - K2)) <= 1e-14 * np.max(np.abs(K1))
+    m3 = vjm.load_model(PUU, leg=tmp_path / "leg.json")
+    assert np.max(np.abs(m3.stiffness(p).K - K1)) <= 1e-14 * np.max(np.abs(K1))
+
+
+@pytest.mark.parametrize("change,words", [
+    (lambda d: d.update(architecture="hexapod"), "architecture"),
+    (lambda d: d.update(leg={"compliance": np.eye(5).tolist()}), "leg"),
+    (lambda d: d.update(leg={"compliance": (np.eye(6) + np.triu(np.ones((6, 6)), 1)).tolist()}), "symmetric"),
+    (lambda d: d.update(foot={"compliance": (-np.eye(6)).tolist()}), "positive definite"),
+    (lambda d: d.update(foot={"linkfea": "missing.json"}), "not found"),
+    (lambda d: d.update(foot={"rigid": True}, leg={"rigid": True}), "rigid"),
+    (lambda d: d.update(geometry={"L": -3, "r": 50}), "geometry.L"),
+    (lambda d: d.update(actuator={"stiffness": "stiff"}), "actuator.stiffness"),
+    (lambda d: d.update(leg={"beam": {"section": "hexagon", "length": 3, "material": "steel"}}), "leg.beam.section"),
+])
+def test_bad_model_files(tmp_path, change, words):
+    d = _base()
+    change(d)
+    with pytest.raises(VjmError, match=words):
+        vjm.load_model(_write(tmp_path, d))
+
+
+def test_missing_model_file_and_unreachable_pose(puu, tmp_path):
+    with pytest.raises(VjmError, match="not found"):
+        vjm.load_model(tmp_path / "nope.yaml")
+    with pytest.raises(VjmError, match="unreachable"):
+        puu.stiffness([0.0, 400.0, 0.0])
+    with pytest.raises(VjmError, match="unreachable"):
+        puu.inverse_kinematics([[0.0, 0.0, 0.0], [0.0, 0.0, 500.0]])
+
+
+def test_cli_error_is_one_line_exit_2(tmp_path):
+    from typer.testing import CliRunner
+    from vjm.cli import app
+    r = CliRunner().invoke(app, ["stiffness", PUU, "--at", "0,0,900"])
+    assert r.exit_code == 2
+    r2 = CliRunner().invoke(app, ["stiffness", PUU, "--at", "0,0,0", "--json"])
+    assert r2.exit_code == 0 and json.loads(r2.output)["rank"] == 6
+
+
+def test_actuator_slope_is_series_spring(puu):
+    """Extension (a).  At Q0 only the x actuator carries an x force (legs y and z are free in
+    x), so the x compliance grows by exactly the added actuator compliance slope*(q - q_ref)."""
+    p = np.array([10.0, 0.0, 0.0])
+    q = puu.inverse_kinematics(p)[0, 0]
+    m2 = puu.replace(actuator=Actuator(puu.actuator.stiffness, compliance_slope=2e-7, q_ref=-50.0))
+    dC = m2.stiffness(p).C[0, 0] - puu.stiffness(p).C[0, 0]
+    assert np.isclose(dC, 2e-7 * (q + 50.0), rtol=1e-9)
+    with pytest.raises(VjmError, match="compliance_slope"):
+        puu.replace(actuator=Actuator(1000.0, compliance_slope=-1.0)).stiffness(p)
+
+
+def test_passive_joint_stiffness_adds_series_compliance(puu):
+    """Extension (b).  Ideal U joints are rigid about their constrained direction; elastic ones
+    add a rotational spring 1/k there, in series with the leg.  At Q0 a platform rotation about
+    a world axis is carried by one leg whose two U joints both have their constrained axis along
+    it, so the rotational compliance grows by exactly 2/k and the translational one not at all;
+    a very stiff joint gives back the ideal model."""
+    p = [0.0, 0.0, 0.0]
+    C0 = puu.stiffness(p).C
+    k = 1e7
+    C1 = puu.replace(joints=Joints(k)).stiffness(p).C
+    Cs = puu.replace(joints=Joints(1e14)).stiffness(p).C
+    assert np.allclose(C1[3:, 3:] - C0[3:, 3:], 2.0 / k * np.eye(3), rtol=1e-6, atol=1e-6 * 2 / k)
+    assert np.allclose(C1[:3, :3], C0[:3, :3], rtol=1e-9, atol=1e-15)
+    assert np.max(np.abs(Cs - C0)) < 1e-6 * np.max(np.abs(C0))
+
+
+def test_effects_round_trip_and_replace(tmp_path, puu):
+    """Extensions (c)(d)(e): effects kept verbatim and written back; save/load round-trips;
+    a rigid foot is accepted; replace() gives a validated modified model."""
+    d = _base()
+    d["effects"] = {"clearance": {"gap": 0.01, "chains": ["x", "y"]}}
+    d["joints"] = {"passive_stiffness": 5e6}
+    m = vjm.load_model(_write(tmp_path, d))
+    assert m.effects == d["effects"]
+    vjm.save_model(m, tmp_path / "out.yaml")
+    m2 = vjm.load_model(tmp_path / "out.yaml")
+    assert m2.effects == d["effects"] and m2.joints.passive_stiffness == 5e6
+    p = [5.0, 6.0, 7.0]
+    assert np.allclose(m2.stiffness(p).K, m.stiffness(p).K, rtol=1e-12, atol=0)
+    rig = puu.replace(foot=Link.rigid())
+    assert rig.stiffness(p).k_tran < puu.stiffness(p).k_tran
+    with pytest.raises(VjmError, match="foot"):
+        puu.replace(foot=Link(np.ones((6, 6))))
+
+
+def test_joint_forces_balance_the_load(puu):
+    """Extension (f).  The chains' wrenches sum to the applied wrench (equilibrium, eq. 13);
+    at Q0 an x force goes entirely through the x actuator (tau = +F)."""
+    p, w = [20.0, -30.0, 10.0], np.array([30.0, -20.0, 50.0, 1e3, -2e3, 5e2])
+    jf = puu.joint_forces(p, w)
+    assert np.allclose(jf["chain_wrench"].sum(axis=0), w, rtol=1e-8, atol=1e-8)
+    t = puu.joint_forces([0.0, 0.0, 0.0], [100.0, 0, 0, 0, 0, 0])["actuator"]
+    assert np.allclose(t, [100.0, 0.0, 0.0], atol=1e-8)
