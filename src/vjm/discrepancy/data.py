@@ -158,6 +158,9 @@ def read_csv(path) -> Deflections | StiffnessObs:
     body = rows[1:]
     if "quantity" in header:
         return _parse_stiffness(path, header, hdr_row, body)
+    wide = [h for h in header if h.startswith(QUANTITIES)]
+    if wide and not any(c in header for c in WRENCH):
+        return _parse_stiffness_wide(path, header, hdr_row, body, wide)
     missing = [c for c in POS + WRENCH + TWIST if c not in header]
     if missing:
         raise _err(path, hdr_row, missing[0],
@@ -235,6 +238,39 @@ def _parse_stiffness(path, header, hdr_row, body):
         for h in extra:
             extra[h].append(rec[col[h]])
     return StiffnessObs(P, q, v, srel, rownums, str(path), extra)
+
+
+def _parse_stiffness_wide(path, header, hdr_row, body, wide):
+    """Wide stiffness table: one row per posture, columns ``k_tran*`` / ``k_rot*`` (e.g. the
+    seed's Table 1 file ``k_tran_mm_per_N, k_rot_rad_per_Nmm``); turned into long form."""
+    missing = [c for c in POS if c not in header]
+    if missing:
+        raise _err(path, hdr_row, missing[0], f"missing column(s) {', '.join(missing)}")
+    if not body:
+        raise _err(path, hdr_row + 1, None, "no data rows")
+    col = {h: i for i, h in enumerate(header)}
+    qcols = [(h, 0 if h.startswith("k_tran") else 1) for h in wide]
+    P, q, v, rows = [], [], [], []
+    extra = {h: [] for h in header if h not in POS and h not in wide}
+    for r, rec in body:
+        if len(rec) != len(header):
+            raise _err(path, r, None, f"has {len(rec)} fields, header has {len(header)} (malformed CSV)")
+        p = [_float(rec[col[c]], path, r, c, True) for c in POS]
+        for h, qi in qcols:
+            val = _float(rec[col[h]], path, r, h, False)
+            if not math.isfinite(val):
+                continue
+            if val <= 0:
+                raise _err(path, r, h, f"a compliance must be > 0, got {val}")
+            P.append(p)
+            q.append(qi)
+            v.append(val)
+            rows.append(r)
+            for e in extra:
+                extra[e].append(rec[col[e]])
+    if not v:
+        raise _err(path, hdr_row + 1, wide[0], "no stiffness value in the file")
+    return StiffnessObs(np.array(P), np.array(q, int), np.array(v), None, np.array(rows), str(path), extra)
 
 
 def atomic_write_text(path, text: str) -> None:

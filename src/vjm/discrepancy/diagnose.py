@@ -54,6 +54,21 @@ def _check_reachable(model, data):
     return U, idx, q
 
 
+def _rows_for_architecture(data: StiffnessObs, model) -> StiffnessObs:
+    """Keep the rows of a stiffness table whose ``architecture`` column names the model's (if any)."""
+    arch = data.extra.get("architecture")
+    if arch is None:
+        return data
+    keep = np.array([a.strip() == model.architecture for a in arch])
+    if not keep.any():
+        raise VjmError(f"{os.path.basename(data.source)}: column 'architecture': no row for "
+                       f"{model.architecture} (found {', '.join(sorted(set(arch)))})")
+    ex = {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.extra.items()}
+    return StiffnessObs(data.P[keep], data.quantity[keep], data.value[keep],
+                        None if data.sigma_rel is None else data.sigma_rel[keep],
+                        None if data.rows is None else data.rows[keep], data.source, ex)
+
+
 def _candidates(model, data_kind, names=None):
     names = list(fx.REGISTRY) if names is None else list(names)
     cands, skipped = [], {}
@@ -91,10 +106,18 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     effects : candidate names (default: the whole registry).
     """
     kind = "stiffness" if isinstance(data, StiffnessObs) else "deflection"
+    if kind == "stiffness":
+        data = _rows_for_architecture(data, model)
     U, idx, q = _check_reachable(model, data)
     W = data.W if kind == "deflection" else np.zeros((data.n, 6))
     ctx = Context(model, U, idx, W)
     cands, skipped = _candidates(model, kind, effects)
+    if kind == "deflection":
+        if data.sigma_t is not None:
+            ctx.noise_t = float(np.median(data.sigma_t))
+        else:
+            r0 = data.T[:, :3] - np.einsum("nij,nj->ni", mo.compliance_map(model, U)[idx][:, :3], W)
+            ctx.noise_t = _robust_scale(r0)
     for nm in list(cands):
         why = fx.get(nm).prepare(ctx)
         if why:

@@ -202,10 +202,25 @@ class GeometricNonlinearity(Effect):
     data_kinds = ("deflection",)
     params = (Param("scale", start=0.0, scale=1.0, null=0.0, unit="x model nonlinearity"),)
 
+    #: screening threshold: skip when the model's own nonlinearity is below this fraction of the noise
+    screen = 0.1
+
     def prepare(self, ctx):
         from ..errors import VjmError
 
         try:
+            # cheap screen first: the nonlinear part grows with the load squared, so the
+            # rows with the largest loads bound it; one Newton solve per row is expensive
+            n = ctx.n
+            fmag = np.linalg.norm(ctx.W[:, :3], axis=1) + np.linalg.norm(ctx.W[:, 3:], axis=1) / 100.0
+            probe = np.argsort(-fmag)[: min(n, 6)]
+            from . import modelops
+
+            d = modelops.nonlinear_delta(ctx.model, ctx.P[ctx.idx[probe]], ctx.W[probe])
+            big = float(np.max(np.abs(d[:, :3]))) if n else 0.0
+            if ctx.noise_t is not None and big < self.screen * ctx.noise_t:
+                return (f"the model's own geometric nonlinearity at these loads is at most {big:.2g} mm, "
+                        f"below {self.screen} x the noise ({ctx.noise_t:.2g} mm): it cannot be detected")
             ctx.nonlinear_delta()
         except VjmError as exc:
             return f"the model's nonlinear equilibrium failed: {exc}"

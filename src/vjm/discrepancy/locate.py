@@ -56,6 +56,11 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
     out["by_posture"] = posture
     out["worst_postures"] = sorted(posture, key=lambda d: -d["rms_normalized"])[:top]
 
+    if not np.any(W):  # stiffness observations: no load to group by
+        if q is not None:
+            out.update(_by_actuator(q, pose_idx, r2, cnt))
+        out["summary"] = _summary(out)
+        return out
     dom = np.argmax(np.abs(W) / np.where(np.arange(6) < 3, 1.0, 100.0), axis=1)  # moments in N mm vs N: 100 mm arm
     sgn = np.sign(W[np.arange(W.shape[0]), dom])
     labels = np.array([("+" if s >= 0 else "-") + WRENCH_NAMES[d] for d, s in zip(dom, sgn)])
@@ -67,16 +72,20 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
     out["by_load_magnitude"] = [{"force_N": [float(edges[b]), float(edges[b + 1])], "rms_normalized": v[0], "n": v[1]}
                                 for b, v in sorted(g.items())]
     if q is not None:
-        qa = np.asarray(q)[pose_idx]
-        act = {}
-        for j in range(qa.shape[1]):
-            bi, edges = _bins(qa[:, j])
-            g = _group_rms(bi, r2, cnt)
-            act[f"q{j + 1}"] = [{"range": [float(edges[b]), float(edges[b + 1])], "rms_normalized": v[0], "n": v[1]}
-                                for b, v in sorted(g.items())]
-        out["by_actuator"] = act
+        out.update(_by_actuator(q, pose_idx, r2, cnt))
     out["summary"] = _summary(out)
     return out
+
+
+def _by_actuator(q, pose_idx, r2, cnt):
+    qa = np.asarray(q)[pose_idx]
+    act = {}
+    for j in range(qa.shape[1]):
+        bi, edges = _bins(qa[:, j])
+        g = _group_rms(bi, r2, cnt)
+        act[f"q{j + 1}"] = [{"range": [float(edges[b]), float(edges[b + 1])], "rms_normalized": v[0], "n": v[1]}
+                            for b, v in sorted(g.items())]
+    return {"by_actuator": act}
 
 
 def _summary(loc) -> str:
@@ -89,11 +98,11 @@ def _summary(loc) -> str:
     if w:
         parts.append(f"worst posture ({w['x']:.1f}, {w['y']:.1f}, {w['z']:.1f}) mm at "
                      f"{w['rms_normalized'] / ov:.1f}x the overall RMS")
-    d = loc["by_load_direction"]
+    d = loc.get("by_load_direction")
     if d:
         k = max(d, key=lambda s: d[s]["rms_normalized"])
         parts.append(f"largest for loads along {k} ({d[k]['rms_normalized'] / ov:.1f}x)")
-    mags = loc["by_load_magnitude"]
+    mags = loc.get("by_load_magnitude", [])
     if len(mags) > 1:
         lo, hi = mags[0]["rms_normalized"], mags[-1]["rms_normalized"]
         trend = "grows" if hi > 1.3 * lo else ("shrinks" if lo > 1.3 * hi else "is flat")

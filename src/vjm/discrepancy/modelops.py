@@ -55,18 +55,31 @@ def actuator_influence(model, P) -> np.ndarray:
     return np.stack(cols, axis=-1)
 
 
+_NL_MEMO: dict = {}
+
+
 def nonlinear_delta(model, P, W) -> np.ndarray:
-    """(n, 6) nonlinear-equilibrium deflection minus the linear one, per (posture, wrench) row."""
+    """(n, 6) nonlinear-equilibrium deflection minus the linear one, per (posture, wrench) row.
+
+    One Newton solve per row (vjm.nonlinear), so results are memoized per
+    (model, P, W): the model is immutable and kept referenced by the memo.
+    """
     from .. import nonlinear
 
+    P = np.ascontiguousarray(P, dtype=float)
+    W = np.ascontiguousarray(W, dtype=float)
+    key = (id(model), P.tobytes(), W.tobytes())
+    hit = _NL_MEMO.get(key)
+    if hit is not None and hit[0] is model:
+        return hit[1]
     C = model.stiffness_map(P).C
     lin = np.einsum("nij,nj->ni", C, W)
-    fn = getattr(nonlinear, "deflection_map", None)
-    if fn is not None:
-        nl = np.asarray(fn(model, P, W), float)
-    else:
-        nl = np.array([np.asarray(nonlinear.deflection(model, P[k], W[k]), float) for k in range(len(P))])
-    return nl - lin
+    nl = np.asarray(nonlinear.deflection_map(model, P, W), float)
+    out = nl - lin
+    if len(_NL_MEMO) > 16:
+        _NL_MEMO.clear()
+    _NL_MEMO[key] = (model, out)
+    return out
 
 
 def workspace_box(model):
@@ -112,11 +125,13 @@ def with_actuator_scale(model, s: float):
     return model.replace(actuator=type(a)(a.stiffness * s, a.compliance_slope, a.q_ref))
 
 
-def with_leg_scale(model, s: float):
-    """Leg compliance multiplied by ``s`` (written inline in the saved model)."""
-    if s == 1.0 or model.leg.compliance is None:
+def with_link_scale(model, s: float):
+    """Every flexible link compliance (foot and leg) multiplied by ``s`` (written inline when saved)."""
+    if s == 1.0:
         return model
-    return model.replace(leg=_link(model.leg.compliance * s))
+    ch = {k: _link(getattr(model, k).compliance * s) for k in ("foot", "leg")
+          if getattr(model, k).compliance is not None}
+    return model.replace(**ch)
 
 
 def leg_coupling(model) -> float:

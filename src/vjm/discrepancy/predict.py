@@ -35,6 +35,7 @@ class Context:
     P: np.ndarray  # (m, 3) unique postures
     idx: np.ndarray  # (n,) measurement -> posture
     W: np.ndarray  # (n, 6) wrenches (zeros for stiffness observations)
+    noise_t: float | None = None  # typical translation noise, mm (for screening candidates)
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -68,16 +69,15 @@ def calibration_term(model) -> Term:
     """Baseline calibration: multipliers on the model's own nominal stiffness parameters."""
     ps = [Param("actuator_scale", start=1.0, lower=0.02, upper=50.0, scale=0.1, null=1.0,
                 unit="x nominal actuator stiffness")]
-    if mo.leg_is_flexible(model):
-        ps.append(Param("link_scale", start=1.0, lower=0.02, upper=50.0, scale=0.1, null=1.0,
-                        unit="x nominal leg compliance"))
-    return Term(CALIBRATION, tuple(ps), "refit of the model's nominal actuator stiffness and leg compliance")
+    ps.append(Param("link_scale", start=1.0, lower=0.02, upper=50.0, scale=0.1, null=1.0,
+                    unit="x nominal link (foot and leg) compliances"))
+    return Term(CALIBRATION, tuple(ps), "refit of the model's nominal actuator stiffness and link compliances")
 
 
 def apply_calibration(model, theta):
     model = mo.with_actuator_scale(model, float(theta[0]))
     if len(theta) > 1:
-        model = mo.with_leg_scale(model, float(theta[1]))
+        model = mo.with_link_scale(model, float(theta[1]))
     return model
 
 
@@ -88,6 +88,7 @@ class Predictor:
     model: object
     ctx: Context
     terms: dict  # name -> Term (calibration + effects)
+    _cache: dict = field(default_factory=dict, repr=False)
 
     def build_model(self, names, theta):
         """Model with the calibration and the model-kind effects of ``names`` applied."""
@@ -106,8 +107,18 @@ class Predictor:
         return model, blocks
 
     def compliance(self, names, theta):
+        """Compliance at the unique postures, cached on the model-changing parameters only
+        (finite differences on additive parameters then cost no stiffness map)."""
         model, blocks = self.build_model(names, theta)
-        return mo.compliance_map(model, self.ctx.P), blocks
+        key = tuple((nm, th.tobytes()) for nm, th in blocks
+                    if nm == CALIBRATION or fx.REGISTRY[nm].kind == "model")
+        C = self._cache.get(key)
+        if C is None:
+            C = mo.compliance_map(model, self.ctx.P)
+            if len(self._cache) > 64:
+                self._cache.clear()
+            self._cache[key] = C
+        return C, blocks
 
     def twists(self, names, theta) -> np.ndarray:
         """(n, 6) predicted twists of all measurements."""

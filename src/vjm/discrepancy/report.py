@@ -86,6 +86,7 @@ def render_html(rep: dict, figures) -> str:
     worst = [[_fmt(w["x"], "{:.1f}"), _fmt(w["y"], "{:.1f}"), _fmt(w["z"], "{:.1f}"),
               _fmt(w["rms_normalized"], "{:.2f}"), w["n"]] for w in loc.get("worst_postures", [])]
     dirs = [[k, _fmt(v["rms_normalized"], "{:.2f}"), v["n"]] for k, v in loc.get("by_load_direction", {}).items()]
+    dirs += [[k, _fmt(v, "{:.3g}"), "-"] for k, v in loc.get("by_quantity", {}).items()]
     figs = "".join(f'<figure><img src="{html.escape(f)}" alt="{html.escape(f)}"></figure>' for f in figures)
     final = rep.get("final_params", {})
     fin_rows = [[t, k, _fmt(v["value"]), f"[{_fmt(v['ci95'][0])}, {_fmt(v['ci95'][1])}]", v["unit"]]
