@@ -178,12 +178,19 @@ def element_upper_values(points: np.ndarray, tets: np.ndarray, lam: float, mu: f
     Integration is exact (products of linear gradients), like a degree-2 rule.
     """
     g, V = tet_geometry(points, tets)
-    g123 = g[:, 1:, :]
-    m = len(tets)
     w = mu * V if scale is None else mu * V * np.asarray(scale, dtype=float)
+    return _element_values(g, w, _element_operator(lam / mu))
+
+
+_CHUNK = 4096
+
+
+def _element_values(g: np.ndarray, w: np.ndarray, op: np.ndarray) -> np.ndarray:
+    """Element entries (m, 465) from barycentric gradients ``g`` (m, 4, 3), weights ``mu V`` and the operator."""
+    g123 = g[:, 1:, :]
     # One (m x 81) @ (81 x 465) product gives every entry of every element.
-    G2 = np.einsum("eKi,eLj->eKLij", g123 * w[:, None, None], g123).reshape(m, 81)
-    return G2 @ _element_operator(lam / mu)
+    G2 = np.einsum("eKi,eLj->eKLij", g123 * w[:, None, None], g123).reshape(len(g), 81)
+    return G2 @ op
 
 
 # Local node pairs (a <= b) of a 10-node tet and, for each of the 465 local DOF
@@ -206,7 +213,9 @@ def assemble_upper(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.ndarray
     cells = p2.cells
     m = len(cells)
     N = len(p2.points)
-    vals = element_upper_values(p2.points[:p2.n_vertices], cells[:, :4], lam, mu, scale)
+    g, V = tet_geometry(p2.points[:p2.n_vertices], cells[:, :4])
+    w = mu * V if scale is None else mu * V * np.asarray(scale, dtype=float)
+    op = _element_operator(lam / mu)
 
     # Node-level upper pattern.
     na = cells[:, _PAIR_A]
@@ -243,10 +252,24 @@ def assemble_upper(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.ndarray
     # the pair of rank q in node row r (degree D), pos = indptr[3r] + 3q
     # + i (3D - 1) - i (i - 1) / 2 + j (the same formula holds for the diagonal pair, q = 0).
     itype = np.int32 if nnz < 2**31 - 1 else np.int64
-    Ap = (indptr[3 * ur] + 3 * rank).astype(itype)[inv].reshape(m, 55)[:, _ENTRY_PAIR]
-    Bp = (3 * deg[ur] - 1).astype(itype)[inv].reshape(m, 55)[:, _ENTRY_PAIR]
-    swap = (na > nb)[:, _ENTRY_PAIR]
-    pos = Ap + np.where(swap, _J * Bp + (_I - _J * (_J - 1) // 2), _I * Bp + (_J - _I * (_I - 1) // 2))
+    pair_a = (indptr[3 * ur] + 3 * rank).astype(itype)[inv].reshape(m, 55)
+    pair_b = (3 * deg[ur] - 1).astype(itype)[inv].reshape(m, 55)
+    swapped = na > nb  # global order opposite to local: the 3x3 block is transposed
+    ci = (_J - _I * (_I - 1) // 2).astype(itype)
+    cj = (_I - _J * (_J - 1) // 2).astype(itype)
+    Ii, Ji = _I.astype(itype), _J.astype(itype)
+    # Element chunks keep the temporaries small (cache- and allocator-friendly).
+    vals = np.empty((m, 465))
+    pos = np.empty((m, 465), dtype=itype)
+    for s0 in range(0, m, _CHUNK):
+        sl = slice(s0, min(s0 + _CHUNK, m))
+        vals[sl] = _element_values(g[sl], w[sl], op)
+        swap = np.take(swapped[sl], _ENTRY_PAIR, axis=1)
+        p = np.where(swap, Ji, Ii)
+        p *= np.take(pair_b[sl], _ENTRY_PAIR, axis=1)
+        p += np.take(pair_a[sl], _ENTRY_PAIR, axis=1)
+        p += np.where(swap, cj, ci)
+        pos[sl] = p
     data = np.bincount(pos.ravel(), weights=vals.ravel(), minlength=nnz)
     idx_dtype = np.int32 if nnz < 2**31 - 1 else np.int64
     return sp.csr_matrix((data, cols.astype(idx_dtype), indptr.astype(idx_dtype)), shape=(3 * N, 3 * N))
