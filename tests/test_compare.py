@@ -5,7 +5,7 @@ import cadquery as cq
 import numpy as np
 import pytest
 
-from linkfea.cad import Link, Plane, build_link
+from linkfea.cad import CAD_DIR, Link, Plane, build_link
 from linkfea.compare import (beam_model, compare_compliance, compare_link, link_beam_model, parse_beams,
                              write_outputs)
 from linkfea.errors import LinkFeaError
@@ -126,3 +126,28 @@ def test_principal_errors_of_a_known_perturbation():
     r = compare_compliance(C, R @ C @ R.T)
     assert r["principal"]["translation"]["max_angle_deg"] == pytest.approx(5.0, rel=1e-6)
     assert r["principal"]["translation"]["max_relative_error"] == pytest.approx(0.0, abs=1e-12)
+
+
+FOOT_MESH = None  # the mesher's default edge length for the foot
+
+
+@pytest.mark.skipif(not (CAD_DIR / "orthoglide_foot.py").is_file(),
+                    reason="cad/orthoglide_foot.py IS MISSING: the foot comparison cannot run")
+def test_foot_comparison_end_to_end(tmp_path):
+    """The Orthoglide foot (cad/orthoglide_foot.py, default parameters), through the real FEA and
+    N = 1, 2, 4, 8 beam models: every error in compare.json is finite, outputs complete.
+    (No accuracy is asserted: how well beams fit the foot is the finding, see docs/beam_vs_fea.md.)"""
+    from linkfea.compare import compare
+
+    out = tmp_path / "foot"
+    rec = compare("orthoglide_foot", "1,2,4,8", mesh_size=FOOT_MESH, out=out)
+    data = json.loads((out / "compare.json").read_text())
+    assert [m["n"] for m in data["beams"]] == [1, 2, 4, 8]
+    for m in data["beams"]:
+        for key in ("timoshenko", "euler_bernoulli"):
+            r = m[key]
+            assert np.all(np.isfinite(r["entry_error"]))
+            assert np.all(np.isfinite(list(r["summary"].values())))
+            assert np.all(np.isfinite(r["principal"]["translation"]["relative_error"]))
+    assert rec["beams"][0]["n"] == 1
+    assert (out / "compare.png").stat().st_size > 10_000
