@@ -91,3 +91,24 @@ def test_scipy_fallback_solver_agrees(steel):
     except LinkFeaError:
         pytest.skip("pypardiso not available")
     assert _scaled_diff(a, b) < 1e-9
+
+
+def test_solution_contents_and_progress(steel):
+    """Clamped nodes do not move, coupled nodes move rigidly, stages are reported in order."""
+    from linkfea.fit import fit_rigid_motion
+
+    mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
+    stages = []
+    sol = solve_link(mesh, steel, progress=stages.append)
+    assert stages == ["assemble", "factor", "solve"]
+    assert set(sol.timing) == {"assemble", "factor", "solve"}
+    assert sol.displacements.shape == (6, len(sol.points), 3)
+    assert np.allclose(sol.points[:sol.n_vertices], mesh.points)
+    assert np.all(sol.displacements[:, sol.clamped_nodes] == 0.0)
+    assert np.allclose(sol.points[sol.clamped_nodes, 0], 0.0)
+    # Unit Fx stretches the bar: tip moves +x by about L / (E A).
+    twists, res = fit_rigid_motion(sol.points[sol.ref_nodes], sol.displacements[:, sol.ref_nodes],
+                                   mesh.frame.origin)
+    assert np.all(res < 1e-10)
+    assert np.allclose(twists.T, sol.ref_twists, rtol=1e-10, atol=1e-16)
+    assert twists[0, 0] == pytest.approx(40.0 / (steel.E * 24.0), rel=0.02)
