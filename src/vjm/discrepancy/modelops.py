@@ -29,14 +29,52 @@ def save_model(model, path) -> None:
 # --------------------------------------------------------------- per-pose quantities
 
 
+_KIN_MEMO: dict = {}
+
+
+def _kinematics(model, P):
+    """Inverse kinematics and chain Jacobians at P, memoized.
+
+    They depend on the architecture, the geometry, the chain structure (joint
+    springs present or not) and P only -- not on any compliance -- so a fit
+    that changes stiffness parameters reuses them and only redoes the
+    bordered solve (eq. 11) and the sum (eq. 13).
+    """
+    from ..chain import jacobian
+
+    P = np.ascontiguousarray(P, dtype=float)
+    key = (model.architecture, tuple(sorted((k, float(v)) for k, v in model.geometry.items()
+                                            if isinstance(v, (int, float)))),
+           model.joints.passive_stiffness is None, P.tobytes())
+    hit = _KIN_MEMO.get(key)
+    if hit is None:
+        q, vals = model.arch.inverse_kinematics(model, P)
+        Js = [jacobian(ch, v)[1] for ch, v in zip(model.chains, vals)]
+        if len(_KIN_MEMO) > 32:
+            _KIN_MEMO.clear()
+        hit = _KIN_MEMO[key] = (q, vals, Js)
+    return hit
+
+
+def stiffness_result(model, P):
+    """``model.stiffness_map(P)`` with the kinematics memoized (same numbers, see tests)."""
+    from ..stiffness import assemble, chain_stiffness
+
+    P = np.ascontiguousarray(P, dtype=float)
+    q, vals, Js = _kinematics(model, P)
+    comps = model.arch.compliances(model, P, vals, q)
+    Ks, ranks = zip(*(chain_stiffness(ch, J, c) for ch, J, c in zip(model.chains, Js, comps)))
+    return assemble(P, list(Ks), list(ranks))
+
+
 def compliance_map(model, P) -> np.ndarray:
     """(m, 6, 6) compliance C at postures P (world axes at the end-effector point)."""
-    return model.stiffness_map(P).C
+    return stiffness_result(model, P).C
 
 
 def kvalues_map(model, P) -> np.ndarray:
     """(m, 2) ``k_tran``, ``k_rot`` at postures P (vjm's definitions)."""
-    r = model.stiffness_map(P)
+    r = stiffness_result(model, P)
     return np.stack([r.k_tran, r.k_rot], axis=1)
 
 
@@ -125,11 +163,25 @@ def with_actuator_scale(model, s: float):
     return model.replace(actuator=type(a)(a.stiffness * s, a.compliance_slope, a.q_ref))
 
 
+#: congruence weights of the calibration's link scale: every direction but torsion (rx)
+_LINK_SCALE_MASK = np.array([1.0, 1.0, 1.0, 0.0, 1.0, 1.0])
+
+
 def with_link_scale(model, s: float):
-    """Every flexible link compliance (foot and leg) multiplied by ``s`` (written inline when saved)."""
+    """Link compliances (foot and leg) scaled by ``s`` in extension and bending, torsion kept.
+
+    ``C' = D C D`` with ``D = diag(sqrt s, sqrt s, sqrt s, 1, sqrt s, sqrt s)``: a
+    congruence, so C' stays symmetric positive definite; extension/bending
+    terms scale by ``s`` (a Young's modulus or section error), cross terms with
+    torsion by ``sqrt s`` and the torsion compliance not at all.  Torsion is
+    left out on purpose: in a U-U leg it is in series with the passive-joint
+    springs and the two cannot be told apart from end-effector data.
+    """
     if s == 1.0:
         return model
-    ch = {k: _link(getattr(model, k).compliance * s) for k in ("foot", "leg")
+    d = np.where(_LINK_SCALE_MASK > 0, np.sqrt(s), 1.0)
+    D = np.outer(d, d)
+    ch = {k: _link(getattr(model, k).compliance * D) for k in ("foot", "leg")
           if getattr(model, k).compliance is not None}
     return model.replace(**ch)
 

@@ -70,7 +70,7 @@ def calibration_term(model) -> Term:
     ps = [Param("actuator_scale", start=1.0, lower=0.02, upper=50.0, scale=0.1, null=1.0,
                 unit="x nominal actuator stiffness")]
     ps.append(Param("link_scale", start=1.0, lower=0.02, upper=50.0, scale=0.1, null=1.0,
-                    unit="x nominal link (foot and leg) compliances"))
+                    unit="x nominal link (foot and leg) compliances, torsion excluded"))
     return Term(CALIBRATION, tuple(ps), "refit of the model's nominal actuator stiffness and link compliances")
 
 
