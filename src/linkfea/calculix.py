@@ -50,12 +50,27 @@ class CalculixResult:
         Number of nodes written (P2 nodes plus the reference nodes).
     fit_residual : float
         Largest relative rigid-fit residual (block mode; 0 in rigid mode).
+    peak_memory_mb : float
+        Largest resident memory of the ccx process seen (Linux ``VmHWM``; 0 if unknown).
     """
 
     compliance: np.ndarray
     wall_time: float
     n_nodes: int
     fit_residual: float = 0.0
+    peak_memory_mb: float = 0.0
+
+
+def _vm_hwm_mb(pid: int) -> float:
+    """Peak resident memory of a running process in MB (Linux /proc), 0 if unavailable."""
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return float(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return 0.0
 
 
 # CalculiX reads numeric fields of at most 20 characters: "%.13e" fits any double.
@@ -185,11 +200,16 @@ def solve_calculix(mesh, material: Material, mode: str = "rigid", block_ratio: f
         if threads:
             env["OMP_NUM_THREADS"] = env["CCX_NPROC_EQUATION_SOLVER"] = str(threads)
         t0 = time.perf_counter()
-        proc = subprocess.run([exe, "-i", "link"], cwd=wd, env=env, capture_output=True, text=True)
+        with open(wd / "ccx.log", "w") as log:
+            proc = subprocess.Popen([exe, "-i", "link"], cwd=wd, env=env, stdout=log, stderr=subprocess.STDOUT)
+            peak = 0.0
+            while proc.poll() is None:  # sample ccx's high-water mark of resident memory
+                peak = max(peak, _vm_hwm_mb(proc.pid))
+                time.sleep(0.05)
         wall = time.perf_counter() - t0
         dat = wd / "link.dat"
         if proc.returncode != 0 or not dat.exists():
-            tail = (proc.stdout + proc.stderr).strip().splitlines()[-5:]
+            tail = (wd / "ccx.log").read_text(errors="replace").strip().splitlines()[-5:]
             raise LinkFeaError(f"CalculiX failed (exit {proc.returncode}): {' | '.join(tail)}")
         blocks = parse_dat_displacements(dat.read_text())
         if len(blocks) != 6:
@@ -207,7 +227,7 @@ def solve_calculix(mesh, material: Material, mode: str = "rigid", block_ratio: f
             tw, r = fit_rigid_motion(info["points"][info["ref_nodes"]], u, mesh.frame.origin, axes)
             C = tw.T
             res = float(np.max(r))
-        return CalculixResult(C, wall, len(info["points"]) + (2 if mode == "rigid" else 0), res)
+        return CalculixResult(C, wall, len(info["points"]) + (2 if mode == "rigid" else 0), res, peak)
     finally:
         if own_dir:
             shutil.rmtree(wd, ignore_errors=True)
