@@ -179,6 +179,106 @@ def forward(chain: Chain, values) -> np.ndarray:
     return np.ascontiguousarray(P)
 
 
+def _frame_product(chain: Chain, vt: np.ndarray):
+    """Prefix frames of the product, pose axis last ("structure of arrays").
+
+    The frame ``P`` (3 x 4 upper part of a homogeneous matrix) is held as four
+    column arrays ``(x, y, z, o)`` of shape (3, n): right-multiplying by an
+    elementary factor then touches two columns (rotation) or one (translation)
+    and a constant factor is a short linear combination of columns (often a
+    mere relabelling), so the product costs a few elementwise operations per
+    factor instead of n small 4x4 matrix products.
+
+    Parameters
+    ----------
+    vt : array (n_vars, n), float
+
+    Returns
+    -------
+    cols : the four columns of the end frame
+    recs : per elementary factor ``(var, kind, coef, e, o)``: the axis ``e``
+        (3, n) and origin ``o`` (3, n) of the frame ``P V`` just after it
+    """
+    n = vt.shape[1]
+    one = np.ones(n)
+    zero = np.zeros(n)
+    cols = [np.stack([one, zero, zero]), np.stack([zero, one, zero]), np.stack([zero, zero, one]),
+            np.zeros((3, n))]
+    recs = []
+    for f in chain.factors:
+        if f.kind == "const":
+            T = f.T
+            new = []
+            for j in range(4):
+                terms = [(k, T[k, j]) for k in range(4) if k < 3 and T[k, j] != 0.0]
+                acc = cols[3] if j == 3 else None
+                for k, c in terms:
+                    t = cols[k] if c == 1.0 else c * cols[k]
+                    acc = t if acc is None else acc + t
+                new.append(acc if acc is not None else np.zeros((3, n)))
+            cols = new
+            continue
+        ax = AXIS[f.kind]
+        a = vt[f.var] if f.coef == 1.0 else f.coef * vt[f.var]
+        if np.any(a != 0):
+            cols = list(cols)
+            if ROTATION[f.kind]:
+                i, j = [(1, 2), (2, 0), (0, 1)][ax]  # plane of rotation, as transforms.elementary
+                c, s = np.cos(a), np.sin(a)
+                ci, cj = cols[i], cols[j]
+                cols[i] = ci * c + cj * s
+                cols[j] = cj * c - ci * s
+            else:
+                cols[3] = cols[3] + cols[ax] * a
+        recs.append((f.var, f.kind, f.coef, cols[ax], cols[3]))
+    return cols, recs
+
+
+def _jacobian_soa(chain: Chain, vt: np.ndarray):
+    """End point (3, n) and Jacobian transposed with the pose axis last, (n_vars, 6, n).
+
+    Same closed form as :func:`jacobian` (eq. 3-5); row ``i`` of the result is
+    the twist of variable ``i``, contiguous over poses.
+    """
+    cols, recs = _frame_product(chain, vt)
+    n = vt.shape[1]
+    pe = cols[3]
+    Jt = np.zeros((chain.n_vars, 6, n))
+    rot = [r for r in recs if ROTATION[r[1]]]
+    tra = [r for r in recs if not ROTATION[r[1]]]
+    seen = set()
+
+    def put(rows, vals):
+        # first occurrence of a variable is assigned, repeats (coupled factors) are added
+        first = [k for k, v in enumerate(rows) if v not in seen and v not in rows[:k]]
+        rest = [k for k in range(len(rows)) if k not in first]
+        Jt[[rows[k] for k in first]] = vals[first]
+        for k in rest:
+            Jt[rows[k]] += vals[k]
+        seen.update(rows)
+
+    if rot:
+        E = np.stack([r[3] for r in rot])
+        D = pe - np.stack([r[4] for r in rot])
+        coef = np.array([r[2] for r in rot])
+        V = np.empty((len(rot), 6, n))
+        V[:, 0] = E[:, 1] * D[:, 2] - E[:, 2] * D[:, 1]   # v = e x (p_end - o)
+        V[:, 1] = E[:, 2] * D[:, 0] - E[:, 0] * D[:, 2]
+        V[:, 2] = E[:, 0] * D[:, 1] - E[:, 1] * D[:, 0]
+        V[:, 3:] = E
+        if np.any(coef != 1.0):
+            V *= coef[:, None, None]
+        put([r[0] for r in rot], V)
+    if tra:
+        V = np.zeros((len(tra), 6, n))
+        V[:, :3] = np.stack([r[3] for r in tra])
+        coef = np.array([r[2] for r in tra])
+        if np.any(coef != 1.0):
+            V *= coef[:, None, None]
+        put([r[0] for r in tra], V)
+    return cols, Jt
+
+
 def jacobian(chain: Chain, values) -> tuple[np.ndarray, np.ndarray]:
     """End transform and Jacobian of every variable, by the semi-analytic method (eq. 3-5).
 
@@ -206,26 +306,18 @@ def jacobian(chain: Chain, values) -> tuple[np.ndarray, np.ndarray]:
         world frame at the end-effector point, per unit of each variable.
     """
     v = _as_values(chain, values)
-    n = v.shape[0]
-    P = np.broadcast_to(np.eye(4), (n, 4, 4))
-    recs = []
-    for f in chain.factors:
-        if f.kind == "const":
-            P = P @ f.T
-            continue
-        a = f.coef * v[:, f.var]
-        if np.any(a != 0):
-            P = P @ elementary(f.kind, a)
-        recs.append((f.var, f.kind, f.coef, P[:, :3, AXIS[f.kind]], P[:, :3, 3]))
-    pe = P[:, :3, 3]
-    J = np.zeros((n, 6, chain.n_vars))
-    for var, kind, coef, e, o in recs:
-        if ROTATION[kind]:
-            J[:, 3:, var] += coef * e
-            J[:, :3, var] += coef * np.cross(e, pe - o)
-        else:
-            J[:, :3, var] += coef * e
-    return np.ascontiguousarray(P), J
+    cols, Jt = _jacobian_soa(chain, np.ascontiguousarray(v.T, dtype=float))
+    return frame_matrix(cols), np.ascontiguousarray(Jt.transpose(2, 1, 0))
+
+
+def frame_matrix(cols) -> np.ndarray:
+    """Homogeneous matrices (n, 4, 4) from the column arrays of :func:`_frame_product`."""
+    n = cols[0].shape[1]
+    T = np.zeros((n, 4, 4))
+    for j in range(4):
+        T[:, :3, j] = cols[j].T
+    T[:, 3, 3] = 1.0
+    return T
 
 
 def jacobian_semi_analytic(chain: Chain, values) -> np.ndarray:

@@ -13,6 +13,9 @@ import numpy as np
 RANK_RTOL = 1e-9
 #: pivots below this ratio are re-examined by a full SVD
 GRAY_ZONE = 1e-5
+#: below this lower bound of sigma_min / sigma_max (or relative pivot) the fast
+#: closed forms hand a pose over to the rank-revealing path
+FAST_RTOL = 1e-7
 
 
 def cholesky(A: np.ndarray) -> np.ndarray:
@@ -143,5 +146,104 @@ def sym3_max_eig(A: np.ndarray) -> np.ndarray:
     psafe = np.where(p > 0, p, 1.0)
     B = (a - q[:, None, None] * np.eye(3)) / psafe[:, None, None]
     r = np.clip(np.linalg.det(B) / 2.0, -1.0, 1.0)
+    phi = np.arccos(r) / 3.0
+    return np.where(p > 0, q + 2.0 * p * np.cos(phi), q)
+
+
+# -- pose axis last ("structure of arrays"): (m, m, n), contiguous over poses ----
+
+def upper_inverse(R: np.ndarray) -> np.ndarray:
+    """Inverse of upper-triangular matrices stored as (k, k, n), by back substitution."""
+    k = R.shape[0]
+    X = np.zeros_like(R)
+    for i in range(k - 1, -1, -1):
+        X[i, i] = 1.0 / R[i, i]
+        if i + 1 < k:
+            X[i, i + 1:] = -np.einsum("ln,ljn->jn", R[i, i + 1:], X[i + 1:, i + 1:]) * X[i, i]
+    return X
+
+
+def spd_inverse(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of symmetric positive-definite matrices (m, m, n) by Cholesky, and the
+    smallest relative pivot ``min_j d_j / M_jj`` (n,) (small or negative: not safely SPD;
+    the inverse is then garbage-free but meaningless and must be replaced by the caller)."""
+    m, _, n = M.shape
+    if m == 0:
+        return np.zeros((0, 0, n)), np.ones(n)
+    L = np.zeros_like(M)
+    piv = np.full(n, np.inf)
+    for j in range(m):
+        d = M[j, j] - np.einsum("kn,kn->n", L[j, :j], L[j, :j])
+        rel = d / np.where(M[j, j] > 0, M[j, j], 1.0)
+        piv = np.minimum(piv, np.where(M[j, j] > 0, rel, -1.0))
+        d = np.sqrt(np.where(rel > 1e-300, d, 1.0))
+        L[j, j] = d
+        if j + 1 < m:
+            L[j + 1:, j] = (M[j + 1:, j] - np.einsum("ikn,kn->in", L[j + 1:, :j], L[j, :j])) / d
+    # L^-1 by forward substitution, then M^-1 = L^-T L^-1
+    X = np.zeros_like(M)
+    for i in range(m):
+        X[i, i] = 1.0 / L[i, i]
+        if i:
+            X[i, :i] = -np.einsum("kn,kjn->jn", L[i, :i], X[:i, :i]) * X[i, i]
+    return np.einsum("kin,kjn->ijn", X, X), piv
+
+
+def psd_rank_inverse_soa(K: np.ndarray, rtol: float = 1e-10) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`psd_rank_inverse` with the pose axis last: K (m, m, n) -> C (m, m, n), rank, invertible.
+
+    Same Jacobi scaling and unpivoted LDL^T (so the same rank decision); the
+    inverse ``D^-1/2 L^-T D^-1 L^-1 D^-1/2`` is formed for every pose at once
+    and the few non-invertible poses are redone by :func:`psd_rank_inverse`
+    (pseudo-inverse, eigenvalue rank).
+    """
+    m, _, n = K.shape
+    d = np.sqrt(np.clip(np.diagonal(K).T, 0.0, None))  # (m, n)
+    d = np.where(d > 0, d, 1.0)
+    Ks = K / d[:, None] / d[None, :]
+    Ks = 0.5 * (Ks + Ks.transpose(1, 0, 2))
+    L = np.zeros_like(Ks)
+    D = np.zeros((m, n))
+    for j in range(m):
+        LD = L[j, :j] * D[:j]
+        dj = Ks[j, j] - np.einsum("kn,kn->n", L[j, :j], LD)
+        D[j] = dj
+        L[j, j] = 1.0
+        if j + 1 < m:
+            ok = dj > rtol
+            num = Ks[j + 1:, j] - np.einsum("ikn,kn->in", L[j + 1:, :j], LD)
+            L[j + 1:, j] = np.where(ok, num / np.where(ok, dj, 1.0), 0.0)
+    good = D > rtol
+    rank = np.sum(good, axis=0)
+    invertible = rank == m
+    # unit lower inverse by forward substitution
+    X = np.zeros_like(L)
+    for i in range(m):
+        X[i, i] = 1.0
+        if i:
+            X[i, :i] = -np.einsum("kn,kjn->jn", L[i, :i], X[:i, :i])
+    Dinv = 1.0 / np.where(good, D, 1.0)
+    C = np.einsum("kin,kjn->ijn", X * Dinv[:, None], X)
+    C /= d[:, None] * d[None, :]
+    bad = np.nonzero(~invertible)[0]
+    if bad.size:
+        Cb, rank[bad], _ = psd_rank_inverse(np.ascontiguousarray(K[:, :, bad].transpose(2, 0, 1)), rtol)
+        C[:, :, bad] = Cb.transpose(1, 2, 0)
+    return C, rank, invertible
+
+
+def sym3_max_eig_soa(A: np.ndarray) -> np.ndarray:
+    """:func:`sym3_max_eig` with the pose axis last: A (3, 3, n) -> (n,)."""
+    a = 0.5 * (A + A.transpose(1, 0, 2))
+    q = (a[0, 0] + a[1, 1] + a[2, 2]) / 3.0
+    p1 = a[0, 1] ** 2 + a[0, 2] ** 2 + a[1, 2] ** 2
+    b00, b11, b22 = a[0, 0] - q, a[1, 1] - q, a[2, 2] - q
+    p2 = b00 ** 2 + b11 ** 2 + b22 ** 2 + 2.0 * p1
+    p = np.sqrt(p2 / 6.0)
+    psafe = np.where(p > 0, p, 1.0)
+    # det(B) of B = (a - q I) / p, symmetric
+    det = (b00 * (b11 * b22 - a[1, 2] ** 2) - a[0, 1] * (a[0, 1] * b22 - a[1, 2] * a[0, 2])
+           + a[0, 2] * (a[0, 1] * a[1, 2] - b11 * a[0, 2])) / psafe ** 3
+    r = np.clip(det / 2.0, -1.0, 1.0)
     phi = np.arccos(r) / 3.0
     return np.where(p > 0, q + 2.0 * p * np.cos(phi), q)

@@ -22,7 +22,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .chain import Chain
-from .linalg import cholesky, lower_inverse, psd_rank_inverse, range_basis, sym3_max_eig
+from .linalg import (FAST_RTOL, cholesky, lower_inverse, psd_rank_inverse_soa, range_basis, spd_inverse,
+                     sym3_max_eig_soa, upper_inverse)
 
 
 def spring_compliance(chain: Chain, J: np.ndarray, compliances: dict) -> np.ndarray:
@@ -49,6 +50,12 @@ def chain_stiffness(chain: Chain, J: np.ndarray, compliances: dict) -> tuple[np.
     Springs and passive joints together must span all six directions (a
     direction they leave out would be infinitely stiff).
     """
+    K, rank = chain_stiffness_soa(chain, np.ascontiguousarray(np.transpose(J, (2, 1, 0))), compliances)
+    return np.ascontiguousarray(K.transpose(2, 0, 1)), rank
+
+
+def _bordered(chain: Chain, J: np.ndarray, compliances: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 11 through the whitened bordered system, any rank of ``J_q`` (poses first)."""
     S = spring_compliance(chain, J, compliances)
     Jq = J[:, :, list(chain.passive)]
     # S + a Jq Jq^T gives the same K (J_q^T f = 0 kills the added term) and is
@@ -61,6 +68,92 @@ def chain_stiffness(chain: Chain, J: np.ndarray, compliances: dict) -> tuple[np.
     BQ = np.swapaxes(B, 1, 2) @ Q
     K = np.swapaxes(B, 1, 2) @ B - BQ @ np.swapaxes(BQ, 1, 2)
     return 0.5 * (K + np.swapaxes(K, 1, 2)), rank
+
+
+def chain_stiffness_soa(chain: Chain, Jt: np.ndarray, compliances: dict) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`chain_stiffness` with the pose axis last: ``Jt`` (n_vars, 6, n) -> K (6, 6, n), rank (n,).
+
+    Where ``J_q`` has full column rank ``k``, eq. 11 reduces to
+    ``K = N (N^T S N)^-1 N^T`` with ``N`` (6 x (6-k)) an orthonormal basis of
+    the directions the passive joints cannot move (``N^T J_q = 0``): the
+    wrench a chain can carry.  ``N`` comes from a Householder QR of ``J_q``
+    (backward stable at any conditioning) and ``N^T S N`` is summed spring by
+    spring as ``(N^T J_s) C_s (N^T J_s)^T``, so ``S`` is never formed.  A pose
+    is sent to the rank-revealing bordered solve (:func:`_bordered`, SVD near
+    rank loss) when a lower bound of ``sigma_min / sigma_max`` of ``J_q``
+    falls below ``FAST_RTOL`` or when ``N^T S N`` is not clearly positive
+    definite; elsewhere the rank is ``k``.
+    """
+    nv, _, n = Jt.shape
+    passive = list(chain.passive)
+    k = len(passive)
+    m = 6 - k
+    # Householder QR of J_q (columns stored as rows of A: (k, 6, n))
+    A = Jt[passive] if k else np.zeros((0, 6, n))
+    fro = np.sqrt(np.einsum("kin,kin->n", A, A)) if k else np.ones(n)
+    vs, betas = [], []
+    Rm = np.zeros((k, k, n))
+    for j in range(k):
+        x = A[j, j:]
+        nx = np.sqrt(np.einsum("in,in->n", x, x))
+        x0 = x[0]
+        alpha = np.where(x0 >= 0, -nx, nx)
+        v = x.copy()
+        v[0] = x0 - alpha
+        den = nx * (nx + np.abs(x0))
+        beta = np.where(den > 0, 1.0 / np.where(den > 0, den, 1.0), 0.0)
+        Rm[j, j] = alpha
+        if j + 1 < k:
+            sub = A[j + 1:, j:]
+            w = np.einsum("lin,in->ln", sub, v) * beta
+            sub -= w[:, None, :] * v
+            Rm[j, j + 1:] = sub[:, 0]
+        vs.append(v)
+        betas.append(beta)
+    # N = H_0 ... H_{k-1} [0; I]
+    N = np.zeros((m, 6, n))
+    for a_ in range(m):
+        N[a_, k + a_] = 1.0
+    for j in range(k - 1, -1, -1):
+        sub = N[:, j:]
+        w = np.einsum("ain,in->an", sub, vs[j]) * betas[j]
+        sub -= w[:, None, :] * vs[j]
+    # ||R^-1||_F >= 1/sigma_min and ||J_q||_F >= sigma_max
+    ok = np.ones(n, dtype=bool)
+    if k:
+        dg = np.abs(np.diagonal(Rm).T)  # (k, n)
+        ok = np.all(dg > 1e-300, axis=0)
+        Ri = upper_inverse(np.where(ok, Rm, np.eye(k)[:, :, None]))
+        ok &= 1.0 / (np.sqrt(np.einsum("ijn,ijn->n", Ri, Ri)) * fro) > FAST_RTOL
+    # Z = N^T J_s for the compliant springs, then N^T S N = sum Z_s C_s Z_s^T
+    M = np.zeros((m, m, n))
+    for s in chain.springs:
+        C = compliances.get(s.name)
+        if C is None:
+            continue
+        Js = Jt[list(s.vars)]
+        Z = np.einsum("ain,cin->acn", N, Js)
+        C = np.asarray(C, dtype=float)
+        if C.ndim == 2:
+            Y = np.matmul(C.T, Z)
+        elif C.shape[1] == 1:
+            Y = Z * C[:, 0, 0]
+        else:
+            Y = np.einsum("acn,ncd->adn", Z, C)
+        M += np.einsum("acn,bcn->abn", Y, Z)
+    Mi, piv = spd_inverse(M)
+    ok &= piv > FAST_RTOL
+    W = np.einsum("abn,ain->bin", Mi, N)
+    K = np.einsum("bin,bjn->ijn", W, N)
+    K += K.transpose(1, 0, 2)
+    K *= 0.5
+    rank = np.full(n, k)
+    bad = np.nonzero(~ok)[0]
+    if bad.size:
+        cb = {key: (c[bad] if np.ndim(c) == 3 else c) for key, c in compliances.items() if c is not None}
+        Kb, rank[bad] = _bordered(chain, np.ascontiguousarray(Jt[:, :, bad].transpose(2, 1, 0)), cb)
+        K[:, :, bad] = Kb.transpose(1, 2, 0)
+    return K, rank
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,7 +215,18 @@ class StiffnessResult:
 def assemble(points: np.ndarray, chain_K: list, chain_ranks: list) -> StiffnessResult:
     """Machine stiffness: sum of the chains' K (eq. 13) and the derived compliances."""
     K = np.sum(chain_K, axis=0)
-    C, rank, inv = psd_rank_inverse(K)
-    kt = np.where(inv, sym3_max_eig(C[:, :3, :3]), np.inf)
-    kr = np.where(inv, sym3_max_eig(C[:, 3:, 3:]), np.inf)
-    return StiffnessResult(points, K, C, kt, kr, rank, inv, np.stack(chain_ranks, axis=1))
+    C, rank, inv, kt, kr = assemble_soa(np.ascontiguousarray(K.transpose(1, 2, 0)))
+    return StiffnessResult(points, K, np.ascontiguousarray(C.transpose(2, 0, 1)), kt, kr, rank, inv,
+                           np.stack(chain_ranks, axis=1))
+
+
+def assemble_soa(K: np.ndarray):
+    """Compliance, rank and k values of machine stiffnesses K (6, 6, n) (pose axis last).
+
+    Returns ``C`` (6, 6, n), ``rank``, ``invertible``, ``k_tran``, ``k_rot`` (n,),
+    as :class:`StiffnessResult` defines them (see :func:`vjm.linalg.psd_rank_inverse_soa`).
+    """
+    C, rank, inv = psd_rank_inverse_soa(K)
+    kt = np.where(inv, sym3_max_eig_soa(C[:3, :3]), np.inf)
+    kr = np.where(inv, sym3_max_eig_soa(C[3:, 3:]), np.inf)
+    return C, rank, inv, kt, kr
