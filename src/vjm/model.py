@@ -13,11 +13,14 @@ from functools import cached_property
 
 import numpy as np
 
-from .chain import jacobian
+from .chain import _jacobian_soa, jacobian
 from .errors import VjmError
 from .models import ARCHITECTURES
 from .models.base import as_points
-from .stiffness import StiffnessResult, assemble, chain_stiffness
+from .stiffness import StiffnessResult, assemble, assemble_soa, chain_stiffness, chain_stiffness_soa
+
+#: poses per block in :meth:`Model.stiffness_map` (working set of a block stays in cache)
+MAP_BLOCK = 2048
 
 
 def validate_compliance(C, key: str) -> np.ndarray:
@@ -191,10 +194,44 @@ class Model:
         return np.stack(Ks, axis=1), np.stack(ranks, axis=1)
 
     def stiffness_map(self, P) -> StiffnessResult:
-        """Stiffness at every point of P (n, 3): batched, no loop over poses."""
-        P, _, data = self._chain_data(P)
-        Ks, ranks = zip(*(chain_stiffness(ch, J, c) for ch, _, J, c in data))
-        return assemble(P, list(Ks), list(ranks))
+        """Stiffness at every point of P (n, 3): batched, no loop over poses.
+
+        The points are processed in blocks of ``MAP_BLOCK`` poses with the
+        pose axis last, so that the intermediate arrays stay in cache; a bad
+        point raises the same VjmError as the whole batch would.
+        """
+        P = as_points(P)
+        n = P.shape[0]
+        chains = self.chains
+        K = np.empty((n, 6, 6))
+        C = np.empty((n, 6, 6))
+        kt, kr = np.empty(n), np.empty(n)
+        rank = np.empty(n, dtype=int)
+        inv = np.empty(n, dtype=bool)
+        chain_rank = np.empty((n, len(chains)), dtype=int)
+        tol = 1e-6 * (1.0 + (np.max(np.abs(P)) if n else 0.0))
+        for a in range(0, n, MAP_BLOCK):
+            b = min(n, a + MAP_BLOCK)
+            try:
+                q, vals = self.arch.inverse_kinematics(self, P[a:b])
+                comps = self.arch.compliances(self, P[a:b], vals, q)
+            except VjmError:
+                # report the error the whole batch gives (first offending point, first check)
+                q, vals = self.arch.inverse_kinematics(self, P)
+                self.arch.compliances(self, P, vals, q)
+                raise
+            Ksum = None
+            for k, (ch, v, c) in enumerate(zip(chains, vals, comps)):
+                cols, Jt = _jacobian_soa(ch, np.ascontiguousarray(v.T))
+                err = np.max(np.abs(cols[3] - P[a:b].T))
+                if err > tol:
+                    raise VjmError(f"internal: chain {ch.name} does not close on the pose (error {err:.3g} mm)")
+                Kc, chain_rank[a:b, k] = chain_stiffness_soa(ch, Jt, c)
+                Ksum = Kc if Ksum is None else Ksum + Kc
+            Cb, rank[a:b], inv[a:b], kt[a:b], kr[a:b] = assemble_soa(Ksum)
+            K[a:b] = Ksum.transpose(2, 0, 1)
+            C[a:b] = Cb.transpose(2, 0, 1)
+        return StiffnessResult(P, K, C, kt, kr, rank, inv, chain_rank)
 
     def stiffness(self, p) -> StiffnessResult:
         """Stiffness at one point p (3,): K (6, 6), C, k_tran, k_rot, rank ..."""

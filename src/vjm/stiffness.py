@@ -135,7 +135,7 @@ def chain_stiffness_soa(chain: Chain, Jt: np.ndarray, compliances: dict) -> tupl
         Z = np.einsum("ain,cin->acn", N, Js)
         C = np.asarray(C, dtype=float)
         if C.ndim == 2:
-            Y = np.matmul(C.T, Z)
+            Y = np.einsum("cd,acn->adn", C, Z)
         elif C.shape[1] == 1:
             Y = Z * C[:, 0, 0]
         else:

@@ -74,7 +74,8 @@ def _leg_ik(model, P):
     q0 = np.empty((n, 3))
     for k, i in enumerate(CHAINS):
         R = BASE_R[i]
-        loc = (P - R @ np.array([-L - r, 0.0, 0.0])) @ R  # R^T (P - t)
+        # R^T (P - t), written out: a BLAS product of (n, 3) by (3, 3) is slower
+        loc = np.einsum("ni,ij->nj", P - R @ np.array([-L - r, 0.0, 0.0]), R)
         uy, uz = loc[:, 1] / L, loc[:, 2] / L
         ux2 = 1.0 - uy**2 - uz**2
         bad = ux2 < -1e-12
