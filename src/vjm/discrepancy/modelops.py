@@ -121,21 +121,14 @@ def nonlinear_delta(model, P, W) -> np.ndarray:
 
 
 def workspace_box(model):
-    """(lo, hi) corners of the design box, mm.
-
-    ``geometry.workspace: [lo, hi]`` (a cube) if the model gives it; else, for
-    the Orthoglide family, the cube between the seed's critical points scaled
-    with the leg length (Q1 = -73.65, Q2 = +126.35 mm for L = 310 mm), and a
-    cube of +-L/4 otherwise.
-    """
+    """(lo, hi) corners of the design box, mm: ``geometry.workspace: [lo, hi]`` (a cube) if the
+    model file gives it, else the architecture's workspace box (Orthoglide: Q1 to Q2, seed Fig. 4c)."""
     g = model.geometry
     if "workspace" in g:
         lo, hi = g["workspace"]
         return np.full(3, float(lo)), np.full(3, float(hi))
-    L = float(g.get("L", 100.0))
-    if model.architecture.startswith("orthoglide"):
-        return np.full(3, -73.65 / 310.0 * L), np.full(3, 126.35 / 310.0 * L)
-    return np.full(3, -L / 4), np.full(3, L / 4)
+    lo, hi = model.arch.workspace
+    return np.asarray(lo, float), np.asarray(hi, float)
 
 
 # --------------------------------------------------------------- parameters
