@@ -131,27 +131,15 @@ def _p2_gradient_tensor() -> np.ndarray:
 
 
 _T = _p2_gradient_tensor()
-# Local DOF pairs (p <= q) of the 30x30 element matrix: only the upper triangle is built.
-_P, _Q = np.triu_indices(30)
-_A, _I = _P // 3, _P % 3
-_B, _J = _Q // 3, _Q % 3
+def _pair_tensor() -> np.ndarray:
+    """``T3[p, K, L]`` (55, 3, 3): ``T`` for local node pairs ``p = (a <= b)`` on the gradients ``g_1..g_3``.
 
-
-def _element_operator(ratio: float) -> np.ndarray:
-    """Map (81, 465) from ``g_K[i] g_L[j]`` products to element entries, per unit ``mu V``.
-
-    Only the 3 independent barycentric gradients ``g_1..g_3`` are used
-    (``g_0 = -g_1 - g_2 - g_3``).  Entry ``(a i, b j)`` of the element matrix is
-    ``lam S(a i, b j) + mu S(a j, b i) + mu delta_ij sum_c S(a c, b c)`` with
-    ``S(a i, b j) = V sum_KL T3[a,b,K,L] g_K[i] g_L[j]``; ``ratio = lam / mu``.
+    ``g_0 = -g_1 - g_2 - g_3``, so only 3 independent gradients remain and
+    ``int dN_a/dx_i dN_b/dx_j = V sum_KL T3[p, K, L] g_K[i] g_L[j]``.
     """
     M = np.array([[-1.0, -1.0, -1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-    T3 = np.einsum("abkl,kK,lL->abKL", _T, M, M)[_A, _B]  # (465, 3, 3)
-    eye = np.eye(3)
-    op = (ratio * np.einsum("pKL,pi,pj->KLijp", T3, eye[_I], eye[_J])
-          + np.einsum("pKL,pj,pi->KLijp", T3, eye[_I], eye[_J])
-          + np.einsum("pKL,p,ij->KLijp", T3, (_I == _J).astype(float), eye))
-    return op.reshape(81, 465)
+    a, b = np.triu_indices(10)
+    return np.einsum("abkl,kK,lL->abKL", _T, M, M)[a, b]
 
 
 def tet_geometry(points: np.ndarray, tets: np.ndarray):
@@ -168,109 +156,88 @@ def tet_geometry(points: np.ndarray, tets: np.ndarray):
     return g, det / 6.0
 
 
-def element_upper_values(points: np.ndarray, tets: np.ndarray, lam: float, mu: float,
-                         scale: Optional[np.ndarray] = None) -> np.ndarray:
-    """Upper-triangle entries (m, 465) of the 30x30 P2 element stiffness matrices.
-
-    Local DOF ``3 a + i`` is component ``i`` of local node ``a``; entries are
-    listed in ``np.triu_indices(30)`` order.  ``lam``, ``mu`` are the Lame
-    constants (MPa), multiplied per element by ``scale`` (e.g. a stiff block).
-    Integration is exact (products of linear gradients), like a degree-2 rule.
-    """
-    g, V = tet_geometry(points, tets)
-    w = mu * V if scale is None else mu * V * np.asarray(scale, dtype=float)
-    return _element_values(g, w, _element_operator(lam / mu))
-
-
-_CHUNK = 4096
-
-
-def _element_values(g: np.ndarray, w: np.ndarray, op: np.ndarray) -> np.ndarray:
-    """Element entries (m, 465) from barycentric gradients ``g`` (m, 4, 3), weights ``mu V`` and the operator."""
-    g123 = g[:, 1:, :]
-    # One (m x 81) @ (81 x 465) product gives every entry of every element.
-    G2 = np.einsum("eKi,eLj->eKLij", g123 * w[:, None, None], g123).reshape(len(g), 81)
-    return G2 @ op
-
-
-# Local node pairs (a <= b) of a 10-node tet and, for each of the 465 local DOF
-# entries, the index of its node pair.
+# Local node pairs (a <= b) of a 10-node tet.
 _PAIR_A, _PAIR_B = np.triu_indices(10)
-_PAIR_OF = np.full((10, 10), -1)
-_PAIR_OF[_PAIR_A, _PAIR_B] = np.arange(55)
-_ENTRY_PAIR = _PAIR_OF[_A, _B]
+_T3 = _pair_tensor().reshape(55, 9)
+_CHUNK = 8192
 
 
 def assemble_upper(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.ndarray] = None) -> sp.csr_matrix:
     """Upper triangle (with diagonal) of the global P2 elasticity stiffness, CSR.
 
-    Each element contributes its 465 upper-triangle entries; an entry goes to
-    the global ``(min, max)`` position of its two DOFs, which is valid because
-    the element matrix is symmetric.  The CSR structure is built directly from
-    the node graph (3x3 blocks per node pair, upper half of the diagonal
-    blocks) and values are summed with one ``bincount``: no COO sort.
+    Isotropic elasticity: block ``(a, b)`` of an element matrix is
+    ``K_ij = lam S_ij + mu S_ji + mu delta_ij tr(S)`` with
+    ``S_ij = int dN_a/dx_i dN_b/dx_j`` integrated exactly (P2 gradients are
+    linear: ``int lam_m lam_n = V (1 + delta_mn) / 20``).  ``S`` of the 55
+    local node pairs (a <= b) comes from one small matrix product per element
+    chunk.  Blocks are transposed where the global node order is the reverse
+    of the local one (the element matrix is symmetric), summed per unique node
+    pair with ``bincount`` (cache-resident targets), then written once into a
+    CSR structure built from the node graph (upper half of the diagonal
+    blocks).  No COO sort.
+
+    Parameters
+    ----------
+    p2 : P2Mesh
+    lam, mu : float
+        Lame constants, MPa.
+    scale : ndarray (m,), optional
+        Per-element multiplier of both constants (e.g. the stiff block).
     """
     cells = p2.cells
     m = len(cells)
     N = len(p2.points)
     g, V = tet_geometry(p2.points[:p2.n_vertices], cells[:, :4])
-    w = mu * V if scale is None else mu * V * np.asarray(scale, dtype=float)
-    op = _element_operator(lam / mu)
+    g123 = g[:, 1:, :]
+    w = V if scale is None else V * np.asarray(scale, dtype=float)  # per unit mu
+    ratio = lam / mu
 
-    # Node-level upper pattern.
+    # Node-level upper pattern: unique pairs (r <= c), sorted row-major.
     na = cells[:, _PAIR_A]
     nb = cells[:, _PAIR_B]
-    r = np.minimum(na, nb)
-    c = np.maximum(na, nb)
-    ukeys, inv = np.unique((r * N + c).ravel(), return_inverse=True)
+    swapped = na > nb
+    ukeys, inv = np.unique((np.minimum(na, nb) * N + np.maximum(na, nb)).ravel(), return_inverse=True)
+    inv = inv.reshape(m, 55)
+    npairs = len(ukeys)
     ur, uc = ukeys // N, ukeys % N
-    deg = np.bincount(ur, minlength=N)  # pairs per node row, diagonal included
+
+    # Sum the 3x3 blocks (per unit mu) of all elements per node pair.
+    blocks = np.zeros((9, npairs))
+    for s0 in range(0, m, _CHUNK):
+        sl = slice(s0, min(s0 + _CHUNK, m))
+        mc = sl.stop - sl.start
+        H = np.einsum("eKi,eLj->eijKL", g123[sl] * w[sl, None, None], g123[sl]).reshape(mc * 9, 9)
+        S = (H @ _T3.T).reshape(mc, 3, 3, 55)
+        tr = S[:, 0, 0] + S[:, 1, 1] + S[:, 2, 2]
+        sw = swapped[sl]
+        idx = inv[sl].ravel()
+        for i in range(3):
+            blocks[4 * i] += np.bincount(idx, weights=((ratio + 1.0) * S[:, i, i] + tr).ravel(), minlength=npairs)
+            for j in range(i + 1, 3):
+                x = np.where(sw, S[:, j, i], S[:, i, j])  # S_ij of the block in global orientation
+                y = np.where(sw, S[:, i, j], S[:, j, i])
+                blocks[3 * i + j] += np.bincount(idx, weights=(ratio * x + y).ravel(), minlength=npairs)
+                blocks[3 * j + i] += np.bincount(idx, weights=(ratio * y + x).ravel(), minlength=npairs)
+    blocks *= mu
+
+    # CSR structure: DOF row 3r+i holds (3 - i) + 3 (deg - 1) entries; for DOF
+    # (3r+i, 3c+j) of the pair of rank q in node row r (degree D) the position is
+    # indptr[3r] + 3q + i (3D - 1) - i (i - 1) / 2 + j (diagonal pair: q = 0, j >= i).
+    deg = np.bincount(ur, minlength=N)
     if np.any(deg == 0):
         raise LinkFeaError("mesh has points that belong to no tetrahedron")
     row_start = np.concatenate([[0], np.cumsum(deg)[:-1]])
-    rank = np.arange(len(ukeys)) - row_start[ur]  # 0 for the diagonal pair (smallest column)
-    # DOF rows 3r+i hold (3 - i) + 3 (deg - 1) entries.
+    rank = np.arange(npairs) - row_start[ur]
     row_len = (3 - np.arange(3))[None, :] + 3 * (deg[:, None] - 1)
     indptr = np.concatenate([[0], np.cumsum(row_len.ravel())])
     nnz = int(indptr[-1])
-
-    # Column indices, node row by node row.
+    bi, bj = np.repeat(np.arange(3), 3), np.tile(np.arange(3), 3)
+    keep = (rank[:, None] > 0) | (bj >= bi)[None, :]  # drop the lower half of diagonal blocks
+    pos = (indptr[3 * ur] + 3 * rank)[:, None] + bi * (3 * deg[ur, None] - 1) - bi * (bi - 1) // 2 + bj
+    data = np.empty(nnz)
     cols = np.empty(nnz, dtype=np.int64)
-    base = indptr[3 * ur]  # start of DOF row 3r for each pair
-    d = deg[ur]
-    for i in range(3):
-        start_i = base + i * 3 * d - i * (i - 1) // 2
-        diag = rank == 0
-        # diagonal pair: columns 3r+i..3r+2 at offsets 0..2-i
-        for j in range(i, 3):
-            cols[start_i[diag] + (j - i)] = 3 * uc[diag] + j
-        off = start_i[~diag] + (3 - i) + 3 * (rank[~diag] - 1)
-        for j in range(3):
-            cols[off + j] = 3 * uc[~diag] + j
-
-    # Position of every element entry in the CSR data: for DOF (3r+i, 3c+j) of
-    # the pair of rank q in node row r (degree D), pos = indptr[3r] + 3q
-    # + i (3D - 1) - i (i - 1) / 2 + j (the same formula holds for the diagonal pair, q = 0).
-    itype = np.int32 if nnz < 2**31 - 1 else np.int64
-    pair_a = (indptr[3 * ur] + 3 * rank).astype(itype)[inv].reshape(m, 55)
-    pair_b = (3 * deg[ur] - 1).astype(itype)[inv].reshape(m, 55)
-    swapped = na > nb  # global order opposite to local: the 3x3 block is transposed
-    ci = (_J - _I * (_I - 1) // 2).astype(itype)
-    cj = (_I - _J * (_J - 1) // 2).astype(itype)
-    Ii, Ji = _I.astype(itype), _J.astype(itype)
-    # Element chunks keep the temporaries small (cache- and allocator-friendly).
-    vals = np.empty((m, 465))
-    pos = np.empty((m, 465), dtype=itype)
-    for s0 in range(0, m, _CHUNK):
-        sl = slice(s0, min(s0 + _CHUNK, m))
-        vals[sl] = _element_values(g[sl], w[sl], op)
-        swap = np.take(swapped[sl], _ENTRY_PAIR, axis=1)
-        p = np.where(swap, Ji, Ii)
-        p *= np.take(pair_b[sl], _ENTRY_PAIR, axis=1)
-        p += np.take(pair_a[sl], _ENTRY_PAIR, axis=1)
-        p += np.where(swap, cj, ci)
-        pos[sl] = p
-    data = np.bincount(pos.ravel(), weights=vals.ravel(), minlength=nnz)
+    data[pos[keep]] = blocks.T[keep]
+    cols[pos[keep]] = (3 * uc[:, None] + bj)[keep]
     idx_dtype = np.int32 if nnz < 2**31 - 1 else np.int64
     return sp.csr_matrix((data, cols.astype(idx_dtype), indptr.astype(idx_dtype)), shape=(3 * N, 3 * N))
 
