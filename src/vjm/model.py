@@ -9,18 +9,21 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from concurrent.futures import ThreadPoolExecutor
 from functools import cached_property
 
 import numpy as np
 
-from .chain import _jacobian_soa, jacobian
+from .chain import jacobian
 from .errors import VjmError
 from .models import ARCHITECTURES
 from .models.base import as_points
-from .stiffness import StiffnessResult, assemble, assemble_soa, chain_stiffness, chain_stiffness_soa
+from .stiffness import StiffnessResult, assemble, assemble_soa, chain_stiffness, chain_stiffness_frames
 
 #: poses per block in :meth:`Model.stiffness_map` (working set of a block stays in cache)
 MAP_BLOCK = 2048
+#: threads of :meth:`Model.stiffness_map` (1: no thread)
+MAP_THREADS = 2
 
 
 def validate_compliance(C, key: str) -> np.ndarray:
@@ -197,41 +200,49 @@ class Model:
         """Stiffness at every point of P (n, 3): batched, no loop over poses.
 
         The points are processed in blocks of ``MAP_BLOCK`` poses with the
-        pose axis last, so that the intermediate arrays stay in cache; a bad
-        point raises the same VjmError as the whole batch would.
+        pose axis last, so that the intermediate arrays stay in cache, by up
+        to ``MAP_THREADS`` threads (numpy releases the GIL inside its array
+        loops); a bad point raises the same VjmError as the whole batch would.
         """
         P = as_points(P)
         n = P.shape[0]
-        chains = self.chains
-        K = np.empty((n, 6, 6))
-        C = np.empty((n, 6, 6))
-        kt, kr = np.empty(n), np.empty(n)
-        rank = np.empty(n, dtype=int)
-        inv = np.empty(n, dtype=bool)
-        chain_rank = np.empty((n, len(chains)), dtype=int)
+        out = (np.empty((n, 6, 6)), np.empty((n, 6, 6)), np.empty(n), np.empty(n),
+               np.empty(n, dtype=int), np.empty(n, dtype=bool), np.empty((n, len(self.chains)), dtype=int))
         tol = 1e-6 * (1.0 + (np.max(np.abs(P)) if n else 0.0))
-        for a in range(0, n, MAP_BLOCK):
-            b = min(n, a + MAP_BLOCK)
-            try:
-                q, vals = self.arch.inverse_kinematics(self, P[a:b])
-                comps = self.arch.compliances(self, P[a:b], vals, q)
-            except VjmError:
-                # report the error the whole batch gives (first offending point, first check)
-                q, vals = self.arch.inverse_kinematics(self, P)
-                self.arch.compliances(self, P, vals, q)
-                raise
-            Ksum = None
-            for k, (ch, v, c) in enumerate(zip(chains, vals, comps)):
-                cols, Jt = _jacobian_soa(ch, np.ascontiguousarray(v.T))
-                err = np.max(np.abs(cols[3] - P[a:b].T))
-                if err > tol:
-                    raise VjmError(f"internal: chain {ch.name} does not close on the pose (error {err:.3g} mm)")
-                Kc, chain_rank[a:b, k] = chain_stiffness_soa(ch, Jt, c)
-                Ksum = Kc if Ksum is None else Ksum + Kc
-            Cb, rank[a:b], inv[a:b], kt[a:b], kr[a:b] = assemble_soa(Ksum)
-            K[a:b] = Ksum.transpose(2, 0, 1)
-            C[a:b] = Cb.transpose(2, 0, 1)
+        starts = range(0, n, MAP_BLOCK)
+        threads = min(MAP_THREADS, len(starts))
+        if threads > 1:
+            with ThreadPoolExecutor(threads) as ex:
+                for f in [ex.submit(self._map_block, P, a, out, tol) for a in starts]:
+                    f.result()
+        else:
+            for a in starts:
+                self._map_block(P, a, out, tol)
+        K, C, kt, kr, rank, inv, chain_rank = out
         return StiffnessResult(P, K, C, kt, kr, rank, inv, chain_rank)
+
+    def _map_block(self, P, a, out, tol):
+        """Poses ``a : a + MAP_BLOCK`` of :meth:`stiffness_map`, written into ``out``."""
+        b = min(P.shape[0], a + MAP_BLOCK)
+        K, C, kt, kr, rank, inv, chain_rank = out
+        try:
+            q, vals = self.arch.inverse_kinematics(self, P[a:b])
+            comps = self.arch.compliances(self, P[a:b], vals, q)
+        except VjmError:
+            # report the error the whole batch gives (first offending point, first check)
+            q, vals = self.arch.inverse_kinematics(self, P)
+            self.arch.compliances(self, P, vals, q)
+            raise
+        Ksum = None
+        for k, (ch, v, c) in enumerate(zip(self.chains, vals, comps)):
+            Kc, chain_rank[a:b, k], pe = chain_stiffness_frames(ch, np.ascontiguousarray(v.T), c)
+            err = np.max(np.abs(pe - P[a:b].T))
+            if err > tol:
+                raise VjmError(f"internal: chain {ch.name} does not close on the pose (error {err:.3g} mm)")
+            Ksum = Kc if Ksum is None else Ksum + Kc
+        Cb, rank[a:b], inv[a:b], kt[a:b], kr[a:b] = assemble_soa(Ksum)
+        K[a:b] = Ksum.transpose(2, 0, 1)
+        C[a:b] = Cb.transpose(2, 0, 1)
 
     def stiffness(self, p) -> StiffnessResult:
         """Stiffness at one point p (3,): K (6, 6), C, k_tran, k_rot, rank ..."""

@@ -21,9 +21,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .chain import Chain
+from .chain import Chain, _frame_product, _jacobian_soa
+from .transforms import ROTATION
 from .linalg import (FAST_RTOL, cholesky, lower_inverse, psd_rank_inverse_soa, range_basis, spd_inverse,
                      sym3_max_eig_soa, upper_inverse)
+
+
+#: poses per block of the batched kernels (a block's arrays stay in cache)
+BLOCK = 2048
 
 
 def spring_compliance(chain: Chain, J: np.ndarray, compliances: dict) -> np.ndarray:
@@ -50,8 +55,15 @@ def chain_stiffness(chain: Chain, J: np.ndarray, compliances: dict) -> tuple[np.
     Springs and passive joints together must span all six directions (a
     direction they leave out would be infinitely stiff).
     """
-    K, rank = chain_stiffness_soa(chain, np.ascontiguousarray(np.transpose(J, (2, 1, 0))), compliances)
-    return np.ascontiguousarray(K.transpose(2, 0, 1)), rank
+    n = J.shape[0]
+    K = np.empty((n, 6, 6))
+    rank = np.empty(n, dtype=int)
+    for a in range(0, n, BLOCK):
+        b = min(n, a + BLOCK)
+        cb = {key: (c[a:b] if np.ndim(c) == 3 else c) for key, c in compliances.items()}
+        Kb, rank[a:b] = chain_stiffness_soa(chain, np.ascontiguousarray(np.transpose(J[a:b], (2, 1, 0))), cb)
+        K[a:b] = Kb.transpose(2, 0, 1)
+    return K, rank
 
 
 def _bordered(chain: Chain, J: np.ndarray, compliances: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -84,15 +96,99 @@ def chain_stiffness_soa(chain: Chain, Jt: np.ndarray, compliances: dict) -> tupl
     falls below ``FAST_RTOL`` or when ``N^T S N`` is not clearly positive
     definite; elsewhere the rank is ``k``.
     """
-    nv, _, n = Jt.shape
+    n = Jt.shape[2]
+    passive = list(chain.passive)
+    N, ok = _wrench_basis(Jt[passive] if passive else np.zeros((0, 6, n)))
+    Z = {s.name: np.einsum("ain,cin->acn", N, Jt[list(s.vars)]) for s in chain.springs
+         if compliances.get(s.name) is not None}
+    K, ok = _reduced_stiffness(N, ok, Z, compliances)
+    return _with_fallback(chain, K, ok, len(passive), compliances,
+                          lambda bad: np.ascontiguousarray(Jt[:, :, bad].transpose(2, 1, 0)))
+
+
+def chain_stiffness_frames(chain: Chain, vt: np.ndarray, compliances: dict):
+    """Chain stiffness straight from the chain's frames, variable values ``vt`` (n_vars, n).
+
+    Same result as ``chain_stiffness_soa(chain, _jacobian_soa(chain, vt)[1], ...)``
+    without forming the full Jacobian: ``N^T J_s`` is read from each spring
+    factor's frame (``N_t . e`` for a translation along ``e``,
+    ``e . (d x N_t + N_r)`` for a rotation about ``e`` at distance ``d`` from the
+    end point), with ``d x N_t + N_r`` computed once per frame origin.
+
+    Returns
+    -------
+    K : (6, 6, n), rank : (n,), p_end : (3, n)
+    """
+    cols, recs = _frame_product(chain, vt)
+    pe = cols[3]
+    n = vt.shape[1]
+    roles = chain.roles
     passive = list(chain.passive)
     k = len(passive)
+    # J_q, column by column (a variable may appear in several factors)
+    Aq = np.zeros((k, 6, n))
+    slot = {v: i for i, v in enumerate(passive)}
+    for var, kind, coef, e, o in recs:
+        if roles[var] != "passive":
+            continue
+        col = Aq[slot[var]]
+        if ROTATION[kind]:
+            d = pe - o
+            col[:3] += coef * _cross(e, d)
+            col[3:] += coef * e
+        else:
+            col[:3] += coef * e
+    N, ok = _wrench_basis(Aq)
+    Nt, Nr = N[:, :3], N[:, 3:]
+    # N^T J for the spring variables, grouped so that each einsum covers many factors
+    want = set()
+    for s in chain.springs:
+        if compliances.get(s.name) is not None:
+            want.update(s.vars)
+    groups = {}
+    for r in recs:
+        if r[0] in want:
+            key = ("r", id(r[4])) if ROTATION[r[1]] else ("t",)
+            groups.setdefault(key, []).append(r)
+    zvar = {}
+    for key, rs in groups.items():
+        E = np.stack([r[3] for r in rs])
+        if key[0] == "r":
+            W = _cross(pe - rs[0][4], Nt) + Nr  # (m, 3, n)
+        else:
+            W = Nt
+        Zg = np.einsum("rin,ain->ran", E, W)
+        for r, z in zip(rs, Zg):
+            z = z if r[2] == 1.0 else r[2] * z
+            zvar[r[0]] = z if r[0] not in zvar else zvar[r[0]] + z
+    Z = {s.name: np.stack([zvar[v] for v in s.vars], axis=1) for s in chain.springs
+         if compliances.get(s.name) is not None}
+    K, ok = _reduced_stiffness(N, ok, Z, compliances)
+    K, rank = _with_fallback(chain, K, ok, k, compliances,
+                             lambda bad: np.ascontiguousarray(_jacobian_soa(chain, vt[:, bad])[1].transpose(2, 1, 0)))
+    return K, rank, pe
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` over axis -2 (3 components), broadcasting: (..., 3, n)."""
+    a0, a1, a2 = a[..., 0, :], a[..., 1, :], a[..., 2, :]
+    b0, b1, b2 = b[..., 0, :], b[..., 1, :], b[..., 2, :]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-2)
+
+
+def _wrench_basis(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal basis ``N`` (6-k, 6, n) of the complement of the columns ``A`` (k, 6, n).
+
+    Householder QR without pivoting (backward stable; rank is not decided
+    here).  ``ok`` is False where the lower bound ``1 / (||R^-1||_F ||A||_F)``
+    of ``sigma_min / sigma_max`` is below ``FAST_RTOL``.
+    """
+    A = A.copy()
+    k, _, n = A.shape
     m = 6 - k
-    # Householder QR of J_q (columns stored as rows of A: (k, 6, n))
-    A = Jt[passive] if k else np.zeros((0, 6, n))
-    fro = np.sqrt(np.einsum("kin,kin->n", A, A)) if k else np.ones(n)
     vs, betas = [], []
     Rm = np.zeros((k, k, n))
+    fro = np.sqrt(np.einsum("kin,kin->n", A, A)) if k else np.ones(n)
     for j in range(k):
         x = A[j, j:]
         nx = np.sqrt(np.einsum("in,in->n", x, x))
@@ -112,46 +208,50 @@ def chain_stiffness_soa(chain: Chain, Jt: np.ndarray, compliances: dict) -> tupl
         betas.append(beta)
     # N = H_0 ... H_{k-1} [0; I]
     N = np.zeros((m, 6, n))
-    for a_ in range(m):
-        N[a_, k + a_] = 1.0
+    for a in range(m):
+        N[a, k + a] = 1.0
     for j in range(k - 1, -1, -1):
         sub = N[:, j:]
         w = np.einsum("ain,in->an", sub, vs[j]) * betas[j]
         sub -= w[:, None, :] * vs[j]
-    # ||R^-1||_F >= 1/sigma_min and ||J_q||_F >= sigma_max
+    # ||R^-1||_F >= 1/sigma_min and ||A||_F >= sigma_max
     ok = np.ones(n, dtype=bool)
     if k:
-        dg = np.abs(np.diagonal(Rm).T)  # (k, n)
-        ok = np.all(dg > 1e-300, axis=0)
+        ok = np.all(np.abs(np.diagonal(Rm).T) > 1e-300, axis=0)
         Ri = upper_inverse(np.where(ok, Rm, np.eye(k)[:, :, None]))
         ok &= 1.0 / (np.sqrt(np.einsum("ijn,ijn->n", Ri, Ri)) * fro) > FAST_RTOL
-    # Z = N^T J_s for the compliant springs, then N^T S N = sum Z_s C_s Z_s^T
+    return N, ok
+
+
+def _reduced_stiffness(N, ok, Z: dict, compliances: dict):
+    """``K = N (sum_s Z_s C_s Z_s^T)^-1 N^T`` with ``Z_s = N^T J_s`` (m, dof_s, n)."""
+    m, _, n = N.shape
     M = np.zeros((m, m, n))
-    for s in chain.springs:
-        C = compliances.get(s.name)
-        if C is None:
-            continue
-        Js = Jt[list(s.vars)]
-        Z = np.einsum("ain,cin->acn", N, Js)
-        C = np.asarray(C, dtype=float)
+    for name, Zs in Z.items():
+        C = np.asarray(compliances[name], dtype=float)
         if C.ndim == 2:
-            Y = np.einsum("cd,acn->adn", C, Z)
+            Y = np.matmul(C.T, Zs)  # one small BLAS product per row of N (blocks keep it single-threaded)
         elif C.shape[1] == 1:
-            Y = Z * C[:, 0, 0]
+            Y = Zs * C[:, 0, 0]
         else:
-            Y = np.einsum("acn,ncd->adn", Z, C)
-        M += np.einsum("acn,bcn->abn", Y, Z)
+            Y = np.einsum("acn,ncd->adn", Zs, C)
+        M += np.einsum("acn,bcn->abn", Y, Zs)
     Mi, piv = spd_inverse(M)
-    ok &= piv > FAST_RTOL
+    ok = ok & (piv > FAST_RTOL)
     W = np.einsum("abn,ain->bin", Mi, N)
     K = np.einsum("bin,bjn->ijn", W, N)
     K += K.transpose(1, 0, 2)
     K *= 0.5
-    rank = np.full(n, k)
+    return K, ok
+
+
+def _with_fallback(chain, K, ok, k, compliances, J_of):
+    """Rank ``k`` where ``ok``; elsewhere K and rank from :func:`_bordered` on ``J_of(bad)`` (poses first)."""
+    rank = np.full(K.shape[2], k)
     bad = np.nonzero(~ok)[0]
     if bad.size:
         cb = {key: (c[bad] if np.ndim(c) == 3 else c) for key, c in compliances.items() if c is not None}
-        Kb, rank[bad] = _bordered(chain, np.ascontiguousarray(Jt[:, :, bad].transpose(2, 1, 0)), cb)
+        Kb, rank[bad] = _bordered(chain, J_of(bad), cb)
         K[:, :, bad] = Kb.transpose(1, 2, 0)
     return K, rank
 
