@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from concurrent.futures import ThreadPoolExecutor
 from functools import cached_property
 
 import numpy as np
@@ -22,8 +21,6 @@ from .stiffness import StiffnessResult, assemble, assemble_soa, chain_stiffness,
 
 #: poses per block in :meth:`Model.stiffness_map` (working set of a block stays in cache)
 MAP_BLOCK = 2048
-#: threads of :meth:`Model.stiffness_map` (1: no thread)
-MAP_THREADS = 2
 
 
 def validate_compliance(C, key: str) -> np.ndarray:
@@ -200,24 +197,16 @@ class Model:
         """Stiffness at every point of P (n, 3): batched, no loop over poses.
 
         The points are processed in blocks of ``MAP_BLOCK`` poses with the
-        pose axis last, so that the intermediate arrays stay in cache, by up
-        to ``MAP_THREADS`` threads (numpy releases the GIL inside its array
-        loops); a bad point raises the same VjmError as the whole batch would.
+        pose axis last, so that the intermediate arrays stay in cache; a bad
+        point raises the same VjmError as the whole batch would.
         """
         P = as_points(P)
         n = P.shape[0]
         out = (np.empty((n, 6, 6)), np.empty((n, 6, 6)), np.empty(n), np.empty(n),
                np.empty(n, dtype=int), np.empty(n, dtype=bool), np.empty((n, len(self.chains)), dtype=int))
         tol = 1e-6 * (1.0 + (np.max(np.abs(P)) if n else 0.0))
-        starts = range(0, n, MAP_BLOCK)
-        threads = min(MAP_THREADS, len(starts))
-        if threads > 1:
-            with ThreadPoolExecutor(threads) as ex:
-                for f in [ex.submit(self._map_block, P, a, out, tol) for a in starts]:
-                    f.result()
-        else:
-            for a in starts:
-                self._map_block(P, a, out, tol)
+        for a in range(0, n, MAP_BLOCK):
+            self._map_block(P, a, out, tol)
         K, C, kt, kr, rank, inv, chain_rank = out
         return StiffnessResult(P, K, C, kt, kr, rank, inv, chain_rank)
 

@@ -188,7 +188,6 @@ def _wrench_basis(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     m = 6 - k
     vs, betas = [], []
     Rm = np.zeros((k, k, n))
-    fro = np.sqrt(np.einsum("kin,kin->n", A, A)) if k else np.ones(n)
     for j in range(k):
         x = A[j, j:]
         nx = np.sqrt(np.einsum("in,in->n", x, x))
@@ -219,7 +218,8 @@ def _wrench_basis(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if k:
         ok = np.all(np.abs(np.diagonal(Rm).T) > 1e-300, axis=0)
         Ri = upper_inverse(np.where(ok, Rm, np.eye(k)[:, :, None]))
-        ok &= 1.0 / (np.sqrt(np.einsum("ijn,ijn->n", Ri, Ri)) * fro) > FAST_RTOL
+        # ||A||_F = ||R||_F (Q orthogonal)
+        ok &= 1.0 / np.sqrt(np.einsum("ijn,ijn->n", Ri, Ri) * np.einsum("ijn,ijn->n", Rm, Rm)) > FAST_RTOL
     return N, ok
 
 
