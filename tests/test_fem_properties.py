@@ -112,3 +112,15 @@ def test_solution_contents_and_progress(steel):
     assert np.all(res < 1e-10)
     assert np.allclose(twists.T, sol.ref_twists, rtol=1e-10, atol=1e-16)
     assert twists[0, 0] == pytest.approx(40.0 / (steel.E * 24.0), rel=0.02)
+
+
+def test_floating_part_is_a_clear_error(steel):
+    """A piece not connected to the clamp makes K singular: LinkFeaError naming the likely cause."""
+    mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
+    n = len(mesh.points)
+    far = np.array([[100.0, 0, 0], [101.0, 0, 0], [100.0, 1, 0], [100.0, 0, 1]])
+    bad = dataclasses.replace(mesh, points=np.vstack([mesh.points, far]),
+                              tets=np.vstack([mesh.tets, [[n, n + 1, n + 2, n + 3]]]),
+                              block=np.r_[mesh.block, False])
+    with pytest.raises(LinkFeaError, match="clamped and connected|singular"):
+        solve_link(bad, steel)

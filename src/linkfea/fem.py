@@ -34,7 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import LinkFeaError
-from .frames import Frame, skew
+from .frames import Frame
 from .materials import Material
 
 # Local edges of a tet, in the P2 node order 4..9.
