@@ -94,6 +94,32 @@ def actuator_influence(model, P) -> np.ndarray:
 
 
 _NL_MEMO: dict = {}
+#: row count from which the Newton solves are spread over the machine's cores
+PARALLEL_ROWS = 200
+
+
+def _nl_chunk(args):
+    from .. import nonlinear
+
+    model, P, W = args
+    return np.asarray(nonlinear.deflection_map(model, P, W), float)
+
+
+def _deflections_parallel(model, P, W):
+    """One independent Newton solve per row: split the rows over the available cores (fork)."""
+    import multiprocessing as mp
+    import os
+
+    try:
+        ncpu = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover
+        ncpu = os.cpu_count() or 1
+    if ncpu < 2 or "fork" not in mp.get_all_start_methods():
+        return _nl_chunk((model, P, W))
+    parts = np.array_split(np.arange(len(P)), ncpu)
+    with mp.get_context("fork").Pool(ncpu) as pool:
+        out = pool.map(_nl_chunk, [(model, P[i], W[i]) for i in parts])
+    return np.concatenate(out)
 
 
 def nonlinear_delta(model, P, W) -> np.ndarray:
@@ -112,7 +138,8 @@ def nonlinear_delta(model, P, W) -> np.ndarray:
         return hit[1]
     C = model.stiffness_map(P).C
     lin = np.einsum("nij,nj->ni", C, W)
-    nl = np.asarray(nonlinear.deflection_map(model, P, W), float)
+    nl = _deflections_parallel(model, P, W) if len(P) >= PARALLEL_ROWS else \
+        np.asarray(nonlinear.deflection_map(model, P, W), float)
     out = nl - lin
     if len(_NL_MEMO) > 16:
         _NL_MEMO.clear()

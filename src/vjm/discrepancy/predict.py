@@ -22,9 +22,11 @@ CALIBRATION = "calibration"
 
 def unique_postures(P, decimals=6):
     """Unique postures (m, 3) and the index (n,) of each row into them."""
-    key = np.round(np.asarray(P, float), decimals)
-    U, idx = np.unique(key, axis=0, return_inverse=True)
-    return U, idx.reshape(-1)
+    P = np.asarray(P, float)
+    key = np.round(P, decimals)
+    _, first, idx = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    # the first row of each group, unrounded: U[idx] reproduces P exactly for repeated postures
+    return P[first], idx.reshape(-1)
 
 
 @dataclass
