@@ -12,15 +12,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import LinkFeaError
-from .frames import Frame
+from .fem import rigid_motion_matrix
+from .frames import Frame, twist_transform
 
 # Smallest eigenvalue of the diagonally scaled compliance, relative to its largest, for positive definiteness.
 PD_RTOL = 1e-12
 
 
 def _rigid_basis(points, origin, axes) -> np.ndarray:
-    from .fem import rigid_motion_matrix
-
     return rigid_motion_matrix(points, origin, axes).reshape(-1, 6)
 
 
@@ -91,8 +90,6 @@ def fit_compliance(sol, frame: Frame | None = None):
     if frame is not sol.frame:
         # Loads were unit wrenches in sol.frame; express them in `frame` too: C_B = X C_A X^T,
         # and here the fitted twists are already in B, so only the wrench side moves: w_A = X^T w_B.
-        from .frames import twist_transform
-
         R_rel = sol.frame.axes @ frame.axes.T
         p_rel = sol.frame.axes @ (frame.origin - sol.frame.origin)
         C = C @ twist_transform(R_rel, p_rel).T
