@@ -200,19 +200,20 @@ def psd_rank_inverse_soa(K: np.ndarray, rtol: float = 1e-10) -> tuple[np.ndarray
     m, _, n = K.shape
     d = np.sqrt(np.clip(np.diagonal(K).T, 0.0, None))  # (m, n)
     d = np.where(d > 0, d, 1.0)
-    Ks = K / d[:, None] / d[None, :]
-    Ks = 0.5 * (Ks + Ks.transpose(1, 0, 2))
-    L = np.zeros_like(Ks)
+    di = 1.0 / d
+    L = np.zeros_like(K)
     D = np.zeros((m, n))
     for j in range(m):
+        # column j of the Jacobi-scaled, symmetrised K (only the lower triangle is read)
         LD = L[j, :j] * D[:j]
-        dj = Ks[j, j] - np.einsum("kn,kn->n", L[j, :j], LD)
+        dj = K[j, j] * di[j] * di[j] - np.einsum("kn,kn->n", L[j, :j], LD)
         D[j] = dj
         L[j, j] = 1.0
         if j + 1 < m:
             ok = dj > rtol
-            num = Ks[j + 1:, j] - np.einsum("ikn,kn->in", L[j + 1:, :j], LD)
-            L[j + 1:, j] = np.where(ok, num / np.where(ok, dj, 1.0), 0.0)
+            col = (K[j + 1:, j] + K[j, j + 1:]) * (0.5 * di[j] * di[j + 1:])
+            num = col - np.einsum("ikn,kn->in", L[j + 1:, :j], LD)
+            L[j + 1:, j] = num * np.where(ok, 1.0 / np.where(ok, dj, 1.0), 0.0)
     good = D > rtol
     rank = np.sum(good, axis=0)
     invertible = rank == m
@@ -222,9 +223,13 @@ def psd_rank_inverse_soa(K: np.ndarray, rtol: float = 1e-10) -> tuple[np.ndarray
         X[i, i] = 1.0
         if i:
             X[i, :i] = -np.einsum("kn,kjn->jn", L[i, :i], X[:i, :i])
-    Dinv = 1.0 / np.where(good, D, 1.0)
-    C = np.einsum("kin,kjn->ijn", X * Dinv[:, None], X)
-    C /= d[:, None] * d[None, :]
+    Y = X / np.where(good, D, 1.0)[:, None]
+    # C = X^T D^-1 X; X is unit lower, so C[:, j] only needs rows k >= j
+    C = np.empty_like(X)
+    for j in range(m):
+        C[:j + 1, j] = np.einsum("kin,kn->in", Y[j:, :j + 1], X[j:, j])
+        C[j, :j] = C[:j, j]
+    C *= di[:, None] * di[None, :]
     bad = np.nonzero(~invertible)[0]
     if bad.size:
         Cb, rank[bad], _ = psd_rank_inverse(np.ascontiguousarray(K[:, :, bad].transpose(2, 0, 1)), rtol)
