@@ -170,6 +170,17 @@ def spd_inverse(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     m, _, n = M.shape
     if m == 0:
         return np.zeros((0, 0, n)), np.ones(n)
+    if m == 2:  # closed form, same pivots as below
+        a, b, c = M[0, 0], M[1, 0], M[1, 1]
+        a_ok = a > 0
+        d1 = c - b * (b / np.where(a_ok, a, 1.0))
+        piv = np.where(a_ok & (c > 0), np.minimum(1.0, d1 / np.where(c > 0, c, 1.0)), -1.0)
+        det = np.where(piv > 1e-300, a * d1, 1.0)
+        out = np.empty_like(M)
+        out[0, 0] = c / det
+        out[1, 1] = a / det
+        out[0, 1] = out[1, 0] = -b / det
+        return out, piv
     L = np.zeros_like(M)
     piv = np.full(n, np.inf)
     for j in range(m):

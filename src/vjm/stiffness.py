@@ -98,7 +98,7 @@ def chain_stiffness_soa(chain: Chain, Jt: np.ndarray, compliances: dict) -> tupl
     """
     n = Jt.shape[2]
     passive = list(chain.passive)
-    N, ok = _wrench_basis(Jt[passive] if passive else np.zeros((0, 6, n)))
+    N, ok = _wrench_basis(Jt[passive] if passive else np.zeros((0, 6, n)))  # fancy index: a copy
     Z = {s.name: np.einsum("ain,cin->acn", N, Jt[list(s.vars)]) for s in chain.springs
          if compliances.get(s.name) is not None}
     K, ok = _reduced_stiffness(N, ok, Z, compliances)
@@ -180,23 +180,21 @@ def _wrench_basis(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Orthonormal basis ``N`` (6-k, 6, n) of the complement of the columns ``A`` (k, 6, n).
 
     Householder QR without pivoting (backward stable; rank is not decided
-    here).  ``ok`` is False where the lower bound ``1 / (||R^-1||_F ||A||_F)``
-    of ``sigma_min / sigma_max`` is below ``FAST_RTOL``.
+    here); ``A`` is overwritten.  ``ok`` is False where the lower bound
+    ``1 / (||R^-1||_F ||A||_F)`` of ``sigma_min / sigma_max`` is below
+    ``FAST_RTOL`` (or not a number: a zero column).
     """
-    A = A.copy()
     k, _, n = A.shape
     m = 6 - k
     vs, betas = [], []
     Rm = np.zeros((k, k, n))
     for j in range(k):
-        x = A[j, j:]
-        nx = np.sqrt(np.einsum("in,in->n", x, x))
-        x0 = x[0]
-        alpha = np.where(x0 >= 0, -nx, nx)
-        v = x.copy()
-        v[0] = x0 - alpha
-        den = nx * (nx + np.abs(x0))
-        beta = np.where(den > 0, 1.0 / np.where(den > 0, den, 1.0), 0.0)
+        v = A[j, j:]  # becomes the Householder vector in place
+        nx = np.sqrt(np.einsum("in,in->n", v, v))
+        alpha = np.where(v[0] >= 0, -nx, nx)
+        # beta = 2 / |v|^2; a zero column gives v = 0, so a huge beta is harmless
+        beta = 1.0 / np.maximum(nx * (nx + np.abs(v[0])), 1e-300)
+        v[0] -= alpha
         Rm[j, j] = alpha
         if j + 1 < k:
             sub = A[j + 1:, j:]
@@ -213,13 +211,12 @@ def _wrench_basis(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         sub = N[:, j:]
         w = np.einsum("ain,in->an", sub, vs[j]) * betas[j]
         sub -= w[:, None, :] * vs[j]
-    # ||R^-1||_F >= 1/sigma_min and ||A||_F >= sigma_max
     ok = np.ones(n, dtype=bool)
     if k:
-        ok = np.all(np.abs(np.diagonal(Rm).T) > 1e-300, axis=0)
-        Ri = upper_inverse(np.where(ok, Rm, np.eye(k)[:, :, None]))
-        # ||A||_F = ||R||_F (Q orthogonal)
-        ok &= 1.0 / np.sqrt(np.einsum("ijn,ijn->n", Ri, Ri) * np.einsum("ijn,ijn->n", Rm, Rm)) > FAST_RTOL
+        # ||R^-1||_F >= 1/sigma_min and ||A||_F = ||R||_F >= sigma_max
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            Ri = upper_inverse(Rm)
+            ok = 1.0 / np.sqrt(np.einsum("ijn,ijn->n", Ri, Ri) * np.einsum("ijn,ijn->n", Rm, Rm)) > FAST_RTOL
     return N, ok
 
 
