@@ -288,7 +288,7 @@ def write_diagnosis(dg: Diagnosis, out_dir) -> None:
     """Write report.json, report.html, residuals PNG and model_updated.yaml atomically."""
     def figs(d):
         plot_residuals(os.path.join(d, "residuals_per_posture.png"), dg.P, dg.rms_pose_before, dg.rms_pose_after,
-                       "normalized residual per posture: calibrated baseline (before) vs updated model (after)")
+                       "residual per posture: before vs after")
         return ["residuals_per_posture.png"]
 
     write_report_dir(out_dir, dg.report, lambda p: mo.save_model(dg.model, p), figs)

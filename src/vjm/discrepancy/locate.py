@@ -66,6 +66,8 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
     labels = np.array([("+" if s >= 0 else "-") + WRENCH_NAMES[d] for d, s in zip(dom, sgn)])
     out["by_load_direction"] = {k: {"rms_normalized": v[0], "n": v[1]} for k, v in _group_rms(labels, r2, cnt).items()}
 
+    out["by_load_sign"] = _odd_even(W, rnorm, mask, pose_idx)
+
     fmag = np.linalg.norm(W[:, :3], axis=1)
     bi, edges = _bins(fmag)
     g = _group_rms(bi, r2, cnt)
@@ -75,6 +77,29 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
         out.update(_by_actuator(q, pose_idx, r2, cnt))
     out["summary"] = _summary(out)
     return out
+
+
+def _odd_even(W, rnorm, mask, pose_idx):
+    """Split residuals of opposite-load pairs (same posture, w and -w) into the part that
+    follows the load sign (odd: compliance, clearance) and the part that does not
+    (even: weight, quadratic nonlinearity), as RMS normalized values."""
+    key = {}
+    for k in range(W.shape[0]):
+        key[(int(pose_idx[k]), tuple(np.round(W[k], 9)))] = k
+    odd, even = [], []
+    for (pi, w), k in key.items():
+        j = key.get((pi, tuple(np.round(-np.array(w), 9))))
+        if j is None or j <= k:
+            continue
+        m = mask[k] & mask[j]
+        odd.append(0.5 * (rnorm[k] - rnorm[j])[m])
+        even.append(0.5 * (rnorm[k] + rnorm[j])[m])
+    if not odd:
+        return {"pairs": 0}
+    o, e = np.concatenate(odd), np.concatenate(even)
+    # under pure noise both parts have RMS 1/sqrt(2) of the normalized residual
+    return {"pairs": len(odd), "odd_rms_normalized": float(np.sqrt(np.mean(o * o)) * np.sqrt(2)),
+            "even_rms_normalized": float(np.sqrt(np.mean(e * e)) * np.sqrt(2))}
 
 
 def _by_actuator(q, pose_idx, r2, cnt):
@@ -102,6 +127,14 @@ def _summary(loc) -> str:
     if d:
         k = max(d, key=lambda s: d[s]["rms_normalized"])
         parts.append(f"largest for loads along {k} ({d[k]['rms_normalized'] / ov:.1f}x)")
+    ls = loc.get("by_load_sign", {})
+    if ls.get("pairs"):
+        o, e = ls["odd_rms_normalized"], ls["even_rms_normalized"]
+        what = ("follows the load sign (a compliance-like or clearance term)" if o > 1.3 * e else
+                "does not follow the load sign (a load-independent or quadratic term)" if e > 1.3 * o else
+                "is split between load-following and load-independent parts")
+        parts.append(f"over {ls['pairs']} opposite-load pairs the gap {what}: odd {o:.2f}, even {e:.2f} "
+                     "(1 = noise)")
     mags = loc.get("by_load_magnitude", [])
     if len(mags) > 1:
         lo, hi = mags[0]["rms_normalized"], mags[-1]["rms_normalized"]
