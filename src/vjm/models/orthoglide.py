@@ -74,9 +74,10 @@ def _leg_ik(model, P):
     q0 = np.empty((n, 3))
     for k, i in enumerate(CHAINS):
         R = BASE_R[i]
-        # R^T (P - t), written out: a BLAS product of (n, 3) by (3, 3) is slower
-        loc = np.einsum("ni,ij->nj", P - R @ np.array([-L - r, 0.0, 0.0]), R)
-        uy, uz = loc[:, 1] / L, loc[:, 2] / L
+        # R^T (P - t) column by column: R is a permutation, so this is mostly relabelling
+        d = P - R @ np.array([-L - r, 0.0, 0.0])
+        loc = [sum(d[:, a] * R[a, j] for a in range(3) if R[a, j] != 0.0) for j in range(3)]
+        uy, uz = loc[1] / L, loc[2] / L
         ux2 = 1.0 - uy**2 - uz**2
         bad = ux2 < -1e-12
         if np.any(bad):
@@ -84,8 +85,8 @@ def _leg_ik(model, P):
             raise VjmError(f"pose ({p[0]:.6g}, {p[1]:.6g}, {p[2]:.6g}) mm is unreachable: the {i} leg "
                            f"(length L = {L:g} mm) cannot reach it")
         ux = np.sqrt(np.clip(ux2, 0.0, None))
-        u[:, k] = np.stack([ux, uy, uz], axis=1)
-        q0[:, k] = loc[:, 0] - r - L * ux
+        u[:, k, 0], u[:, k, 1], u[:, k, 2] = ux, uy, uz
+        q0[:, k] = loc[0] - r - L * ux
     return u, q0
 
 
