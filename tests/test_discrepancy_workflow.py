@@ -100,10 +100,11 @@ def test_seed_table1_runs_through(tmp_path, yaml_path):
 
 
 def test_memoized_stiffness_equals_model(tmp_path):
-    """The workflow's memoized kinematics give exactly model.stiffness_map, also after a parameter change."""
+    """The workflow's memoized kinematics give model.stiffness_map to round-off, also after a parameter change."""
     m2 = mo.with_passive_compliance(mo.with_actuator_scale(MODEL, 0.8), 2e-7)
     for m in (MODEL, m2, MODEL):
-        np.testing.assert_array_equal(mo.compliance_map(m, _P0), m.stiffness_map(_P0).C)
+        C = m.stiffness_map(_P0).C
+        np.testing.assert_allclose(mo.compliance_map(m, _P0), C, rtol=1e-11, atol=1e-12 * np.abs(C).max())
 
 
 def test_actuator_influence_by_castigliano():
