@@ -85,3 +85,22 @@ def test_delta_inverse_kinematics_closes(delta):
         assert np.allclose(T[:, :3, 3], P, atol=1e-9)
         R0 = T[0, :3, :3]
         assert np.allclose(T[:, :3, :3], R0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name,lo,hi,off", [("puu", -73.65, 126.35, 0.0), ("prpar", -73.65, 126.35, 0.0),
+                                            ("delta", -100.0, 100.0, -450.0)])
+def test_fast_projection_equals_rank_revealing_bordered_solve(name, lo, hi, off, request, monkeypatch):
+    """The map's fast path (N (N^T S N)^-1 N^T from a QR of J_q) and the rank-revealing
+    bordered solve of eq. 11 (SVD) are two routes to the same chain stiffness: forcing
+    every pose through the bordered solve must give the same K (1e-11 relative) and ranks."""
+    import vjm.stiffness as st
+
+    m = request.getfixturevalue(name)
+    P = _cube(60, lo, hi, seed=11)
+    P[:, 2] += off
+    fast = m.stiffness_map(P)
+    monkeypatch.setattr(st, "FAST_RTOL", np.inf)
+    slow = m.stiffness_map(P)
+    assert np.array_equal(fast.rank, slow.rank)
+    scale = np.max(np.abs(slow.K), axis=(1, 2))
+    assert np.all(np.max(np.abs(fast.K - slow.K), axis=(1, 2)) <= 1e-11 * scale)
