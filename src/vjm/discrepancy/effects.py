@@ -209,13 +209,14 @@ class GeometricNonlinearity(Effect):
         from ..errors import VjmError
 
         try:
-            # cheap screen first: the nonlinear part grows with the load squared, so the
-            # rows with the largest loads bound it; one Newton solve per row is expensive
-            n = ctx.n
-            fmag = np.linalg.norm(ctx.W[:, :3], axis=1) + np.linalg.norm(ctx.W[:, 3:], axis=1) / 100.0
-            probe = np.argsort(-fmag)[: min(n, 6)]
+            # cheap screen first: the nonlinear part grows like the square of the linear
+            # deflection, so the rows deflecting most bound it; one Newton solve per row is expensive
             from . import modelops
 
+            n = ctx.n
+            C = modelops.compliance_map(ctx.model, ctx.P)[ctx.idx]
+            lin = np.linalg.norm(np.einsum("nij,nj->ni", C[:, :3], ctx.W), axis=1)
+            probe = np.argsort(-lin)[: min(n, 6)]
             d = modelops.nonlinear_delta(ctx.model, ctx.P[ctx.idx[probe]], ctx.W[probe])
             big = float(np.max(np.abs(d[:, :3]))) if n else 0.0
             if ctx.noise_t is not None and big < self.screen * ctx.noise_t:
