@@ -1,14 +1,44 @@
 """Tetrahedral meshing of a link with pytetwild, cached by content hash.
 
-(Skeleton: the LinkMesh contract is fixed here; meshing is filled in.)
+The body and (optionally) the reference block are tessellated separately and
+handed to fTetWild together: both are closed surfaces, so the winding number
+is 1 everywhere inside their union while the shared tip face is still an input
+surface, which the tetrahedra conform to.  Block cells are then found by the
+centroid test against the block solid.
+
+fTetWild keeps the output surface within an *envelope* of
+``epsilon * bbox diagonal`` of the input but moves vertices inside it, so the
+interface facets are selected within that envelope (plus the tessellation
+tolerance) and by their normal, never with a tight tolerance: a tight one
+silently drops much of the clamp.
+
+pytetwild is not deterministic from run to run, so the raw mesh (points, tets)
+is cached under ``.cache/meshes/`` (or ``$LINKFEA_CACHE_DIR``) keyed by the
+SHA-256 of the input surfaces, the meshing parameters and
+:data:`MESH_VERSION`; a repeated run reuses it bit for bit.
 """
 from __future__ import annotations
 
+import hashlib
+import os
+import tempfile
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
+from .errors import LinkFeaError
 from .frames import Frame
+
+MESH_VERSION = "linkfea-mesh-1"
+"""Bumped whenever the meshing code changes the cached arrays."""
+
+DEFAULT_EPSILON = 1e-3
+"""fTetWild envelope relative to the bounding-box diagonal (its own default)."""
+
+NORMAL_COS = 0.8
+"""Minimum |cos| between a mesh facet normal and the CAD face normal to count as on the face."""
 
 
 @dataclass(frozen=True)
@@ -35,6 +65,8 @@ class LinkMesh:
         Surface envelope of the mesher, mm: how far boundary vertices may sit from the CAD.
     quality : dict
         Mesh quality report (e.g. min/mean scaled Jacobian or aspect ratio).
+    cache_key : str
+        SHA-256 key of the cached raw mesh ('' if not cached).
     """
 
     points: np.ndarray
@@ -46,6 +78,7 @@ class LinkMesh:
     edge_length: float
     envelope: float = 0.0
     quality: dict = field(default_factory=dict)
+    cache_key: str = ""
 
     @property
     def n_nodes(self) -> int:
@@ -54,3 +87,305 @@ class LinkMesh:
     @property
     def n_tets(self) -> int:
         return len(self.tets)
+
+
+# --------------------------------------------------------------------------- geometry helpers
+def tet_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Signed volumes of tetrahedra (positive for the orientation used here)."""
+    a = points[tets]
+    return np.einsum("ij,ij->i", np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0]), a[:, 3] - a[:, 0]) / 6.0
+
+
+def tri_areas_normals(points: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Areas (k,) and unit normals (k, 3) of triangles (right-hand rule)."""
+    a = points[tris]
+    c = np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0])
+    n2 = np.linalg.norm(c, axis=1)
+    return 0.5 * n2, c / np.maximum(n2, 1e-300)[:, None]
+
+
+# Faces of tet (0,1,2,3) ordered so their right-hand normal points outward for positive volume.
+_TET_FACES = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+
+
+def tet_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All faces, grouped: (unique sorted faces (f,3), owner cells (f,2) with -1 for none, oriented faces (f,3)).
+
+    The oriented face is the one seen from the first owner, outward from it.
+    """
+    m = len(tets)
+    faces = tets[:, _TET_FACES].reshape(-1, 3)  # (4m, 3) outward from their cell
+    cell = np.repeat(np.arange(m), 4)
+    key = np.sort(faces, axis=1)
+    uniq, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1)
+    if cnt.max() > 2:
+        raise LinkFeaError("mesh: a face is shared by more than two tetrahedra (non-manifold mesh)")
+    order = np.argsort(inv, kind="stable")
+    starts = np.r_[0, np.cumsum(cnt)[:-1]]
+    owners = -np.ones((len(uniq), 2), dtype=np.int64)
+    owners[:, 0] = cell[order[starts]]
+    two = cnt == 2
+    owners[two, 1] = cell[order[starts[two] + 1]]
+    oriented = faces[order[starts]]
+    return uniq, owners, oriented
+
+
+def radius_ratio(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Normalised radius ratio 3 r_in / R_circ per tet (1 = regular, 0 = degenerate)."""
+    a = points[tets]
+    vol = np.abs(tet_volumes(points, tets))
+    faces = a[:, _TET_FACES]  # (m, 4, 3, 3)
+    fa = 0.5 * np.linalg.norm(np.cross(faces[:, :, 1] - faces[:, :, 0], faces[:, :, 2] - faces[:, :, 0]), axis=2)
+    r_in = 3.0 * vol / fa.sum(axis=1)
+    # circumradius: |a^2 (b x c) + b^2 (c x a) + c^2 (a x b)| / (12 V) with edges from vertex 0
+    b, c, d = a[:, 1] - a[:, 0], a[:, 2] - a[:, 0], a[:, 3] - a[:, 0]
+    num = (np.einsum("ij,ij->i", b, b)[:, None] * np.cross(c, d) + np.einsum("ij,ij->i", c, c)[:, None] * np.cross(d, b)
+           + np.einsum("ij,ij->i", d, d)[:, None] * np.cross(b, c))
+    R = np.linalg.norm(num, axis=1) / np.maximum(12.0 * vol, 1e-300)
+    return 3.0 * r_in / np.maximum(R, 1e-300)
+
+
+def _surface(shape, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Tessellation with coincident vertices merged (OCC repeats edge vertices per face)."""
+    from .cad import tessellate
+
+    V, F = tessellate(shape, tol)
+    U, inv = np.unique(V, axis=0, return_inverse=True)
+    return U, inv.reshape(-1)[F]
+
+
+def _polydata(V, F):
+    import pyvista as pv
+
+    return pv.PolyData(V, np.hstack([np.full((len(F), 1), 3), F]).astype(np.int64).ravel())
+
+
+def default_mesh_size(link) -> float:
+    """Default target edge length, mm: 0.6 x the mean wall thickness 2V/A, at most diag/20.
+
+    P2 tets bend well with one to two elements through a wall, so the
+    thinnest walls set the size; 2V/A is the thickness of a plate and a
+    generous estimate for compact parts, hence the cap.
+    """
+    s = link.body
+    t = 2.0 * s.Volume() / s.Area()
+    return float(min(0.6 * t, s.BoundingBox().DiagonalLength / 20.0))
+
+
+def cache_dir_default() -> Path:
+    return Path(os.environ.get("LINKFEA_CACHE_DIR", ".cache/meshes"))
+
+
+# --------------------------------------------------------------------------- meshing
+def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, epsilon: float = DEFAULT_EPSILON,
+              cache_dir: str | Path | None = None, use_cache: bool = True,
+              progress: Callable[[str], None] | None = None) -> LinkMesh:
+    """Mesh a :class:`linkfea.cad.Link` into a :class:`LinkMesh`.
+
+    Parameters
+    ----------
+    link : Link
+    mesh_size : float, optional
+        Absolute target edge length, mm (default :func:`default_mesh_size`).
+    with_block : bool
+        Mesh the reference block too (block mode); in rigid mode it is left out
+        and the tip faces are coupled directly.
+    epsilon : float
+        fTetWild envelope relative to the bounding-box diagonal.
+    cache_dir : path, optional
+        Mesh cache folder (default ``$LINKFEA_CACHE_DIR`` or ``.cache/meshes``).
+    use_cache : bool
+        Read and write the cache.
+    progress : callable, optional
+        Called with a short message at each stage.
+
+    Raises
+    ------
+    LinkFeaError
+        Bad size, a selector matching no mesh facet, overlapping interfaces,
+        inverted or missing cells.
+    """
+    say = progress or (lambda msg: None)
+    H = default_mesh_size(link) if mesh_size is None else float(mesh_size)
+    if not (np.isfinite(H) and H > 0):
+        raise LinkFeaError(f"mesh size must be a positive number of mm, got {mesh_size}")
+    if not (np.isfinite(epsilon) and 0 < epsilon < 0.1):
+        raise LinkFeaError(f"mesh envelope epsilon must be in (0, 0.1), got {epsilon}")
+    block_solid = link.block if with_block else None
+    if with_block and block_solid is None:
+        raise LinkFeaError(f"{link.name}: block mode needs a reference block; use --mode rigid")
+
+    import cadquery as cq
+
+    whole = link.body if block_solid is None else cq.Compound.makeCompound([link.body, block_solid])
+    diag = whole.BoundingBox().DiagonalLength
+    if H > diag:
+        raise LinkFeaError(f"mesh size {H:g} mm exceeds the part size ({diag:.3g} mm bounding-box diagonal)")
+    env = epsilon * diag
+    # The tessellation is what fTetWild sees; keep its chord error well inside the envelope.
+    ttol = 0.25 * env
+    say("tessellating")
+    Vb, Fb = _surface(link.body, ttol)
+    parts = [(Vb, Fb)]
+    if block_solid is not None:
+        parts.append(_surface(block_solid, ttol))
+    V = np.vstack([p[0] for p in parts])
+    offs = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
+    F = np.vstack([p[1] + o for p, o in zip(parts, offs)])
+
+    import pytetwild
+
+    h = hashlib.sha256()
+    for p in parts:
+        h.update(np.ascontiguousarray(p[0], dtype="<f8").tobytes())
+        h.update(np.ascontiguousarray(p[1], dtype="<i8").tobytes())
+    h.update(repr((MESH_VERSION, getattr(pytetwild, "__version__", "?"), float(H), float(epsilon),
+                   len(parts))).encode())
+    key = h.hexdigest()
+    cdir = Path(cache_dir) if cache_dir is not None else cache_dir_default()
+    cfile = cdir / f"{key}.npz"
+    if use_cache and cfile.is_file():
+        say("mesh from cache")
+        with np.load(cfile) as z:
+            points, tets = z["points"], z["tets"]
+    else:
+        say(f"meshing with fTetWild (edge {H:.3g} mm)")
+        try:
+            points, tets = pytetwild.tetrahedralize(V, F.astype(np.int32), edge_length_abs=H, epsilon=epsilon,
+                                                    quiet=True)
+        except Exception as exc:  # the extension raises RuntimeError on hopeless input
+            raise LinkFeaError(f"{link.name}: fTetWild failed: {exc}") from None
+        points, tets = _clean(np.asarray(points, dtype=float), np.asarray(tets, dtype=np.int64))
+        if use_cache:
+            _save_npz(cfile, points=points, tets=tets)
+    if len(tets) == 0:
+        raise LinkFeaError(f"{link.name}: the mesher produced no tetrahedra (mesh size {H:g} mm too large?)")
+    say("tagging interfaces")
+    return _finish(link, points, tets, block_solid, H, env, ttol, key if use_cache else "")
+
+
+def _clean(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Orient tets positively and drop unreferenced points."""
+    vol = tet_volumes(points, tets)
+    neg = vol < 0
+    tets = tets.copy()
+    tets[neg] = tets[neg][:, [0, 2, 1, 3]]
+    used, inv = np.unique(tets, return_inverse=True)
+    return points[used], inv.reshape(tets.shape).astype(np.int64)
+
+
+def _save_npz(path: Path, **arrays) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz.tmp")
+    os.close(fd)
+    try:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def select_facets(points: np.ndarray, tris: np.ndarray, faces, tol: float, ttol: float) -> np.ndarray:
+    """Mask of triangles lying on CAD ``faces``: all 3 vertices within ``tol`` and normal aligned.
+
+    ``tol`` is the mesher's envelope (plus tessellation error), so vertices the
+    mesher moved off the CAD surface are still caught.
+    """
+    if len(tris) == 0 or not faces:
+        return np.zeros(len(tris), dtype=bool)
+    import cadquery as cq
+
+    Vf, Ff = _surface(cq.Compound.makeCompound(faces), ttol)
+    surf = _polydata(Vf, Ff)
+    _, fn = tri_areas_normals(Vf, Ff)
+    lo, hi = Vf.min(0) - tol, Vf.max(0) + tol
+    vid = np.unique(tris)
+    near = np.zeros(len(points), dtype=bool)
+    cand = vid[np.all((points[vid] >= lo) & (points[vid] <= hi), axis=1)]
+    if len(cand):
+        _, cp = surf.find_closest_cell(points[cand], return_closest_point=True)
+        near[cand] = np.linalg.norm(points[cand] - cp, axis=1) <= tol
+    sel = near[tris].all(axis=1)
+    if sel.any():
+        idx = np.flatnonzero(sel)
+        _, tn = tri_areas_normals(points, tris[idx])
+        cells = surf.find_closest_cell(points[tris[idx]].mean(axis=1))
+        sel[idx] = np.abs(np.einsum("ij,ij->i", tn, fn[cells])) >= NORMAL_COS
+    return sel
+
+
+def _finish(link, points, tets, block_solid, H, env, ttol, key) -> LinkMesh:
+    from .cad import faces_area_centroid
+
+    name = link.name
+    vol = tet_volumes(points, tets)
+    if np.any(vol <= 0):
+        raise LinkFeaError(f"{name}: mesh has {int(np.sum(vol <= 0))} degenerate tetrahedra")
+    cent = points[tets].mean(axis=1)
+    block = np.zeros(len(tets), dtype=bool)
+    if block_solid is not None:
+        import pyvista as pv
+
+        bV, bF = _surface(block_solid, ttol)
+        bb_lo, bb_hi = bV.min(0) - env, bV.max(0) + env
+        cand = np.flatnonzero(np.all((cent >= bb_lo) & (cent <= bb_hi), axis=1))
+        if len(cand):
+            sel = pv.PolyData(cent[cand]).select_interior_points(_polydata(bV, bF), check_surface=False)
+            block[cand] = np.asarray(sel["selected_points"]).astype(bool)
+        if not block.any():
+            raise LinkFeaError(f"{name}: no mesh cell falls in the reference block (mesh size too large?)")
+
+    uniq, owners, oriented = tet_faces(tets)
+    boundary = owners[:, 1] < 0
+    # Boundary facets of the body only: the block's outer faces are no interface.
+    body_bnd = boundary & ~block[owners[:, 0]]
+    tol = 1.5 * env + ttol
+    bnd_tris = oriented[body_bnd]
+    base_faces, tip_faces = link.base_faces, link.tip_faces
+    if not base_faces:
+        raise LinkFeaError(f"{name}: base selector {link.base} finds no face")
+    if not tip_faces:
+        raise LinkFeaError(f"{name}: tip selector {link.tip} finds no face")
+    base_facets = bnd_tris[select_facets(points, bnd_tris, base_faces, tol, ttol)]
+    if block_solid is not None:
+        two = ~boundary
+        iface = two & (block[owners[:, 0]] != block[np.maximum(owners[:, 1], 0)])
+        tip_facets = oriented[iface]
+    else:
+        tip_facets = bnd_tris[select_facets(points, bnd_tris, tip_faces, tol, ttol)]
+    if len(base_facets) == 0:
+        raise LinkFeaError(f"{name}: base selector {link.base} matches no mesh facet")
+    if len(tip_facets) == 0:
+        raise LinkFeaError(f"{name}: tip selector {link.tip} matches no mesh facet")
+    if np.intersect1d(base_facets, tip_facets).size or (block.any() and np.intersect1d(base_facets, tets[block]).size):
+        raise LinkFeaError(f"{name}: base and tip interfaces overlap in the mesh ({link.base} / {link.tip})")
+
+    A_base_cad, _ = faces_area_centroid(base_faces)
+    A_tip_cad, _ = faces_area_centroid(tip_faces)
+    A_base = tri_areas_normals(points, base_facets)[0].sum()
+    A_tip = tri_areas_normals(points, tip_facets)[0].sum()
+    cad_vol = link.body.Volume() + (block_solid.Volume() if block_solid is not None else 0.0)
+    rr = radius_ratio(points, tets)
+    edges = np.unique(np.sort(np.concatenate([tets[:, [i, j]] for i, j in
+                                              ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))]), axis=1), axis=0)
+    el = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)
+    quality = {
+        "radius_ratio_min": float(rr.min()),
+        "radius_ratio_mean": float(rr.mean()),
+        "n_poor_tets": int(np.sum(rr < 0.1)),
+        "edge_min": float(el.min()),
+        "edge_mean": float(el.mean()),
+        "edge_max": float(el.max()),
+        "volume_error": float(vol.sum() / cad_vol - 1.0),
+        "block_volume": float(vol[block].sum()),
+        "base_area_error": float(A_base / A_base_cad - 1.0),
+        "tip_area_error": float(A_tip / A_tip_cad - 1.0),
+        "n_base_facets": int(len(base_facets)),
+        "n_tip_facets": int(len(tip_facets)),
+        "note": "radius ratio 3 r_in / R_circ (1 = regular tet); errors relative to the CAD",
+    }
+    return LinkMesh(points=points, tets=tets, block=block, base_facets=base_facets, tip_facets=tip_facets,
+                    frame=link.frame, edge_length=float(H), envelope=float(env), quality=quality, cache_key=key)
