@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import VjmError
 from . import effects as fx
 from . import modelops as mo
-from .data import Deflections, StiffnessObs, read_csv
+from .data import StiffnessObs, read_csv
 from .fit.select import Z95, Term, forward_select
 from .locate import localize
 from .predict import CALIBRATION, Context, Predictor, apply_calibration, calibration_term, deflection_problem, \

@@ -136,11 +136,14 @@ def nonlinear_delta(model, P, W) -> np.ndarray:
     hit = _NL_MEMO.get(key)
     if hit is not None and hit[0] is model:
         return hit[1]
-    C = model.stiffness_map(P).C
-    lin = np.einsum("nij,nj->ni", C, W)
-    nl = _deflections_parallel(model, P, W) if len(P) >= PARALLEL_ROWS else \
-        np.asarray(nonlinear.deflection_map(model, P, W), float)
-    out = nl - lin
+    # repeated (posture, load) rows, common in real measurements, are solved once
+    PW, first, inv = np.unique(np.hstack([P, W]), axis=0, return_index=True, return_inverse=True)
+    Pu, Wu = P[first], W[first]
+    C = stiffness_result(model, Pu).C
+    lin = np.einsum("nij,nj->ni", C, Wu)
+    nl = _deflections_parallel(model, Pu, Wu) if len(Pu) >= PARALLEL_ROWS else \
+        np.asarray(nonlinear.deflection_map(model, Pu, Wu), float)
+    out = (nl - lin)[inv.reshape(-1)]
     if len(_NL_MEMO) > 16:
         _NL_MEMO.clear()
     _NL_MEMO[key] = (model, out)
