@@ -1,0 +1,116 @@
+"""Command line: ``linkfea compute SPEC ... --out result.json``."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import List, Optional
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from .errors import LinkFeaError
+from .io import TWIST, WRENCH
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="Link compliance by finite elements: CAD -> P2 tets -> 6x6 compliance at the link's frame.")
+err_console = Console(stderr=True)
+
+
+@app.callback()
+def _root():
+    """linkfea: a link's CAD to its 6x6 compliance matrix."""
+
+
+def matrix_table(M: np.ndarray, title: str, rows, cols) -> Table:
+    t = Table(title=title, show_lines=False)
+    t.add_column("")
+    for c in cols:
+        t.add_column(c, justify="right")
+    for name, row in zip(rows, M):
+        t.add_row(name, *(f"{v: .3e}" for v in row))
+    return t
+
+
+def _fail(msg: str) -> None:
+    print(f"error: {msg}".replace("\n", " "), file=sys.stderr)
+    raise typer.Exit(code=2)
+
+
+@app.command()
+def compute(
+    spec: str = typer.Argument(..., help="cad/ script (path or name such as 'bar') or a STEP file"),
+    param: Optional[List[str]] = typer.Option(None, "--param", "-p", help="script parameter NAME=VALUE (repeatable)"),
+    mesh_size: Optional[float] = typer.Option(None, "--mesh-size", help="target tet edge length, mm"),
+    mode: str = typer.Option("rigid", "--mode", help="rigid (exact tip coupling) or block (pseudo-rigid block)"),
+    block_ratio: float = typer.Option(1000.0, "--block-ratio", help="block stiffness factor E_block/E (block mode)"),
+    material: Optional[str] = typer.Option(None, "--material", help="material name (steel, aluminium, ...)"),
+    base: Optional[str] = typer.Option(None, "--base", help="base selector, e.g. plane:x=0 or box:x0,y0,z0,x1,y1,z1"),
+    tip: Optional[str] = typer.Option(None, "--tip", help="tip selector, e.g. plane:x=200"),
+    convergence: bool = typer.Option(False, "--convergence", help="3 mesh sizes + Richardson error estimate"),
+    out: Path = typer.Option(Path("out/result.json"), "--out", "-o", help="result JSON; .vtu and .png go beside it"),
+    picture: bool = typer.Option(True, "--picture/--no-picture", help="write the .vtu and .png beside the JSON"),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or tables"),
+):
+    """Compute a link's 6x6 compliance and stiffness at its reference frame."""
+    from .cad import parse_param_args
+    from .io import write_result
+    from .pipeline import compute as run
+
+    console = Console(stderr=True, quiet=quiet)
+    written: list[Path] = []
+    try:
+        params = parse_param_args(param)
+        with console.status("starting") as status:
+            res = run(spec, params=params, mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
+                      material=material, base=base, tip=tip, convergence=convergence,
+                      progress=lambda msg: status.update(f"[bold]{msg}"))
+        out = Path(out)
+        if picture:
+            from .post import write_png, write_vtu
+
+            written.append(write_vtu(out.with_suffix(".vtu"), res))
+            written.append(write_png(out.with_suffix(".png"), res))
+        written.append(write_result(out, res))
+    except LinkFeaError as exc:
+        for p in written:
+            p.unlink(missing_ok=True)
+        _fail(str(exc))
+    except BaseException:
+        for p in written:
+            p.unlink(missing_ok=True)
+        raise
+    if not quiet:
+        con = Console(width=max(Console().width, 100))
+        show(res, con)
+        con.print(f"wrote {', '.join(str(p) for p in written)}")
+
+
+def show(res, console: Console) -> None:
+    """Print the compliance and stiffness tables and the diagnostics."""
+    f = res.compliance.frame
+    console.print(f"[bold]{res.link.name}[/] ({res.material.name}, mode {res.mode}), frame origin "
+                  f"{np.round(f.origin, 4).tolist()} mm, x axis {np.round(f.axes[0], 4).tolist()}")
+    console.print(matrix_table(res.compliance.matrix, "compliance C (t = C w; mm/N, rad/(N mm))", TWIST, WRENCH))
+    console.print(matrix_table(res.compliance.stiffness, "stiffness K = C^-1 (N/mm, N mm/rad)", WRENCH, TWIST))
+    d = res.diagnostics
+    ee = d.get("error_estimate")
+    console.print(f"mesh: {res.mesh.n_nodes} vertices, {res.mesh.n_tets} tets, {res.solution.n_dofs} DOF, "
+                  f"edge {res.mesh.edge_length:.3g} mm; symmetry error {d['symmetry_error']:.2e}, "
+                  f"fit residual {d['fit_residual']:.2e}, error estimate "
+                  + (f"{ee:.2e}" if ee is not None else "not computed (use --convergence)"))
+    console.print("timing (s): " + ", ".join(f"{k} {v:.2f}" for k, v in res.timing.items()))
+
+
+def main(argv=None) -> int:
+    """Console entry point (``linkfea``)."""
+    try:
+        app(args=argv, standalone_mode=True)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

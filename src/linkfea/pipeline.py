@@ -1,0 +1,148 @@
+"""The link stage end to end: CAD -> mesh -> P2 solve -> rigid fit -> checked compliance."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from .errors import LinkFeaError
+from .materials import get_material
+
+MODES = ("rigid", "block")
+
+
+@dataclass(frozen=True)
+class LinkResult:
+    """Everything the link stage produced for one link.
+
+    Attributes
+    ----------
+    link : linkfea.cad.Link
+    mesh : linkfea.mesh.LinkMesh
+        The (finest) mesh.
+    solution : linkfea.fem.FeaSolution
+        The (finest) solution: P2 nodes and the 6 displacement fields.
+    compliance : linkfea.fit.Compliance
+    mode : str
+    block_ratio : float or None
+    material : Material
+    timing : dict
+        Seconds per stage: cad, mesh, assemble, factor, solve, fit (finest mesh), total.
+    diagnostics : dict
+        symmetry_error, fit_residual, min_eigenvalue, error_estimate (None unless convergence ran) and notes.
+    """
+
+    link: object
+    mesh: object
+    solution: object
+    compliance: object
+    mode: str
+    block_ratio: Optional[float]
+    material: object
+    timing: dict = field(default_factory=dict)
+    diagnostics: dict = field(default_factory=dict)
+
+    @property
+    def matrix(self) -> np.ndarray:
+        return self.compliance.matrix
+
+    @property
+    def stiffness(self) -> np.ndarray:
+        return self.compliance.stiffness
+
+
+def _solve_once(link, material, H, mode, block_ratio, cache_dir, say):
+    from .fem import solve_link
+    from .fit import compliance_from_solution
+    from .mesh import mesh_link
+
+    t0 = time.perf_counter()
+    mesh = mesh_link(link, H, with_block=(mode == "block"), cache_dir=cache_dir, progress=say)
+    t_mesh = time.perf_counter() - t0
+    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say)
+    say("fit")
+    t0 = time.perf_counter()
+    comp = compliance_from_solution(sol)
+    t_fit = time.perf_counter() - t0
+    timing = {"mesh": t_mesh, **{k: float(sol.timing.get(k, 0.0)) for k in ("assemble", "factor", "solve")},
+              "fit": t_fit}
+    return mesh, sol, comp, timing
+
+
+def compute(spec, params: dict | None = None, mesh_size: float | None = None, mode: str = "rigid",
+            block_ratio: float = 1000.0, material: str | None = None, base=None, tip=None,
+            convergence: bool = False, progress: Callable[[str], None] | None = None,
+            cache_dir=None) -> LinkResult:
+    """Compute a link's 6x6 compliance at its reference frame.
+
+    Parameters
+    ----------
+    spec : str or Path
+        A cad/ script (path or bare name such as ``"bar"``) or a STEP file.
+    params : dict, optional
+        Script parameters (strings are converted to the defaults' types).
+    mesh_size : float, optional
+        Target edge length, mm (default :func:`linkfea.mesh.default_mesh_size`).
+    mode : {"rigid", "block"}
+        Rigid coupling of the tip interface, or the pseudo-rigid block with
+        ``E * block_ratio``.
+    material : str, optional
+        Overrides the script's material (STEP default: steel).
+    base, tip : str or selector, optional
+        Interface selectors (required for STEP, optional overrides for scripts).
+    convergence : bool
+        Also solve at ``2h`` and ``sqrt(2) h`` and put the Richardson error
+        estimate of the finest compliance into ``diagnostics["error_estimate"]``.
+    progress : callable, optional
+        Called with a short message at each stage.
+    cache_dir : path, optional
+        Mesh cache folder.
+    """
+    from .cad import build_link
+    from .mesh import default_mesh_size
+
+    say = progress or (lambda msg: None)
+    if mode not in MODES:
+        raise LinkFeaError(f"unknown mode {mode!r}; use rigid or block")
+    if mode == "block" and not (isinstance(block_ratio, (int, float)) and math.isfinite(block_ratio)
+                                and block_ratio > 1):
+        raise LinkFeaError(f"block ratio must be a number > 1, got {block_ratio}")
+    if mesh_size is not None and not (math.isfinite(mesh_size) and mesh_size > 0):
+        raise LinkFeaError(f"mesh size must be a positive number of mm, got {mesh_size}")
+    t_all = time.perf_counter()
+    say("cad")
+    t0 = time.perf_counter()
+    link = build_link(spec, params, material=material, base=base, tip=tip, with_block=(mode == "block"))
+    mat = get_material(link.material)
+    t_cad = time.perf_counter() - t0
+    H = float(mesh_size) if mesh_size is not None else default_mesh_size(link)
+
+    diagnostics = {}
+    if convergence:
+        from .convergence import richardson
+
+        sizes = [2.0 * H, math.sqrt(2.0) * H, H]
+        runs = []
+        for h in sizes:
+            say(f"convergence: mesh size {h:.3g} mm")
+            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say))
+        rich = richardson(sizes, [r[2].matrix for r in runs])
+        mesh, sol, comp, timing = runs[-1]
+        diagnostics["error_estimate"] = float(rich.error_diagonal)
+        diagnostics["observed_order"] = float(rich.order_diagonal)
+        diagnostics["convergence_sizes"] = sizes
+        diagnostics["error_estimate_note"] = ("Richardson estimate of the relative error of the diagonal "
+                                              "(largest entry) from 3 mesh sizes" + (f"; {rich.note}" if rich.note else ""))
+    else:
+        mesh, sol, comp, timing = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say)
+        diagnostics["error_estimate"] = None
+        diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
+    diagnostics.update(symmetry_error=float(comp.symmetry_error), fit_residual=float(comp.fit_residual),
+                       min_eigenvalue=float(comp.min_eigenvalue))
+    timing = {"cad": t_cad, **timing, "total": time.perf_counter() - t_all}
+    return LinkResult(link=link, mesh=mesh, solution=sol, compliance=comp, mode=mode,
+                      block_ratio=float(block_ratio) if mode == "block" else None, material=mat,
+                      timing=timing, diagnostics=diagnostics)

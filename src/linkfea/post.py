@@ -1,0 +1,87 @@
+"""Post-processing: the deformed mesh as .vtu and an off-screen PNG picture."""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .io import WRENCH
+
+PICTURE_CASE = 1
+"""Load case drawn in the PNG: unit Fy (lateral bending)."""
+
+
+def _tmp_beside(path: Path, suffix: str) -> str:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=suffix)
+    os.close(fd)
+    os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
+    return tmp
+
+
+def solution_grid(res):
+    """pyvista UnstructuredGrid of the P2 mesh with the 6 displacement fields as point data.
+
+    Point arrays ``u_Fx`` ... ``u_Mz`` (mm per N or per N mm); cell array
+    ``block`` (1 for reference-block cells).
+    """
+    import pyvista as pv
+
+    sol = res.solution
+    cells = np.asarray(sol.cells, dtype=np.int64)
+    grid = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TETRA: cells}, np.asarray(sol.points, dtype=float))
+    for k, name in enumerate(WRENCH):
+        grid.point_data[f"u_{name}"] = np.asarray(sol.displacements[k], dtype=float)
+    grid.cell_data["block"] = np.asarray(res.mesh.block, dtype=np.int8)
+    return grid
+
+
+def write_vtu(path, res) -> Path:
+    """Write the P2 mesh with the 6 unit-load displacement fields (atomic)."""
+    path = Path(path)
+    tmp = _tmp_beside(path, ".vtu")
+    try:
+        solution_grid(res).save(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_png(path, res, case: int = PICTURE_CASE, scale: float | None = None,
+              window_size=(1200, 800)) -> Path:
+    """Off-screen picture of load case ``case`` deformed by ``scale`` (atomic).
+
+    The default scale makes the largest displacement 10 % of the bounding-box
+    diagonal; it is printed in the title.
+    """
+    import pyvista as pv
+
+    path = Path(path)
+    grid = solution_grid(res)
+    u = grid.point_data[f"u_{WRENCH[case]}"]
+    umax = float(np.linalg.norm(u, axis=1).max())
+    diag = float(np.linalg.norm(np.ptp(grid.points, axis=0)))
+    if scale is None:
+        scale = 0.1 * diag / umax if umax > 0 else 1.0
+    grid.point_data["|u|"] = np.linalg.norm(u, axis=1)
+    warped = grid.warp_by_vector(f"u_{WRENCH[case]}", factor=scale)
+    pl = pv.Plotter(off_screen=True, window_size=list(window_size))
+    pl.add_mesh(grid.extract_surface(algorithm="dataset_surface"), style="wireframe", color="grey", opacity=0.3)
+    pl.add_mesh(warped.extract_surface(algorithm="dataset_surface"), scalars="|u|", show_edges=False,
+                scalar_bar_args={"title": f"displacement per unit {WRENCH[case]} (mm)"})
+    pl.add_text(f"{res.link.name}: unit {WRENCH[case]}, deformation x {scale:.3g}", font_size=10)
+    pl.view_isometric()
+    tmp = _tmp_beside(path, ".png")
+    try:
+        pl.screenshot(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    finally:
+        pl.close()
+    return path
