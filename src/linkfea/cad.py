@@ -391,9 +391,11 @@ def load_step(path, base: Selector, tip: Selector, material: str = "steel",
     except Exception as exc:  # OCC raises bare exceptions on unreadable files
         raise LinkFeaError(f"cannot read STEP file {str(path)!r}: {exc}") from None
     solids = shape.Solids() if hasattr(shape, "Solids") else []
-    if len(solids) != 1:
-        raise LinkFeaError(f"{path.name}: expected one closed solid, found {len(solids)} "
-                           "(an open shell or several bodies?)")
+    if not solids:
+        raise LinkFeaError(f"{path.name}: no closed solid in the STEP file (an open shell is not watertight)")
+    if len(solids) > 1:
+        raise LinkFeaError(f"{path.name}: expected one solid, found {len(solids)} "
+                           "(several bodies, or a self-intersecting solid split on import)")
     body = solids[0]
     validate_solid(body, path.name)
     get_material(material)
