@@ -103,6 +103,45 @@ def show(res, console: Console) -> None:
     console.print("timing (s): " + ", ".join(f"{k} {v:.2f}" for k, v in res.timing.items()))
 
 
+@app.command("compare")
+def compare_cmd(
+    spec: str = typer.Argument(..., help="cad/ script (path or name such as 'bar') or a STEP file"),
+    beams: str = typer.Option("1,2,4,8", "--beams", help="numbers of beams N, comma separated"),
+    param: Optional[List[str]] = typer.Option(None, "--param", "-p", help="script parameter NAME=VALUE (repeatable)"),
+    mesh_size: Optional[float] = typer.Option(None, "--mesh-size", help="FEA target tet edge length, mm"),
+    mode: str = typer.Option("rigid", "--mode", help="rigid (exact tip coupling) or block (pseudo-rigid block)"),
+    material: Optional[str] = typer.Option(None, "--material", help="material name (steel, aluminium, ...)"),
+    base: Optional[str] = typer.Option(None, "--base", help="base selector (required for STEP files)"),
+    tip: Optional[str] = typer.Option(None, "--tip", help="tip selector (required for STEP files)"),
+    out: Path = typer.Option(..., "--out", "-o", help="output folder for compare.json, compare.md, compare.png"),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or summary"),
+):
+    """Beam or FEA? The FEA compliance against N-beam models cut from the CAD (see linkfea.compare)."""
+    from .cad import parse_param_args
+    from .compare import compare as run
+
+    console = Console(stderr=True, quiet=quiet)
+    try:
+        params = parse_param_args(param)
+        with console.status("starting") as status:
+            rec = run(spec, beams, params=params, mesh_size=mesh_size, mode=mode, out=out, material=material,
+                      base=base, tip=tip, progress=lambda msg: status.update(f"[bold]{msg}"))
+    except LinkFeaError as exc:
+        _fail(str(exc))
+    if not quiet:
+        t = Table(title=f"{rec['link']}: max principal compliance error vs FEA, % (translation / rotation)")
+        for c in ("N", "Euler-Bernoulli", "Timoshenko", "max angle (deg)"):
+            t.add_column(c, justify="right")
+        for m in rec["beams"]:
+            e, s = m["euler_bernoulli"]["summary"], m["timoshenko"]["summary"]
+            t.add_row(str(m["n"]), *(f"{100 * x['max_principal_error_translation']:.1f} / "
+                                     f"{100 * x['max_principal_error_rotation']:.1f}" for x in (e, s)),
+                      f"{s['max_angle_deg']:.1f}")
+        con = Console(width=max(Console().width, 100))
+        con.print(t)
+        con.print(f"wrote {', '.join(str(Path(out) / n) for n in ('compare.json', 'compare.md', 'compare.png'))}")
+
+
 def main(argv=None) -> int:
     """Console entry point (``linkfea``)."""
     try:
