@@ -1,0 +1,114 @@
+"""`linkfea compute` end to end on a coarse bar, and its failure modes."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from linkfea.cli import app
+from linkfea.errors import LinkFeaError
+from linkfea.io import read_result, write_json_atomic
+
+KEYS = {"compliance", "stiffness", "units", "frame", "mesh", "diagnostics", "timing", "versions",
+        "name", "params", "material", "mode"}
+
+
+@pytest.fixture(scope="module")
+def env(tmp_path_factory):
+    e = dict(os.environ)
+    e["LINKFEA_CACHE_DIR"] = str(tmp_path_factory.mktemp("meshes"))
+    return e
+
+
+@pytest.fixture(scope="module")
+def run_ok(tmp_path_factory, env):
+    out = tmp_path_factory.mktemp("cli") / "res" / "bar.json"
+    runner = CliRunner()
+    r = runner.invoke(app, ["compute", "bar", "--param", "length=120", "--mesh-size", "6", "--out", str(out)],
+                      env={"LINKFEA_CACHE_DIR": env["LINKFEA_CACHE_DIR"]})
+    assert r.exit_code == 0, r.output
+    return out, r.output
+
+
+def test_cli_writes_json_vtu_png(run_ok):
+    out, text = run_ok
+    doc = json.loads(out.read_text())
+    assert KEYS <= set(doc)
+    assert {"n_nodes", "n_tets", "n_dofs", "edge_length", "quality"} <= set(doc["mesh"])
+    assert {"symmetry_error", "fit_residual", "min_eigenvalue", "error_estimate"} <= set(doc["diagnostics"])
+    assert doc["diagnostics"]["error_estimate"] is None
+    assert {"cad", "mesh", "assemble", "factor", "solve", "fit"} <= set(doc["timing"])
+    assert doc["params"]["length"] == 120.0 and doc["mode"] == "rigid"
+    C, K = np.array(doc["compliance"]), np.array(doc["stiffness"])
+    np.testing.assert_allclose(C, C.T, rtol=0, atol=1e-12 * np.abs(C).max())
+    assert np.all(np.linalg.eigvalsh(C) > 0)
+    np.testing.assert_allclose(C @ K, np.eye(6), atol=1e-8)
+    np.testing.assert_allclose(doc["frame"]["origin"], [120.0, 0.0, 0.0])
+    png = out.with_suffix(".png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
+    import meshio
+
+    vtu = meshio.read(out.with_suffix(".vtu"))
+    assert "u_Fy" in vtu.point_data and vtu.point_data["u_Fy"].shape == (len(vtu.points), 3)
+    assert "compliance" in text and "stiffness" in text
+
+
+def test_read_result_validates(run_ok, tmp_path):
+    out, _ = run_ok
+    doc = read_result(out)
+    assert doc["compliance"].shape == (6, 6)
+    np.testing.assert_allclose(doc["frame_obj"].origin, [120.0, 0.0, 0.0])
+    raw = json.loads(out.read_text())
+    bad = dict(raw, compliance=(np.array(raw["compliance"]) + np.triu(np.ones((6, 6)), 1) * 1e-3).tolist())
+    write_json_atomic(tmp_path / "asym.json", bad)
+    with pytest.raises(LinkFeaError, match="symmetric"):
+        read_result(tmp_path / "asym.json")
+    neg = dict(raw, compliance=(-np.eye(6)).tolist())
+    write_json_atomic(tmp_path / "neg.json", neg)
+    with pytest.raises(LinkFeaError, match="positive definite"):
+        read_result(tmp_path / "neg.json")
+    with pytest.raises(LinkFeaError, match="not found"):
+        read_result(tmp_path / "nothing.json")
+    (tmp_path / "short.json").write_text(json.dumps({"compliance": [[1.0]]}))
+    with pytest.raises(LinkFeaError, match="missing"):
+        read_result(tmp_path / "short.json")
+
+
+def _linkfea(args, env):
+    return subprocess.run([sys.executable, "-m", "linkfea", *args], capture_output=True, text=True, env=env,
+                          timeout=300)
+
+
+@pytest.mark.parametrize("args", [
+    ["bar", "--param", "length=0"],
+    ["bar", "--param", "width=nan"],
+    ["bar", "--material", "unobtainium"],
+    ["bar", "--param", "colour=red"],
+    ["bar", "--tip", "plane:x=99"],
+    ["bar", "--base", "plane:x=200", "--tip", "plane:x=200"],
+    ["bar", "--mode", "elastic"],
+    ["missing.step", "--base", "plane:x=0", "--tip", "plane:x=1"],
+])
+def test_bad_input_gives_one_error_line_and_no_file(args, env, tmp_path):
+    out = tmp_path / "o" / "r.json"
+    p = _linkfea(["compute", *args, "--out", str(out)], env)
+    assert p.returncode == 2
+    lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), p.stderr
+    assert not out.parent.exists() or not any(out.parent.iterdir())
+
+
+def test_broken_step_via_cli(env, tmp_path):
+    import cadquery as cq
+
+    box = cq.Workplane().box(100, 10, 10, centered=(False, True, True)).val()
+    shell = cq.Shell.makeShell([f for f in box.Faces() if f.Center().x < 99.0])
+    step = tmp_path / "open.step"
+    cq.exporters.export(cq.Workplane().add(shell), str(step))
+    out = tmp_path / "o" / "r.json"
+    p = _linkfea(["compute", str(step), "--base", "plane:x=0", "--tip", "plane:x=100", "--out", str(out)], env)
+    assert p.returncode == 2 and p.stderr.strip().startswith("error: ") and "closed solid" in p.stderr
+    assert not out.exists() and not out.with_suffix(".png").exists()
