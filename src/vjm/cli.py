@@ -15,6 +15,8 @@ from typing import Optional
 import numpy as np
 import typer
 
+from linkfea.atomic import atomic_path
+
 from .errors import VjmError
 
 app = typer.Typer(add_completion=False, help="Virtual-joint-method stiffness of parallel machines.")
@@ -106,11 +108,10 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
             kt[ok], kr[ok], K[ok] = r.k_tran, r.k_rot, r.K
         os.makedirs(out, exist_ok=True)
         shape = G.shape[:3]
-        tmp = os.path.join(out, ".map.tmp.npz")
-        np.savez_compressed(tmp, points=P, K=K, k_tran=kt, k_rot=kr, reachable=ok, shape=np.array(shape),
-                            note=np.array("K world axes at the end-effector point; k_tran mm/N, k_rot rad/(N mm); "
-                                          "NaN = unreachable"))
-        os.replace(tmp, os.path.join(out, "map.npz"))
+        with atomic_path(os.path.join(out, "map.npz")) as tmp:
+            np.savez_compressed(tmp, points=P, K=K, k_tran=kt, k_rot=kr, reachable=ok, shape=np.array(shape),
+                                note=np.array("K world axes at the end-effector point; k_tran mm/N, "
+                                              "k_rot rad/(N mm); NaN = unreachable"))
         _plots(out, axes, shape, kt, kr, fixed, m.architecture)
     except VjmError as exc:
         _fail(exc)
@@ -138,10 +139,9 @@ def _plots(out, axes, shape, kt, kr, fixed, title):
         ax.set_ylabel(f"{'xyz'[keep[1]]} [mm]")
         ax.set_title(f"{title}: {name}, {'xyz'[k]} = {np.asarray(axes[k])[idx]:.4g} mm")
         fig.tight_layout()
-        tmp = os.path.join(out, f".{name}.tmp.png")
-        fig.savefig(tmp, dpi=110)
+        with atomic_path(os.path.join(out, f"{name}.png")) as tmp:
+            fig.savefig(tmp, dpi=110)
         plt.close(fig)
-        os.replace(tmp, os.path.join(out, f"{name}.png"))
 
 
 def read_seed_table(path=SEED_TABLE) -> list[dict]:

@@ -32,10 +32,11 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 
 import numpy as np
 import yaml
+
+from linkfea.atomic import write_text
 
 from .errors import VjmError
 from .model import Actuator, Joints, Link, Model, validate_compliance
@@ -243,15 +244,7 @@ def save_model(model: Model, path) -> None:
     path = os.path.abspath(os.fspath(path))
     out_dir = os.path.dirname(path)
     text = HEADER + yaml.safe_dump(model_to_dict(model, out_dir), sort_keys=False, default_flow_style=None)
-    fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=".tmp-", suffix=".yaml")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_text(path, text)
 
 
 def with_links(model_path, out_path, foot=None, leg=None) -> Model:

@@ -23,10 +23,11 @@ import csv
 import io
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from linkfea.atomic import write_text
 
 from ..errors import VjmError
 
@@ -273,21 +274,6 @@ def _parse_stiffness_wide(path, header, hdr_row, body, wide):
     return StiffnessObs(np.array(P), np.array(q, int), np.array(v), None, np.array(rows), str(path), extra)
 
 
-def atomic_write_text(path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and ``os.replace``."""
-    path = os.fspath(path)
-    d = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp_", dir=d)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def write_deflections(path, data: Deflections, header_comment: str | None = None) -> None:
     """Write deflection measurements in the CSV format read by :func:`read_csv`."""
     buf = io.StringIO()
@@ -312,4 +298,4 @@ def write_deflections(path, data: Deflections, header_comment: str | None = None
         if data.sigma_r is not None:
             rec.append(fmt(data.sigma_r[k]))
         w.writerow(rec)
-    atomic_write_text(path, buf.getvalue())
+    write_text(path, buf.getvalue())
