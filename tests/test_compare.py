@@ -5,7 +5,7 @@ import cadquery as cq
 import numpy as np
 import pytest
 
-from linkfea.cad import CAD_DIR, Link, Plane, build_link
+from linkfea.cad import Link, Plane, build_link
 from linkfea.compare import (beam_model, compare_compliance, compare_link, link_beam_model, parse_beams,
                              write_outputs)
 from linkfea.errors import LinkFeaError
@@ -128,26 +128,34 @@ def test_principal_errors_of_a_known_perturbation():
     assert r["principal"]["translation"]["max_relative_error"] == pytest.approx(0.0, abs=1e-12)
 
 
-FOOT_MESH = None  # the mesher's default edge length for the foot
-
-
-@pytest.mark.skipif(not (CAD_DIR / "orthoglide_foot.py").is_file(),
-                    reason="cad/orthoglide_foot.py IS MISSING: the foot comparison cannot run")
 def test_foot_comparison_end_to_end(tmp_path):
-    """The Orthoglide foot (cad/orthoglide_foot.py, default parameters), through the real FEA and
-    N = 1, 2, 4, 8 beam models: every error in compare.json is finite, outputs complete.
-    (No accuracy is asserted: how well beams fit the foot is the finding, see docs/beam_vs_fea.md.)"""
+    """The Orthoglide foot (cad/orthoglide_foot.py, default parameters and the mesher's default edge
+    length), through the real pipeline (:func:`linkfea.pipeline.compute`) and N = 1, 2, 4, 8 beam
+    models.  Checked: every error in compare.json is finite; the JSON's errors are the stated
+    definition applied to the JSON's own FEA and beam matrices (an invariant, not a stored number);
+    the FEA compliance is symmetric positive definite; outputs complete.  No accuracy is asserted:
+    how well beams fit the foot is the finding (docs/beam_vs_fea.md)."""
     from linkfea.compare import compare
 
     out = tmp_path / "foot"
-    rec = compare("orthoglide_foot", "1,2,4,8", mesh_size=FOOT_MESH, out=out)
+    rec = compare("orthoglide_foot", "1,2,4,8", out=out)
     data = json.loads((out / "compare.json").read_text())
+    assert data["link"] == "orthoglide_foot" and data["material"]["name"] == "aluminium"
     assert [m["n"] for m in data["beams"]] == [1, 2, 4, 8]
+    C = np.array(data["fea"]["compliance"])
+    assert np.all(np.linalg.eigvalsh(C) > 0) and np.allclose(C, C.T, rtol=0, atol=1e-12 * np.abs(C).max())
+    assert data["fea"]["mesh"]["n_tets"] > 0 and data["fea"]["mode"] == "rigid"
+    d = np.sqrt(np.diag(C))
     for m in data["beams"]:
-        for key in ("timoshenko", "euler_bernoulli"):
+        assert len(m["stations"]) == m["n"] and len(m["sections"]) == m["n"]
+        for key, ckey in (("timoshenko", "compliance_timoshenko"), ("euler_bernoulli", "compliance_euler_bernoulli")):
             r = m[key]
             assert np.all(np.isfinite(r["entry_error"]))
             assert np.all(np.isfinite(list(r["summary"].values())))
-            assert np.all(np.isfinite(r["principal"]["translation"]["relative_error"]))
+            for blk in ("translation", "rotation"):
+                assert np.all(np.isfinite(r["principal"][blk]["relative_error"]))
+                assert np.all(np.isfinite(r["principal"][blk]["angle_deg"]))
+            np.testing.assert_allclose(r["entry_error"], (np.array(m[ckey]) - C) / np.outer(d, d), atol=1e-12)
     assert rec["beams"][0]["n"] == 1
     assert (out / "compare.png").stat().st_size > 10_000
+    assert "| Timoshenko | 8 |" in (out / "compare.md").read_text()

@@ -294,46 +294,32 @@ def compare_link(link, C_fea, beams=DEFAULT_BEAMS, axis=None, fea_info: dict | N
     }
 
 
-def fea_compliance(spec, params=None, mesh_size=None, mode="rigid"):
+def fea_compliance(spec, params=None, mesh_size=None, mode="rigid", material=None, base=None, tip=None,
+                   progress=None):
     """FEA compliance of a link spec in its frame, and the link: ``(C, link, info)``.
 
-    Uses :func:`linkfea.pipeline.compute` where available, otherwise the same
-    stages directly (mesh, P2 solve, rigid fit).
+    Runs :func:`linkfea.pipeline.compute` (the one home of CAD -> mesh -> P2
+    solve -> rigid fit) and keeps what the comparison record needs.
     """
-    try:
-        from . import pipeline
-    except ImportError:
-        pipeline = None
-    if pipeline is not None and hasattr(pipeline, "compute"):
-        res = pipeline.compute(spec, params=params, mesh_size=mesh_size, mode=mode)
-        return _unpack_result(res, spec, params)
-    from .cad import build_link
-    from .fem import solve_link
-    from .fit import compliance_from_solution
-    from .mesh import mesh_link
+    from .pipeline import compute as run
 
-    if mode not in ("rigid", "block"):
-        raise LinkFeaError(f"mode must be 'rigid' or 'block', got {mode!r}")
-    link = build_link(spec, params)
-    mesh = mesh_link(link, mesh_size, with_block=(mode == "block"))
-    comp = compliance_from_solution(solve_link(mesh, get_material(link.material), mode))
-    info = {"mode": mode, "mesh": {"n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets),
-                                   "edge_length": float(mesh.edge_length)},
-            "diagnostics": {"symmetry_error": float(comp.symmetry_error), "fit_residual": float(comp.fit_residual)}}
-    return comp.to_frame(link.frame).matrix, link, info
+    res = run(spec, params=params, mesh_size=mesh_size, mode=mode, material=material, base=base, tip=tip,
+              progress=progress)
+    return fea_info(res)
 
 
-def _unpack_result(res, spec, params):
-    from .cad import build_link
-
-    C = getattr(res, "compliance", res)
-    C = getattr(C, "matrix", C)
-    link = getattr(res, "link", None) or build_link(spec, params)
-    info = {}
-    for k in ("mesh", "diagnostics", "mode"):
-        v = getattr(res, k, None)
-        if isinstance(v, (dict, str)):
-            info[k] = v
+def fea_info(res) -> tuple:
+    """``(C, link, info)`` of a :class:`linkfea.pipeline.LinkResult`: C in ``res.link.frame``."""
+    link, mesh, comp = res.link, res.mesh, res.compliance
+    # The pipeline fits at the mesh frame, which is the link frame; the adjoint map makes that explicit.
+    C = comp.to_frame(link.frame).matrix
+    d = res.diagnostics
+    info = {"mode": res.mode, "block_ratio": res.block_ratio,
+            "mesh": {"n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets), "n_dofs": int(res.solution.n_dofs),
+                     "edge_length": float(mesh.edge_length), "element": "P2 tetrahedron (10 nodes)"},
+            "diagnostics": {k: d.get(k) for k in ("symmetry_error", "fit_residual", "min_eigenvalue",
+                                                  "error_estimate")},
+            "timing_s": {k: float(v) for k, v in res.timing.items()}}
     return np.asarray(C, dtype=float), link, info
 
 
@@ -431,6 +417,7 @@ def _atomic_write(path: Path, data: bytes) -> None:
     """Write to a temporary name in the same folder, then rename (no partial file)."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
+        os.chmod(tmp, 0o644)  # mkstemp makes 0600; reports are meant to be shared
         with os.fdopen(fd, "wb") as f:
             f.write(data)
         os.replace(tmp, path)
@@ -440,7 +427,8 @@ def _atomic_write(path: Path, data: bytes) -> None:
         raise
 
 
-def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid", out=None, axis=None) -> dict:
+def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid", out=None, axis=None,
+            material=None, base=None, tip=None, progress=None) -> dict:
     """FEA versus N-beam models of a link; optionally write ``out``/compare.{json,md,png}.
 
     Parameters
@@ -458,6 +446,11 @@ def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid"
         Output folder.
     axis : 3-vector, optional
         Beam axis in link-frame components (default x).
+    material, base, tip : str, optional
+        Material override and interface selectors (required for a STEP file),
+        as in :func:`linkfea.pipeline.compute`.
+    progress : callable, optional
+        Called with a short message at each FEA stage.
 
     Returns
     -------
@@ -465,7 +458,9 @@ def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid"
         The comparison record (as written to compare.json).
     """
     beams = parse_beams(beams)  # fail before the (slow) FEA
-    C, link, info = fea_compliance(spec, params, mesh_size, mode)
+    if out is not None and Path(out).exists() and not Path(out).is_dir():
+        raise LinkFeaError(f"--out {str(out)!r} exists and is not a directory")
+    C, link, info = fea_compliance(spec, params, mesh_size, mode, material, base, tip, progress)
     record = compare_link(link, C, beams, axis, info)
     if out is not None:
         write_outputs(record, out)
