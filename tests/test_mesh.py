@@ -128,3 +128,22 @@ def test_quality_report(block_mesh):
     assert 0 < q["radius_ratio_min"] <= q["radius_ratio_mean"] <= 1
     assert q["edge_min"] <= q["edge_mean"] <= q["edge_max"]
     assert abs(q["volume_error"]) < 5e-3 and abs(q["base_area_error"]) < 0.01
+
+
+def test_sizing_field_refines_only_near_small_curved_faces():
+    """A round bar of radius 4 at H = 4 would get ~6 edges around: the field asks for
+    2 pi r / 8 = pi mm on the surface, growing by GRADING per mm, capped at H; a prism needs none."""
+    from linkfea.mesh import GRADING, sizing_field
+
+    H = 4.0
+    assert sizing_field([build_link("bar").body], H, 0.01) is None
+    round_bar = build_link("bar", {"section": "circle", "length": 40, "diameter": 8})
+    pts, tets, vals = sizing_field([round_bar.body], H, 0.01)
+    assert tets.shape[1] == 4 and len(vals) == len(pts) and np.all(vals <= H)
+    r = np.linalg.norm(pts[:, 1:], axis=1)
+    inside = (pts[:, 0] > 1) & (pts[:, 0] < 39)
+    d = np.abs(r - 4.0)
+    expect = np.minimum(H, np.pi + GRADING * d)
+    # Distances are to the tessellated cylinder (chord error ~ 0.01 mm here).
+    np.testing.assert_allclose(vals[inside], expect[inside], atol=0.01)
+    assert vals.min() < np.pi + GRADING * d.min() + 0.01 < H

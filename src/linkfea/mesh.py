@@ -31,7 +31,7 @@ import numpy as np
 from .errors import LinkFeaError
 from .frames import Frame
 
-MESH_VERSION = "linkfea-mesh-1"
+MESH_VERSION = "linkfea-mesh-2"
 """Bumped whenever the meshing code changes the cached arrays."""
 
 DEFAULT_EPSILON = 1e-3
@@ -178,8 +178,71 @@ def cache_dir_default() -> Path:
 
 
 # --------------------------------------------------------------------------- meshing
+SEGMENTS_PER_CIRCLE = 8
+"""A curved face of radius r gets edges of at most 2 pi r / 8 near it (the sizing field)."""
+
+GRADING = 0.3
+"""Growth of the local edge length with the distance from a small curved face (mm per mm)."""
+
+
+def curved_features(shape) -> list[tuple[object, float]]:
+    """(face, radius) of the cylindrical, conical, spherical and toroidal faces of ``shape``."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.GeomAbs import GeomAbs_Cone, GeomAbs_Cylinder, GeomAbs_Sphere, GeomAbs_Torus
+
+    out = []
+    for f in shape.Faces():
+        a = BRepAdaptor_Surface(f.wrapped)
+        t = a.GetType()
+        if t == GeomAbs_Cylinder:
+            r = a.Cylinder().Radius()
+        elif t == GeomAbs_Sphere:
+            r = a.Sphere().Radius()
+        elif t == GeomAbs_Torus:
+            r = a.Torus().MinorRadius()
+        elif t == GeomAbs_Cone:
+            bb = f.BoundingBox()
+            r = 0.5 * min(bb.xlen, bb.ylen, bb.zlen) or 0.5 * max(bb.xlen, bb.ylen, bb.zlen)
+        else:
+            continue
+        out.append((f, float(r)))
+    return out
+
+
+def sizing_field(shapes, H: float, ttol: float):
+    """Background tet grid with a target edge length refined near small curved faces.
+
+    Where a curved face of radius ``r`` would get fewer than
+    :data:`SEGMENTS_PER_CIRCLE` edges around at size ``H``, the size near it is
+    ``h_f = 2 pi r / 8`` and grows by :data:`GRADING` per mm away from it.
+    Returns ``None`` when no face needs it (the uniform size ``H`` is used).
+    """
+    import cadquery as cq
+    import pyvista as pv
+
+    feats = [(f, 2.0 * np.pi * r / SEGMENTS_PER_CIRCLE) for s in shapes for f, r in curved_features(s)]
+    feats = [(f, h) for f, h in feats if h < H]
+    if not feats:
+        return None
+    comp = cq.Compound.makeCompound(list(shapes))
+    bb = comp.BoundingBox()
+    lo = np.array([bb.xmin, bb.ymin, bb.zmin]) - H
+    hi = np.array([bb.xmax, bb.ymax, bb.zmax]) + H
+    h_min = min(h for _, h in feats)
+    step = max(h_min, float(np.linalg.norm(hi - lo)) / 50.0)
+    n = np.maximum(1, np.ceil((hi - lo) / step).astype(int))
+    grid = pv.ImageData(dimensions=tuple(n + 1), spacing=tuple((hi - lo) / n), origin=tuple(lo)).to_tetrahedra()
+    pts = np.asarray(grid.points, dtype=float)
+    vals = np.full(len(pts), float(H))
+    for f, h in feats:
+        Vf, Ff = _surface(f, ttol)
+        _, cp = _polydata(Vf, Ff).find_closest_cell(pts, return_closest_point=True)
+        vals = np.minimum(vals, h + GRADING * np.linalg.norm(pts - cp, axis=1))
+    return pts, np.asarray(grid.cells_dict[pv.CellType.TETRA], dtype=np.int32), vals
+
+
 def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, epsilon: float = DEFAULT_EPSILON,
-              cache_dir: str | Path | None = None, use_cache: bool = True,
+              cache_dir: str | Path | None = None, use_cache: bool = True, sizing: bool = True,
               progress: Callable[[str], None] | None = None) -> LinkMesh:
     """Mesh a :class:`linkfea.cad.Link` into a :class:`LinkMesh`.
 
@@ -197,6 +260,8 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
         Mesh cache folder (default ``$LINKFEA_CACHE_DIR`` or ``.cache/meshes``).
     use_cache : bool
         Read and write the cache.
+    sizing : bool
+        Refine near curved faces too small for ``mesh_size`` (:func:`sizing_field`).
     progress : callable, optional
         Called with a short message at each stage.
 
@@ -240,8 +305,11 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
     for p in parts:
         h.update(np.ascontiguousarray(p[0], dtype="<f8").tobytes())
         h.update(np.ascontiguousarray(p[1], dtype="<i8").tobytes())
+    bg = sizing_field([link.body] + ([block_solid] if block_solid is not None else []), H, ttol) if sizing else None
+    if bg is not None:
+        h.update(np.ascontiguousarray(bg[2], dtype="<f8").tobytes())
     h.update(repr((MESH_VERSION, getattr(pytetwild, "__version__", "?"), float(H), float(epsilon),
-                   len(parts))).encode())
+                   len(parts), bg is not None)).encode())
     key = h.hexdigest()
     cdir = Path(cache_dir) if cache_dir is not None else cache_dir_default()
     cfile = cdir / f"{key}.npz"
@@ -250,10 +318,11 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
         with np.load(cfile) as z:
             points, tets = z["points"], z["tets"]
     else:
-        say(f"meshing with fTetWild (edge {H:.3g} mm)")
+        say(f"meshing with fTetWild (edge {H:.3g} mm{', refined near small curved faces' if bg is not None else ''})")
         try:
+            kw = {} if bg is None else dict(bg_vertices=bg[0], bg_tets=bg[1], bg_values=bg[2])
             points, tets = pytetwild.tetrahedralize(V, F.astype(np.int32), edge_length_abs=H, epsilon=epsilon,
-                                                    quiet=True)
+                                                    quiet=True, **kw)
         except Exception as exc:  # the extension raises RuntimeError on hopeless input
             raise LinkFeaError(f"{link.name}: fTetWild failed: {exc}") from None
         points, tets = _clean(np.asarray(points, dtype=float), np.asarray(tets, dtype=np.int64))
