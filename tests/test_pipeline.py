@@ -101,3 +101,10 @@ def test_a_partly_dropped_clamp_is_visible(rigid):
     sol = solve_link(dataclasses.replace(m, base_facets=half), rigid.material, mode="rigid")
     C = compliance_from_solution(sol).matrix
     assert C[2, 2] > 1.05 * rigid.matrix[2, 2]
+
+
+def test_repeated_run_is_bit_for_bit_identical(rigid, cache):
+    """fTetWild is not deterministic; the mesh cache makes a repeated run give the same matrix exactly."""
+    again = compute("bar", mesh_size=H, mode="rigid", cache_dir=cache)
+    assert again.mesh.cache_key == rigid.mesh.cache_key
+    assert np.array_equal(again.matrix, rigid.matrix)
