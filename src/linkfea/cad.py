@@ -411,7 +411,7 @@ def load_step(path, base: Selector, tip: Selector, material: str = "steel",
     if np.linalg.norm(x) < 1e-9:
         raise LinkFeaError(f"{path.name}: cannot orient the frame (tip and base centroids coincide)")
     frame = Frame.from_x(c_tip, x)
-    block = None
+    block, h = None, None
     if with_block:
         if not planar:
             raise LinkFeaError(f"{path.name}: block mode needs planar, coplanar tip faces; use --mode rigid")
@@ -426,7 +426,7 @@ def load_step(path, base: Selector, tip: Selector, material: str = "steel",
         if block.intersect(body).Volume() > 1e-6 * block.Volume():
             raise LinkFeaError(f"{path.name}: the block extruded from the tip faces runs into the body")
     return Link(name=path.stem, body=body, block=block, base=base, tip=tip, frame=frame,
-                params={"block_length": block_length} if with_block else {},
+                params={"block_length": h} if with_block else {},
                 material=material, source=str(path))
 
 
