@@ -59,7 +59,10 @@ def write_png(path, res, case: int = PICTURE_CASE, scale: float | None = None,
     diagonal; it is printed in the title.
     """
     import pyvista as pv
+    from vtkmodules.vtkCommonCore import vtkLogger
 
+    # Without a display VTK warns before falling back to off-screen rendering: not the user's business.
+    vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
     path = Path(path)
     grid = solution_grid(res)
     u = grid.point_data[f"u_{WRENCH[case]}"]
