@@ -179,3 +179,15 @@ def test_step_block_mode_needs_planar_tip(tmp_path):
     # A bore has no net normal: x runs from the base centroid to the tip centroid.
     np.testing.assert_allclose(rigid.frame.origin, [310.0, 0.0, 0.0], atol=1e-6)
     np.testing.assert_allclose(rigid.frame.axes[0], [1.0, 0.0, 0.0], atol=1e-9)
+
+
+def test_tip_override_rebuilds_frame_and_block():
+    """New interfaces on a script: bottom face (z = -5) clamped, top face (z = +5) as tip.
+    The frame moves to the top face centroid (100, 0, 5) with x = +z (outward normal), and
+    the block is the top face extruded by 0.5 sqrt(200 x 20) mm."""
+    link = build_link("bar", base="plane:z=-5", tip="plane:z=5", with_block=True)
+    np.testing.assert_allclose(link.frame.origin, [100.0, 0.0, 5.0], atol=1e-9)
+    np.testing.assert_allclose(link.frame.axes[0], [0.0, 0.0, 1.0], atol=1e-12)
+    h = 0.5 * math.sqrt(200.0 * 20.0)
+    assert link.block.Volume() == pytest.approx(200.0 * 20.0 * h, rel=1e-9)
+    assert link.block.BoundingBox().zmin == pytest.approx(5.0)

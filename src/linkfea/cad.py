@@ -311,7 +311,8 @@ def build_link(spec, params: dict | None = None, material: str | None = None,
     """Build a :class:`Link` from a cad/ script (name or path) or a STEP file.
 
     For scripts, ``base``/``tip`` override the script's selectors and
-    ``material`` the script's material.  For STEP files ``base`` and ``tip``
+    ``material`` the script's material; a new ``tip`` also rebuilds the frame
+    and the block from the selected faces, as for STEP files.  For STEP files ``base`` and ``tip``
     are required and ``params`` must be empty.
     """
     if material is not None:
@@ -341,6 +342,13 @@ def build_link(spec, params: dict | None = None, material: str | None = None,
         from dataclasses import replace
         link = replace(link, **changes)
     check_link(link)
+    if tip is not None:
+        # A new tip interface: the script's frame and block belong to the old one, so both are
+        # rebuilt from the selected faces by the STEP rule.
+        frame, block, _ = interface_frame_and_block(link.body, link.base_faces, link.tip_faces, with_block,
+                                                    block_length, link.name)
+        from dataclasses import replace
+        link = replace(link, frame=frame, block=block)
     return link
 
 
@@ -402,32 +410,50 @@ def load_step(path, base: Selector, tip: Selector, material: str = "steel",
     link = Link(name=path.stem, body=body, block=None, base=base, tip=tip,
                 frame=Frame(np.zeros(3), np.eye(3)), params={}, material=material, source=str(path))
     check_link(link)
-    tf = link.tip_faces
-    A, c_tip = faces_area_centroid(tf)
-    _, c_base = faces_area_centroid(link.base_faces)
-    n = faces_mean_normal(tf)
-    planar = all(f.geomType() == "PLANE" for f in tf) and np.linalg.norm(n) > 1 - 1e-6
-    x = n if planar else c_tip - c_base
-    if np.linalg.norm(x) < 1e-9:
-        raise LinkFeaError(f"{path.name}: cannot orient the frame (tip and base centroids coincide)")
-    frame = Frame.from_x(c_tip, x)
-    block, h = None, None
-    if with_block:
-        if not planar:
-            raise LinkFeaError(f"{path.name}: block mode needs planar, coplanar tip faces; use --mode rigid")
-        h = block_length if block_length is not None else 0.5 * math.sqrt(A)
-        if not (math.isfinite(h) and h > 0):
-            raise LinkFeaError(f"block length must be > 0 mm, got {h}")
-        v = cq.Vector(*(frame.axes[0] * h))
-        parts = [cq.Solid.extrudeLinear(f, v) for f in tf]
-        block = parts[0] if len(parts) == 1 else cq.Compound.makeCompound(parts).fuse().clean()
-        if hasattr(block, "Solids") and len(block.Solids()) == 1:
-            block = block.Solids()[0]
-        if block.intersect(body).Volume() > 1e-6 * block.Volume():
-            raise LinkFeaError(f"{path.name}: the block extruded from the tip faces runs into the body")
+    frame, block, h = interface_frame_and_block(body, link.base_faces, link.tip_faces, with_block,
+                                                block_length, path.name)
     return Link(name=path.stem, body=body, block=block, base=base, tip=tip, frame=frame,
                 params={"block_length": h} if with_block else {},
                 material=material, source=str(path))
+
+
+def interface_frame_and_block(body, base_faces, tip_faces, with_block: bool, block_length, label: str):
+    """Frame from the tip faces and, with ``with_block``, the block extruded from them.
+
+    Origin: area centroid of the tip faces.  x: their mean outward normal
+    when they are planar and coplanar, otherwise the direction from the base
+    centroid to the tip centroid (a bore).  Block: the tip faces extruded
+    outward by ``block_length`` (default half the square root of their area).
+
+    Returns
+    -------
+    frame, block (or None), block length used (or None)
+    """
+    import cadquery as cq
+
+    A, c_tip = faces_area_centroid(tip_faces)
+    _, c_base = faces_area_centroid(base_faces)
+    n = faces_mean_normal(tip_faces)
+    planar = all(f.geomType() == "PLANE" for f in tip_faces) and np.linalg.norm(n) > 1 - 1e-6
+    x = n if planar else c_tip - c_base
+    if np.linalg.norm(x) < 1e-9:
+        raise LinkFeaError(f"{label}: cannot orient the frame (tip and base centroids coincide)")
+    frame = Frame.from_x(c_tip, x)
+    if not with_block:
+        return frame, None, None
+    if not planar:
+        raise LinkFeaError(f"{label}: block mode needs planar, coplanar tip faces; use --mode rigid")
+    h = block_length if block_length is not None else 0.5 * math.sqrt(A)
+    if not (math.isfinite(h) and h > 0):
+        raise LinkFeaError(f"block length must be > 0 mm, got {h}")
+    v = cq.Vector(*(frame.axes[0] * h))
+    parts = [cq.Solid.extrudeLinear(f, v) for f in tip_faces]
+    block = parts[0] if len(parts) == 1 else cq.Compound.makeCompound(parts).fuse().clean()
+    if hasattr(block, "Solids") and len(block.Solids()) == 1:
+        block = block.Solids()[0]
+    if block.intersect(body).Volume() > 1e-6 * block.Volume():
+        raise LinkFeaError(f"{label}: the block extruded from the tip faces runs into the body")
+    return frame, block, h
 
 
 def validate_solid(solid, label: str = "solid") -> None:
