@@ -1,182 +1,409 @@
 """Nonlinear static equilibrium of a VJM model under a platform wrench (finite rotations).
 
 Independent of the linear solver: no Jacobian from :mod:`vjm.chain`, no
-bordered system.  Unknowns are every free joint coordinate of every chain
-(virtual springs, actuator spring ``theta0``, passive joints) and the
-platform pose ``(p, phi)`` with ``R = Rx(phi1) Ry(phi2) Rz(phi3) R0``.  The
-equilibrium is the stationary point of
+bordered system, nothing from :mod:`vjm.stiffness`.  Unknowns are every free
+joint coordinate of every chain (virtual springs, actuator spring
+``theta0``, passive joints) and the platform pose ``(p, phi)`` with
+``R = Rx(phi1) Ry(phi2) Rz(phi3) R0``.  The equilibrium is the stationary
+point of
 
     Pi = sum_s 1/2 theta_s^T K_s theta_s  -  F . (p - p0)  -  M . phi
 
-subject to loop closure: each chain's end frame, evaluated with the full
-nonlinear product of eq. 1, coincides with the platform frame.  It is
-solved by Newton's method on the Lagrange (KKT) conditions; the
-constraint gradients are computed by complex-step differentiation of the
-forward kinematics (exact to round-off).  The dead-load moment's work
+subject to loop closure: each chain's end frame, the full nonlinear product
+of eq. 1, coincides with the platform frame.  The dead-load moment's work
 ``M . phi`` differs from the exact one by O(phi^2), an even term that
 central differences in the load cancel.
 
+Method: Newton's method on the Lagrange (KKT) conditions with the exact
+Hessian of the Lagrangian, batched over all (pose, wrench) pairs (stacked
+KKT matrices, one ``np.linalg.solve`` per iteration, a convergence mask per
+pair).  Derivatives of the chain product are exact and written here: if
+``X_f`` is the world twist matrix of joint factor ``f`` (``F_f G_f F_f^-1``,
+``F_f`` the frame just after the factor), then ``dT/da_f = X_f T`` and, for
+``f`` proximal to (or equal to) ``h``, ``d2T/da_f da_h = X_f X_h T``; the
+closure residual is linear in ``T``, so these give the constraint gradients
+and their curvature (tests check them against complex-step derivatives of
+:func:`vjm.chain.forward`).  A pair whose Newton iteration does not converge
+under the full load is continued from the unloaded posture by load steps,
+halving the step on failure; pairs that still fail are reported (VjmError
+naming the poses, or a per-pair flag with ``strict=False``), never returned
+silently wrong.
+
 Springs are those of the model at the unloaded posture (the actuator
 compliance at the nominal q; a parallelogram leg keeps its equivalent
-spring K_Plg of that posture, which is singular along its own mobility:
-steps use least squares).  The platform's deflection returned is
-``(p - p0, rotation vector of R R0^T)``, world axes, mm and rad.
+spring of that posture).  A spring's coordinates are restricted to the range
+of its compliance ``C``: the energy there is ``theta^T C^+ theta`` and a
+direction where ``C`` is zero is held rigid.  This matters for the
+parallelogram, whose ``C`` is zero along its own mobility: that motion is
+carried, exactly, by the passive coupled joint ``Ry(q) Tx(L) Ry(-q)``; a
+second, straight-line copy of it inside the spring would be a spurious
+zero-energy mechanism at finite displacements.  The platform's deflection
+returned is ``(p - p0, rotation vector of R R0^T)``, world axes, mm and rad.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from .chain import forward
+from .chain import Chain, forward
 from .errors import VjmError
-from .transforms import elementary, rotation_vector, vee
+from .transforms import AXIS, ROTATION, elementary, generator, rotation_vector, vee
 
-H_CS = 1e-20  # complex step
-
-
-def _plat_R(phi):
-    phi = np.asarray(phi)
-    R = elementary("rx", phi[0:1])[0, :3, :3] @ elementary("ry", phi[1:2])[0, :3, :3] @ elementary("rz", phi[2:3])[0, :3, :3]
-    return R
-
-
-class _Problem:
-    def __init__(self, model, p):
-        p = np.asarray(p, dtype=float).reshape(1, 3)
-        q, vals = model.arch.inverse_kinematics(model, p)
-        comps = model.arch.compliances(model, p, vals, q)
-        self.p0 = p[0]
-        self.chains = []
-        nx = 0
-        for ch, v, c in zip(model.chains, vals, comps):
-            free, springs = [], []
-            for s in ch.springs:
-                C = c.get(s.name)
-                if C is None:
-                    continue
-                C = np.asarray(C, dtype=float)
-                C = C[0] if C.ndim == 3 else C
-                K = np.linalg.pinv(C, hermitian=True)
-                springs.append((list(s.vars), K))
-                free += list(s.vars)
-            free += list(ch.passive)
-            free = sorted(set(free))
-            T0 = forward(ch, v)[0]
-            self.chains.append(dict(ch=ch, v0=v[0], free=free, springs=springs, R0=T0[:3, :3],
-                                    sl=slice(nx, nx + len(free))))
-            nx += len(free)
-        self.nx = nx
-        self.nc = 6 * len(self.chains)
-
-    # g_c(x_c, p, phi) for a batch of complex perturbations
-    def _g(self, c, X, pp, phi):
-        """X (m, nfree), pp (m, 3), phi (m, 3) -> g (m, 6)."""
-        m = X.shape[0]
-        v = np.broadcast_to(c["v0"], (m, c["ch"].n_vars)).astype(X.dtype).copy()
-        v[:, c["free"]] += X
-        T = forward(c["ch"], v)
-        Rp = np.stack([_plat_R(f) for f in phi]) @ c["R0"]
-        M = T[:, :3, :3] @ np.swapaxes(Rp, 1, 2)
-        return np.concatenate([T[:, :3, 3] - pp, vee(M)], axis=1)
-
-    def constraints(self, x, u):
-        """g (nc,) and G (nc, nx + 6) at chain coordinates x and platform u = (dp, phi)."""
-        g = np.zeros(self.nc)
-        G = np.zeros((self.nc, self.nx + 6))
-        pp, phi = self.p0 + u[:3], u[3:]
-        for k, c in enumerate(self.chains):
-            xc = x[c["sl"]]
-            nf = xc.size
-            m = nf + 6
-            X = np.tile(xc.astype(complex), (m + 1, 1))
-            PP = np.tile(pp.astype(complex), (m + 1, 1))
-            PH = np.tile(phi.astype(complex), (m + 1, 1))
-            X[np.arange(nf), np.arange(nf)] += 1j * H_CS
-            PP[nf + np.arange(3), np.arange(3)] += 1j * H_CS
-            PH[nf + 3 + np.arange(3), np.arange(3)] += 1j * H_CS
-            gg = self._g(c, X, PP, PH)
-            rows = slice(6 * k, 6 * k + 6)
-            g[rows] = gg[-1].real
-            G[rows, c["sl"]] = gg[:nf].imag.T / H_CS
-            G[rows, self.nx:] = gg[nf:m].imag.T / H_CS
-        return g, G
-
-    def energy_grad_hess(self, x):
-        grad = np.zeros(self.nx)
-        H = np.zeros((self.nx, self.nx))
-        for c in self.chains:
-            pos = {var: c["sl"].start + i for i, var in enumerate(c["free"])}
-            for vars_, K in c["springs"]:
-                idx = [pos[v] for v in vars_]
-                grad[idx] += K @ x[idx]
-                H[np.ix_(idx, idx)] += K
-        return grad, H
+#: relative eigenvalue below which a (scaled) spring compliance direction is held rigid
+RIGID_RTOL = 1e-12
+#: largest change of a rotational joint coordinate in one Newton step, rad (damping far from the solution)
+MAX_ROT_STEP = 0.3
+#: smallest load increment of the continuation before a pair is declared failed
+MIN_LOAD_STEP = 1.0 / 1024
+#: round-off floor of a Newton step: 1e3 ulps of the machine's length (mm) or of 1 rad
+ROUNDOFF = 1e3 * np.finfo(float).eps
 
 
-def _residual(prob, x, u, lam, w):
-    g, G = prob.constraints(x, u)
-    grad, H = prob.energy_grad_hess(x)
-    r = np.concatenate([grad - G[:, :prob.nx].T @ lam, -w - G[:, prob.nx:].T @ lam, g])
-    return r, G, H
+def _skew(w):
+    w = np.asarray(w)
+    S = np.zeros(w.shape[:-1] + (3, 3), dtype=w.dtype)
+    S[..., 0, 1], S[..., 0, 2] = -w[..., 2], w[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = w[..., 2], -w[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -w[..., 1], w[..., 0]
+    return S
+
+
+def platform_rotation(phi):
+    """``Rx(phi1) Ry(phi2) Rz(phi3)`` (n, 3, 3) and its first (n, 3, 3, 3) and second
+    (n, 3, 3, 3, 3) derivatives with respect to ``phi`` (n, 3)."""
+    phi = np.atleast_2d(phi)
+    A = [elementary(k, phi[:, i])[:, :3, :3] for i, k in enumerate(("rx", "ry", "rz"))]
+    G = [generator(k)[:3, :3] for k in ("rx", "ry", "rz")]
+
+    def prod(order):
+        M = A[0] @ np.linalg.matrix_power(G[0], order[0]) if order[0] else A[0]
+        for i in (1, 2):
+            B = A[i] @ np.linalg.matrix_power(G[i], order[i]) if order[i] else A[i]
+            M = M @ B
+        return M
+
+    e = np.eye(3, dtype=int)
+    D1 = np.stack([prod(e[i]) for i in range(3)], axis=1)
+    D2 = np.stack([np.stack([prod(e[i] + e[j]) for j in range(3)], axis=1) for i in range(3)], axis=1)
+    return prod((0, 0, 0)), D1, D2
+
+
+@dataclass(frozen=True)
+class _ChainData:
+    """One chain over n pairs: the unknowns ``x`` (m of them) move the chain variables as
+    ``v = v0 + x @ S``; the elastic energy is ``1/2 sum kappa x^2``; ``fixed`` coordinates
+    (rigid directions of a spring) stay at zero."""
+
+    chain: Chain
+    v0: np.ndarray      # (n, n_vars)
+    R0: np.ndarray      # (n, 3, 3) end orientation at v0
+    S: np.ndarray       # (n, m, n_vars)
+    kappa: np.ndarray   # (n, m), 0 for passive joints and fixed coordinates
+    fixed: np.ndarray   # (n, m) bool
+    D: np.ndarray       # (n, m, n_joints): d(joint factor angle)/dx
+    joints: tuple       # factor indices of the non-constant factors
+
+    def take(self, idx):
+        return _ChainData(self.chain, self.v0[idx], self.R0[idx], self.S[idx], self.kappa[idx],
+                          self.fixed[idx], self.D[idx], self.joints)
+
+
+def _spring_basis(C):
+    """Basis (n, k, k), stiffnesses (n, k) and rigid mask (n, k) of springs with compliances C (n, k, k).
+
+    Eigen-decomposition of the diagonally scaled compliance (unit-independent):
+    ``C = s E diag(c) E^T s``; coordinates ``theta = s E xi`` carry the energy
+    ``1/2 sum xi^2 / c`` (= ``theta^T C^+ theta``); directions with ``c ~ 0`` are rigid.
+    """
+    d = np.einsum("nii->ni", C)
+    s = np.sqrt(np.where(d > 0, d, 1.0))
+    Cs = C / (s[:, :, None] * s[:, None, :])
+    Cs = np.where((d[:, :, None] > 0) & (d[:, None, :] > 0), Cs, 0.0)
+    c, E = np.linalg.eigh(0.5 * (Cs + np.swapaxes(Cs, 1, 2)))
+    rigid = c <= RIGID_RTOL * np.maximum(c.max(axis=1, keepdims=True), 1e-300)
+    kappa = np.where(rigid, 0.0, 1.0 / np.where(rigid, 1.0, c))
+    return s[:, :, None] * E, kappa, rigid
+
+
+def _setup(model, P):
+    P = np.asarray(P, dtype=float).reshape(-1, 3)
+    n = P.shape[0]
+    q, vals = model.arch.inverse_kinematics(model, P)
+    comps = model.arch.compliances(model, P, vals, q)
+    out = []
+    for ch, v, cdict in zip(model.chains, vals, comps):
+        v = np.asarray(v, dtype=float).reshape(n, ch.n_vars)
+        blocks = []  # (vars, basis (n,k,k), kappa (n,k), fixed (n,k))
+        for s in ch.springs:
+            C = cdict.get(s.name)
+            if C is None:
+                continue  # rigid link: its coordinates stay at their nominal values
+            k = len(s.vars)
+            C = np.broadcast_to(np.asarray(C, dtype=float).reshape(-1, k, k), (n, k, k))
+            blocks.append((list(s.vars), *_spring_basis(C)))
+        for j in ch.passive:
+            blocks.append(([j], np.ones((n, 1, 1)), np.zeros((n, 1)), np.zeros((n, 1), bool)))
+        m = sum(len(b[0]) for b in blocks)
+        S = np.zeros((n, m, ch.n_vars))
+        kappa = np.zeros((n, m))
+        fixed = np.zeros((n, m), bool)
+        row = 0
+        for vars_, B, kap, fx in blocks:
+            k = len(vars_)
+            S[:, row:row + k, vars_] = np.swapaxes(B, 1, 2)  # d theta_v / d xi_j = B[v, j]
+            kappa[:, row:row + k] = kap
+            fixed[:, row:row + k] = fx
+            row += k
+        joints = tuple(i for i, f in enumerate(ch.factors) if f.kind != "const")
+        Fm = np.zeros((ch.n_vars, len(joints)))
+        for jj, i in enumerate(joints):
+            Fm[ch.factors[i].var, jj] += ch.factors[i].coef
+        T0 = forward(ch, v)
+        out.append(_ChainData(ch, v, T0[:, :3, :3].copy(), S, kappa, fixed, S @ Fm, joints))
+    return P, out
+
+
+def _chain_kinematics(cd: _ChainData, x):
+    """End frames T (n, 4, 4), joint twist matrices X (n, nJ, 4, 4) and dT = X T (n, nJ, 4, 4)."""
+    ch = cd.chain
+    v = cd.v0 + np.einsum("nm,nmv->nv", x, cd.S)
+    n = v.shape[0]
+    F = np.broadcast_to(np.eye(4), (n, 4, 4))
+    X = np.zeros((n, len(cd.joints), 4, 4))
+    jj = 0
+    for f in ch.factors:
+        if f.kind == "const":
+            F = F @ f.T
+            continue
+        F = F @ elementary(f.kind, f.coef * v[:, f.var])
+        e = F[:, :3, AXIS[f.kind]]
+        if ROTATION[f.kind]:  # world twist of a revolute factor: omega = e, v = o x e
+            X[:, jj, :3, :3] = _skew(e)
+            X[:, jj, :3, 3] = np.cross(F[:, :3, 3], e)
+        else:
+            X[:, jj, :3, 3] = e
+        jj += 1
+    return F, X, X @ F[:, None]
+
+
+def _linearize(chains, x, u, lam, p0, hessian=True):
+    """Closure residual g (n, nc), its gradient G (n, nc, nx + 6) and, with ``hessian``,
+    the Hessian of ``lam . g`` (n, nx + 6, nx + 6), at unknowns x (n, nx), u (n, 6)."""
+    n = x.shape[0]
+    nx = x.shape[1]
+    nc = 6 * len(chains)
+    Rxyz, D1, D2 = platform_rotation(u[:, 3:])
+    g = np.zeros((n, nc))
+    G = np.zeros((n, nc, nx + 6))
+    Hs = np.zeros((n, nx + 6, nx + 6)) if hessian else None
+    col = 0
+    for k, cd in enumerate(chains):
+        m = cd.S.shape[1]
+        xs = slice(col, col + m)
+        rows = slice(6 * k, 6 * k + 6)
+        T, X, dT = _chain_kinematics(cd, x[:, xs])
+        Rp = Rxyz @ cd.R0
+        Rc = T[:, :3, :3]
+        RcRpT = Rc @ np.swapaxes(Rp, 1, 2)
+        g[:, rows] = np.concatenate([T[:, :3, 3] - (p0 + u[:, :3]), vee(RcRpT)], axis=1)
+        # gradients: joint factors, then the unknowns through D
+        RpT = np.swapaxes(Rp, 1, 2)[:, None]
+        Gf = np.concatenate([dT[:, :, :3, 3], vee(dT[:, :, :3, :3] @ RpT)], axis=2)  # (n, nJ, 6)
+        Gx = np.einsum("nmj,njr->nrm", cd.D, Gf)
+        Gx[np.broadcast_to(cd.fixed[:, None, :], Gx.shape)] = 0.0
+        G[:, rows, xs] = Gx
+        G[:, 6 * k:6 * k + 3, nx:nx + 3] = -np.eye(3)
+        dRpT = np.swapaxes(D1 @ cd.R0[:, None], 2, 3)  # (n, 3, 3, 3): d Rp^T / d phi_i
+        G[:, 6 * k + 3:6 * k + 6, nx + 3:] = np.swapaxes(vee(Rc[:, None] @ dRpT), 1, 2)
+        if hessian:
+            lp, lr = lam[:, 6 * k:6 * k + 3], lam[:, 6 * k + 3:6 * k + 6]
+            # lam . g = <Lam, T[:3]> + const, since l . vee(M) = 1/2 <skew(l), M>
+            Sl = 0.5 * _skew(lr)
+            Lam = np.concatenate([Sl @ Rp, lp[:, :, None]], axis=2)  # (n, 3, 4)
+            Y = np.einsum("nij,nhkj->nhik", Lam, dT)
+            Q = np.einsum("nfik,nhik->nfh", X[:, :, :3, :], Y)  # Q[f,h] = <Lam, X_f X_h T>
+            Hf = np.triu(Q) + np.swapaxes(np.triu(Q, 1), 1, 2)  # valid for f <= h, symmetric
+            Dm = np.where(cd.fixed[:, :, None], 0.0, cd.D)
+            Hs[:, xs, xs] = np.einsum("nmf,nfh,nph->nmp", Dm, Hf, Dm)
+            SlD1 = Sl[:, None] @ D1 @ cd.R0[:, None]  # (n, 3, 3, 3)
+            Hxphi = np.einsum("nijk,nfjk->nfi", SlD1, dT[:, :, :3, :3])
+            Hxphi = np.einsum("nmf,nfi->nmi", Dm, Hxphi)
+            Hs[:, xs, nx + 3:] = Hxphi
+            Hs[:, nx + 3:, xs] = np.swapaxes(Hxphi, 1, 2)
+            SlD2 = Sl[:, None, None] @ D2 @ cd.R0[:, None, None]
+            Hs[:, nx + 3:, nx + 3:] += np.einsum("nijab,nab->nij", SlD2, Rc)
+        col += m
+    return g, G, Hs
+
+
+def _solve(A, b):
+    """Batched solve after row and column equilibration (units mix mm, rad, N, N mm)."""
+    rs = 1.0 / np.maximum(np.max(np.abs(A), axis=2), 1e-300)
+    As = A * rs[:, :, None]
+    cs = 1.0 / np.maximum(np.max(np.abs(As), axis=1), 1e-300)
+    As = As * cs[:, None, :]
+    bs = b * rs
+    try:
+        y = np.linalg.solve(As, bs[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:  # an exactly singular pair: least squares for all (rare)
+        y = np.einsum("nij,nj->ni", np.linalg.pinv(As, rcond=1e-14), bs)
+    return y * cs
+
+
+def _describe(P, W, idx):
+    rows = [f"p = {np.round(P[i], 4).tolist()} mm under wrench {W[i].tolist()}" for i in idx[:3]]
+    more = f" (and {len(idx) - 3} more)" if len(idx) > 3 else ""
+    return "; ".join(rows) + more
+
+
+def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_info: bool = False,
+                   strict: bool = True):
+    """Nonlinear platform deflections (n, 6) for points P (n, 3) and wrenches W (n, 6) or (6,).
+
+    All (pose, wrench) pairs are solved together (see the module docstring).
+
+    Parameters
+    ----------
+    model : vjm Model
+    P : (n, 3) end-effector points, mm
+    W : (n, 6) or (6,) platform wrenches Fx Fy Fz Mx My Mz, N and N mm
+    tol : convergence when the Newton step of the platform pose is below ``tol`` x its size
+    max_iter : Newton iterations allowed per load increment
+    return_info : also return a dict: ``converged`` (n,) bool, ``iterations`` (n,) total Newton
+        iterations, ``load_steps`` (n,) load increments used (1 = full load at once),
+        ``chain_wrench`` (n, n_chains, 6) closure multipliers (the wrench each chain
+        transmits, world axes at the platform point)
+    strict : raise VjmError naming the poses whose equilibrium was not found; with
+        ``strict=False`` their rows are NaN and ``info["converged"]`` is False
+
+    Returns
+    -------
+    (n, 6) twists ``(p - p0, rotation vector)``, mm and rad [, info]
+    """
+    P = np.atleast_2d(np.asarray(P, dtype=float))
+    if P.ndim != 2 or P.shape[1] != 3:
+        raise VjmError(f"points must have shape (n, 3), got {np.shape(P)}")
+    n = P.shape[0]
+    try:
+        W = np.array(np.broadcast_to(np.asarray(W, dtype=float), (n, 6)))
+    except ValueError:
+        raise VjmError(f"wrenches must have shape (6,) or ({n}, 6), got {np.shape(W)}") from None
+    if not np.all(np.isfinite(W)):
+        raise VjmError("wrenches must be finite numbers")
+    P, chains = _setup(model, P)
+    nx = sum(cd.S.shape[1] for cd in chains)
+    nc = 6 * len(chains)
+    kappa = np.concatenate([cd.kappa for cd in chains], axis=1)
+    fixed = np.concatenate([cd.fixed for cd in chains], axis=1)
+    # length scale of the machine for the round-off floor of the convergence test
+    lref = max([np.max(np.abs(P))] + [np.max(np.abs(f.T[:3, 3])) for cd in chains for f in cd.chain.factors
+                                       if f.kind == "const"])
+    kd = np.where(fixed, 1.0, kappa)  # fixed coordinates: a unit diagonal keeps their step at zero
+
+    z = np.zeros((n, nx + 6 + nc))          # current iterate (x, u, lam)
+    z_ok = z.copy()                          # last converged load increment
+    s_ok = np.zeros(n)                       # its load factor
+    ds = np.ones(n)                          # current increment (full load first)
+    it_step = np.zeros(n, int)
+    iters = np.zeros(n, int)
+    steps = np.zeros(n, int)
+    prev = np.full(n, np.inf)
+    done = np.all(W == 0.0, axis=1)
+    failed = np.zeros(n, bool)
+    cap = max(1, int(max_iter))
+    while True:
+        act = np.flatnonzero(~done & ~failed)
+        if act.size == 0:
+            break
+        ch_a = [cd.take(act) for cd in chains]
+        za = z[act]
+        x, u, lam = za[:, :nx], za[:, nx:nx + 6], za[:, nx + 6:]
+        s = np.minimum(s_ok[act] + ds[act], 1.0)
+        w = W[act] * s[:, None]
+        g, G, Hs = _linearize(ch_a, x, u, lam, P[act])
+        r = np.concatenate([kappa[act] * x - np.einsum("nci,nc->ni", G[:, :, :nx], lam),
+                            -w - np.einsum("nci,nc->ni", G[:, :, nx:], lam), g], axis=1)
+        N = nx + 6 + nc
+        A = np.zeros((act.size, N, N))
+        A[:, :nx + 6, :nx + 6] = -Hs
+        A[:, np.arange(nx), np.arange(nx)] += kd[act]
+        A[:, :nx + 6, nx + 6:] = -np.swapaxes(G, 1, 2)
+        A[:, nx + 6:, :nx + 6] = G
+        dz = _solve(A, -r)
+        # damping far from the solution: no rotational coordinate turns more than MAX_ROT_STEP
+        big = np.maximum(_max_rotation_change(ch_a, dz[:, :nx]), np.max(np.abs(dz[:, nx + 3:nx + 6]), axis=1))
+        alpha = np.where(big > MAX_ROT_STEP, MAX_ROT_STEP / np.maximum(big, 1e-300), 1.0)
+        finite = np.all(np.isfinite(dz), axis=1)
+        dz = np.where(finite[:, None], dz, 0.0)
+        z[act] = za + alpha[:, None] * dz
+        it_step[act] += 1
+        iters[act] += 1
+        step = np.max(np.abs(dz[:, nx:nx + 6]), axis=1)
+        size = np.max(np.abs(z[act, nx:nx + 6]), axis=1) + 1e-300
+        # round-off floor of the closure (a few ulps of the machine's size), mm and rad
+        floor = (np.max(np.abs(dz[:, nx:nx + 3]), axis=1) <= ROUNDOFF * lref) & \
+            (np.max(np.abs(dz[:, nx + 3:nx + 6]), axis=1) <= ROUNDOFF)
+        full = alpha == 1.0
+        conv = full & finite & ((step <= tol * size) | (step == 0.0) | floor
+                                | ((it_step[act] > 3) & (step < 1e-9 * size) & (step > 0.5 * prev[act])))
+        prev[act] = np.where(full, step, np.inf)
+        bad = ~finite | (~conv & (it_step[act] >= cap))
+        # converged increments: accept, finish or take a larger increment
+        ci = act[conv]
+        s_ok[ci] = s[conv]
+        z_ok[ci] = z[ci]
+        steps[ci] += 1
+        done[ci] = s_ok[ci] >= 1.0
+        ds[ci] = np.minimum(2.0 * ds[ci], 1.0 - s_ok[ci])
+        # failed increments: back to the last converged state with a smaller increment
+        bi = act[bad]
+        z[bi] = z_ok[bi]
+        ds[bi] *= 0.25
+        failed[bi] = ds[bi] < MIN_LOAD_STEP
+        it_step[np.concatenate([ci, bi])] = 0
+        prev[np.concatenate([ci, bi])] = np.inf
+    u = z[:, nx:nx + 6]
+    Rxyz = platform_rotation(u[:, 3:])[0]
+    t = np.concatenate([u[:, :3], rotation_vector(Rxyz)], axis=1)
+    bad = np.flatnonzero(failed)
+    if bad.size:
+        if strict:
+            raise VjmError(f"nonlinear equilibrium not found for {bad.size} of {n} (pose, wrench) pairs: "
+                           f"{_describe(P, W, bad)} (load too large for the model, or past a buckling load?)")
+        t[bad] = np.nan
+    if return_info:
+        info = {"converged": ~failed, "iterations": iters, "load_steps": steps,
+                "chain_wrench": z[:, nx + 6:].reshape(n, len(chains), 6)}
+        return t, info
+    return t
+
+
+def _max_rotation_change(chains, dx):
+    """Largest change (n,) of an angular chain variable for a step dx (n, nx) of the unknowns."""
+    out = np.zeros(dx.shape[0])
+    col = 0
+    for cd in chains:
+        m = cd.S.shape[1]
+        ang = [f.var for f in cd.chain.factors if f.kind != "const" and ROTATION[f.kind]]
+        if ang:
+            dv = np.einsum("nm,nmv->nv", dx[:, col:col + m], cd.S[:, :, sorted(set(ang))])
+            out = np.maximum(out, np.max(np.abs(dv), axis=1))
+        col += m
+    return out
 
 
 def deflection(model, p, wrench, tol: float = 1e-11, max_iter: int = 60, return_info: bool = False):
     """Platform deflection twist (6,) at point ``p`` under ``wrench`` (Fx..Mz, N and N mm).
 
-    Full nonlinear kinematics of every chain; see the module docstring.
-    Raises VjmError if Newton's method does not converge.
+    Full nonlinear kinematics of every chain; see the module docstring.  The
+    same solver as :func:`deflection_map` with one pair.  Raises VjmError
+    (naming the pose) if the equilibrium is not found.
     """
     w = np.asarray(wrench, dtype=float).reshape(6)
-    prob = _Problem(model, p)
-    nx, nc = prob.nx, prob.nc
-    x, u, lam = np.zeros(nx), np.zeros(6), np.zeros(nc)
-    N = nx + 6 + nc
-    geometric = False
-    prev = np.inf
-    for it in range(max_iter):
-        r, G, H = _residual(prob, x, u, lam, w)
-        A = np.zeros((N, N))
-        A[:nx, :nx] = H
-        A[:nx + 6, nx + 6:] = -G.T
-        A[nx + 6:, :nx + 6] = G
-        if geometric:
-            # d(G^T lam)/dz by forward differences of the exact (complex-step) gradients
-            z0 = np.concatenate([x, u])
-            base = G.T @ lam
-            for j in range(nx + 6):
-                h = 1e-7 * max(1.0, abs(z0[j]))
-                z = z0.copy()
-                z[j] += h
-                _, Gj = prob.constraints(z[:nx], z[nx:])
-                A[:nx + 6, j] -= (Gj.T @ lam - base) / h
-        # equilibrate rows and columns, then a least-squares step (rank-5 parallelogram springs)
-        rs = 1.0 / np.maximum(np.max(np.abs(A), axis=1), 1e-300)
-        As = A * rs[:, None]
-        cs = 1.0 / np.maximum(np.max(np.abs(As), axis=0), 1e-300)
-        dz = np.linalg.lstsq(As * cs[None, :], -r * rs, rcond=1e-14)[0] * cs
-        x += dz[:nx]
-        u += dz[nx:nx + 6]
-        lam += dz[nx + 6:]
-        size = np.max(np.abs(u)) + 1e-300
-        step = np.max(np.abs(dz[nx:nx + 6]))
-        if step <= tol * size or step == 0.0:
-            break
-        if it >= 3 and step < 1e-9 * size and step > 0.5 * prev:
-            break  # stagnation at round-off
-        if it >= 2 and step > 0.2 * prev:
-            geometric = True  # slow linear convergence: large load, add the geometric stiffness
-        prev = step
-    else:
-        raise VjmError(f"nonlinear equilibrium did not converge at p = {np.round(prob.p0, 4).tolist()} "
-                       f"under wrench {w.tolist()} (load too large for the model?)")
-    R = _plat_R(u[3:])
-    t = np.concatenate([u[:3], rotation_vector(R)])
+    t, info = deflection_map(model, np.asarray(p, dtype=float).reshape(1, 3), w[None], tol=tol,
+                             max_iter=max_iter, return_info=True)
     if return_info:
-        return t, {"iterations": it + 1, "chain_wrench": lam.reshape(-1, 6)}
-    return t
-
-
-def deflection_map(model, P, W) -> np.ndarray:
-    """Nonlinear deflections (n, 6) for points P (n, 3) and wrenches W (n, 6) or (6,)."""
-    P = np.atleast_2d(np.asarray(P, dtype=float))
-    W = np.broadcast_to(np.asarray(W, dtype=float), (P.shape[0], 6))
-    return np.stack([deflection(model, p, w) for p, w in zip(P, W)])
+        return t[0], {"iterations": int(info["iterations"][0]), "load_steps": int(info["load_steps"][0]),
+                      "chain_wrench": info["chain_wrench"][0]}
+    return t[0]
