@@ -49,6 +49,9 @@ def compute(
     base: Optional[str] = typer.Option(None, "--base", help="base selector, e.g. plane:x=0 or box:x0,y0,z0,x1,y1,z1"),
     tip: Optional[str] = typer.Option(None, "--tip", help="tip selector, e.g. plane:x=200"),
     convergence: bool = typer.Option(False, "--convergence", help="3 mesh sizes + Richardson error estimate"),
+    envelope: Optional[float] = typer.Option(None, "--envelope",
+                                             help="mesher envelope / bbox diagonal (default 1e-3; smaller = "
+                                                  "closer to small curved faces, slower)"),
     out: Path = typer.Option(Path("out/result.json"), "--out", "-o", help="result JSON; .vtu and .png go beside it"),
     picture: bool = typer.Option(True, "--picture/--no-picture", help="write the .vtu and .png beside the JSON"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or tables"),
@@ -64,7 +67,7 @@ def compute(
         params = parse_param_args(param)
         with console.status("starting") as status:
             res = run(spec, params=params, mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
-                      material=material, base=base, tip=tip, convergence=convergence,
+                      material=material, base=base, tip=tip, convergence=convergence, epsilon=envelope,
                       progress=lambda msg: status.update(f"[bold]{msg}"))
         out = Path(out)
         if picture:

@@ -54,13 +54,13 @@ class LinkResult:
         return self.compliance.stiffness
 
 
-def _solve_once(link, material, H, mode, block_ratio, cache_dir, say):
+def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon):
     from .fem import solve_link
     from .fit import compliance_from_solution
     from .mesh import mesh_link
 
     t0 = time.perf_counter()
-    mesh = mesh_link(link, H, with_block=(mode == "block"), cache_dir=cache_dir, progress=say)
+    mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=say)
     t_mesh = time.perf_counter() - t0
     sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say)
     say("fit")
@@ -75,7 +75,7 @@ def _solve_once(link, material, H, mode, block_ratio, cache_dir, say):
 def compute(spec, params: dict | None = None, mesh_size: float | None = None, mode: str = "rigid",
             block_ratio: float = 1000.0, material: str | None = None, base=None, tip=None,
             convergence: bool = False, progress: Callable[[str], None] | None = None,
-            cache_dir=None) -> LinkResult:
+            cache_dir=None, epsilon: float | None = None) -> LinkResult:
     """Compute a link's 6x6 compliance at its reference frame.
 
     Parameters
@@ -100,9 +100,15 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         Called with a short message at each stage.
     cache_dir : path, optional
         Mesh cache folder.
+    epsilon : float, optional
+        fTetWild envelope relative to the bounding-box diagonal (default
+        :data:`linkfea.mesh.DEFAULT_EPSILON` = 1e-3).  Smaller follows small
+        curved faces more closely (see ``mesh.quality``) but meshes much slower.
     """
     from .cad import build_link
-    from .mesh import default_mesh_size
+    from .mesh import DEFAULT_EPSILON, default_mesh_size
+
+    epsilon = DEFAULT_EPSILON if epsilon is None else float(epsilon)
 
     say = progress or (lambda msg: None)
     if mode not in MODES:
@@ -128,7 +134,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         runs = []
         for h in sizes:
             say(f"convergence: mesh size {h:.3g} mm")
-            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say))
+            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon))
         rich = richardson(sizes, [r[2].matrix for r in runs])
         mesh, sol, comp, timing = runs[-1]
         diagnostics["error_estimate"] = float(rich.error_diagonal)
@@ -137,7 +143,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         diagnostics["error_estimate_note"] = ("Richardson estimate of the relative error of the diagonal "
                                               "(largest entry) from 3 mesh sizes" + (f"; {rich.note}" if rich.note else ""))
     else:
-        mesh, sol, comp, timing = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say)
+        mesh, sol, comp, timing = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon)
         diagnostics["error_estimate"] = None
         diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
     diagnostics.update(symmetry_error=float(comp.symmetry_error), fit_residual=float(comp.fit_residual),
