@@ -4,7 +4,9 @@ The bar runs along x; the pin axes are along z at x = 0 (base) and
 x = pitch (tip).  The base interface is the bore of the first boss (clamped
 on its pin); the tip interface is the bore of the second boss, and the
 reference block is the pin filling it.  Frame origin at the second pin's
-centre, x along the bar.  Lengths in mm.
+centre, x along the bar, y along the pin axis (CAD z), z = x cross y (CAD -y):
+the spring frame of a parallelogram bar in vjm, whose pivots turn about y
+(seed eq. 20-22).  Lengths in mm.
 """
 import cadquery as cq
 
@@ -43,5 +45,5 @@ def build(**params) -> Link:
     return Link(name="parallelogram_bar", body=body, block=block,
                 base=Box((-r - g, -r - g, -hb), (r + g, r + g, hb)),
                 tip=Box((P - r - g, -r - g, -hb), (P + r + g, r + g, hb)),
-                frame=Frame.from_x((P, 0.0, 0.0), (1.0, 0.0, 0.0)), params=p, material=p["material"],
+                frame=Frame.from_x((P, 0.0, 0.0), (1.0, 0.0, 0.0), y_hint=(0.0, 0.0, 1.0)), params=p, material=p["material"],
                 source=__file__)
