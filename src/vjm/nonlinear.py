@@ -210,7 +210,7 @@ def _linearize(chains, x, u, lam, p0, hessian=True):
         # gradients: joint factors, then the unknowns through D
         RpT = np.swapaxes(Rp, 1, 2)[:, None]
         Gf = np.concatenate([dT[:, :, :3, 3], vee(dT[:, :, :3, :3] @ RpT)], axis=2)  # (n, nJ, 6)
-        Gx = np.einsum("nmj,njr->nrm", cd.D, Gf)
+        Gx = np.swapaxes(cd.D @ Gf, 1, 2)
         Gx[np.broadcast_to(cd.fixed[:, None, :], Gx.shape)] = 0.0
         G[:, rows, xs] = Gx
         G[:, 6 * k:6 * k + 3, nx:nx + 3] = -np.eye(3)
@@ -221,14 +221,16 @@ def _linearize(chains, x, u, lam, p0, hessian=True):
             # lam . g = <Lam, T[:3]> + const, since l . vee(M) = 1/2 <skew(l), M>
             Sl = 0.5 * _skew(lr)
             Lam = np.concatenate([Sl @ Rp, lp[:, :, None]], axis=2)  # (n, 3, 4)
-            Y = np.einsum("nij,nhkj->nhik", Lam, dT)
-            Q = np.einsum("nfik,nhik->nfh", X[:, :, :3, :], Y)  # Q[f,h] = <Lam, X_f X_h T>
+            nJ = X.shape[1]
+            Y = Lam[:, None] @ np.swapaxes(dT, 2, 3)  # (n, nJ, 3, 4): Y_h = Lam dT_h^T
+            # Q[f, h] = <Lam, X_f X_h T> = sum_ik X_f[i, k] Y_h[i, k]
+            Q = X[:, :, :3, :].reshape(-1, nJ, 12) @ np.swapaxes(Y.reshape(-1, nJ, 12), 1, 2)
             Hf = np.triu(Q) + np.swapaxes(np.triu(Q, 1), 1, 2)  # valid for f <= h, symmetric
             Dm = np.where(cd.fixed[:, :, None], 0.0, cd.D)
-            Hs[:, xs, xs] = np.einsum("nmf,nfh,nph->nmp", Dm, Hf, Dm)
+            Hs[:, xs, xs] = Dm @ Hf @ np.swapaxes(Dm, 1, 2)
             SlD1 = Sl[:, None] @ D1 @ cd.R0[:, None]  # (n, 3, 3, 3)
             Hxphi = np.einsum("nijk,nfjk->nfi", SlD1, dT[:, :, :3, :3])
-            Hxphi = np.einsum("nmf,nfi->nmi", Dm, Hxphi)
+            Hxphi = Dm @ Hxphi
             Hs[:, xs, nx + 3:] = Hxphi
             Hs[:, nx + 3:, xs] = np.swapaxes(Hxphi, 1, 2)
             SlD2 = Sl[:, None, None] @ D2 @ cd.R0[:, None, None]
@@ -272,8 +274,8 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     max_iter : Newton iterations allowed per load increment
     return_info : also return a dict: ``converged`` (n,) bool, ``iterations`` (n,) total Newton
         iterations, ``load_steps`` (n,) load increments used (1 = full load at once),
-        ``chain_wrench`` (n, n_chains, 6) closure multipliers (the wrench each chain
-        transmits, world axes at the platform point)
+        ``chain_wrench`` (n, n_chains, 6) closure multipliers (the share of the applied
+        wrench each chain carries, world axes at the platform point)
     strict : raise VjmError naming the poses whose equilibrium was not found; with
         ``strict=False`` their rows are NaN and ``info["converged"]`` is False
 
