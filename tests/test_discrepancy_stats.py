@@ -5,7 +5,6 @@ must (i) recover parameters within their reported confidence, (ii) name the
 hidden term, (iii) name nothing on clean data at the advertised rate.
 """
 import numpy as np
-import pytest
 
 from vjm.discrepancy.fit.select import Param, Problem, Term, compare, fit_terms, forward_select, grouped_folds
 

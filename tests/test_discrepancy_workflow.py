@@ -91,7 +91,7 @@ def test_additive_effect_saved_under_effects(tmp_path):
 @pytest.mark.parametrize("yaml_path", ["data/orthoglide/puu.yaml", "data/orthoglide/prpar.yaml"])
 def test_seed_table1_runs_through(tmp_path, yaml_path):
     """The seed's published Table 1 (3 postures x k_tran, k_rot per architecture) through the same workflow."""
-    dg = run(yaml_path, "data/seed_table1.csv", tmp_path / "t1")
+    run(yaml_path, "data/seed_table1.csv", tmp_path / "t1")
     rep = json.loads((tmp_path / "t1" / "report.json").read_text())
     assert rep["data_kind"] == "stiffness" and rep["n_observations"] == 6
     assert np.isfinite(rep["rms_before"]) and rep["rms_after"] <= rep["rms_before"] + 1e-12

@@ -4,7 +4,6 @@ The references are CAD quantities (areas and volumes computed by OCC from the
 exact BRep), so they are independent of the mesher.
 """
 import dataclasses
-import time
 
 import numpy as np
 import pytest
@@ -83,7 +82,6 @@ def test_rigid_mesh_has_no_block_and_boundary_tip_facets(bar, cache):
 
 
 def test_cache_returns_identical_arrays(bar, block_mesh, cache):
-    t0 = time.perf_counter()
     again = mesh_link(bar, H, with_block=True, cache_dir=cache)
     assert again.cache_key == block_mesh.cache_key
     for f in ("points", "tets", "block", "base_facets", "tip_facets"):

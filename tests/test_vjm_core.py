@@ -1,6 +1,5 @@
 """Core VJM machinery: transforms, semi-analytic Jacobians (eq. 3-5), springs in series, batching."""
 import numpy as np
-import pytest
 
 from linkfea.beam import cantilever_compliance, rect_section
 from linkfea.frames import transform_compliance

@@ -1,6 +1,5 @@
 """Singular postures, linkfea JSON springs, bad input, and the extension points (a)(b)(d)(e)(f)."""
 import json
-import os
 
 import numpy as np
 import pytest

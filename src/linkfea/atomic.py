@@ -1,7 +1,9 @@
-"""Atomic file output: write to a temporary name beside the target, then rename.
+"""File output shared by linkfea and vjm.
 
-A failed write leaves neither a partial file nor the temporary behind, so a
-command that stops on an error writes nothing.  linkfea and vjm both use it.
+Atomic writes: to a temporary name beside the target, then a rename, so a
+failed write leaves neither a partial file nor the temporary behind and a
+command that stops on an error writes nothing.  :func:`plain` turns numpy
+values into plain Python for JSON and YAML.
 """
 from __future__ import annotations
 
@@ -9,6 +11,8 @@ import os
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
+
+import numpy as np
 
 
 @contextmanager
@@ -32,6 +36,7 @@ def atomic_path(path, suffix: str | None = None):
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.",
                                suffix=path.suffix if suffix is None else suffix)
     os.close(fd)
+    os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
     try:
         yield tmp
         os.replace(tmp, path)
@@ -50,3 +55,27 @@ def write_bytes(path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically."""
     with atomic_path(path) as tmp:
         Path(tmp).write_bytes(data)
+
+
+def plain(x):
+    """numpy arrays and scalars (nested in dicts, lists, tuples) as plain Python.
+
+    Non-finite floats become ``None``: JSON has no NaN or infinity.
+
+    >>> plain({"a": np.arange(2), "b": np.float64("nan"), 3: (np.int64(1), np.bool_(True))})
+    {'a': [0, 1], 'b': None, '3': [1, True]}
+    """
+    if isinstance(x, dict):
+        return {str(k): plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [plain(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return plain(x.tolist())
+    if isinstance(x, np.bool_):
+        return bool(x)
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        v = float(x)
+        return v if np.isfinite(v) else None
+    return x

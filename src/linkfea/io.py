@@ -16,14 +16,13 @@ Schema (``"schema": "linkfea.result/1"``)::
 from __future__ import annotations
 
 import json
-import os
 import platform
-import tempfile
 from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import plain, write_text
 from .errors import LinkFeaError
 from .frames import Frame
 
@@ -50,22 +49,10 @@ def versions() -> dict:
     return out
 
 
-def _jsonable(v):
-    if isinstance(v, dict):
-        return {str(k): _jsonable(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    if isinstance(v, np.generic):
-        return v.item()
-    return v
-
-
 def result_dict(res) -> dict:
     """The JSON document of a :class:`linkfea.pipeline.LinkResult`."""
     link, mesh, sol, comp = res.link, res.mesh, res.solution, res.compliance
-    return _jsonable({
+    return plain({
         "schema": SCHEMA,
         "name": link.name,
         "source": str(link.source),
@@ -91,17 +78,7 @@ def result_dict(res) -> dict:
 def write_json_atomic(path, doc: dict) -> Path:
     """Write JSON to a temporary file beside ``path``, then ``os.replace`` it."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
-        with os.fdopen(fd, "w") as fh:
-            json.dump(doc, fh, indent=2, allow_nan=True)
-            fh.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_text(path, json.dumps(plain(doc), indent=2) + "\n")
     return path
 
 

@@ -21,13 +21,13 @@ from __future__ import annotations
 
 import hashlib
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from .atomic import atomic_path
 from .errors import LinkFeaError
 from .frames import Frame
 
@@ -350,15 +350,8 @@ def _clean(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 def _save_npz(path: Path, **arrays) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz.tmp")
-    os.close(fd)
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, **arrays)
 
 
 def select_facets(points: np.ndarray, tris: np.ndarray, faces, tol: float, ttol: float) -> np.ndarray:

@@ -1,24 +1,15 @@
 """Post-processing: the deformed mesh as .vtu and an off-screen PNG picture."""
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import atomic_path
 from .io import WRENCH
 
 PICTURE_CASE = 1
 """Load case drawn in the PNG: unit Fy (lateral bending)."""
-
-
-def _tmp_beside(path: Path, suffix: str) -> str:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=suffix)
-    os.close(fd)
-    os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
-    return tmp
 
 
 def solution_grid(res):
@@ -41,13 +32,8 @@ def solution_grid(res):
 def write_vtu(path, res) -> Path:
     """Write the P2 mesh with the 6 unit-load displacement fields (atomic)."""
     path = Path(path)
-    tmp = _tmp_beside(path, ".vtu")
-    try:
+    with atomic_path(path) as tmp:
         solution_grid(res).save(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 
@@ -78,13 +64,9 @@ def write_png(path, res, case: int = PICTURE_CASE, scale: float | None = None,
                 scalar_bar_args={"title": f"displacement per unit {WRENCH[case]} (mm)"})
     pl.add_text(f"{res.link.name}: unit {WRENCH[case]}, deformation x {scale:.3g}", font_size=10)
     pl.view_isometric()
-    tmp = _tmp_beside(path, ".png")
     try:
-        pl.screenshot(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        with atomic_path(path) as tmp:
+            pl.screenshot(tmp)
     finally:
         pl.close()
     return path

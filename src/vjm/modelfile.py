@@ -36,7 +36,7 @@ import os
 import numpy as np
 import yaml
 
-from linkfea.atomic import write_text
+from linkfea.atomic import plain, write_text
 
 from .errors import VjmError
 from .model import Actuator, Joints, Link, Model, validate_compliance
@@ -216,21 +216,8 @@ def model_to_dict(model: Model, out_dir: str = ".") -> dict:
         "foot": _link_to_yaml(model.foot, out_dir),
         "leg": _link_to_yaml(model.leg, out_dir),
         "joints": {"passive_stiffness": model.joints.passive_stiffness},
-        "effects": _plain(model.effects),
+        "effects": plain(model.effects),
     }
-
-
-def _plain(x):
-    """numpy scalars/arrays -> plain Python for YAML."""
-    if isinstance(x, dict):
-        return {str(k): _plain(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    return x
 
 
 HEADER = ("# vjm model file. Units: N, mm, rad; actuator stiffness N/mm (rotary: N mm/rad);\n"

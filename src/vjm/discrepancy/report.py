@@ -13,22 +13,7 @@ import tempfile
 
 import numpy as np
 
-
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, (np.floating, float)):
-        v = float(x)
-        return v if np.isfinite(v) else None
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    return x
+from linkfea.atomic import plain
 
 
 def plot_residuals(path, P, rms_before, rms_after, title):
@@ -134,9 +119,9 @@ def write_report_dir(out_dir, rep: dict, model_writer, figure_writer) -> None:
         model_writer(os.path.join(tmp, "model_updated.yaml"))
         figures = figure_writer(tmp)
         with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as fh:
-            json.dump(_jsonable(rep), fh, indent=2)
+            json.dump(plain(rep), fh, indent=2)
         with open(os.path.join(tmp, "report.html"), "w", encoding="utf-8") as fh:
-            fh.write(render_html(_jsonable(rep), figures))
+            fh.write(render_html(plain(rep), figures))
         if os.path.isdir(out_dir):
             old = tempfile.mkdtemp(prefix=".old_report_", dir=parent)
             os.replace(out_dir, os.path.join(old, "d"))
