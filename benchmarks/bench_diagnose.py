@@ -9,8 +9,8 @@ random reachable postures of the Q1-Q2 workspace cube x 6 axis loads of
 
 and copy the printed lines into docs/benchmarks.md (## diagnose).  The time
 is split into the nonlinear-equilibrium precompute of the
-``geometric_nonlinearity`` candidate (one Newton solve per measurement,
-vjm.nonlinear) and the rest (calibration, 7 candidates, forward selection,
+``geometric_nonlinearity`` candidate (vjm.nonlinear, all measurements in
+one batched Newton solve) and the rest (calibration, 7 candidates, forward selection,
 5-fold grouped CV); CPU time includes worker processes.
 """
 import os

@@ -210,7 +210,7 @@ class GeometricNonlinearity(Effect):
 
         try:
             # cheap screen first: the nonlinear part grows like the square of the linear
-            # deflection, so the rows deflecting most bound it; one Newton solve per row is expensive
+            # deflection, so the rows deflecting most bound it
             from . import modelops
 
             n = ctx.n

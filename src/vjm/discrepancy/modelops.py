@@ -94,39 +94,14 @@ def actuator_influence(model, P) -> np.ndarray:
 
 
 _NL_MEMO: dict = {}
-#: row count from which the Newton solves are spread over the machine's cores
-PARALLEL_ROWS = 200
-
-
-def _nl_chunk(args):
-    from .. import nonlinear
-
-    model, P, W = args
-    return np.asarray(nonlinear.deflection_map(model, P, W), float)
-
-
-def _deflections_parallel(model, P, W):
-    """One independent Newton solve per row: split the rows over the available cores (fork)."""
-    import multiprocessing as mp
-    import os
-
-    try:
-        ncpu = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover
-        ncpu = os.cpu_count() or 1
-    if ncpu < 2 or "fork" not in mp.get_all_start_methods():
-        return _nl_chunk((model, P, W))
-    parts = np.array_split(np.arange(len(P)), ncpu)
-    with mp.get_context("fork").Pool(ncpu) as pool:
-        out = pool.map(_nl_chunk, [(model, P[i], W[i]) for i in parts])
-    return np.concatenate(out)
 
 
 def nonlinear_delta(model, P, W) -> np.ndarray:
     """(n, 6) nonlinear-equilibrium deflection minus the linear one, per (posture, wrench) row.
 
-    One Newton solve per row (vjm.nonlinear), so results are memoized per
-    (model, P, W): the model is immutable and kept referenced by the memo.
+    All rows are solved together by vjm.nonlinear's batched Newton; results
+    are memoized per (model, P, W): the model is immutable and kept
+    referenced by the memo.
     """
     from .. import nonlinear
 
@@ -141,8 +116,7 @@ def nonlinear_delta(model, P, W) -> np.ndarray:
     Pu, Wu = P[first], W[first]
     C = stiffness_result(model, Pu).C
     lin = np.einsum("nij,nj->ni", C, Wu)
-    nl = _deflections_parallel(model, Pu, Wu) if len(Pu) >= PARALLEL_ROWS else \
-        np.asarray(nonlinear.deflection_map(model, Pu, Wu), float)
+    nl = np.asarray(nonlinear.deflection_map(model, Pu, Wu), float)
     out = (nl - lin)[inv.reshape(-1)]
     if len(_NL_MEMO) > 16:
         _NL_MEMO.clear()
