@@ -193,7 +193,7 @@ def table1(model_puu: Path = typer.Argument(..., help="3-PUU model YAML"),
         typer.echo(f"{m.architecture}: L={m.geometry.get('L')} r={m.geometry.get('r')} d={m.geometry.get('d')} mm, "
                    f"actuator {a.stiffness:g} N/mm, foot {_describe(m.foot)}, leg {_describe(m.leg)}")
     typer.echo("The seed publishes neither link sections nor actuator stiffness: ours are chosen (docs/table1.md);"
-               " the actuator is set so that k_tran(Q0) matches, the rest is predicted.")
+               " the actuator is set so that k_tran(Q0) matches with the default beam links.")
 
 
 def _describe(link) -> str:
