@@ -45,6 +45,7 @@ def test_two_simultaneous_effects_are_both_named():
     data = simulate(MODEL, [("gravity", {"weight": 10.0}), ("clearance", {"backlash": 0.002})], P, W, NOISE, None, 5)
     rep = diagnose(MODEL, data).report
     assert set(rep["named_effects"]) == {"gravity", "clearance"}, rep["summary"]
+    assert rep["rms_after"] < rep["rms_before"]
     g = rep["final_params"]["gravity"]["weight"]
     c = rep["final_params"]["clearance"]["backlash"]
     assert abs(g["value"] - 10.0) <= 3 * g["se"] and abs(c["value"] - 0.002) <= 3 * c["se"]

@@ -98,6 +98,8 @@ def test_cli_error_is_one_line_exit_2(tmp_path):
     from vjm.cli import app
     r = CliRunner().invoke(app, ["stiffness", PUU, "--at", "0,0,900"])
     assert r.exit_code == 2
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and "Traceback" not in r.output
     r2 = CliRunner().invoke(app, ["stiffness", PUU, "--at", "0,0,0", "--json"])
     assert r2.exit_code == 0 and json.loads(r2.output)["rank"] == 6
 
@@ -157,3 +159,31 @@ def test_joint_forces_balance_the_load(puu):
     assert np.allclose(jf["chain_wrench"].sum(axis=0), w, rtol=1e-8, atol=1e-8)
     t = puu.joint_forces([0.0, 0.0, 0.0], [100.0, 0, 0, 0, 0, 0])["actuator"]
     assert np.allclose(t, [100.0, 0.0, 0.0], atol=1e-8)
+
+
+@pytest.mark.parametrize("make_args", [
+    # a YAML parse error carries newlines: still one line
+    lambda d: (d / "broken.yaml").write_text("architecture: [\n  :\n") and ["stiffness", str(d / "broken.yaml"),
+                                                                           "--at", "0,0,0"],
+    # an output folder that is a file
+    lambda d: (d / "afile").write_text("x") and ["map", PUU, "--grid", "3", "--out", str(d / "afile")],
+    # no reachable grid point
+    lambda d: ["map", PUU, "--grid", "3", "--slice", "z=900", "--out", str(d / "m")],
+    # arguments swapped
+    lambda d: ["table1", PRPAR, PUU],
+    # NaN noise, NaN or zero loads
+    lambda d: ["simulate", PUU, "--noise-t", "nan", "--out", str(d / "s.csv")],
+    lambda d: ["simulate", PUU, "--loads", "axes:nan", "--out", str(d / "s.csv")],
+    lambda d: ["simulate", PUU, "--loads", "axes:0", "--out", str(d / "s.csv")],
+])
+def test_cli_bad_input_one_line_and_nothing_written(tmp_path, make_args):
+    """Each bad input: exit 2, one 'error:' line, no traceback, no new output file."""
+    from typer.testing import CliRunner
+    from vjm.cli import app
+    args = make_args(tmp_path)
+    before = set(tmp_path.rglob("*"))
+    r = CliRunner().invoke(app, args)
+    assert r.exit_code == 2, r.output
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and "Traceback" not in r.output, r.output
+    assert set(tmp_path.rglob("*")) == before

@@ -14,12 +14,15 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import LinkFeaError
+
 
 @contextmanager
 def atomic_path(path, suffix: str | None = None):
     """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
 
-    The parent folder is created if needed.  ``suffix`` (default: the target's)
+    The parent folder is created if needed.  A path that cannot be written
+    raises :class:`~linkfea.errors.LinkFeaError` naming it.  ``suffix`` (default: the target's)
     keeps writers that choose a format from the file name (matplotlib, VTK) happy.
 
     Examples
@@ -32,16 +35,21 @@ def atomic_path(path, suffix: str | None = None):
     {'a': 1}
     """
     path = Path(path).absolute()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.",
-                               suffix=path.suffix if suffix is None else suffix)
-    os.close(fd)
-    os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
+    tmp = None
     try:
+        if path.is_dir():
+            raise IsADirectoryError(21, "is a folder", str(path))
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.",
+                                   suffix=path.suffix if suffix is None else suffix)
+        os.close(fd)
+        os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
         yield tmp
         os.replace(tmp, path)
+    except OSError as exc:
+        raise LinkFeaError(f"cannot write {path}: {exc.strerror or exc}") from None
     finally:
-        if os.path.exists(tmp):
+        if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)
 
 

@@ -20,7 +20,9 @@ SHA-256 of the input surfaces, the meshing parameters and
 from __future__ import annotations
 
 import hashlib
+import tempfile
 import os
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -325,8 +327,9 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
         say(f"meshing with fTetWild (edge {H:.3g} mm{', refined near small curved faces' if bg is not None else ''})")
         try:
             kw = {} if bg is None else dict(bg_vertices=bg[0], bg_tets=bg[1], bg_values=bg[2])
-            points, tets = pytetwild.tetrahedralize(V, F.astype(np.int32), edge_length_abs=H, epsilon=epsilon,
-                                                    quiet=True, **kw)
+            with _scratch_cwd():
+                points, tets = pytetwild.tetrahedralize(V, F.astype(np.int32), edge_length_abs=H,
+                                                        epsilon=epsilon, quiet=True, **kw)
         except Exception as exc:  # the extension raises RuntimeError on hopeless input
             raise LinkFeaError(f"{link.name}: fTetWild failed: {exc}") from None
         points, tets = _clean(np.asarray(points, dtype=float), np.asarray(tets, dtype=np.int64))
@@ -346,6 +349,18 @@ def _clean(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray
     tets[neg] = tets[neg][:, [0, 2, 1, 3]]
     used, inv = np.unique(tets, return_inverse=True)
     return points[used], inv.reshape(tets.shape).astype(np.int64)
+
+
+@contextmanager
+def _scratch_cwd():
+    """fTetWild writes scratch STL files into the working directory: keep them out of the user's."""
+    old = os.getcwd()
+    with tempfile.TemporaryDirectory(prefix="linkfea-ftetwild-") as d:
+        os.chdir(d)
+        try:
+            yield
+        finally:
+            os.chdir(old)
 
 
 def _save_npz(path: Path, **arrays) -> None:

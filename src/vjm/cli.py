@@ -17,7 +17,7 @@ import typer
 
 from linkfea.atomic import atomic_path
 
-from .errors import VjmError
+from .errors import VjmError, one_line, user_errors
 
 app = typer.Typer(add_completion=False, help="Virtual-joint-method stiffness of parallel machines.")
 
@@ -25,7 +25,7 @@ SEED_TABLE = Path(__file__).resolve().parents[2] / "data" / "seed_table1.csv"
 
 
 def _fail(exc: Exception):
-    typer.echo(f"error: {exc}", err=True)
+    typer.echo(f"error: {one_line(exc)}", err=True)
     raise typer.Exit(2)
 
 
@@ -57,7 +57,7 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
     try:
         m = _load(model, foot, leg)
         r = m.stiffness(_point(at))
-    except VjmError as exc:
+    except user_errors() as exc:
         _fail(exc)
     if as_json:
         typer.echo(json.dumps(r.to_dict(), indent=1))
@@ -100,26 +100,30 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
         axes, G, fixed = _grid(m, grid, slice_)
         P = G.reshape(-1, 3)
         ok = m.arch.reachable(m, P)
+        if not ok.any():
+            raise VjmError(f"no point of the {grid}-point grid{' at ' + slice_ if slice_ else ''} is reachable "
+                           f"by {m.architecture}")
         kt = np.full(len(P), np.nan)
         kr = np.full(len(P), np.nan)
         K = np.full((len(P), 6, 6), np.nan)
-        if ok.any():
-            r = m.stiffness_map(P[ok])
-            kt[ok], kr[ok], K[ok] = r.k_tran, r.k_rot, r.K
-        os.makedirs(out, exist_ok=True)
+        r = m.stiffness_map(P[ok])
+        kt[ok], kr[ok], K[ok] = r.k_tran, r.k_rot, r.K
         shape = G.shape[:3]
-        with atomic_path(os.path.join(out, "map.npz")) as tmp:
-            np.savez_compressed(tmp, points=P, K=K, k_tran=kt, k_rot=kr, reachable=ok, shape=np.array(shape),
+        # all three files appear together or not at all
+        with atomic_path(os.path.join(out, "map.npz")) as npz, \
+                atomic_path(os.path.join(out, "k_tran.png")) as png_t, \
+                atomic_path(os.path.join(out, "k_rot.png")) as png_r:
+            np.savez_compressed(npz, points=P, K=K, k_tran=kt, k_rot=kr, reachable=ok, shape=np.array(shape),
                                 note=np.array("K world axes at the end-effector point; k_tran mm/N, "
                                               "k_rot rad/(N mm); NaN = unreachable"))
-        _plots(out, axes, shape, kt, kr, fixed, m.architecture)
-    except VjmError as exc:
+            _plots({"k_tran": png_t, "k_rot": png_r}, axes, shape, kt, kr, fixed, m.architecture)
+    except user_errors() as exc:
         _fail(exc)
     typer.echo(f"{ok.sum()} of {len(P)} points reachable; k_tran {np.nanmin(kt):.3g}..{np.nanmax(kt):.3g} mm/N, "
                f"k_rot {np.nanmin(kr):.3g}..{np.nanmax(kr):.3g} rad/(N mm); wrote {out}/k_tran.png, k_rot.png, map.npz")
 
 
-def _plots(out, axes, shape, kt, kr, fixed, title):
+def _plots(paths, axes, shape, kt, kr, fixed, title):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -139,8 +143,7 @@ def _plots(out, axes, shape, kt, kr, fixed, title):
         ax.set_ylabel(f"{'xyz'[keep[1]]} [mm]")
         ax.set_title(f"{title}: {name}, {'xyz'[k]} = {np.asarray(axes[k])[idx]:.4g} mm")
         fig.tight_layout()
-        with atomic_path(os.path.join(out, f"{name}.png")) as tmp:
-            fig.savefig(tmp, dpi=110)
+        fig.savefig(paths[name], dpi=110)
         plt.close(fig)
 
 
@@ -178,8 +181,12 @@ def table1(model_puu: Path = typer.Argument(..., help="3-PUU model YAML"),
     """Seed Table 1: our k_tran and k_rot at Q0, Q1, Q2 beside the paper's."""
     try:
         models = [_load(model_puu, foot, leg), _load(model_prpar, foot, bar)]
+        for m, arch, path in zip(models, ("orthoglide-3PUU", "orthoglide-3PRPaR"), (model_puu, model_prpar)):
+            if m.architecture != arch:
+                raise VjmError(f"{path} is a {m.architecture} model; table1 takes the 3-PUU model first, "
+                               f"then the 3-PRPaR")
         rows = table1_rows(models)
-    except VjmError as exc:
+    except user_errors() as exc:
         _fail(exc)
     typer.echo("k_tran [1e-4 mm/N] and k_rot [1e-7 rad/(N mm)]: ours vs seed Table 1 (ratio ours/seed)")
     typer.echo(f"{'architecture':<19}{'pt':<4}{'k_tran ours':>12}{'seed':>8}{'ratio':>7}"

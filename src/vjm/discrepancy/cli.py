@@ -11,11 +11,11 @@ from typing import List, Optional
 
 import typer
 
-from ..errors import VjmError
+from ..errors import one_line, user_errors
 
 
 def _fail(exc: Exception):
-    typer.echo(f"error: {exc}", err=True)
+    typer.echo(f"error: {one_line(exc)}", err=True)
     raise typer.Exit(2)
 
 
@@ -33,7 +33,7 @@ def diagnose_cmd(
     try:
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
                  log=(lambda s: typer.echo(s, err=True)) if verbose else None)
-    except VjmError as exc:
+    except user_errors() as exc:
         _fail(exc)
     typer.echo(dg.report["summary"])
     typer.echo(f"Report: {Path(out) / 'report.html'}")
@@ -54,7 +54,7 @@ def simulate_cmd(
 
     try:
         d = run(model, effect or [], poses, loads, noise_t, noise_r, seed, out)
-    except VjmError as exc:
+    except user_errors() as exc:
         _fail(exc)
     typer.echo(f"wrote {d.n} measurements to {out}")
 

@@ -178,8 +178,13 @@ def true_model(model, effects):
 
 def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: int) -> Deflections:
     """Noisy deflections of ``model`` with hidden ``effects`` at postures P (n,3) under wrenches W (n,6)."""
-    if noise_t < 0 or (noise_r is not None and noise_r < 0):
-        raise VjmError("noise sigmas must be >= 0")
+    if not (np.isfinite(noise_t) and noise_t >= 0) or \
+            (noise_r is not None and not (np.isfinite(noise_r) and noise_r >= 0)):
+        raise VjmError(f"noise sigmas must be finite and >= 0, got --noise-t {noise_t}, --noise-r {noise_r}")
+    if not np.all(np.isfinite(W)):
+        raise VjmError("loads must be finite numbers")
+    if not np.any(W):
+        raise VjmError("all loads are zero: a deflection measurement needs a load")
     rng = np.random.default_rng(seed)
     mt, add = true_model(model, effects)
     U, idx = unique_postures(P)
