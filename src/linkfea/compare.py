@@ -37,8 +37,6 @@ from __future__ import annotations
 import io
 import itertools
 import json
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -374,12 +372,14 @@ def figure_png(record: dict) -> bytes:
     fig.colorbar(im, ax=list(axs[:k]), shrink=0.8, label="entry error, % of sqrt(Cii Cjj)")
     ns = [m["n"] for m in models]
     ax = axs[k]
+    # Log scale: errors of a few % and of several hundred % occur on the same link.  Floor at 0.01 %
+    # so that an exact model (error 0) still plots.
     for key, style, nm in (("timoshenko", "-o", "Timoshenko"), ("euler_bernoulli", "--s", "Euler-Bernoulli")):
-        ax.plot(ns, [100 * m[key]["summary"]["max_principal_error_translation"] for m in models], style,
-                label=f"translation, {nm}")
-        ax.plot(ns, [100 * m[key]["summary"]["max_principal_error_rotation"] for m in models], style,
-                label=f"rotation, {nm}")
+        for blk in ("translation", "rotation"):
+            ax.plot(ns, [max(100 * m[key]["summary"][f"max_principal_error_{blk}"], 1e-2) for m in models], style,
+                    label=f"{blk}, {nm}")
     ax.set_xscale("log", base=2)
+    ax.set_yscale("log")
     ax.set_xticks(ns, [str(n) for n in ns])
     ax.set_xlabel("N beams")
     ax.set_ylabel("max principal compliance error, %")
@@ -395,8 +395,12 @@ def figure_png(record: dict) -> bytes:
 def write_outputs(record: dict, out_dir) -> dict:
     """Write compare.json, compare.md and compare.png into ``out_dir``, each atomically.
 
-    Everything is rendered in memory first, so a failure leaves no file behind.
+    Everything is rendered in memory first; if a write still fails, the files this
+    call created (and the folder, if it created it) are removed, so a failure
+    leaves no partial set behind.
     """
+    from .atomic import write_bytes
+
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise LinkFeaError(f"--out {str(out_dir)!r} exists and is not a directory")
@@ -405,26 +409,22 @@ def write_outputs(record: dict, out_dir) -> dict:
         "compare.md": markdown_table(record).encode(),
         "compare.png": figure_png(record),
     }
-    out_dir.mkdir(parents=True, exist_ok=True)
-    paths = {}
-    for name, data in blobs.items():
-        _atomic_write(out_dir / name, data)
-        paths[name] = str(out_dir / name)
-    return paths
-
-
-def _atomic_write(path: Path, data: bytes) -> None:
-    """Write to a temporary name in the same folder, then rename (no partial file)."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    made_dir = not out_dir.exists()
+    created = []
     try:
-        os.chmod(tmp, 0o644)  # mkstemp makes 0600; reports are meant to be shared
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
+        for name, data in blobs.items():
+            path = out_dir / name
+            new = not path.exists()
+            write_bytes(path, data)
+            if new:
+                created.append(path)
     except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        for path in created:
+            path.unlink(missing_ok=True)
+        if made_dir and out_dir.is_dir() and not any(out_dir.iterdir()):
+            out_dir.rmdir()
         raise
+    return {name: str(out_dir / name) for name in blobs}
 
 
 def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid", out=None, axis=None,
@@ -474,6 +474,7 @@ def library_report(names=None, beams=DEFAULT_BEAMS, img_dir="docs/img", mesh_siz
     PNGs go to ``img_dir/beam_vs_fea_<name>.png``.  A link whose comparison fails is
     reported with its error message instead of numbers.
     """
+    from .atomic import write_bytes
     from .cad import CAD_DIR
 
     names = names or sorted(p.stem for p in CAD_DIR.glob("*.py") if not p.stem.startswith("_"))
@@ -481,10 +482,8 @@ def library_report(names=None, beams=DEFAULT_BEAMS, img_dir="docs/img", mesh_siz
     rows, details = [], []
     for name in names:
         try:
-            with tempfile.TemporaryDirectory() as tmp:
-                rec = compare(name, beams, mesh_size=mesh_size, out=tmp)
-                img_dir.mkdir(parents=True, exist_ok=True)
-                _atomic_write(img_dir / f"beam_vs_fea_{name}.png", (Path(tmp) / "compare.png").read_bytes())
+            rec = compare(name, beams, mesh_size=mesh_size)
+            write_bytes(img_dir / f"beam_vs_fea_{name}.png", figure_png(rec))
         except LinkFeaError as exc:
             rows.append(f"| {name} | – | failed: {exc} | | | | |")
             continue
