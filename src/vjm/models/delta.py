@@ -24,6 +24,7 @@ from ..errors import VjmError
 from ..transforms import homogeneous
 from .base import Architecture, as_points
 from .orthoglide import _parallelogram_leg_compliances
+from .parallelogram import add_parallelogram_leg
 
 PHI = (0.0, 2 * np.pi / 3, 4 * np.pi / 3)
 
@@ -34,6 +35,18 @@ def base_rotation(phi: float) -> np.ndarray:
     return np.stack([x, np.cross(z, x), z], axis=1)
 
 
+def _arm_geometry(g, P, R):
+    """Chain-base coordinates ``b`` of the platform joint, the leg's out-of-plane sine ``sz``, the
+    in-plane distance ``Rb`` and ``kap = Rb cos(angle between arm and b)`` (law of cosines)."""
+    b = (P - R[:, 0] * g["R"]) @ R
+    b[:, 0] += g["r"]
+    sz = b[:, 2] / g["L"]
+    rho = g["L"] * np.sqrt(np.clip(1.0 - sz**2, 0.0, None))
+    Rb = np.hypot(b[:, 0], b[:, 1])
+    kap = (Rb**2 + g["arm"] ** 2 - rho**2) / (2.0 * g["arm"])
+    return b, sz, Rb, kap
+
+
 class DeltaRRPaR(Architecture):
     name = "delta-3RRPaR"
     geometry_keys = ("L", "r", "d", "R", "arm")
@@ -41,17 +54,10 @@ class DeltaRRPaR(Architecture):
     workspace = ((-150.0, -150.0, -600.0), (150.0, 150.0, -350.0))
 
     def reachable(self, model, P):
-        g = model.geometry
         P = as_points(P)
         ok = np.ones(len(P), dtype=bool)
         for phi in PHI:
-            R = base_rotation(phi)
-            b = (P - R[:, 0] * g["R"]) @ R
-            b[:, 0] += g["r"]
-            sz = b[:, 2] / g["L"]
-            rho = g["L"] * np.sqrt(np.clip(1.0 - sz**2, 0.0, None))
-            Rb = np.hypot(b[:, 0], b[:, 1])
-            kap = (Rb**2 + g["arm"] ** 2 - rho**2) / (2.0 * g["arm"])
+            _, sz, Rb, kap = _arm_geometry(model.geometry, P, base_rotation(phi))
             ok &= (np.abs(sz) <= 1.0 + 1e-12) & (np.abs(kap) <= (1.0 + 1e-12) * Rb)
         return ok
 
@@ -66,18 +72,7 @@ class DeltaRRPaR(Architecture):
             b.actuated("rz", "q0")
             b.const(homogeneous(p=(g["arm"], 0.0, 0.0)))
             b.spring6("foot")
-            b.passive("rz", "q1")
-            if js:
-                b.spring1("rx", "r1x")
-                b.spring1("ry", "r1y")
-            b.passive("ry", "q2")
-            b.const(homogeneous(p=(g["L"], 0.0, 0.0)))
-            b.passive("ry", "q2", coef=-1.0)
-            b.spring6("leg")
-            b.passive("rz", "q3")
-            if js:
-                b.spring1("rx", "r2x")
-                b.spring1("ry", "r2y")
+            add_parallelogram_leg(b, g["L"], js, last="q3")
             b.const(homogeneous(p=(-g["r"], 0.0, 0.0)))
             out.append(b.build())
         return tuple(out)
@@ -89,13 +84,7 @@ class DeltaRRPaR(Architecture):
         q0 = np.empty((n, 3))
         vals = []
         for k, (phi, ch) in enumerate(zip(PHI, model.chains)):
-            R = base_rotation(phi)
-            b = (P - R[:, 0] * g["R"]) @ R
-            b[:, 0] += g["r"]
-            sz = b[:, 2] / g["L"]
-            rho = g["L"] * np.sqrt(np.clip(1.0 - sz**2, 0.0, None))
-            Rb = np.hypot(b[:, 0], b[:, 1])
-            kap = (Rb**2 + g["arm"] ** 2 - rho**2) / (2.0 * g["arm"])
+            b, sz, Rb, kap = _arm_geometry(g, P, base_rotation(phi))
             ratio = kap / np.where(Rb > 0, Rb, 1e-300)
             bad = (np.abs(sz) > 1.0 + 1e-12) | (np.abs(ratio) > 1.0 + 1e-12)
             if np.any(bad):

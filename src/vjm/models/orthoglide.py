@@ -34,7 +34,7 @@ from ..chain import ChainBuilder
 from ..errors import VjmError
 from ..transforms import homogeneous
 from .base import Architecture, actuator_compliance, as_points, joint_spring_compliance
-from .parallelogram import parallelogram_compliance, parallelogram_stiffness
+from .parallelogram import add_parallelogram_leg, parallelogram_compliance, parallelogram_stiffness
 
 #: rotation part of T_base^i (columns: chain x, y, z axes in world), eq. 15-16
 BASE_R = {
@@ -150,13 +150,11 @@ class OrthoglidePUU(Architecture):
         return out
 
 
-class OrthoglidePRPaR(Architecture):
+class OrthoglidePRPaR(OrthoglidePUU):
+    """The 3-PUU with parallelogram legs (same actuators, workspace and leg inverse kinematics)."""
+
     name = "orthoglide-3PRPaR"
     geometry_keys = ("L", "r", "d")
-    workspace = OrthoglidePUU.workspace
-
-    def reachable(self, model, P):
-        return _reach(model, as_points(P))
 
     def chains(self, model):
         L, r = model.geometry["L"], model.geometry["r"]
@@ -167,18 +165,7 @@ class OrthoglidePRPaR(Architecture):
             b.const(base_transform(i, L, r))
             b.actuated("tx", "q0")
             b.spring6("foot")
-            b.passive("rz", "q1")
-            if js:
-                b.spring1("rx", "r1x")
-                b.spring1("ry", "r1y")
-            b.passive("ry", "q2")          # eq. 20: Ry(q2) Tx(L) Ry(-q2)
-            b.const(homogeneous(p=(L, 0.0, 0.0)))
-            b.passive("ry", "q2", coef=-1.0)
-            b.spring6("leg")               # parallelogram spring, base axes
-            b.passive("rz", "q4")
-            if js:
-                b.spring1("rx", "r2x")
-                b.spring1("ry", "r2y")
+            add_parallelogram_leg(b, L, js, last="q4")
             b.const(tool_transform(i, r))
             out.append(b.build())
         return tuple(out)

@@ -113,3 +113,22 @@ def closed_form(K_bar, d: float, q) -> np.ndarray:
     K[:, 4, 4] = d**2 * c**2 * Kb[0, 0] / 4.0
     K[:, 5, 5] = Kb[5, 5] + d**2 * s**2 * Kb[1, 1] / 4.0
     return 2.0 * K
+
+
+def add_parallelogram_leg(b: ChainBuilder, L: float, joint_springs: bool, last: str) -> None:
+    """Append a parallelogram leg (seed eq. 20) to a chain: the first joint's two rotations
+    ``Rz(q1) Ry(q2)``, ``Tx(L) Ry(-q2)`` with the equivalent 6-dof spring ``leg`` in base axes,
+    then ``Rz(last)``.  With ``joint_springs`` each end gets 1-dof springs about the two axes
+    its rotations leave constrained (``r1x, r1y`` and ``r2x, r2y``)."""
+    b.passive("rz", "q1")
+    if joint_springs:
+        b.spring1("rx", "r1x")
+        b.spring1("ry", "r1y")
+    b.passive("ry", "q2")
+    b.const(homogeneous(p=(L, 0.0, 0.0)))
+    b.passive("ry", "q2", coef=-1.0)
+    b.spring6("leg")
+    b.passive("rz", last)
+    if joint_springs:
+        b.spring1("rx", "r2x")
+        b.spring1("ry", "r2y")
