@@ -126,12 +126,15 @@ class OrthoglidePUU(Architecture):
         u, q0 = _leg_ik(model, P)
         q1 = np.arctan2(u[..., 1], u[..., 0])
         q2 = -np.arcsin(np.clip(u[..., 2], -1.0, 1.0))
+        # rigid posture: q3 = -q2 and q4 = -q1 keep the platform's orientation (seed 4.1); the
+        # parallelogram legs of the 3-PRPaR have no q3 (eq. 20 couples it to q2)
         vals = []
         for k, ch in enumerate(model.chains):
             v = np.zeros((q0.shape[0], ch.n_vars))
             for name, val in (("q0", q0[:, k]), ("q1", q1[:, k]), ("q2", q2[:, k]),
                               ("q3", -q2[:, k]), ("q4", -q1[:, k])):
-                v[:, ch.index(name)] = val
+                if name in ch.var_names:
+                    v[:, ch.index(name)] = val
             vals.append(v)
         return q0, vals
 
@@ -169,18 +172,6 @@ class OrthoglidePRPaR(OrthoglidePUU):
             b.const(tool_transform(i, r))
             out.append(b.build())
         return tuple(out)
-
-    def inverse_kinematics(self, model, P):
-        u, q0 = _leg_ik(model, P)
-        q1 = np.arctan2(u[..., 1], u[..., 0])
-        q2 = -np.arcsin(np.clip(u[..., 2], -1.0, 1.0))
-        vals = []
-        for k, ch in enumerate(model.chains):
-            v = np.zeros((q0.shape[0], ch.n_vars))
-            for name, val in (("q0", q0[:, k]), ("q1", q1[:, k]), ("q2", q2[:, k]), ("q4", -q1[:, k])):
-                v[:, ch.index(name)] = val
-            vals.append(v)
-        return q0, vals
 
     def compliances(self, model, P, chain_values, q_act):
         return _parallelogram_leg_compliances(model, chain_values, q_act, ("r1x", "r1y", "r2x", "r2y"))
