@@ -200,8 +200,6 @@ def read_csv(path) -> Deflections | StiffnessObs:
     if zero.all():
         raise _err(path, int(rownums[0]), "Fx",
                    "all applied loads are zero in every row: deflections carry no stiffness information")
-    if "sigma_r" in sig and not np.isfinite(T[:, 3:]).any():
-        pass  # harmless: a rotation sigma with no rotations
     return Deflections(P, W, T, sig.get("sigma_t"), sig.get("sigma_r"), rownums, str(path))
 
 

@@ -90,6 +90,15 @@ def _leg_ik(model, P):
     return u, q0
 
 
+def _actuated_foot(i: str, L: float, r: float) -> ChainBuilder:
+    """Chain ``i`` up to the carriage (eq. 17): base, prismatic actuator with its spring, foot spring."""
+    b = ChainBuilder(i)
+    b.const(base_transform(i, L, r))
+    b.actuated("tx", "q0")
+    b.spring6("foot")
+    return b
+
+
 class OrthoglidePUU(Architecture):
     name = "orthoglide-3PUU"
     geometry_keys = ("L", "r")
@@ -104,10 +113,7 @@ class OrthoglidePUU(Architecture):
         js = model.joints.passive_stiffness is not None
         out = []
         for i in CHAINS:
-            b = ChainBuilder(i)
-            b.const(base_transform(i, L, r))
-            b.actuated("tx", "q0")
-            b.spring6("foot")
+            b = _actuated_foot(i, L, r)
             b.passive("rz", "q1")
             if js:
                 b.spring1("rx", "u1")
@@ -164,10 +170,7 @@ class OrthoglidePRPaR(OrthoglidePUU):
         js = model.joints.passive_stiffness is not None
         out = []
         for i in CHAINS:
-            b = ChainBuilder(i)
-            b.const(base_transform(i, L, r))
-            b.actuated("tx", "q0")
-            b.spring6("foot")
+            b = _actuated_foot(i, L, r)
             add_parallelogram_leg(b, L, js, last="q4")
             b.const(tool_transform(i, r))
             out.append(b.build())
