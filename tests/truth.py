@@ -1,0 +1,375 @@
+"""Independent truth for `vjm diagnose`: measurement sets of the Orthoglide 3-PUU.
+
+Nothing here uses :mod:`vjm.discrepancy` (neither its effect library nor its
+simulator), so a diagnosis that passes on these sets finds what a richer
+machine does, not what its own effect code wrote.  The true deflections are
+
+* the elastic deflection of a **richer model file** (a mapping in the
+  ``data/orthoglide/puu.yaml`` format: a real beam foot of other proportions
+  than the leg's, a foot compliance with its bending couplings, elastic passive
+  joints, an actuator whose compliance grows along its travel ...) solved by
+  the vjm model (linear ``C(p) w``) or by :mod:`vjm.nonlinear` (finite
+  rotations: geometric nonlinearity);
+* plus terms written out here, with their own kinematics of the 3-PUU (its
+  rigid inverse kinematics in closed form, not vjm's chains):
+
+  - ``weight``: a weight ``m g`` (N) on the platform at the end-effector point,
+    along ``GRAVITY``, carried by the machine together with the applied load;
+  - ``backlash``: every actuator slips by ``b`` (mm) in the direction of its
+    force.  The force of actuator i is ``tau_i = (J^-T F)_i`` with
+    ``J = dq/dp`` of the closed-form inverse kinematics (a slip is a rigid,
+    stress-free motion of the translational 3-PUU, so by the unit-load theorem
+    the actuator forces depend on the force part of the wrench only); the
+    platform moves by ``dp = J^-1 (b sign(tau))`` without rotating;
+  - out-of-library effects: ``hysteresis`` (a fraction of the previous load's
+    elastic deflection at the same posture remains: friction in the joints)
+    and ``contact`` (a Hertz-like contact at the tool whose deflection grows as
+    ``|F|^(2/3)`` along the force: it stiffens with the load).
+
+Noise: independent Gaussian on each component, ``sigma_t`` (mm) and
+``sigma_r`` (rad), written as columns (known sigmas) or left out with every
+row repeated (unknown sigmas, pure error from the repeats).
+
+Units N, mm, rad; wrench order Fx Fy Fz Mx My Mz, twist dx dy dz rx ry rz,
+world axes at the end-effector point (the frame of ``puu.yaml``).
+"""
+from __future__ import annotations
+
+import copy
+import csv
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+import yaml
+
+import vjm
+from vjm import nonlinear
+from vjm.modelfile import model_from_dict
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PUU = os.path.join(ROOT, "data", "orthoglide", "puu.yaml")
+#: gravity direction in world axes (unit vector), as `vjm diagnose`'s weight assumes
+GRAVITY = np.array([0.0, 0.0, -1.0])
+#: the Orthoglide's Cartesian workspace cube Q1..Q2 (seed Fig. 4c), mm
+WORKSPACE = (-73.65, 126.35)
+COLUMNS = ("x", "y", "z", "Fx", "Fy", "Fz", "Mx", "My", "Mz", "dx", "dy", "dz", "rx", "ry", "rz")
+MATERIALS = {"aluminium": (70_000.0, 0.33), "steel": (210_000.0, 0.30)}  # E (MPa), nu
+
+
+# --- model files -----------------------------------------------------------------------------
+
+def nominal() -> dict:
+    """The mapping of ``data/orthoglide/puu.yaml`` (a fresh deep copy)."""
+    with open(PUU, encoding="utf-8") as fh:
+        return yaml.safe_load(fh)
+
+
+def variant(base: dict, **changes) -> dict:
+    """A deep copy of a model mapping with top-level keys replaced (``foot=..., joints=...``)."""
+    d = copy.deepcopy(base)
+    for k, v in changes.items():
+        d[k] = copy.deepcopy(v)
+    return d
+
+
+def build(d: dict) -> vjm.Model:
+    """A vjm Model from a model-file mapping (paths relative to data/orthoglide)."""
+    return model_from_dict(copy.deepcopy(d), os.path.dirname(PUU))
+
+
+def write_model(d: dict, path) -> str:
+    """Write a model mapping as a YAML model file; returns the path."""
+    with open(path, "w", encoding="utf-8") as fh:
+        yaml.safe_dump(d, fh, sort_keys=False)
+    return str(path)
+
+
+# --- link compliances written out (Timoshenko cantilever, seed eq. 14 + shear) ---------------
+
+def rect_torsion_constant(a: float, b: float) -> float:
+    """Saint-Venant J of a solid a x b rectangle, series of Timoshenko & Goodier (a >= b)."""
+    a, b = max(a, b), min(a, b)
+    n = np.arange(1, 200, 2, dtype=float)
+    return a * b**3 / 3.0 * (1.0 - 192.0 / np.pi**5 * (b / a) * np.sum(np.tanh(n * np.pi * a / (2 * b)) / n**5))
+
+
+def rect_beam_compliance(length, width, height, material="aluminium", twist=True, coupling=True) -> np.ndarray:
+    """Tip compliance (tip frame, x along the beam, width along y) of a clamped rectangular beam.
+
+    ``twist=False``: a link that bends but does not twist (torsion 1e-4 of the
+    beam's); ``coupling=False``: the bending couplings c26, c35 left out (a
+    model without translation-rotation coupling).
+    """
+    E, nu = MATERIALS[material]
+    G = E / (2.0 * (1.0 + nu))
+    L, A = float(length), width * height
+    Iy, Iz = width * height**3 / 12.0, height * width**3 / 12.0
+    kA = 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu) * A  # Cowper's shear area of a rectangle
+    C = np.zeros((6, 6))
+    C[0, 0] = L / (E * A)
+    C[1, 1] = L**3 / (3 * E * Iz) + L / (G * kA)
+    C[2, 2] = L**3 / (3 * E * Iy) + L / (G * kA)
+    C[3, 3] = L / (G * rect_torsion_constant(width, height)) * (1.0 if twist else 1e-4)
+    C[4, 4] = L / (E * Iy)
+    C[5, 5] = L / (E * Iz)
+    if coupling:
+        # right-handed: a tip force Fy turns the tip by +rz, Fz by -ry
+        C[1, 5] = C[5, 1] = L**2 / (2 * E * Iz)
+        C[2, 4] = C[4, 2] = -(L**2) / (2 * E * Iy)
+    return C
+
+
+def inline(C) -> dict:
+    """A ``{compliance: 6x6}`` link entry."""
+    return {"compliance": np.asarray(C, dtype=float).tolist()}
+
+
+# --- 3-PUU kinematics written out ------------------------------------------------------------
+
+def actuator_coordinates(P, L: float) -> np.ndarray:
+    """Rigid inverse kinematics of the 3-PUU (n, 3): ``q_i = p_i + L - sqrt(L^2 - |p|^2 + p_i^2)``.
+
+    Actuator i moves along world axis i; q = 0 at the isotropic posture p = 0.
+    """
+    P = np.atleast_2d(np.asarray(P, dtype=float))
+    s = L**2 - np.sum(P**2, axis=1, keepdims=True) + P**2
+    if np.any(s <= 0):
+        raise ValueError("unreachable posture")
+    return P + L - np.sqrt(s)
+
+
+def actuator_jacobian(P, L: float) -> np.ndarray:
+    """``J = dq/dp`` (n, 3, 3): ``J_ii = 1``, ``J_ij = p_j / sqrt(L^2 - |p|^2 + p_i^2)``."""
+    P = np.atleast_2d(np.asarray(P, dtype=float))
+    s = np.sqrt(L**2 - np.sum(P**2, axis=1, keepdims=True) + P**2)  # (n, 3): one root per leg i
+    J = P[:, None, :] / s[:, :, None]
+    idx = np.arange(3)
+    J[:, idx, idx] = 1.0
+    return J
+
+
+def actuator_forces(P, W, L: float) -> np.ndarray:
+    """Force of each actuator (n, 3), N, positive when the load pushes it towards increasing q.
+
+    Virtual work of a stress-free actuator motion: ``F . dp = tau . dq`` with
+    ``dq = J dp``, so ``tau = J^-T F``; moments do not load the actuators.
+    """
+    J = actuator_jacobian(P, L)
+    F = np.broadcast_to(np.asarray(W, dtype=float), (J.shape[0], 6))[:, :3]
+    return np.linalg.solve(np.swapaxes(J, 1, 2), F[:, :, None])[:, :, 0]
+
+
+def slip_twist(P, e, L: float) -> np.ndarray:
+    """Platform twist (n, 6) when the actuators slip by ``e`` (n, 3) mm: ``dp = J^-1 e``, no rotation."""
+    J = actuator_jacobian(P, L)
+    out = np.zeros((J.shape[0], 6))
+    out[:, :3] = np.linalg.solve(J, np.asarray(e, dtype=float)[:, :, None])[:, :, 0]
+    return out
+
+
+def reachable(P, L: float) -> np.ndarray:
+    P = np.atleast_2d(P)
+    return np.all(L**2 - np.sum(P**2, axis=1, keepdims=True) + P**2 > 0.05 * L**2, axis=1)
+
+
+# --- the true machine ------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Truth:
+    """A true machine: a model mapping solved by vjm plus additive terms written out here.
+
+    Attributes
+    ----------
+    model : model-file mapping of the true springs (see :func:`nominal`, :func:`variant`)
+    nonlinear : solve the springs by :mod:`vjm.nonlinear` (finite rotations) instead of ``C w``
+    weight : N, a weight on the platform along ``GRAVITY`` (>= 0)
+    backlash : mm, each actuator slips by this in the direction of its force
+    backlash_sign : ``"applied"`` (sign of the applied load's actuator force) or ``"total"``
+        (applied load plus weight)
+    hysteresis : dimensionless, fraction of the previous load's elastic deflection (same
+        posture, file order) that remains (out of library)
+    contact : mm / N^(2/3), translation ``contact |F|^(2/3) F/|F|`` (out of library)
+    """
+
+    model: dict = field(default_factory=nominal)
+    nonlinear: bool = False
+    weight: float = 0.0
+    backlash: float = 0.0
+    backlash_sign: str = "applied"
+    hysteresis: float = 0.0
+    contact: float = 0.0
+
+    def vjm_model(self) -> vjm.Model:
+        return build(self.model)
+
+    @property
+    def L(self) -> float:
+        return float(self.model["geometry"]["L"])
+
+
+def elastic(truth: Truth, P, W) -> np.ndarray:
+    """Deflection (n, 6) of the true springs under W + weight (linear C w or nonlinear equilibrium)."""
+    m = truth.vjm_model()
+    P = np.asarray(P, dtype=float)
+    Wt = np.array(np.broadcast_to(np.asarray(W, dtype=float), (len(P), 6)))
+    Wt[:, :3] += truth.weight * GRAVITY
+    if truth.nonlinear:
+        return nonlinear.deflection_map(m, P, Wt)
+    U, inv = np.unique(P, axis=0, return_inverse=True)
+    C = m.stiffness_map(U).C[inv.ravel()]
+    return np.einsum("nij,nj->ni", C, Wt)
+
+
+def backlash_twist(truth: Truth, P, W) -> np.ndarray:
+    """(n, 6) platform twist of the actuators' backlash (zero where an actuator carries no force)."""
+    W = np.array(np.broadcast_to(np.asarray(W, dtype=float), (len(P), 6)))
+    if truth.backlash_sign == "total":
+        W[:, :3] += truth.weight * GRAVITY
+    tau = actuator_forces(P, W, truth.L)
+    tol = 1e-9 * max(np.max(np.abs(tau)), 1e-300)
+    e = truth.backlash * np.where(np.abs(tau) > tol, np.sign(tau), 0.0)
+    return slip_twist(P, e, truth.L)
+
+
+def contact_twist(truth: Truth, W) -> np.ndarray:
+    """(n, 6) Hertz-like contact at the tool: ``contact |F|^(2/3)`` along F (stiffens with load)."""
+    F = np.asarray(W, dtype=float)[:, :3]
+    f = np.linalg.norm(F, axis=1, keepdims=True)
+    out = np.zeros((len(F), 6))
+    out[:, :3] = truth.contact * np.cbrt(f) ** 2 * np.divide(F, f, out=np.zeros_like(F), where=f > 0)
+    return out
+
+
+def hysteresis_twist(truth: Truth, P, W, t_elastic_applied) -> np.ndarray:
+    """(n, 6) remnant of the previous row's elastic deflection at the same posture (rows in file order)."""
+    out = np.zeros_like(t_elastic_applied)
+    for k in range(1, len(P)):
+        if np.array_equal(P[k], P[k - 1]):
+            out[k] = truth.hysteresis * t_elastic_applied[k - 1]
+    return out
+
+
+def deflections(truth: Truth, P, W) -> np.ndarray:
+    """True (noise-free) twists (n, 6), mm and rad, of the rows (P, W) measured in that order."""
+    P = np.asarray(P, dtype=float)
+    W = np.asarray(W, dtype=float)
+    t = elastic(truth, P, W)
+    if truth.backlash:
+        t = t + backlash_twist(truth, P, W)
+    if truth.contact:
+        t = t + contact_twist(truth, W)
+    if truth.hysteresis:
+        t0 = elastic(Truth(truth.model, truth.nonlinear), P, W)  # the applied load's own deflection, no weight
+        t = t + hysteresis_twist(truth, P, W, t0)
+    return t
+
+
+# --- designs ---------------------------------------------------------------------------------
+
+def postures(n: int, rng, box=WORKSPACE, L: float = 310.0) -> np.ndarray:
+    """n uniform random postures (n, 3) of the cube ``box`` that the legs reach comfortably."""
+    lo, hi = box
+    out = np.empty((0, 3))
+    while len(out) < n:
+        Q = lo + (hi - lo) * rng.random((4 * n, 3))
+        out = np.vstack([out, Q[reachable(Q, L)]])
+    return out[:n]
+
+
+def loads(k: int, rng, force: float = 100.0, moment: float = 5000.0, forces_only: bool = False,
+          spread: tuple = (0.2, 1.0)) -> np.ndarray:
+    """k wrenches (k, 6) in opposite pairs (w, -w): random force, moment and combined directions.
+
+    Magnitudes uniform in ``spread`` x (force, moment), so that effects that are not
+    linear in the load show.  ``forces_only``: no moments (a rig without torque arms).
+    """
+    out = []
+    for j in range((k + 1) // 2):
+        kind = "force" if forces_only else ("force", "moment", "both")[j % 3]
+        w = np.zeros(6)
+        a = rng.uniform(*spread)
+        if kind in ("force", "both"):
+            u = rng.standard_normal(3)
+            w[:3] = a * force * u / np.linalg.norm(u)
+        if kind in ("moment", "both"):
+            u = rng.standard_normal(3)
+            w[3:] = a * moment * u / np.linalg.norm(u)
+        out += [w, -w]
+    return np.array(out[:k])
+
+
+def design(n_postures: int, n_loads: int, seed: int, box=WORKSPACE, **load_kw):
+    """Rows (P, W): ``n_postures`` random postures x ``n_loads`` loads each (drawn per posture)."""
+    rng = np.random.default_rng(seed)
+    P0 = postures(n_postures, rng, box)
+    P = np.repeat(P0, n_loads, axis=0)
+    W = np.concatenate([loads(n_loads, rng, **load_kw) for _ in P0])
+    return P, W
+
+
+# --- measurements ----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Measurements:
+    """Rows of a measurement file: P (n, 3), W (n, 6), T (n, 6) (NaN = not measured), sigmas or None."""
+
+    P: np.ndarray
+    W: np.ndarray
+    T: np.ndarray
+    sigma_t: float | None
+    sigma_r: float | None
+
+    def write(self, path) -> str:
+        """The README's CSV: ``x,y,z,Fx..Mz,dx..rz[,sigma_t,sigma_r]``; blank = not measured."""
+        cols = list(COLUMNS)
+        known = self.sigma_t is not None
+        if known:
+            cols += ["sigma_t", "sigma_r"]
+        tmp = f"{path}.tmp"
+        with open(tmp, "w", newline="", encoding="utf-8") as fh:
+            wr = csv.writer(fh)
+            wr.writerow(cols)
+            for p, w, t in zip(self.P, self.W, self.T):
+                rec = [repr(float(v)) for v in (*p, *w)] + ["" if np.isnan(v) else repr(float(v)) for v in t]
+                if known:
+                    rec += [repr(float(self.sigma_t)), "" if self.sigma_r is None else repr(float(self.sigma_r))]
+                wr.writerow(rec)
+        os.replace(tmp, path)
+        return str(path)
+
+    def __add__(self, other: "Measurements") -> "Measurements":
+        return Measurements(np.vstack([self.P, other.P]), np.vstack([self.W, other.W]),
+                            np.vstack([self.T, other.T]), self.sigma_t, self.sigma_r)
+
+
+def measure(truth: Truth, P, W, seed: int, sigma_t: float = 1e-3, sigma_r: float | None = 1e-5,
+            known_sigmas: bool = True, repeats: int = 1) -> Measurements:
+    """Noisy measurements of ``truth`` at rows (P, W).
+
+    ``sigma_r=None``: rotations not measured (blank).  ``known_sigmas=False``:
+    no sigma columns; use ``repeats >= 2`` so that the file holds pure error
+    (each row measured ``repeats`` times in a row, independent noise).
+    """
+    P = np.repeat(np.asarray(P, dtype=float), repeats, axis=0)
+    W = np.repeat(np.asarray(W, dtype=float), repeats, axis=0)
+    T = deflections(truth, P, W)
+    rng = np.random.default_rng(seed)
+    T[:, :3] += sigma_t * rng.standard_normal((len(P), 3))
+    if sigma_r is None:
+        T[:, 3:] = np.nan
+    else:
+        T[:, 3:] += sigma_r * rng.standard_normal((len(P), 3))
+    if not known_sigmas:
+        return Measurements(P, W, T, None, None)
+    return Measurements(P, W, T, sigma_t, sigma_r)
+
+
+def read_rows(path) -> tuple[np.ndarray, np.ndarray]:
+    """(P, W) of a CSV with columns x,y,z,Fx..Mz (e.g. ``next_measurements.csv``), '#' lines skipped."""
+    with open(path, newline="", encoding="utf-8") as fh:
+        rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith("#")]
+    hdr = [h.strip() for h in rows[0]]
+    cols = [hdr.index(c) for c in COLUMNS[:9]]
+    A = np.array([[float(r[c]) for c in cols] for r in rows[1:]], dtype=float).reshape(-1, 9)
+    return A[:, :3], A[:, 3:]
