@@ -187,3 +187,28 @@ def test_measurements_csv_and_noise(tmp_path, rows):
     Pr, Wr = tr.read_rows(path)
     np.testing.assert_array_equal(Pr, P)
     np.testing.assert_array_equal(Wr, W)
+
+
+def test_soft_modes_scale_one_rigidity():
+    C, E, nu = tr.rect_beam_compliance(50, 60, 10), 70_000.0, 0.33
+    S = tr.rect_beam_compliance(50, 60, 10, soft={"bending_y": 2.0})
+    shear = 50 / (E / (2 * (1 + nu)) * 10 * (1 + nu) / (12 + 11 * nu) * 600)
+    assert S[4, 4] == pytest.approx(2 * C[4, 4]) and S[2, 4] == pytest.approx(2 * C[2, 4])
+    assert S[2, 2] - shear == pytest.approx(2 * (C[2, 2] - shear))
+    keep = np.ones((6, 6), bool)
+    keep[[2, 2, 4, 4], [2, 4, 2, 4]] = False
+    np.testing.assert_array_equal(S[keep], C[keep])
+    T = tr.rect_beam_compliance(50, 60, 10, soft={"torsion": 1.5})
+    assert T[3, 3] == pytest.approx(1.5 * C[3, 3])
+
+
+@pytest.mark.parametrize("name", sorted(tr.LIBRARY))
+def test_hidden_library_effects_show_above_noise(name):
+    """Each effect hidden at its test size moves the data (the acceptance tests' design) beyond the noise."""
+    P, W = tr.design(24, 12, seed=11)
+    given, truth = tr.hide(name)
+    d = tr.deflections(truth, P, W) - tr.deflections(tr.Truth(given), P, W)
+    chi2 = np.sum((d[:, :3] / 1e-3) ** 2) + np.sum((d[:, 3:] / 1e-5) ** 2)
+    assert chi2 > 100.0  # 288 rows, 1 um and 10 urad
+    with pytest.raises(ValueError):
+        tr.hide("foot_compliance", "clearance")  # different model files given

@@ -94,29 +94,35 @@ def rect_torsion_constant(a: float, b: float) -> float:
     return a * b**3 / 3.0 * (1.0 - 192.0 / np.pi**5 * (b / a) * np.sum(np.tanh(n * np.pi * a / (2 * b)) / n**5))
 
 
-def rect_beam_compliance(length, width, height, material="aluminium", twist=True, coupling=True) -> np.ndarray:
+def rect_beam_compliance(length, width, height, material="aluminium", twist=True, coupling=True,
+                         soft=None) -> np.ndarray:
     """Tip compliance (tip frame, x along the beam, width along y) of a clamped rectangular beam.
 
     ``twist=False``: a link that bends but does not twist (torsion 1e-4 of the
     beam's); ``coupling=False``: the bending couplings c26, c35 left out (a
-    model without translation-rotation coupling).
+    model without translation-rotation coupling); ``soft``: compliance
+    multipliers of the section's rigidities, keys ``axial`` (1/EA),
+    ``bending_y`` (1/EIy: c33's bending part, c35, c55), ``bending_z`` (1/EIz),
+    ``torsion`` (1/GJ); shear is left as it is.
     """
     E, nu = MATERIALS[material]
     G = E / (2.0 * (1.0 + nu))
+    f = {"axial": 1.0, "bending_y": 1.0, "bending_z": 1.0, "torsion": 1.0, **(soft or {})}
     L, A = float(length), width * height
-    Iy, Iz = width * height**3 / 12.0, height * width**3 / 12.0
+    EA, GJ = E * A / f["axial"], G * rect_torsion_constant(width, height) / f["torsion"]
+    EIy, EIz = E * width * height**3 / 12.0 / f["bending_y"], E * height * width**3 / 12.0 / f["bending_z"]
     kA = 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu) * A  # Cowper's shear area of a rectangle
     C = np.zeros((6, 6))
-    C[0, 0] = L / (E * A)
-    C[1, 1] = L**3 / (3 * E * Iz) + L / (G * kA)
-    C[2, 2] = L**3 / (3 * E * Iy) + L / (G * kA)
-    C[3, 3] = L / (G * rect_torsion_constant(width, height)) * (1.0 if twist else 1e-4)
-    C[4, 4] = L / (E * Iy)
-    C[5, 5] = L / (E * Iz)
+    C[0, 0] = L / EA
+    C[1, 1] = L**3 / (3 * EIz) + L / (G * kA)
+    C[2, 2] = L**3 / (3 * EIy) + L / (G * kA)
+    C[3, 3] = L / GJ * (1.0 if twist else 1e-4)
+    C[4, 4] = L / EIy
+    C[5, 5] = L / EIz
     if coupling:
         # right-handed: a tip force Fy turns the tip by +rz, Fz by -ry
-        C[1, 5] = C[5, 1] = L**2 / (2 * E * Iz)
-        C[2, 4] = C[4, 2] = -(L**2) / (2 * E * Iy)
+        C[1, 5] = C[5, 1] = L**2 / (2 * EIz)
+        C[2, 4] = C[4, 2] = -(L**2) / (2 * EIy)
     return C
 
 
@@ -373,3 +379,78 @@ def read_rows(path) -> tuple[np.ndarray, np.ndarray]:
     cols = [hdr.index(c) for c in COLUMNS[:9]]
     A = np.array([[float(r[c]) for c in cols] for r in rows[1:]], dtype=float).reshape(-1, 9)
     return A[:, :3], A[:, 3:]
+
+
+# --- library effects hidden in a true machine ------------------------------------------------
+# The model file given to the diagnosis, per case: puu.yaml, or puu.yaml with a rigid foot, or
+# with a foot compliance that lacks the bending couplings c26, c35.
+NOMINAL = nominal()
+FOOT = (50.0, 60.0, 10.0)   # puu.yaml's foot: length, width (y), height (z), aluminium
+LEG = (310.0, 30.0, 10.0)   # puu.yaml's leg
+MODELS = {
+    "puu": NOMINAL,
+    "rigid_foot": variant(NOMINAL, foot={"rigid": True}),
+    "uncoupled_foot": variant(NOMINAL, foot=inline(rect_beam_compliance(*FOOT, coupling=False))),
+}
+
+
+def _foot(s):      # a real foot: a bracket 40 x 16, 90 long (not the leg's proportions), s x as compliant
+    return {"foot": inline(s * rect_beam_compliance(90.0, 40.0, 16.0))}, {}
+
+
+def _coupling(s):  # the foot's c26, c35 at s x their beam value
+    C = rect_beam_compliance(*FOOT)
+    C[1, 5] *= s
+    C[5, 1] *= s
+    C[2, 4] *= s
+    C[4, 2] *= s
+    return {"foot": inline(C)}, {}
+
+
+def _slope(s):     # actuator compliance c(q) = c0 (1 + s q), s per mm, q_ref = 0 (the isotropic posture)
+    k = NOMINAL["actuator"]["stiffness"]
+    return {"actuator": {"stiffness": k, "compliance_slope": s / k, "q_ref": 0.0}}, {}
+
+
+@dataclass(frozen=True)
+class Hidden:
+    """A library effect as a true machine shows it: ``make(size) -> (model-file changes, Truth terms)``."""
+
+    model: str       # key of MODELS: the model file given to the diagnosis
+    size: float      # the size used by the acceptance tests
+    unit: str
+    make: object
+
+
+LIBRARY = {
+    "foot_compliance": Hidden("rigid_foot", 1.0, "x bracket 40x16x90 alu", _foot),
+    "foot_bending_coupling": Hidden("uncoupled_foot", 1.0, "x beam c26, c35", _coupling),
+    "foot_torsion": Hidden("puu", 0.3, "extra x foot torsion compliance",
+                           lambda s: ({"foot": inline(rect_beam_compliance(*FOOT, soft={"torsion": 1 + s}))}, {})),
+    "leg_torsion": Hidden("puu", 0.05, "extra x leg torsion compliance",
+                          lambda s: ({"leg": inline(rect_beam_compliance(*LEG, soft={"torsion": 1 + s}))}, {})),
+    "passive_joint_compliance": Hidden("puu", 1e-8, "rad/(N mm)",
+                                       lambda s: ({"joints": {"passive_stiffness": 1.0 / s}}, {})),
+    "actuator_travel_stiffness": Hidden("puu", 2e-3, "1/mm", _slope),
+    "clearance": Hidden("puu", 2e-3, "mm", lambda s: ({}, {"backlash": s})),
+    "gravity": Hidden("puu", 3.0, "N", lambda s: ({}, {"weight": s})),
+    "geometric_nonlinearity": Hidden("puu", 1.0, "the model's own (size: load scale)",
+                                     lambda s: ({}, {"nonlinear": True})),
+}
+
+
+def hide(*effects) -> tuple[dict, Truth]:
+    """(model mapping given to the diagnosis, true machine) with library effects hidden.
+
+    ``effects``: names of :data:`LIBRARY` or ``(name, size)`` pairs; they must share the model given.
+    """
+    items = [(e, LIBRARY[e].size) if isinstance(e, str) else e for e in effects]
+    keys = {LIBRARY[n].model for n, _ in items}
+    if len(keys) != 1:
+        raise ValueError(f"effects {[n for n, _ in items]} need different model files ({sorted(keys)})")
+    true_model, kw = dict(NOMINAL), {}
+    for n, s in items:
+        changes, terms = LIBRARY[n].make(s)
+        true_model.update(changes)
+        kw.update(terms)
+    return MODELS[keys.pop()], Truth(variant(true_model), **kw)
