@@ -32,11 +32,12 @@ import numpy as np
 from .errors import LinkFeaError
 from .frames import Frame
 from .materials import get_material
+from .resources import cad_dir
 
 DEFAULT_TOL = 0.01
 """Default selector tolerance, mm (CAD faces are exact, so this only absorbs round-off)."""
 
-CAD_DIR = Path(__file__).resolve().parents[2] / "cad"
+CAD_DIR = cad_dir()
 """Folder of the bundled link scripts (``bar``, ``orthoglide_foot``, ...)."""
 
 

@@ -18,10 +18,11 @@ import typer
 from linkfea.atomic import atomic_path
 
 from .errors import VjmError, one_line, user_errors
+from .resources import seed_table
 
 app = typer.Typer(add_completion=False, help="Virtual-joint-method stiffness of parallel machines.")
 
-SEED_TABLE = Path(__file__).resolve().parents[2] / "data" / "seed_table1.csv"
+SEED_TABLE = seed_table()
 
 
 def _fail(exc: Exception):

@@ -41,6 +41,7 @@ from linkfea.atomic import plain, write_text
 from .errors import VjmError
 from .model import Actuator, Joints, Link, Model, validate_compliance
 from .models import ARCHITECTURES
+from .resources import data_file
 
 TOP_KEYS = ("architecture", "name", "geometry", "actuator", "foot", "leg", "joints", "effects")
 LINK_KINDS = ("rigid", "compliance", "beam", "linkfea")
@@ -176,7 +177,7 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
 
 def load_model(path, foot=None, leg=None) -> Model:
     """Read a model file; ``foot``/``leg`` (paths to linkfea results) override the file's links."""
-    path = os.fspath(path)
+    path = os.fspath(data_file(path))
     if not os.path.isfile(path):
         raise VjmError(f"model file not found: {path}")
     try:

@@ -30,6 +30,7 @@ import numpy as np
 from linkfea.atomic import write_text
 
 from ..errors import VjmError
+from ..resources import data_file
 
 POS = ("x", "y", "z")
 WRENCH = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
@@ -122,6 +123,7 @@ def _float(text, source, row, col, required):
 
 
 def _read_table(path):
+    path = data_file(path)
     try:
         with open(path, newline="", encoding="utf-8") as fh:
             text = fh.read()

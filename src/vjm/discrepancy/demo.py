@@ -12,8 +12,9 @@ import sys
 
 from . import diagnose as dg
 from . import simulate as sim
+from ..resources import data_dir
 
-MODEL = os.path.join(os.path.dirname(__file__), "..", "..", "..", "data", "orthoglide", "puu.yaml")
+MODEL = str(data_dir() / "orthoglide" / "puu.yaml")
 
 
 def main(out="out/diagnose", model=None):
