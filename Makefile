@@ -34,7 +34,10 @@ demo: $(STAMP)
 	    --noise-t 0.001 --seed 1 --out $(OUT)/diagnose/measurements.csv
 	$(BIN)/vjm diagnose $(PUU) $(OUT)/diagnose/measurements.csv --out $(OUT)/diagnose/report
 
+# Lint and type-check first (seconds), then the suite.
 test: $(STAMP)
+	$(BIN)/ruff check src tests
+	$(BIN)/mypy src
 	$(PY) -m pytest -n 2 --dist loadfile
 
 clean:

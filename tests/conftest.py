@@ -7,7 +7,7 @@ import pytest
 # Structured test meshes live next to the tests (tests/meshes.py).
 sys.path.insert(0, os.path.dirname(__file__))
 
-from linkfea.materials import get_material  # noqa: E402
+from linkfea.materials import get_material
 
 
 @pytest.fixture(scope="session")

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from linkfea.beam import (BeamSegment, cantilever_compliance, rect_section, series_compliance)
+from linkfea.beam import BeamSegment, cantilever_compliance, rect_section, series_compliance
 from linkfea.errors import LinkFeaError
 
 E, NU = 210e3, 0.3

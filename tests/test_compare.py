@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from linkfea.cad import Link, Plane, build_link
-from linkfea.compare import (beam_model, compare_compliance, compare_link, link_beam_model, parse_beams,
-                             write_outputs)
+from linkfea.compare import beam_model, compare_compliance, compare_link, link_beam_model, parse_beams, write_outputs
 from linkfea.errors import LinkFeaError
 from linkfea.fem import solve_link
 from linkfea.fit import compliance_from_solution

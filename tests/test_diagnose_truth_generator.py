@@ -5,8 +5,8 @@ from: vjm's chains and statics, the nonlinear equilibrium, closed forms.
 """
 import numpy as np
 import pytest
-
 import truth as tr
+
 from vjm.discrepancy.data import read_csv
 
 L = 310.0

@@ -2,12 +2,12 @@
 import numpy as np
 import pytest
 import skfem
+from meshes import bar_link_mesh, box_mesh
 from scipy.spatial import cKDTree
 from skfem.models.elasticity import linear_elasticity
 
 from linkfea.errors import LinkFeaError
-from linkfea.fem import (assemble_upper, lame, p2_mesh, rigid_motion_matrix, symmetric_from_upper)
-from meshes import bar_link_mesh, box_mesh
+from linkfea.fem import assemble_upper, lame, p2_mesh, rigid_motion_matrix, symmetric_from_upper
 
 
 def _perturbed_box():

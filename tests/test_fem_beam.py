@@ -6,11 +6,11 @@ node at the tip centroid.  Compliances are in the tip frame (x along the bar).
 """
 import numpy as np
 import pytest
+from meshes import bar_link_mesh
 
 from linkfea.beam import cantilever_compliance, rect_section, rect_torsion_constant
 from linkfea.fem import solve_link
 from linkfea.fit import compliance_from_solution
-from meshes import bar_link_mesh
 
 NONZERO = [(0, 0), (1, 1), (2, 2), (4, 4), (5, 5), (1, 5), (5, 1), (2, 4), (4, 2)]
 

@@ -8,11 +8,11 @@ import shutil
 
 import numpy as np
 import pytest
+from meshes import bar_link_mesh
 
 from linkfea.fem import solve_link
 from linkfea.fit import compliance_from_solution
 from linkfea.frames import Frame
-from meshes import bar_link_mesh
 
 pytestmark = [
     pytest.mark.calculix,

@@ -1,13 +1,13 @@
 """Mesh convergence and the Richardson error estimate."""
 import numpy as np
 import pytest
+from meshes import bar_link_mesh
 
 from linkfea.beam import cantilever_compliance, rect_section, rect_torsion_constant
 from linkfea.convergence import richardson
 from linkfea.errors import LinkFeaError
 from linkfea.fem import solve_link
 from linkfea.fit import compliance_from_solution
-from meshes import bar_link_mesh
 
 
 def test_richardson_recovers_a_known_power_law():

@@ -3,12 +3,12 @@ import dataclasses
 
 import numpy as np
 import pytest
+from meshes import bar_link_mesh
 
 from linkfea.errors import LinkFeaError
 from linkfea.fem import solve_link
 from linkfea.fit import compliance_from_solution
 from linkfea.frames import Frame
-from meshes import bar_link_mesh
 
 
 @pytest.fixture(scope="module")

@@ -95,6 +95,7 @@ def test_missing_model_file_and_unreachable_pose(puu, tmp_path):
 
 def test_cli_error_is_one_line_exit_2(tmp_path):
     from typer.testing import CliRunner
+
     from vjm.cli import app
     r = CliRunner().invoke(app, ["stiffness", PUU, "--at", "0,0,900"])
     assert r.exit_code == 2
@@ -179,6 +180,7 @@ def test_joint_forces_balance_the_load(puu):
 def test_cli_bad_input_one_line_and_nothing_written(tmp_path, make_args):
     """Each bad input: exit 2, one 'error:' line, no traceback, no new output file."""
     from typer.testing import CliRunner
+
     from vjm.cli import app
     args = make_args(tmp_path)
     before = set(tmp_path.rglob("*"))

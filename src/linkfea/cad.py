@@ -334,7 +334,7 @@ def build_link(spec, params: dict | None = None, material: str | None = None,
     link = mod.build(**p)
     if not isinstance(link, Link):
         raise LinkFeaError(f"{spec}: build() must return a linkfea.cad.Link")
-    changes = {}
+    changes: dict = {}
     if base is not None:
         changes["base"] = parse_selector(base)
     if tip is not None:

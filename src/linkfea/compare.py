@@ -46,7 +46,7 @@ from .beam import BeamSegment, series_compliance
 from .errors import LinkFeaError
 from .frames import Frame
 from .materials import Material, get_material
-from .sections import SectionConstants, cut_section, section_constants
+from .sections import cut_section, section_constants
 
 DEFAULT_BEAMS = (1, 2, 4, 8)
 CLUSTER_TOL = 0.02
@@ -185,7 +185,7 @@ def principal_errors(A_fea, A_beam, tol: float = CLUSTER_TOL) -> dict:
     # Clusters of (nearly) equal eigenvalues in either model: union-find on 3 items.
     group = list(range(3))
     for i, j in itertools.combinations(range(3), 2):
-        close = lambda l: abs(l[i] - l[j]) <= tol * max(abs(l[i]), abs(l[j]))  # noqa: E731
+        close = lambda l, i=i, j=j: abs(l[i] - l[j]) <= tol * max(abs(l[i]), abs(l[j]))  # noqa: E731
         if close(lf) or close(lb):
             gi, gj = group[i], group[j]
             group = [gi if g == gj else g for g in group]

@@ -20,8 +20,8 @@ SHA-256 of the input surfaces, the meshing parameters and
 from __future__ import annotations
 
 import hashlib
-import tempfile
 import os
+import tempfile
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -237,14 +237,14 @@ def sizing_field(shapes, H: float, ttol: float):
     h_min = min(h for _, h in feats)
     step = max(h_min, float(np.linalg.norm(hi - lo)) / 50.0)
     n = np.maximum(1, np.ceil((hi - lo) / step).astype(int))
-    grid = pv.ImageData(dimensions=tuple(n + 1), spacing=tuple((hi - lo) / n), origin=tuple(lo)).to_tetrahedra()
+    grid = pv.ImageData(dimensions=tuple(n + 1), spacing=tuple((hi - lo) / n), origin=tuple(lo)).to_tetrahedra()  # type: ignore[call-arg]
     pts = np.asarray(grid.points, dtype=float)
     vals = np.full(len(pts), float(H))
     for f, h in feats:
         Vf, Ff = _surface(f, ttol)
         _, cp = _polydata(Vf, Ff).find_closest_cell(pts, return_closest_point=True)
         vals = np.minimum(vals, h + GRADING * np.linalg.norm(pts - cp, axis=1))
-    return pts, np.asarray(grid.cells_dict[pv.CellType.TETRA], dtype=np.int32), vals
+    return pts, np.asarray(grid.cells_dict[pv.CellType.TETRA], dtype=np.int32), vals  # type: ignore[index]
 
 
 def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, epsilon: float = DEFAULT_EPSILON,

@@ -4,12 +4,15 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Optional
+from typing import TYPE_CHECKING, Callable, Optional
 
 import numpy as np
 
 from .errors import LinkFeaError
 from .materials import get_material
+
+if TYPE_CHECKING:
+    from .fit import Compliance
 
 MODES = ("rigid", "block")
 
@@ -38,7 +41,7 @@ class LinkResult:
     link: object
     mesh: object
     solution: object
-    compliance: object
+    compliance: Compliance
     mode: str
     block_ratio: Optional[float]
     material: object
@@ -126,7 +129,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     t_cad = time.perf_counter() - t0
     H = float(mesh_size) if mesh_size is not None else default_mesh_size(link)
 
-    diagnostics = {}
+    diagnostics: dict = {}
     if convergence:
         from .convergence import richardson
 

@@ -63,7 +63,7 @@ def write_png(path, res, case: int = PICTURE_CASE, scale: float | None = None,
     pl.add_mesh(warped.extract_surface(algorithm="dataset_surface"), scalars="|u|", show_edges=False,
                 scalar_bar_args={"title": f"displacement per unit {WRENCH[case]} (mm)"})
     pl.add_text(f"{res.link.name}: unit {WRENCH[case]}, deformation x {scale:.3g}", font_size=10)
-    pl.view_isometric()
+    pl.view_isometric()  # type: ignore[call-arg]  # pyvista decorator hides the signature
     try:
         with atomic_path(path) as tmp:
             pl.screenshot(tmp)

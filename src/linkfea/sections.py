@@ -81,7 +81,7 @@ class SectionConstants:
         return Section(self.area, self.I1, self.I2, self.J, self.As1, self.As2)
 
     def to_dict(self) -> dict:
-        d = {k: float(getattr(self, k)) for k in
+        d: dict = {k: float(getattr(self, k)) for k in
              ("area", "Iyy", "Izz", "Iyz", "J", "Asy", "Asz", "angle", "I1", "I2", "As1", "As2")}
         d["centroid"] = [float(self.centroid[0]), float(self.centroid[1])]
         d["units"] = "mm, mm^2, mm^4, rad"
@@ -90,8 +90,8 @@ class SectionConstants:
 
 def _as_geometry(polygon):
     """Validate a shapely polygon and wrap it as a sectionproperties geometry."""
-    from shapely.geometry import MultiPolygon, Polygon
     from sectionproperties.pre.geometry import CompoundGeometry, Geometry
+    from shapely.geometry import MultiPolygon, Polygon
 
     if not isinstance(polygon, (Polygon, MultiPolygon)):
         raise LinkFeaError(f"section must be a shapely Polygon or MultiPolygon, got {type(polygon).__name__}")

@@ -335,12 +335,12 @@ def jacobian_semi_analytic(chain: Chain, values) -> np.ndarray:
         else:
             mats.append(elementary(f.kind, f.coef * v[:, f.var]))
     m = len(mats)
-    pre = [None] * m
+    pre: list = [None] * m
     P = np.broadcast_to(np.eye(4), (n, 4, 4))
     for k in range(m):
         P = P @ mats[k]
         pre[k] = P
-    suf = [None] * m
+    suf: list = [None] * m
     S = np.broadcast_to(np.eye(4), (n, 4, 4))
     for k in range(m - 1, -1, -1):
         suf[k] = S

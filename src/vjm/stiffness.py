@@ -22,10 +22,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .chain import Chain, _frame_product, _jacobian_soa
+from .linalg import (
+    FAST_RTOL,
+    cholesky,
+    lower_inverse,
+    psd_rank_inverse_soa,
+    range_basis,
+    spd_inverse,
+    sym3_max_eig_soa,
+    upper_inverse,
+)
 from .transforms import ROTATION
-from .linalg import (FAST_RTOL, cholesky, lower_inverse, psd_rank_inverse_soa, range_basis, spd_inverse,
-                     sym3_max_eig_soa, upper_inverse)
-
 
 #: poses per block of the batched kernels (a block's arrays stay in cache)
 BLOCK = 2048

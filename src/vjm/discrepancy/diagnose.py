@@ -17,8 +17,16 @@ from . import modelops as mo
 from .data import StiffnessObs, read_csv
 from .fit.select import Z95, Term, forward_select
 from .locate import localize
-from .predict import CALIBRATION, Context, Predictor, apply_calibration, calibration_term, deflection_problem, \
-    stiffness_problem, unique_postures
+from .predict import (
+    CALIBRATION,
+    Context,
+    Predictor,
+    apply_calibration,
+    calibration_term,
+    deflection_problem,
+    stiffness_problem,
+    unique_postures,
+)
 from .report import plot_residuals, write_report_dir
 
 DEFAULT_ALPHA = 0.01

@@ -101,7 +101,7 @@ def _actuated_foot(i: str, L: float, r: float) -> ChainBuilder:
 
 class OrthoglidePUU(Architecture):
     name = "orthoglide-3PUU"
-    geometry_keys = ("L", "r")
+    geometry_keys: tuple[str, ...] = ("L", "r")
     #: the Orthoglide's Cartesian workspace cube, Q1 to Q2 (seed Fig. 4c)
     workspace = ((-73.65,) * 3, (126.35,) * 3)
 

@@ -17,9 +17,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..chain import ChainBuilder, jacobian
+from ..linalg import cholesky, lower_inverse
 from ..stiffness import chain_stiffness
 from ..transforms import homogeneous
-from ..linalg import cholesky, lower_inverse
 
 
 def _tz(a):

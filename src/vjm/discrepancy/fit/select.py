@@ -27,7 +27,7 @@ known sigmas, ``RSS/(n-k)`` otherwise); intervals are ``theta +- 1.96 se``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 from scipy import optimize, stats
@@ -274,7 +274,7 @@ def forward_select(problem: Problem, candidates, alpha: float = 0.01, max_effect
     selected, rounds = [], []
     while remaining and len(selected) < max_effects:
         m = len(remaining)
-        info = {}
+        info: dict[str, dict[str, Any]] = {}
         for c in remaining:
             fr = fit_terms(problem, cur.names + (c,), warm=cur)
             dbic, p = compare(problem, cur, fr)
