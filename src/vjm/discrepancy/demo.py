@@ -10,9 +10,9 @@ from __future__ import annotations
 import os
 import sys
 
+from ..resources import data_dir
 from . import diagnose as dg
 from . import simulate as sim
-from ..resources import data_dir
 
 MODEL = str(data_dir() / "orthoglide" / "puu.yaml")
 
