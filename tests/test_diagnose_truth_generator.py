@@ -184,6 +184,9 @@ def test_measurements_csv_and_noise(tmp_path, rows):
     assert np.all(np.isnan(back.T[:, 3:]))
     np.testing.assert_array_equal(back.P[0::3], back.P[2::3])
     assert np.all(back.T[0::3, :3] != back.T[1::3, :3])
+    # known translation sigma, rotations not measured: no sigma_r column
+    back = read_csv(tr.measure(t, P, W, seed=7, sigma_r=None).write(tmp_path / "t.csv"))
+    assert np.all(back.sigma_t == 1e-3) and back.sigma_r is None and np.all(np.isnan(back.T[:, 3:]))
     Pr, Wr = tr.read_rows(path)
     np.testing.assert_array_equal(Pr, P)
     np.testing.assert_array_equal(Wr, W)

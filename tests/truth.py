@@ -327,19 +327,17 @@ class Measurements:
     sigma_r: float | None
 
     def write(self, path) -> str:
-        """The README's CSV: ``x,y,z,Fx..Mz,dx..rz[,sigma_t,sigma_r]``; blank = not measured."""
+        """The README's CSV: ``x,y,z,Fx..Mz,dx..rz[,sigma_t[,sigma_r]]``; blank = not measured."""
         cols = list(COLUMNS)
-        known = self.sigma_t is not None
-        if known:
-            cols += ["sigma_t", "sigma_r"]
+        sig = [] if self.sigma_t is None else [self.sigma_t] + ([] if self.sigma_r is None else [self.sigma_r])
+        cols += ["sigma_t", "sigma_r"][:len(sig)]  # no sigma_r column when rotations were not measured
         tmp = f"{path}.tmp"
         with open(tmp, "w", newline="", encoding="utf-8") as fh:
             wr = csv.writer(fh)
             wr.writerow(cols)
             for p, w, t in zip(self.P, self.W, self.T):
                 rec = [repr(float(v)) for v in (*p, *w)] + ["" if np.isnan(v) else repr(float(v)) for v in t]
-                if known:
-                    rec += [repr(float(self.sigma_t)), "" if self.sigma_r is None else repr(float(self.sigma_r))]
+                rec += [repr(float(v)) for v in sig]
                 wr.writerow(rec)
         os.replace(tmp, path)
         return str(path)
@@ -434,7 +432,7 @@ LIBRARY = {
     "actuator_travel_stiffness": Hidden("puu", 2e-3, "1/mm", _slope),
     "clearance": Hidden("puu", 2e-3, "mm", lambda s: ({}, {"backlash": s})),
     "gravity": Hidden("puu", 3.0, "N", lambda s: ({}, {"weight": s})),
-    "geometric_nonlinearity": Hidden("puu", 1.0, "the model's own (size: load scale)",
+    "geometric_nonlinearity": Hidden("puu", 1.0, "x (100 N, 5000 N mm) loads",
                                      lambda s: ({}, {"nonlinear": True})),
 }
 
