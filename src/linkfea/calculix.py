@@ -27,7 +27,7 @@ from typing import Optional
 
 import numpy as np
 
-from .errors import LinkFeaError
+from .errors import LinkFeaError, SolverError
 from .fem import interface_nodes, p2_mesh, rigid_motion_matrix
 from .fit import fit_rigid_motion
 from .materials import Material
@@ -210,10 +210,10 @@ def solve_calculix(mesh, material: Material, mode: str = "rigid", block_ratio: f
         dat = wd / "link.dat"
         if proc.returncode != 0 or not dat.exists():
             tail = (wd / "ccx.log").read_text(errors="replace").strip().splitlines()[-5:]
-            raise LinkFeaError(f"CalculiX failed (exit {proc.returncode}): {' | '.join(tail)}")
+            raise SolverError(f"CalculiX failed (exit {proc.returncode}): {' | '.join(tail)}")
         blocks = parse_dat_displacements(dat.read_text())
         if len(blocks) != 6:
-            raise LinkFeaError(f"CalculiX .dat has {len(blocks)} displacement blocks, expected 6")
+            raise SolverError(f"CalculiX .dat has {len(blocks)} displacement blocks, expected 6")
         axes = mesh.frame.axes
         C = np.zeros((6, 6))
         res = 0.0

@@ -1,9 +1,27 @@
-"""The one error type of linkfea: its message is what a user reads."""
+"""linkfea's error types: their message is what a user reads.
+
+``LinkFeaError`` is bad input or a failed check (a ``ValueError``);
+``SolverError`` is a numerical step that failed on input that passed the checks
+(a ``RuntimeError``).  Both print as one ``error: ...`` line in the CLI.
+
+>>> from linkfea.errors import LinkFeaError, SolverError
+>>> issubclass(LinkFeaError, ValueError), issubclass(SolverError, RuntimeError)
+(True, True)
+"""
 
 
-class LinkFeaError(Exception):
+class LinkFeaError(ValueError):
     """Invalid input or a failed check in the link stage.
 
     The CLI prints ``str(err)`` on one line and exits non-zero, so the
     message must name what is wrong and, where possible, what to do.
+    """
+
+
+class SolverError(LinkFeaError, RuntimeError):
+    """The mesher, the factorization, the linear solve or CalculiX failed.
+
+    A ``RuntimeError``; it is also a :class:`LinkFeaError` so that code and
+    CLIs catching ``LinkFeaError`` keep reporting it as one line.  To tell it
+    from bad input, catch ``RuntimeError`` (or ``SolverError``) first.
     """

@@ -33,7 +33,7 @@ from typing import Callable, Optional
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import LinkFeaError
+from .errors import LinkFeaError, SolverError
 from .frames import Frame
 from .materials import Material
 
@@ -486,7 +486,7 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     try:
         solve = factorizer(A)
     except Exception as exc:
-        raise LinkFeaError(f"factorization of the stiffness matrix failed ({exc}); "
+        raise SolverError(f"factorization of the stiffness matrix failed ({exc}); "
                            "is the link clamped and connected?") from None
     timing["factor"] = time.perf_counter() - t0
 
@@ -494,7 +494,7 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     t0 = time.perf_counter()
     X = np.asarray(solve(B)).reshape(A.shape[0], 6)
     if not np.all(np.isfinite(X)):
-        raise LinkFeaError("the linear solve returned non-finite values: the stiffness matrix is singular "
+        raise SolverError("the linear solve returned non-finite values: the stiffness matrix is singular "
                            "(a part of the link is not connected to the clamp?)")
     u = np.zeros((3 * n_nodes, 6))
     u[free_dofs] = X[:nf]

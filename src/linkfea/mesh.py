@@ -30,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from .atomic import atomic_path
-from .errors import LinkFeaError
+from .errors import LinkFeaError, SolverError
 from .frames import Frame
 
 MESH_VERSION = "linkfea-mesh-2"
@@ -331,7 +331,7 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
                 points, tets = pytetwild.tetrahedralize(V, F.astype(np.int32), edge_length_abs=H,
                                                         epsilon=epsilon, quiet=True, **kw)
         except Exception as exc:  # the extension raises RuntimeError on hopeless input
-            raise LinkFeaError(f"{link.name}: fTetWild failed: {exc}") from None
+            raise SolverError(f"{link.name}: fTetWild failed: {exc}") from None
         points, tets = _clean(np.asarray(points, dtype=float), np.asarray(tets, dtype=np.int64))
         if use_cache:
             _save_npz(cfile, points=points, tets=tets)

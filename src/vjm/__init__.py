@@ -1,13 +1,17 @@
 """vjm: virtual-joint-method stiffness of parallel machines.
 
->>> import vjm
->>> m = vjm.load_model("data/orthoglide/puu.yaml")          # doctest: +SKIP
->>> r = m.stiffness([0.0, 0.0, 0.0]); r.k_tran, r.k_rot        # doctest: +SKIP
+>>> import numpy as np, vjm
+>>> m = vjm.load_model("puu")              # the bundled data/orthoglide/puu.yaml
+>>> r = m.stiffness([0.0, 0.0, 0.0])       # at Q0; K in world axes at the end-effector point
+>>> int(r.rank), bool(np.allclose(r.C @ r.K, np.eye(6)))
+(6, True)
+>>> print(f"k_tran = {r.k_tran:.3g} mm/N")  # the seed's Table 1: 2.78e-4 (actuator fitted to it)
+k_tran = 0.000278 mm/N
 """
-from .errors import VjmError
+from .errors import EquilibriumError, VjmError
 from .model import Actuator, Joints, Link, Model
 from .modelfile import load_model, save_model, with_links
 from .stiffness import StiffnessResult
 
-__all__ = ["VjmError", "Model", "Actuator", "Link", "Joints", "StiffnessResult",
+__all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "Link", "Joints", "StiffnessResult",
            "load_model", "save_model", "with_links"]

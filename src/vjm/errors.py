@@ -1,12 +1,29 @@
-"""The one error type of vjm: its message is what a user reads."""
+"""vjm's error types: their message is what a user reads.
+
+``VjmError`` is an invalid model, input or posture (a ``ValueError``);
+``EquilibriumError`` is a solver that did not converge (a ``RuntimeError``).
+
+>>> from vjm.errors import EquilibriumError, VjmError
+>>> issubclass(VjmError, ValueError), issubclass(EquilibriumError, RuntimeError)
+(True, True)
+"""
 
 
-class VjmError(Exception):
+class VjmError(ValueError):
     """Invalid model, input or posture in the stiffness stage.
 
     The CLI prints ``str(err)`` on one line and exits with status 2, so the
     message names what is wrong (the YAML key, the pose, the file) and, where
     possible, what to do.
+    """
+
+
+class EquilibriumError(VjmError, RuntimeError):
+    """The nonlinear equilibrium (:mod:`vjm.nonlinear`) was not found.
+
+    A ``RuntimeError``; also a :class:`VjmError`, so that callers catching
+    ``VjmError`` (the CLI, the diagnosis) keep handling it.  Catch
+    ``RuntimeError`` first to tell it from bad input.
     """
 
 

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .chain import Chain, forward
-from .errors import VjmError
+from .errors import EquilibriumError, VjmError
 from .transforms import AXIS, ROTATION, elementary, generator, rotation_vector, vee
 
 #: relative eigenvalue below which a (scaled) spring compliance direction is held rigid
@@ -371,7 +371,7 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     bad = np.flatnonzero(failed)
     if bad.size:
         if strict:
-            raise VjmError(f"nonlinear equilibrium not found for {bad.size} of {n} (pose, wrench) pairs: "
+            raise EquilibriumError(f"nonlinear equilibrium not found for {bad.size} of {n} (pose, wrench) pairs: "
                            f"{_describe(P, W, bad)} (load too large for the model, or past a buckling load?)")
         t[bad] = np.nan
     if return_info:

@@ -2,6 +2,13 @@
 
 k_tran is in mm/N and k_rot in rad/(N mm), as in the seed table file
 (``data/seed_table1.csv``, columns ``k_tran_mm_per_N`` and ``k_rot_rad_per_Nmm``).
+
+>>> import vjm
+>>> rows = table1_rows([vjm.load_model("puu")])
+>>> [r["point"] for r in rows], rows[0]["seed_k_tran"]
+(['Q0', 'Q1', 'Q2'], 0.000278)
+>>> round(rows[0]["k_tran"] / rows[0]["seed_k_tran"], 2)   # the actuator stiffness is fitted to Q0
+1.0
 """
 from __future__ import annotations
 
