@@ -20,7 +20,7 @@ True
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
@@ -31,6 +31,42 @@ from .errors import VjmError
 
 #: the two maps: (name, unit)
 MAPS = (("k_tran", "mm/N"), ("k_rot", "rad/(N mm)"))
+
+#: a map whose max/min exceeds this gets a log colour scale
+LOG_SPAN = 10.0
+
+
+def contour_levels(lo: float, hi: float, log: bool) -> np.ndarray:
+    """Contour values strictly inside (lo, hi): 1, 2, 5 x 10^n if ``log``, else about six round values.
+
+    >>> contour_levels(3e-4, 9e-3, log=True).tolist()
+    [0.0005, 0.001, 0.002, 0.005]
+    """
+    if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+        return np.array([])
+    if log:
+        e = np.arange(np.floor(np.log10(lo)), np.ceil(np.log10(hi)) + 1)
+        cand = (np.array([1.0, 2.0, 5.0])[None, :] * 10.0 ** e[:, None]).ravel()
+    else:
+        from matplotlib.ticker import MaxNLocator
+
+        cand = np.asarray(MaxNLocator(6).tick_values(lo, hi))
+    return cand[(cand > lo) & (cand < hi)]
+
+
+def landmarks(architecture: str) -> dict:
+    """The seed's named points of ``architecture`` (``{"Q0 isotropic": (x, y, z), "Q1": ..., ...}``, mm).
+
+    They come from the seed's Table 1; other architectures have none.
+    """
+    from .table1 import read_seed_table
+
+    try:
+        rows = read_seed_table()
+    except VjmError:
+        return {}
+    return {r["point"] + (" isotropic" if r["point"] == "Q0" else ""): (float(r["x"]), float(r["y"]), float(r["z"]))
+            for r in rows if r["architecture"] == architecture}
 
 
 def parse_slice(text: str) -> tuple[int, float]:
@@ -75,6 +111,8 @@ class StiffnessMap:
     K: np.ndarray
     k_tran: np.ndarray
     k_rot: np.ndarray
+    #: named points marked on the pictures, ``{label: (x, y, z)}`` in mm
+    landmarks: dict = field(default_factory=dict)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -113,9 +151,14 @@ class StiffnessMap:
     def plot(self, name: str = "k_tran", ax=None):
         """Draw map ``name`` (``k_tran`` or ``k_rot``) on ``ax`` (a new figure if None); returns the Axes.
 
-        A 3-D grid shows its middle slice along z.
+        A 3-D grid shows its middle slice along z.  A map whose values span more than a
+        decade (:data:`LOG_SPAN`) gets a log colour scale; labelled contour lines are drawn
+        at 1, 2, 5 x 10^n (log) or at round values (linear).  The seed's named points
+        (isotropic Q0, Q1, Q2) are marked: filled when in the plane shown, hollow (with
+        their distance to it) when projected.
         """
         import matplotlib.pyplot as plt
+        from matplotlib.colors import LogNorm, Normalize
 
         unit = dict(MAPS)[name]
         axes, shape = self.axes, self.shape
@@ -124,15 +167,42 @@ class StiffnessMap:
         else:
             k, idx = self.fixed[0], 0
         keep = [a for a in range(3) if a != k]
-        V = np.take(getattr(self, name).reshape(shape), idx, axis=k)
+        V = np.ma.masked_invalid(np.take(getattr(self, name).reshape(shape), idx, axis=k))
         if ax is None:
             _, ax = plt.subplots(figsize=(5.5, 4.5))
-        im = ax.imshow(V.T, origin="lower", aspect="equal",
-                       extent=[axes[keep[0]][0], axes[keep[0]][-1], axes[keep[1]][0], axes[keep[1]][-1]])
-        ax.figure.colorbar(im, ax=ax, label=f"{name} [{unit}]")
+        u, v = (np.asarray(axes[a], dtype=float) for a in keep)
+        lo, hi = (float(V.min()), float(V.max())) if V.count() else (np.nan, np.nan)
+        log = bool(lo > 0 and hi / lo > LOG_SPAN)
+        norm = LogNorm(lo, hi) if log else Normalize(lo, hi)
+        # pixel centres on the grid points
+        du = (u[-1] - u[0]) / (len(u) - 1) if len(u) > 1 else 1.0
+        dv = (v[-1] - v[0]) / (len(v) - 1) if len(v) > 1 else 1.0
+        im = ax.imshow(V.T, origin="lower", aspect="equal", norm=norm, cmap="viridis",
+                       extent=[u[0] - du / 2, u[-1] + du / 2, v[0] - dv / 2, v[-1] + dv / 2])
+        ax.figure.colorbar(im, ax=ax, label=f"{name} [{unit}]" + (", log scale" if log else ""))
+        levels = contour_levels(lo, hi, log)
+        if len(u) > 1 and len(v) > 1 and len(levels):
+            cs = ax.contour(u, v, V.T, levels=levels, colors="white", linewidths=0.7)
+            ax.clabel(cs, fmt="%.2g", fontsize=7)
+        here = float(np.asarray(axes[k])[idx])
+        for label, p in self.landmarks.items():
+            off = float(p[k]) - here
+            inside = abs(off) <= 1e-9 * max(1.0, abs(here))
+            ax.plot(p[keep[0]], p[keep[1]], "o" if inside else "s", ms=7, mfc="red" if inside else "none",
+                    mec="red", mew=1.5, clip_on=False)
+            text = label if inside else f"{label} ({'xyz'[k]} = {float(p[k]):.4g})"
+            # label towards the middle of the picture, so that corner points keep theirs in view
+            right = p[keep[0]] > 0.5 * (u[0] + u[-1])
+            top = p[keep[1]] > 0.5 * (v[0] + v[-1])
+            ax.annotate(text, (p[keep[0]], p[keep[1]]), xytext=(-7 if right else 7, -7 if top else 7),
+                        textcoords="offset points", ha="right" if right else "left",
+                        va="top" if top else "bottom", color="red", fontsize=8,
+                        bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+        ax.set_xlim(u[0] - du / 2, u[-1] + du / 2)
+        ax.set_ylim(v[0] - dv / 2, v[-1] + dv / 2)
         ax.set_xlabel(f"{'xyz'[keep[0]]} [mm]")
         ax.set_ylabel(f"{'xyz'[keep[1]]} [mm]")
-        ax.set_title(f"{self.architecture}: {name}, {'xyz'[k]} = {np.asarray(axes[k])[idx]:.4g} mm")
+        ax.set_title(f"{self.architecture}: {name}, {'xyz'[k]} = {here:.4g} mm")
         return ax
 
 
@@ -150,4 +220,4 @@ def compute_map(model, P, axes, fixed=None, where: str = "grid") -> StiffnessMap
     K = np.full((len(P), 6, 6), np.nan)
     r = model.stiffness_map(P[ok])
     kt[ok], kr[ok], K[ok] = r.k_tran, r.k_rot, r.K
-    return StiffnessMap(model.architecture, list(axes), fixed, P, ok, K, kt, kr)
+    return StiffnessMap(model.architecture, list(axes), fixed, P, ok, K, kt, kr, landmarks(model.architecture))
