@@ -169,16 +169,37 @@ def test_self_intersecting_solid_is_rejected():
     validate_solid(a, "box")  # the sound one passes
 
 
-def test_step_block_mode_needs_planar_tip(tmp_path):
+def test_step_bore_tip_block_fills_the_bore(tmp_path):
+    """A bore as the tip: block mode fills it with a pin (volume pi r^2 h = pi 25 x 12 mm^3)
+    that touches the body on the bore only; the frame is the rigid-mode frame."""
     link = build_link("parallelogram_bar")
     step = _export(link.body, tmp_path / "leg.step")
     tip = "box:298,-8,-7,322,8,7"
-    with pytest.raises(LinkFeaError, match="planar"):
-        load_step(step, parse_selector("box:-6,-6,-7,6,6,7"), parse_selector(tip), with_block=True)
+    blk = load_step(step, parse_selector("box:-6,-6,-7,6,6,7"), parse_selector(tip), with_block=True)
+    assert blk.block.Volume() == pytest.approx(math.pi * 25.0 * 12.0, rel=1e-9)
+    assert blk.block.intersect(blk.body).Volume() <= 1e-9
     rigid = load_step(step, parse_selector("box:-6,-6,-7,6,6,7"), parse_selector(tip), with_block=False)
+    assert rigid.block is None
     # A bore has no net normal: x runs from the base centroid to the tip centroid.
     np.testing.assert_allclose(rigid.frame.origin, [310.0, 0.0, 0.0], atol=1e-6)
     np.testing.assert_allclose(rigid.frame.axes[0], [1.0, 0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(blk.frame.axes, rigid.frame.axes, atol=1e-12)
+
+
+def test_block_filling_more_than_the_tip_is_an_error():
+    """A blind hole selected by its wall only: the filling pin would be bonded to the hole's bottom too."""
+    import cadquery as cq
+
+    plate = cq.Workplane("XY").box(60, 20, 10, centered=(False, True, False))
+    body = plate.cut(cq.Workplane("XY").workplane(offset=4).center(50, 0).circle(3).extrude(6)).val()
+    from linkfea.step import fill_block
+
+    wall = [f for f in body.Faces() if f.geomType() == "CYLINDER"]
+    assert len(wall) == 1
+    with pytest.raises(LinkFeaError, match="touches the body"):
+        fill_block(body, wall, "blind")
+    bottom = [f for f in body.Faces() if f.geomType() == "PLANE" and abs(f.Center().z - 4) < 1e-9]
+    assert fill_block(body, wall + bottom, "blind").Volume() == pytest.approx(math.pi * 9 * 6, rel=1e-9)
 
 
 def test_tip_override_rebuilds_frame_and_block():

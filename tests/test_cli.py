@@ -38,6 +38,10 @@ def test_cli_writes_json_vtu_png(run_ok):
     doc = json.loads(out.read_text())
     assert KEYS <= set(doc)
     assert {"n_nodes", "n_tets", "n_dofs", "edge_length", "quality"} <= set(doc["mesh"])
+    import gmsh
+
+    assert doc["mesh"]["mesher"] == "gmsh" and doc["mesh"]["mesher_version"] == gmsh.__version__
+    assert doc["versions"]["gmsh"] == gmsh.__version__
     assert {"symmetry_error", "fit_residual", "min_eigenvalue", "error_estimate"} <= set(doc["diagnostics"])
     assert doc["diagnostics"]["error_estimate"] is None
     assert {"cad", "mesh", "assemble", "factor", "solve", "fit"} <= set(doc["timing"])
@@ -90,6 +94,7 @@ def _linkfea(args, env):
     ["bar", "--tip", "plane:x=99"],
     ["bar", "--base", "plane:x=200", "--tip", "plane:x=200"],
     ["bar", "--mode", "elastic"],
+    ["bar", "--mesher", "netgen"],
     ["missing.step", "--base", "plane:x=0", "--tip", "plane:x=1"],
 ])
 def test_bad_input_gives_one_error_line_and_no_file(args, env, tmp_path):

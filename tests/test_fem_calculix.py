@@ -52,3 +52,21 @@ def test_calculix_rotated_frame_and_block(steel, mode):
     ours = compliance_from_solution(solve_link(mesh, steel, mode=mode)).raw
     res = solve_calculix(mesh, steel, mode=mode)
     assert _rel(res.compliance, ours) < 1e-5
+
+
+@pytest.mark.parametrize("mode", ["rigid", "block"])
+def test_calculix_on_the_gmsh_mesh_of_a_filleted_step_bracket(steel, mode, tmp_path):
+    """The CAD-conforming gmsh mesh of the filleted L-bracket (tests/brackets.py, read back from
+    STEP), clamped on its base face, tip frame on the upright's top: same discrete problem, so
+    CalculiX C3D10 agrees to its print precision."""
+    from brackets import BASE, TIP, bracket_step
+    from linkfea.cad import build_link
+    from linkfea.calculix import solve_calculix
+    from linkfea.mesh import mesh_link
+
+    link = build_link(str(bracket_step(tmp_path)), base=BASE, tip=TIP, with_block=(mode == "block"))
+    mesh = mesh_link(link, 10.0, with_block=(mode == "block"))
+    assert mesh.mesher == "gmsh"
+    ours = compliance_from_solution(solve_link(mesh, steel, mode=mode)).raw
+    ccx = solve_calculix(mesh, steel, mode=mode).compliance
+    assert _rel(ccx, ours) < 1e-5

@@ -27,7 +27,7 @@ def bar():
 
 @pytest.fixture(scope="module")
 def block_mesh(bar, cache):
-    return mesh_link(bar, H, with_block=True, cache_dir=cache)
+    return mesh_link(bar, H, with_block=True, cache_dir=cache, mesher="pytetwild")
 
 
 def test_tets_positive_and_all_points_used(block_mesh):
@@ -73,7 +73,7 @@ def test_tip_facets_are_the_body_block_interface(block_mesh):
 
 
 def test_rigid_mesh_has_no_block_and_boundary_tip_facets(bar, cache):
-    m = mesh_link(bar, H, with_block=False, cache_dir=cache)
+    m = mesh_link(bar, H, with_block=False, cache_dir=cache, mesher="pytetwild")
     assert not m.block.any()
     A, n = tri_areas_normals(m.points, m.tip_facets)
     assert A.sum() == pytest.approx(200.0, rel=0.01)
@@ -82,11 +82,11 @@ def test_rigid_mesh_has_no_block_and_boundary_tip_facets(bar, cache):
 
 
 def test_cache_returns_identical_arrays(bar, block_mesh, cache):
-    again = mesh_link(bar, H, with_block=True, cache_dir=cache)
+    again = mesh_link(bar, H, with_block=True, cache_dir=cache, mesher="pytetwild")
     assert again.cache_key == block_mesh.cache_key
     for f in ("points", "tets", "block", "base_facets", "tip_facets"):
         assert np.array_equal(getattr(again, f), getattr(block_mesh, f)), f
-    other = mesh_link(bar, 2 * H, with_block=True, cache_dir=cache)
+    other = mesh_link(bar, 2 * H, with_block=True, cache_dir=cache, mesher="pytetwild")
     assert other.cache_key != block_mesh.cache_key
     assert len(list(cache.glob("*.npz"))) >= 2
 
@@ -99,7 +99,7 @@ def test_foot_base_flange_is_fully_clamped(cache):
     less), which would soften the clamp.
     """
     link = build_link("orthoglide_foot")
-    m = mesh_link(link, 6.0, with_block=False, cache_dir=cache)
+    m = mesh_link(link, 6.0, with_block=False, cache_dir=cache, mesher="pytetwild")
     A = tri_areas_normals(m.points, m.base_facets)[0].sum()
     assert A == pytest.approx(4200.0, rel=0.01)
     uniq, owners, oriented = tet_faces(m.tets)
@@ -111,14 +111,14 @@ def test_foot_base_flange_is_fully_clamped(cache):
 def test_mesh_level_interface_errors(bar, cache):
     nothing = dataclasses.replace(bar, base=parse_selector("plane:x=77"))
     with pytest.raises(LinkFeaError, match="finds no face"):
-        mesh_link(nothing, 10.0, with_block=False, cache_dir=cache)
+        mesh_link(nothing, 10.0, with_block=False, cache_dir=cache, mesher="pytetwild")
     same = dataclasses.replace(bar, base=parse_selector("plane:x=200"))
     with pytest.raises(LinkFeaError, match="overlap"):
-        mesh_link(same, 10.0, with_block=False, cache_dir=cache)
+        mesh_link(same, 10.0, with_block=False, cache_dir=cache, mesher="pytetwild")
     with pytest.raises(LinkFeaError, match="mesh size"):
-        mesh_link(bar, -1.0, cache_dir=cache)
+        mesh_link(bar, -1.0, cache_dir=cache, mesher="pytetwild")
     with pytest.raises(LinkFeaError, match="mesh size"):
-        mesh_link(bar, float("nan"), cache_dir=cache)
+        mesh_link(bar, float("nan"), cache_dir=cache, mesher="pytetwild")
 
 
 def test_quality_report(block_mesh):

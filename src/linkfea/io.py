@@ -8,7 +8,7 @@ Schema (``"schema": "linkfea.result/1"``)::
     order        {"wrench": [Fx..Mz], "twist": [dx..rz]}
     units        compliance / stiffness blocks, lengths, forces, stresses
     frame        Frame.to_dict(): origin, x_axis, y_axis, z_axis in CAD coordinates (mm)
-    mesh         n_nodes, n_tets, n_dofs, edge_length, envelope, quality {...}
+    mesh         mesher, mesher_version, n_nodes, n_tets, n_dofs, edge_length, envelope, quality {...}
     diagnostics  symmetry_error, fit_residual, min_eigenvalue, error_estimate (null unless --convergence)
     timing       seconds per stage: cad, mesh, assemble, factor, solve, fit, total
     versions     python and package versions
@@ -41,7 +41,7 @@ SYMMETRY_RTOL = 1e-6
 
 def versions() -> dict:
     out = {"python": platform.python_version()}
-    for pkg in ("linkfea-vjm", "numpy", "scipy", "scikit-fem", "pytetwild", "cadquery", "pypardiso", "pyvista"):
+    for pkg in ("linkfea-vjm", "numpy", "scipy", "scikit-fem", "gmsh", "pytetwild", "cadquery", "pypardiso", "pyvista"):
         try:
             out[pkg] = metadata.version(pkg)
         except metadata.PackageNotFoundError:
@@ -65,7 +65,7 @@ def result_dict(res) -> dict:
         "order": {"wrench": WRENCH, "twist": TWIST},
         "units": UNITS,
         "frame": comp.frame.to_dict(),
-        "mesh": {"n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets), "n_dofs": int(sol.n_dofs),
+        "mesh": {"mesher": mesh.mesher, "mesher_version": mesh.mesher_version, "n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets), "n_dofs": int(sol.n_dofs),
                  "n_p2_nodes": int(len(sol.points)), "edge_length": float(mesh.edge_length),
                  "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)",
                  "quality": dict(mesh.quality), "cache_key": mesh.cache_key},

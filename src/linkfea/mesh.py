@@ -1,6 +1,13 @@
-"""Tetrahedral meshing of a link with pytetwild, cached by content hash.
+"""Tetrahedral meshing of a link: gmsh for CAD solids (default), pytetwild on request.
 
-The body and (optionally) the reference block are tessellated separately and
+:func:`mesh_link` dispatches on ``mesher``: ``"gmsh"`` meshes the CAD itself
+(:mod:`linkfea.mesh_gmsh`: exact interface faces, conforming block by an OCC
+fragment, deterministic, fast); ``"pytetwild"`` meshes a tessellation with
+fTetWild, described below.  Both end in :func:`finish_mesh`: the quality
+report and the interface-area gate (a base or tip area more than
+:data:`AREA_GATE` off its CAD faces is an error, never a silent number).
+
+pytetwild: the body and (optionally) the reference block are tessellated separately and
 handed to fTetWild together: both are closed surfaces, so the winding number
 is 1 everywhere inside their union while the shared tip face is still an input
 surface, which the tetrahedra conform to.  Block cells are then found by the
@@ -43,6 +50,12 @@ ANGULAR_TOL = 0.1
 """Tessellation angular deflection, rad: a circle becomes a >= 63-gon, whose area is 0.2% short.
 (0.2 rad loses 0.7% of a circle's area, which shows in the compliance.)"""
 
+MESHERS = ("gmsh", "pytetwild")
+DEFAULT_MESHER = "gmsh"
+
+AREA_GATE = 0.01
+"""Largest relative difference between an interface's mesh area and its CAD faces' area."""
+
 NORMAL_COS = 0.8
 """Minimum |cos| between a mesh facet normal and the CAD face normal to count as on the face."""
 
@@ -73,6 +86,10 @@ class LinkMesh:
         Mesh quality report (e.g. min/mean scaled Jacobian or aspect ratio).
     cache_key : str
         SHA-256 key of the cached raw mesh ('' if not cached).
+    mesher : str
+        ``"gmsh"`` or ``"pytetwild"`` ('' for meshes built by hand).
+    mesher_version : str
+        Version of the mesher's package.
     """
 
     points: np.ndarray
@@ -85,6 +102,8 @@ class LinkMesh:
     envelope: float = 0.0
     quality: dict = field(default_factory=dict)
     cache_key: str = ""
+    mesher: str = ""
+    mesher_version: str = ""
 
     @property
     def n_nodes(self) -> int:
@@ -249,7 +268,8 @@ def sizing_field(shapes, H: float, ttol: float):
 
 def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, epsilon: float = DEFAULT_EPSILON,
               cache_dir: str | Path | None = None, use_cache: bool = True, sizing: bool = True,
-              progress: Callable[[str], None] | None = None) -> LinkMesh:
+              progress: Callable[[str], None] | None = None, mesher: str = DEFAULT_MESHER,
+              area_gate: float | None = AREA_GATE) -> LinkMesh:
     """Mesh a :class:`linkfea.cad.Link` into a :class:`LinkMesh`.
 
     Parameters
@@ -261,15 +281,20 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
         Mesh the reference block too (block mode); in rigid mode it is left out
         and the tip faces are coupled directly.
     epsilon : float
-        fTetWild envelope relative to the bounding-box diagonal.
+        fTetWild envelope relative to the bounding-box diagonal (pytetwild only).
     cache_dir : path, optional
-        Mesh cache folder (default ``$LINKFEA_CACHE_DIR`` or ``.cache/meshes``).
+        Mesh cache folder (default ``$LINKFEA_CACHE_DIR`` or ``.cache/meshes``; pytetwild only,
+        gmsh is deterministic and fast).
     use_cache : bool
         Read and write the cache.
     sizing : bool
-        Refine near curved faces too small for ``mesh_size`` (:func:`sizing_field`).
+        Refine near curved faces too small for ``mesh_size`` (:func:`sizing_field`; pytetwild only,
+        gmsh refines by curvature).
     progress : callable, optional
         Called with a short message at each stage.
+    mesher : {"gmsh", "pytetwild"}
+    area_gate : float or None
+        Largest allowed relative interface-area error (None: report only).
 
     Raises
     ------
@@ -286,6 +311,11 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
     block_solid = link.block if with_block else None
     if with_block and block_solid is None:
         raise LinkFeaError(f"{link.name}: block mode needs a reference block; use --mode rigid")
+
+    if mesher not in MESHERS:
+        raise LinkFeaError(f"unknown mesher {mesher!r}; use gmsh or pytetwild")
+    if mesher == "gmsh":
+        return _mesh_with_gmsh(link, H, block_solid, say, area_gate)
 
     import cadquery as cq
 
@@ -338,7 +368,27 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
     if len(tets) == 0:
         raise LinkFeaError(f"{link.name}: the mesher produced no tetrahedra (mesh size {H:g} mm too large?)")
     say("tagging interfaces")
-    return _finish(link, points, tets, block_solid, H, env, ttol, key if use_cache else "")
+    block, base_facets, tip_facets = _tag_pytetwild(link, points, tets, block_solid, env, ttol)
+    return finish_mesh(link, points, tets, block, base_facets, tip_facets, block_solid, H, env,
+                       key if use_cache else "", "pytetwild", getattr(pytetwild, "__version__", "?"), area_gate)
+
+
+def _mesh_with_gmsh(link, H, block_solid, say, area_gate) -> LinkMesh:
+    from . import mesh_gmsh
+
+    diag = link.body.BoundingBox().DiagonalLength
+    if H > diag:
+        raise LinkFeaError(f"mesh size {H:g} mm exceeds the part size ({diag:.3g} mm bounding-box diagonal)")
+    base_faces, tip_faces = link.base_faces, link.tip_faces
+    if not base_faces:
+        raise LinkFeaError(f"{link.name}: base selector {link.base} finds no face")
+    if not tip_faces:
+        raise LinkFeaError(f"{link.name}: tip selector {link.tip} finds no face")
+    say(f"meshing with gmsh (edge {H:.3g} mm)")
+    g = mesh_gmsh.mesh_gmsh(link.name, link.body, block_solid, base_faces, tip_faces, H)
+    say("checking interfaces")
+    return finish_mesh(link, g.points, g.tets, g.block, g.base_facets, g.tip_facets, block_solid, H, 0.0, "",
+                       "gmsh", mesh_gmsh.version(), area_gate)
 
 
 def _clean(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -398,9 +448,8 @@ def select_facets(points: np.ndarray, tris: np.ndarray, faces, tol: float, ttol:
     return sel
 
 
-def _finish(link, points, tets, block_solid, H, env, ttol, key) -> LinkMesh:
-    from .cad import faces_area_centroid
-
+def _tag_pytetwild(link, points, tets, block_solid, env, ttol):
+    """Block cells (centroid in the block solid) and interface facets (envelope selection) of an fTetWild mesh."""
     name = link.name
     vol = tet_volumes(points, tets)
     if np.any(vol <= 0):
@@ -437,6 +486,19 @@ def _finish(link, points, tets, block_solid, H, env, ttol, key) -> LinkMesh:
         tip_facets = oriented[iface]
     else:
         tip_facets = bnd_tris[select_facets(points, bnd_tris, tip_faces, tol, ttol)]
+    return block, base_facets, tip_facets
+
+
+def finish_mesh(link, points, tets, block, base_facets, tip_facets, block_solid, H, env, key, mesher, version,
+                area_gate: float | None = AREA_GATE) -> LinkMesh:
+    """Check the interfaces, measure the quality against the CAD, apply the area gate, build the :class:`LinkMesh`."""
+    from .selectors import faces_area_centroid
+
+    name = link.name
+    vol = tet_volumes(points, tets)
+    if np.any(vol <= 0):
+        raise LinkFeaError(f"{name}: mesh has {int(np.sum(vol <= 0))} degenerate tetrahedra")
+    base_faces, tip_faces = link.base_faces, link.tip_faces
     if len(base_facets) == 0:
         raise LinkFeaError(f"{name}: base selector {link.base} matches no mesh facet")
     if len(tip_facets) == 0:
@@ -468,5 +530,18 @@ def _finish(link, points, tets, block_solid, H, env, ttol, key) -> LinkMesh:
         "n_tip_facets": int(len(tip_facets)),
         "note": "radius ratio 3 r_in / R_circ (1 = regular tet); errors relative to the CAD",
     }
+    if area_gate is not None:
+        check_interface_areas(name, quality, (link.base, link.tip), area_gate)
     return LinkMesh(points=points, tets=tets, block=block, base_facets=base_facets, tip_facets=tip_facets,
-                    frame=link.frame, edge_length=float(H), envelope=float(env), quality=quality, cache_key=key)
+                    frame=link.frame, edge_length=float(H), envelope=float(env), quality=quality, cache_key=key,
+                    mesher=mesher, mesher_version=str(version))
+
+
+def check_interface_areas(name: str, quality: dict, selectors, limit: float = AREA_GATE) -> None:
+    """The interface-area gate: an error naming the face and the figure if an interface is off by more than ``limit``."""
+    for which, sel in zip(("base", "tip"), selectors):
+        err = quality[f"{which}_area_error"]
+        if not abs(err) <= limit:
+            raise LinkFeaError(f"{name}: the {which} interface ({sel}): mesh area differs from its CAD faces' "
+                               f"area by {100 * err:+.2f}% (limit {100 * limit:g}%); refine the mesh or use "
+                               "the other mesher")

@@ -57,13 +57,14 @@ class LinkResult:
         return self.compliance.stiffness
 
 
-def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon):
+def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh"):
     from .fem import solve_link
     from .fit import compliance_from_solution
     from .mesh import mesh_link
 
     t0 = time.perf_counter()
-    mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=say)
+    mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=say,
+                     mesher=mesher)
     t_mesh = time.perf_counter() - t0
     sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say)
     say("fit")
@@ -78,7 +79,7 @@ def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon):
 def compute(spec, params: dict | None = None, mesh_size: float | None = None, mode: str = "rigid",
             block_ratio: float = 1000.0, material: str | None = None, base=None, tip=None,
             convergence: bool = False, progress: Callable[[str], None] | None = None,
-            cache_dir=None, epsilon: float | None = None) -> LinkResult:
+            cache_dir=None, epsilon: float | None = None, mesher: str = "gmsh") -> LinkResult:
     """Compute a link's 6x6 compliance at its reference frame.
 
     Parameters
@@ -107,6 +108,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         fTetWild envelope relative to the bounding-box diagonal (default
         :data:`linkfea.mesh.DEFAULT_EPSILON` = 1e-3).  Smaller follows small
         curved faces more closely (see ``mesh.quality``) but meshes much slower.
+    mesher : {"gmsh", "pytetwild"}
+        gmsh meshes the CAD faces exactly (default); pytetwild meshes a tessellation.
     """
     from .cad import build_link
     from .mesh import DEFAULT_EPSILON, default_mesh_size
@@ -119,6 +122,10 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     if mode == "block" and not (isinstance(block_ratio, (int, float)) and math.isfinite(block_ratio)
                                 and block_ratio > 1):
         raise LinkFeaError(f"block ratio must be a number > 1, got {block_ratio}")
+    from .mesh import MESHERS
+
+    if mesher not in MESHERS:
+        raise LinkFeaError(f"unknown mesher {mesher!r}; use gmsh or pytetwild")
     if mesh_size is not None and not (math.isfinite(mesh_size) and mesh_size > 0):
         raise LinkFeaError(f"mesh size must be a positive number of mm, got {mesh_size}")
     t_all = time.perf_counter()
@@ -137,7 +144,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         runs = []
         for h in sizes:
             say(f"convergence: mesh size {h:.3g} mm")
-            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon))
+            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon, mesher))
         rich = richardson(sizes, [r[2].matrix for r in runs])
         mesh, sol, comp, timing = runs[-1]
         diagnostics["error_estimate"] = float(rich.error_diagonal)
@@ -146,7 +153,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         diagnostics["error_estimate_note"] = ("Richardson estimate of the relative error of the diagonal "
                                               "(largest entry) from 3 mesh sizes" + (f"; {rich.note}" if rich.note else ""))
     else:
-        mesh, sol, comp, timing = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon)
+        mesh, sol, comp, timing = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher)
         diagnostics["error_estimate"] = None
         diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
     diagnostics.update(symmetry_error=float(comp.symmetry_error), fit_residual=float(comp.fit_residual),

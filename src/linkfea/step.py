@@ -64,8 +64,11 @@ def interface_frame_and_block(body, base_faces, tip_faces, with_block: bool, blo
 
     Origin: area centroid of the tip faces.  x: their mean outward normal
     when they are planar and coplanar, otherwise the direction from the base
-    centroid to the tip centroid (a bore).  Block: the tip faces extruded
-    outward by ``block_length`` (default half the square root of their area).
+    centroid to the tip centroid (a bore).  Block: planar tip faces extruded
+    outward by ``block_length`` (default half the square root of their area);
+    any other tip (a bore) is filled: the block is the empty space inside the
+    tip faces' bounding box that touches them (a bore's pin), and it must touch
+    the body on the tip faces only.
 
     Returns
     -------
@@ -84,7 +87,7 @@ def interface_frame_and_block(body, base_faces, tip_faces, with_block: bool, blo
     if not with_block:
         return frame, None, None
     if not planar:
-        raise LinkFeaError(f"{label}: block mode needs planar, coplanar tip faces; use --mode rigid")
+        return frame, fill_block(body, tip_faces, label), None
     h = block_length if block_length is not None else 0.5 * math.sqrt(A)
     if not (math.isfinite(h) and h > 0):
         raise LinkFeaError(f"block length must be > 0 mm, got {h}")
@@ -96,6 +99,45 @@ def interface_frame_and_block(body, base_faces, tip_faces, with_block: bool, blo
     if block.intersect(body).Volume() > 1e-6 * block.Volume():
         raise LinkFeaError(f"{label}: the block extruded from the tip faces runs into the body")
     return frame, block, h
+
+
+def fill_block(body, tip_faces, label: str):
+    """The block of a non-planar tip: the space the tip faces enclose (a bore's pin).
+
+    It is the part of the tip faces' bounding box outside the body that
+    touches the tip faces.  Its contact with the body must be the tip faces
+    and nothing else (an unselected chamfer in the box would be bonded too).
+    """
+    import cadquery as cq
+
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+
+    tips = cq.Compound.makeCompound(tip_faces)
+    # The exact box of the geometry: no triangulation, no shape tolerance (a STEP face's
+    # tolerance would let the block stick out of the bore by that much).
+    bnd = Bnd_Box()
+    BRepBndLib.AddOptimal_s(tips.wrapped, bnd, False, False)
+    lo, hi = np.array(bnd.Get()[:3]), np.array(bnd.Get()[3:])
+    box = cq.Solid.makeBox(*(hi - lo), pnt=cq.Vector(*lo))
+    tol = 1e-6 * max(float(np.linalg.norm(hi - lo)), 1.0)
+    solids = [s for s in box.cut(body).Solids() if s.Volume() > 1e-9 * box.Volume() and s.distance(tips) <= tol]
+    if not solids:
+        raise LinkFeaError(f"{label}: the tip faces enclose no space to fill with a block; use --mode rigid")
+    block = solids[0] if len(solids) == 1 else cq.Compound.makeCompound(solids)
+    A_tip = sum(f.Area() for f in tip_faces)
+    # A point inside each block face (a cylinder's area centroid lies on its axis, off the face).
+    contact = sum(f.Area() for f in block.Faces() if body.distance(cq.Vertex.makeVertex(*_inner_point(f))) <= tol)
+    if abs(contact - A_tip) > 1e-6 * A_tip:
+        raise LinkFeaError(f"{label}: the block filling the tip faces touches the body on {contact:.6g} mm^2, "
+                           f"not on the tip faces' {A_tip:.6g} mm^2 (select every face of the bore)")
+    return block
+
+
+def _inner_point(face) -> tuple:
+    """A point of ``face`` inside its parameter range (not on its edges)."""
+    u0, u1, v0, v1 = face._uvBounds()
+    return face.positionAt(u0 + 0.37 * (u1 - u0), v0 + 0.41 * (v1 - v0)).toTuple()
 
 
 def validate_solid(solid, label: str = "solid") -> None:
