@@ -60,6 +60,7 @@ def test_calculix_on_the_gmsh_mesh_of_a_filleted_step_bracket(steel, mode, tmp_p
     STEP), clamped on its base face, tip frame on the upright's top: same discrete problem, so
     CalculiX C3D10 agrees to its print precision."""
     from brackets import BASE, TIP, bracket_step
+
     from linkfea.cad import build_link
     from linkfea.calculix import solve_calculix
     from linkfea.mesh import mesh_link

@@ -9,8 +9,8 @@ import math
 
 import numpy as np
 import pytest
-
 from brackets import BASE, BASE_AREA, TIP, TIP_AREA, bracket_step
+
 from linkfea.cad import build_link
 from linkfea.errors import LinkFeaError
 from linkfea.fem import solve_link

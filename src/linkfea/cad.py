@@ -21,8 +21,16 @@ from .frames import Frame
 from .materials import get_material
 from .params import parse_param_args, resolve_params  # noqa: F401  (re-exported)
 from .resources import cad_dir
-from .selectors import (DEFAULT_TOL, Box, Plane, Selector, faces_area_centroid,  # noqa: F401  (re-exported)
-                        faces_mean_normal, parse_selector, select_faces)
+from .selectors import (  # noqa: F401  (re-exported)
+    DEFAULT_TOL,
+    Box,
+    Plane,
+    Selector,
+    faces_area_centroid,
+    faces_mean_normal,
+    parse_selector,
+    select_faces,
+)
 from .step import interface_frame_and_block, load_step, tessellate, validate_solid  # noqa: F401  (re-exported)
 
 CAD_DIR = cad_dir()

@@ -109,7 +109,6 @@ def fill_block(body, tip_faces, label: str):
     and nothing else (an unselected chamfer in the box would be bonded too).
     """
     import cadquery as cq
-
     from OCP.Bnd import Bnd_Box
     from OCP.BRepBndLib import BRepBndLib
 
@@ -119,7 +118,8 @@ def fill_block(body, tip_faces, label: str):
     bnd = Bnd_Box()
     BRepBndLib.AddOptimal_s(tips.wrapped, bnd, False, False)
     lo, hi = np.array(bnd.Get()[:3]), np.array(bnd.Get()[3:])
-    box = cq.Solid.makeBox(*(hi - lo), pnt=cq.Vector(*lo))
+    dx, dy, dz = (float(v) for v in hi - lo)
+    box = cq.Solid.makeBox(dx, dy, dz, pnt=cq.Vector(*lo))
     tol = 1e-6 * max(float(np.linalg.norm(hi - lo)), 1.0)
     solids = [s for s in box.cut(body).Solids() if s.Volume() > 1e-9 * box.Volume() and s.distance(tips) <= tol]
     if not solids:
