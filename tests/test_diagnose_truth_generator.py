@@ -214,4 +214,18 @@ def test_hidden_library_effects_show_above_noise(name):
     chi2 = np.sum((d[:, :3] / 1e-3) ** 2) + np.sum((d[:, 3:] / 1e-5) ** 2)
     assert chi2 > 100.0  # 288 rows, 1 um and 10 urad
     with pytest.raises(ValueError):
-        tr.hide("foot_compliance", "clearance")  # different model files given
+        tr.hide("foot_compliance", "foot_bending_coupling")  # different model files given
+    with pytest.raises(ValueError):
+        tr.hide("foot_torsion", "foot_bending_coupling")  # both change the true foot
+    given, truth = tr.hide("foot_compliance", "clearance")
+    assert given["foot"] == {"rigid": True} and truth.backlash > 0 and "compliance" in truth.model["foot"]
+    assert len(tr.pairs()) == 33  # 36 pairs of 9 effects, less the three foot-foot ones
+
+
+def test_report_reading_accepts_groups_and_nothing_else():
+    rep = {"named_effects": ["leg_torsion", "gravity"], "confounded": [["passive_joint_compliance", "leg_torsion"]]}
+    assert tr.names_exactly(rep, ["passive_joint_compliance", "gravity"])  # "leg torsion or joint springs"
+    assert tr.names_exactly(rep, ["leg_torsion", "gravity"])
+    assert not tr.names_exactly(rep, ["foot_torsion", "gravity"])  # leg_torsion does not stand for it
+    assert not tr.names_exactly(rep, ["gravity"])  # one effect too many named
+    assert not tr.names_exactly({"named_effects": ["gravity"], "confounded": []}, ["gravity", "clearance"])

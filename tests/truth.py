@@ -440,15 +440,52 @@ LIBRARY = {
 def hide(*effects) -> tuple[dict, Truth]:
     """(model mapping given to the diagnosis, true machine) with library effects hidden.
 
-    ``effects``: names of :data:`LIBRARY` or ``(name, size)`` pairs; they must share the model given.
+    ``effects``: names of :data:`LIBRARY` or ``(name, size)`` pairs.  The model given is
+    puu.yaml unless one effect needs another (a rigid foot, a foot without couplings); two
+    effects that need different models given, or that both change the same part of the
+    true model file (e.g. two foot effects), are refused.
     """
     items = [(e, LIBRARY[e].size) if isinstance(e, str) else e for e in effects]
-    keys = {LIBRARY[n].model for n, _ in items}
-    if len(keys) != 1:
+    keys = {LIBRARY[n].model for n, _ in items} - {"puu"}
+    if len(keys) > 1:
         raise ValueError(f"effects {[n for n, _ in items]} need different model files ({sorted(keys)})")
-    true_model, kw = dict(NOMINAL), {}
+    true_model, kw, changed = dict(NOMINAL), {}, set()
     for n, s in items:
         changes, terms = LIBRARY[n].make(s)
+        if changed & (set(changes) | set(terms)):
+            raise ValueError(f"effects {[n for n, _ in items]} change the same part of the machine")
+        changed |= set(changes) | set(terms)
         true_model.update(changes)
         kw.update(terms)
-    return MODELS[keys.pop()], Truth(variant(true_model), **kw)
+    return MODELS[keys.pop() if keys else "puu"], Truth(variant(true_model), **kw)
+
+
+def pairs() -> list[tuple[str, str]]:
+    """Every pair of LIBRARY effects that can be hidden together."""
+    out = []
+    names = list(LIBRARY)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            try:
+                hide(a, b)
+            except ValueError:
+                continue
+            out.append((a, b))
+    return out
+
+
+# --- reading a diagnosis report (report.json keys) --------------------------------------------
+
+def accounts_for(rep: dict, name: str) -> bool:
+    """``name`` is named, or a named effect stands for a confounded group that holds it
+    (the report's way of saying "A or B: this data cannot tell them apart")."""
+    named = rep["named_effects"]
+    return name in named or any(name in g and any(n in g for n in named) for g in rep["confounded"])
+
+
+def names_exactly(rep: dict, hidden) -> bool:
+    """The named effects account for every hidden one, and each named effect is a hidden one
+    (or in a confounded group with one): nothing else is claimed."""
+    named = rep["named_effects"]
+    own = [any(n == h or any(n in g and h in g for g in rep["confounded"]) for h in hidden) for n in named]
+    return len(named) == len(hidden) and all(own) and all(accounts_for(rep, h) for h in hidden)
