@@ -36,7 +36,7 @@ demo: $(STAMP)
 
 # Lint and type-check first (seconds), then the suite.
 test: $(STAMP)
-	$(BIN)/ruff check src tests
+	$(BIN)/ruff check src tests docs/examples
 	$(BIN)/mypy src
 	$(PY) -m pytest -n 2 --dist loadfile
 
