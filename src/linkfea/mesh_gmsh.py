@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import LinkFeaError
+from .errors import LinkFeaError, SolverError
 
 SEGMENTS_PER_CIRCLE = 16
 """``Mesh.MeshSizeFromCurvature``: elements per 2 pi of a curved face's radius.  16 keeps the
@@ -224,7 +224,7 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float) -> GmshMe
             try:
                 gmsh.model.mesh.generate(3)
             except Exception as exc:  # gmsh raises a bare Exception with its last error
-                raise LinkFeaError(f"{name}: gmsh failed to mesh the link: {exc}") from None
+                raise SolverError(f"{name}: gmsh failed to mesh the link: {exc}") from None
             tags, coords, _ = gmsh.model.mesh.getNodes()
             points = np.asarray(coords, dtype=float).reshape(-1, 3)
             index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
