@@ -83,16 +83,46 @@ def test_overlapping_interfaces_are_an_error(steel):
 
 
 def test_scipy_fallback_solver_agrees(steel):
-    """The SuperLU fallback gives the same compliance as PARDISO (injectable solver)."""
+    """The SuperLU fallback gives the same compliance as PARDISO (injectable solver).
+
+    Skips only where pypardiso is not installed; an installed PARDISO that fails is a failure."""
     from linkfea.fem import pardiso_factorizer, scipy_factorizer
 
+    pytest.importorskip("pypardiso")
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
-    a = compliance_from_solution(solve_link(mesh, steel, solver=scipy_factorizer)).matrix
-    try:
-        b = compliance_from_solution(solve_link(mesh, steel, solver=pardiso_factorizer)).matrix
-    except LinkFeaError:
-        pytest.skip("pypardiso not available")
+    sa = solve_link(mesh, steel, solver=scipy_factorizer)
+    sb = solve_link(mesh, steel, solver=pardiso_factorizer)
+    assert sa.solver["factorizer"] == "superlu" and sb.solver["factorizer"] == "pardiso"
+    a, b = compliance_from_solution(sa).matrix, compliance_from_solution(sb).matrix
     assert _scaled_diff(a, b) < 1e-9
+
+
+def test_default_solver_is_recorded_and_a_fallback_is_said(steel, monkeypatch, caplog):
+    """The default factorizer records what ran; a failing PARDISO falls back to SuperLU with a
+    warning (logged and as a RuntimeWarning) and the reason in FeaSolution.solver."""
+    import logging
+
+    import linkfea.fem as fem
+
+    mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
+    try:
+        import pypardiso  # noqa: F401
+        expected = "pardiso"
+    except ImportError:
+        expected = "superlu"
+    ok = solve_link(mesh, steel)
+    assert ok.solver["factorizer"] == expected
+
+    def broken(U):
+        raise RuntimeError("PARDISO error -3 (simulated)")
+
+    monkeypatch.setattr(fem, "pardiso_factorizer", broken)
+    with caplog.at_level(logging.WARNING, logger="linkfea.fem"), pytest.warns(RuntimeWarning, match="SuperLU"):
+        fb = solve_link(mesh, steel)
+    assert fb.solver["factorizer"] == "superlu"
+    assert "error -3" in fb.solver["fallback_reason"]
+    assert any("falling back to SuperLU" in r.getMessage() for r in caplog.records)
+    assert _scaled_diff(compliance_from_solution(fb).matrix, compliance_from_solution(ok).matrix) < 1e-9
 
 
 def test_solution_contents_and_progress(steel):

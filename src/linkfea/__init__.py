@@ -1,1 +1,19 @@
-"""linkfea: a link CAD to its 6x6 compliance by finite elements."""
+"""linkfea: a link CAD to its 6x6 compliance by finite elements.
+
+>>> import linkfea
+>>> r = linkfea.compute("bar", mesh_size=5.0)        # doctest: +SKIP
+>>> r.compliance, r.stiffness, r.frame               # doctest: +SKIP
+>>> r.save("bar.json"); linkfea.load("bar.json")     # doctest: +SKIP
+>>> linkfea.compare("bar", "1,2,4").errors           # doctest: +SKIP
+"""
+# The heavy dependencies (cadquery, pytetwild, scipy.sparse, pyvista) are imported inside
+# the functions that need them, so ``import linkfea`` (and ``vjm``) stays fast.
+# ``compare`` is both a module and the function: importing the function here, after the
+# module, makes ``linkfea.compare`` the function for good.
+from .compare import Comparison, compare
+from .compliance import Compliance
+from .errors import LinkFeaError
+from .pipeline import compute
+from .result import LinkResult, load
+
+__all__ = ["Comparison", "Compliance", "LinkFeaError", "LinkResult", "compare", "compute", "load"]

@@ -93,17 +93,19 @@ def compute(
 
 def show(res, console: Console) -> None:
     """Print the compliance and stiffness tables and the diagnostics."""
-    f = res.compliance.frame
-    console.print(f"[bold]{res.link.name}[/] ({res.material.name}, mode {res.mode}), frame origin "
+    f = res.frame
+    console.print(f"[bold]{res.name}[/] ({res.material.name}, mode {res.mode}), frame origin "
                   f"{np.round(f.origin, 4).tolist()} mm, x axis {np.round(f.axes[0], 4).tolist()}")
-    console.print(matrix_table(res.compliance.matrix, "compliance C (t = C w; mm/N, rad/(N mm))", TWIST, WRENCH))
-    console.print(matrix_table(res.compliance.stiffness, "stiffness K = C^-1 (N/mm, N mm/rad)", WRENCH, TWIST))
+    console.print(matrix_table(res.compliance, "compliance C (t = C w; mm/N, rad/(N mm))", TWIST, WRENCH))
+    console.print(matrix_table(res.stiffness, "stiffness K = C^-1 (N/mm, N mm/rad)", WRENCH, TWIST))
     d = res.diagnostics
     ee = d.get("error_estimate")
-    console.print(f"mesh: {res.mesh.n_nodes} vertices, {res.mesh.n_tets} tets, {res.solution.n_dofs} DOF, "
-                  f"edge {res.mesh.edge_length:.3g} mm; symmetry error {d['symmetry_error']:.2e}, "
+    m = res.mesh_info
+    console.print(f"mesh: {m['n_nodes']} vertices, {m['n_tets']} tets, {m['n_dofs']} DOF, "
+                  f"edge {m['edge_length']:.3g} mm; symmetry error {d['symmetry_error']:.2e}, "
                   f"fit residual {d['fit_residual']:.2e}, error estimate "
-                  + (f"{ee:.2e}" if ee is not None else "not computed (use --convergence)"))
+                  + (f"{ee:.2e}" if ee is not None else "not computed (use --convergence)")
+                  + f"; solver {res.solver.get('factorizer')}")
     console.print("timing (s): " + ", ".join(f"{k} {v:.2f}" for k, v in res.timing.items()))
 
 
@@ -129,7 +131,7 @@ def compare_cmd(
         params = parse_param_args(param)
         with console.status("starting") as status:
             rec = run(spec, beams, params=params, mesh_size=mesh_size, mode=mode, out=out, material=material,
-                      base=base, tip=tip, progress=lambda msg: status.update(f"[bold]{msg}"))
+                      base=base, tip=tip, progress=lambda msg: status.update(f"[bold]{msg}")).record
     except LinkFeaError as exc:
         _fail(str(exc))
     if not quiet:

@@ -1,226 +1,129 @@
 """Beam or FEA?  N-beam equivalents of a CAD link and their errors against the FEA compliance.
 
-Beam equivalent (:func:`link_beam_model`)
-    The body is cut by N planes normal to the beam axis (default: the link
-    frame's x) at the mid-stations of N equal segments between the base and
-    the tip interface centroids (projected on the axis).  Each cut gives a
-    section (sectionproperties, :mod:`linkfea.sections`); segment i is a
-    prismatic Timoshenko (or eq. 14 Euler-Bernoulli) beam along a line parallel
-    to the axis through that section's centroid, bending about its principal
-    axes.  The segments are clamped end to end (rigid jumps between centroid
-    lines) and summed as a serial chain at the link frame
-    (:func:`linkfea.beam.series_compliance`).  Not modelled: shear-centre
-    offsets, taper within a segment, warping restraint, the flexibility of the
-    clamp region beyond the base centroid.
-
-Error measures (:func:`compare_compliance`), all dimensionless
-    * per entry: ``e_ij = (C_beam_ij - C_fea_ij) / sqrt(C_fea_ii C_fea_jj)``.
-      On the diagonal this is the ordinary signed relative error; off the
-      diagonal it is the error of the coupling measured against the geometric
-      mean of the two direct compliances it couples (the error of the
-      correlation coefficient), which stays meaningful where the FEA coupling
-      itself is near zero and does not depend on the choice of units.
-    * principal compliances: translation and rotation are not commensurable,
-      so the 3x3 translational block (displacement of the frame origin under a
-      pure force there) and the 3x3 rotational block (rotation under a pure
-      couple) are eigen-decomposed separately.  Beam eigenpairs are matched to
-      FEA ones by their directions; relative eigenvalue error
-      ``|l_beam - l_fea| / l_fea``; direction error = angle between matched
-      principal directions.  Eigenvalues closer than 2 % (in either model) form
-      a cluster whose directions are not defined one by one: the angle is then
-      the largest principal angle between the two clusters' subspaces.
-    * summary: largest principal error of both blocks, largest direction angle,
-      largest |diagonal error|, largest |coupling error|.
+The beam models are built in :mod:`linkfea.beammodel`, the error measures are defined in
+:mod:`linkfea.metrics` and the outputs are rendered by :mod:`linkfea.report`; this module runs
+the comparison and returns it as a :class:`Comparison`.
 """
 from __future__ import annotations
 
-import io
-import itertools
-import json
+import html
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .beam import BeamSegment, series_compliance
+from .beammodel import BeamModel, beam_frame, beam_model, link_beam_model, link_extent
 from .errors import LinkFeaError
-from .frames import Frame
-from .materials import Material, get_material
-from .sections import cut_section, section_constants
+from .materials import get_material
+from .metrics import CLUSTER_TOL, compare_compliance, entry_errors, principal_errors
+from .report import (ERROR_COLUMNS, LABELS, error_rows, figure_png, library_report, markdown_table,
+                     plot_error_vs_n, write_outputs)
+
+__all__ = ["BeamModel", "Comparison", "ErrorTable", "CLUSTER_TOL", "DEFAULT_BEAMS", "LABELS", "UNITS", "beam_frame", "beam_model",
+           "compare", "compare_compliance", "compare_link", "entry_errors", "fea_compliance", "fea_info",
+           "figure_png", "library_report", "link_beam_model", "link_extent", "markdown_table", "parse_beams",
+           "principal_errors", "write_outputs"]
 
 DEFAULT_BEAMS = (1, 2, 4, 8)
-CLUSTER_TOL = 0.02
-LABELS = ("x", "y", "z", "rx", "ry", "rz")
 UNITS = {"compliance": "translations mm, rotations rad, forces N, moments N mm: blocks mm/N, rad/N, mm/(N mm), "
                        "rad/(N mm)", "errors": "dimensionless (fractions, not percent)", "angles": "deg"}
 
 
-# --------------------------------------------------------------------------- beam models
+# --------------------------------------------------------------------------- the result object
 @dataclass(frozen=True)
-class BeamModel:
-    """An N-beam equivalent of a link, compliances in the link frame.
+class ErrorTable:
+    """The errors of every beam model against the FEA, one row per (model, N).
 
-    Attributes
-    ----------
-    n : int
-    stations : ndarray (n,)
-        Cut positions along the beam axis, mm from the link frame origin.
-    segments : tuple of BeamSegment
-        In the beam frame (x = beam axis, origin = link frame origin).
-    sections : tuple of SectionConstants
-        Section constants at the stations, beam-frame y-z axes.
-    compliance : ndarray (6, 6)
-        Timoshenko N-beam compliance in the link frame.
-    compliance_eb : ndarray (6, 6)
-        Euler-Bernoulli (seed eq. 14) N-beam compliance in the link frame.
+    Errors are fractions (not percent), angles in degrees; ``table["C22"]`` is a column as
+    an array, ``table.rows`` the tuples, ``table.to_markdown()`` the table in percent.
     """
 
-    n: int
-    stations: np.ndarray
-    segments: tuple
-    sections: tuple
-    compliance: np.ndarray
-    compliance_eb: np.ndarray
+    columns: tuple
+    rows: tuple
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def __getitem__(self, column: str) -> np.ndarray:
+        k = self.columns.index(column)
+        return np.array([r[k] for r in self.rows])
+
+    def records(self) -> list[dict]:
+        return [dict(zip(self.columns, r)) for r in self.rows]
+
+    def _cells(self, row) -> list[str]:
+        return [c if isinstance(c, str) else str(c) if isinstance(c, (int, np.integer)) else
+                (f"{c:.1f}" if name == "max angle (deg)" else f"{100 * c:+.1f}%")
+                for name, c in zip(self.columns, row)]
+
+    def to_markdown(self) -> str:
+        lines = ["| " + " | ".join(self.columns) + " |", "|---" * len(self.columns) + "|"]
+        lines += ["| " + " | ".join(self._cells(r)) + " |" for r in self.rows]
+        return "\n".join(lines) + "\n"
+
+    def __repr__(self) -> str:
+        cells = [list(self.columns)] + [self._cells(r) for r in self.rows]
+        w = [max(len(row[k]) for row in cells) for k in range(len(self.columns))]
+        return "\n".join("  ".join(c.rjust(w[k]) for k, c in enumerate(row)) for row in cells)
+
+    def _repr_html_(self) -> str:
+        head = "".join(f"<th>{html.escape(c)}</th>" for c in self.columns)
+        body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in self._cells(r)) + "</tr>"
+                       for r in self.rows)
+        return f"<table><tr>{head}</tr>{body}</table>"
 
 
-def beam_frame(frame: Frame, axis=None) -> Frame:
-    """The beam frame: the link frame's origin, x along ``axis`` (link-frame components)."""
-    if axis is None:
-        return frame
-    a = np.asarray(axis, dtype=float).reshape(-1)
-    if a.size != 3 or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
-        raise LinkFeaError(f"beam axis must be a non-zero 3-vector, got {axis}")
-    a_cad = frame.axes.T @ (a / np.linalg.norm(a))
-    return Frame.from_x(frame.origin, a_cad, y_hint=frame.axes[1] if abs(a_cad @ frame.axes[1]) < 0.9
-                        else frame.axes[2])
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    """Beam models against the FEA compliance of one link (what ``linkfea compare`` writes).
 
-
-def beam_model(body, frame: Frame, x_base: float, x_tip: float, n: int, material: Material,
-               axis=None) -> BeamModel:
-    """N-beam model of a solid between ``x_base`` and ``x_tip`` along the beam axis.
-
-    Parameters
-    ----------
-    body : cadquery.Shape
-    frame : Frame
-        The link frame (CAD coordinates); the result is expressed there.
-    x_base, x_tip : float
-        Ends of the beam along the beam axis, mm from the frame origin (``x_base < x_tip``).
-    n : int
-        Number of segments (> 0).
-    material : Material
-    axis : 3-vector, optional
-        Beam axis in link-frame components (default x).
-
-    Raises
-    ------
-    LinkFeaError
-        ``n <= 0``, ends in the wrong order, a station that cuts no material or a
-        section sectionproperties cannot analyse.
+    ``record`` is the JSON-ready record (``compare.json``); ``comparison["beams"]`` reads it
+    directly.  :attr:`errors` is the error table, :meth:`plot` draws the error versus N on a
+    matplotlib Axes, :meth:`save` writes compare.json, compare.md and compare.png.
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n <= 0:
-        raise LinkFeaError(f"number of beams must be a positive integer, got {n!r}")
-    if not (np.isfinite(x_base) and np.isfinite(x_tip) and x_base < x_tip):
-        raise LinkFeaError(f"beam ends must satisfy x_base < x_tip along the axis, got {x_base:g}, {x_tip:g} mm")
-    bf = beam_frame(frame, axis)
-    edges = np.linspace(x_base, x_tip, n + 1)
-    stations = 0.5 * (edges[:-1] + edges[1:])
-    secs = []
-    for x in stations:
-        try:
-            secs.append(section_constants(cut_section(body, bf, float(x))))
-        except LinkFeaError as exc:
-            raise LinkFeaError(f"beam model with {n} segments, station x = {x:g} mm: {exc}") from None
-    segs = tuple(BeamSegment(float(a), float(b), s.principal_section(), s.centroid, s.angle)
-                 for a, b, s in zip(edges[:-1], edges[1:], secs))
-    C_t = series_compliance(segs, material.E, material.nu, shear=True)
-    C_e = series_compliance(segs, material.E, material.nu, shear=False)
-    if bf is not frame:
-        C_t, C_e = bf.compliance_to(C_t, frame), bf.compliance_to(C_e, frame)
-    return BeamModel(n, stations, segs, tuple(secs), C_t, C_e)
 
+    record: dict
 
-def link_extent(link, axis=None) -> tuple[float, float]:
-    """Base and tip interface centroids projected on the beam axis, mm from the frame origin."""
-    from .cad import faces_area_centroid
+    def __getitem__(self, key):
+        return self.record[key]
 
-    bf = beam_frame(link.frame, axis)
-    out = []
-    for name, faces in (("base", link.base_faces), ("tip", link.tip_faces)):
-        if not faces:
-            raise LinkFeaError(f"{link.name}: the {name} selector finds no face")
-        _, c = faces_area_centroid(faces)
-        out.append(float((c - bf.origin) @ bf.axes[0]))
-    return out[0], out[1]
+    @property
+    def link(self) -> str:
+        return self.record["link"]
 
+    @property
+    def fea(self) -> np.ndarray:
+        """The FEA compliance in the link frame (6x6)."""
+        return np.array(self.record["fea"]["compliance"])
 
-def link_beam_model(link, n: int, axis=None) -> BeamModel:
-    """N-beam equivalent of a :class:`linkfea.cad.Link` (see the module docstring)."""
-    x_base, x_tip = link_extent(link, axis)
-    if not x_base < x_tip:
-        raise LinkFeaError(f"{link.name}: along the beam axis the base ({x_base:g} mm) is not behind the tip "
-                           f"({x_tip:g} mm); choose another axis")
-    return beam_model(link.body, link.frame, x_base, x_tip, n, get_material(link.material), axis)
+    def beam(self, n: int, theory: str = "timoshenko") -> np.ndarray:
+        """The ``n``-beam compliance (``theory`` timoshenko or euler_bernoulli) in the link frame."""
+        for m in self.record["beams"]:
+            if m["n"] == n:
+                return np.array(m[f"compliance_{theory}"])
+        raise LinkFeaError(f"no {n}-beam model in this comparison (N = {[m['n'] for m in self.record['beams']]})")
 
+    @property
+    def errors(self) -> ErrorTable:
+        return ErrorTable(ERROR_COLUMNS, tuple(error_rows(self.record)))
 
-# --------------------------------------------------------------------------- error measures
-def entry_errors(C_fea, C_beam) -> np.ndarray:
-    """Signed ``(C_beam - C_fea) / sqrt(C_fea_ii C_fea_jj)``, 6x6."""
-    C_fea, C_beam = np.asarray(C_fea, float), np.asarray(C_beam, float)
-    d = np.diag(C_fea)
-    if np.any(d <= 0):
-        raise LinkFeaError("FEA compliance must have a positive diagonal")
-    return (C_beam - C_fea) / np.sqrt(np.outer(d, d))
+    def plot(self, ax=None):
+        """Largest principal error (%) of the translation and rotation blocks versus N; returns the Axes."""
+        if ax is None:
+            import matplotlib.pyplot as plt
 
+            _, ax = plt.subplots(figsize=(5, 3.6))
+        return plot_error_vs_n(self.record, ax)
 
-def principal_errors(A_fea, A_beam, tol: float = CLUSTER_TOL) -> dict:
-    """Eigenvalue and direction errors of two symmetric 3x3 blocks (see module docstring)."""
-    from scipy.linalg import subspace_angles
+    def save(self, out_dir) -> dict:
+        """Write compare.json, compare.md and compare.png into ``out_dir``; their paths by name."""
+        return write_outputs(self.record, out_dir)
 
-    lf, Vf = np.linalg.eigh(np.asarray(A_fea, float))
-    lb, Vb = np.linalg.eigh(np.asarray(A_beam, float))
-    overlap = np.abs(Vf.T @ Vb) ** 2
-    perm = max(itertools.permutations(range(3)), key=lambda p: sum(overlap[i, p[i]] for i in range(3)))
-    lb, Vb = lb[list(perm)], Vb[:, list(perm)]
-    # Clusters of (nearly) equal eigenvalues in either model: union-find on 3 items.
-    group = list(range(3))
-    for i, j in itertools.combinations(range(3), 2):
-        close = lambda l, i=i, j=j: abs(l[i] - l[j]) <= tol * max(abs(l[i]), abs(l[j]))  # noqa: E731
-        if close(lf) or close(lb):
-            gi, gj = group[i], group[j]
-            group = [gi if g == gj else g for g in group]
-    rel = np.empty(3)
-    ang = np.empty(3)
-    for g in set(group):
-        idx = [k for k in range(3) if group[k] == g]
-        rel[idx] = np.abs(np.sort(lb[idx]) - np.sort(lf[idx])) / np.sort(lf[idx])
-        ang[idx] = np.rad2deg(np.max(subspace_angles(Vf[:, idx], Vb[:, idx])))
-    return {"fea_eigenvalues": lf.tolist(), "beam_eigenvalues": lb.tolist(),
-            "fea_directions": Vf.T.tolist(), "beam_directions": Vb.T.tolist(),
-            "relative_error": rel.tolist(), "angle_deg": ang.tolist(),
-            "max_relative_error": float(rel.max()), "max_angle_deg": float(ang.max())}
+    def __repr__(self) -> str:
+        return f"Comparison({self.link!r}, N = {[m['n'] for m in self.record['beams']]})\n{self.errors!r}"
 
-
-def compare_compliance(C_fea, C_beam) -> dict:
-    """All error measures of a beam compliance against the FEA one (same frame)."""
-    E = entry_errors(C_fea, C_beam)
-    off = E[np.triu_indices(6, 1)]
-    tr = principal_errors(np.asarray(C_fea)[:3, :3], np.asarray(C_beam)[:3, :3])
-    ro = principal_errors(np.asarray(C_fea)[3:, 3:], np.asarray(C_beam)[3:, 3:])
-    return {
-        "entry_error": E.tolist(),
-        "diagonal_error": np.diag(E).tolist(),
-        "coupling_error": {"C26 (dy-Mz)": float(E[1, 5]), "C35 (dz-My)": float(E[2, 4])},
-        "principal": {"translation": tr, "rotation": ro},
-        "summary": {
-            "max_principal_error": max(tr["max_relative_error"], ro["max_relative_error"]),
-            "max_principal_error_translation": tr["max_relative_error"],
-            "max_principal_error_rotation": ro["max_relative_error"],
-            "max_angle_deg": max(tr["max_angle_deg"], ro["max_angle_deg"]),
-            "max_abs_diagonal_error": float(np.max(np.abs(np.diag(E)))),
-            "max_abs_coupling_error": float(np.max(np.abs(off))),
-        },
-    }
+    def _repr_html_(self) -> str:
+        return f"<p><b>{html.escape(self.link)}</b>: beam models vs FEA</p>" + self.errors._repr_html_()
 
 
 # --------------------------------------------------------------------------- the comparison
@@ -308,7 +211,7 @@ def fea_compliance(spec, params=None, mesh_size=None, mode="rigid", material=Non
 
 def fea_info(res) -> tuple:
     """``(C, link, info)`` of a :class:`linkfea.pipeline.LinkResult`: C in ``res.link.frame``."""
-    link, mesh, comp = res.link, res.mesh, res.compliance
+    link, mesh, comp = res.link, res.mesh, res.value
     # The pipeline fits at the mesh frame, which is the link frame; the adjoint map makes that explicit.
     C = comp.to_frame(link.frame).matrix
     d = res.diagnostics
@@ -321,114 +224,8 @@ def fea_info(res) -> tuple:
     return np.asarray(C, dtype=float), link, info
 
 
-# --------------------------------------------------------------------------- outputs
-def markdown_table(record: dict) -> str:
-    """The comparison as Markdown: one row per model, errors in percent."""
-    lines = [f"### {record['link']}: beam models vs FEA", "",
-             f"Beam length {record['beam_length']:.1f} mm along the link x axis; material "
-             f"{record['material']['name']} (E = {record['material']['E']:g} MPa, nu = {record['material']['nu']:g}). "
-             "Errors in % (signed entry errors relative to sqrt(Cii Cjj) of the FEA; principal errors on the "
-             "translational / rotational 3x3 blocks).", "",
-             "| model | N | max principal err | transl. | rot. | max angle (deg) | "
-             + " | ".join(f"C{i}{i}" for i in range(1, 7)) + " | C26 | C35 | max coupling |",
-             "|---|---:|---:|---:|---:|---:|" + "---:|" * 9]
-    for m in record["beams"]:
-        for key, name in (("euler_bernoulli", "Euler-Bernoulli"), ("timoshenko", "Timoshenko")):
-            r = m[key]
-            s = r["summary"]
-            d = r["diagonal_error"]
-            c = r["coupling_error"]
-            lines.append(
-                f"| {name} | {m['n']} | {100 * s['max_principal_error']:.1f} | "
-                f"{100 * s['max_principal_error_translation']:.1f} | {100 * s['max_principal_error_rotation']:.1f} | "
-                f"{s['max_angle_deg']:.1f} | " + " | ".join(f"{100 * v:+.1f}" for v in d)
-                + f" | {100 * c['C26 (dy-Mz)']:+.1f} | {100 * c['C35 (dz-My)']:+.1f} | "
-                f"{100 * s['max_abs_coupling_error']:.1f} |")
-    return "\n".join(lines) + "\n"
-
-
-def figure_png(record: dict) -> bytes:
-    """PNG: heatmaps of the signed Timoshenko entry errors for each N, and error versus N."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    models = record["beams"]
-    k = len(models)
-    fig, axs = plt.subplots(1, k + 1, figsize=(3.2 * k + 4.2, 3.6), gridspec_kw={"width_ratios": [1] * k + [1.3]})
-    im = None
-    # One colour scale for all N, from 5 % to 100 %, so that small errors stay visible.
-    vmax = float(np.clip(max(100.0 * np.max(np.abs(m["timoshenko"]["entry_error"])) for m in models), 5.0, 100.0))
-    fmt = "{:.1f}" if vmax < 20 else "{:.0f}"
-    for ax, m in zip(axs[:k], models):
-        E = 100.0 * np.array(m["timoshenko"]["entry_error"])
-        im = ax.imshow(np.clip(E, -vmax, vmax), cmap="RdBu_r", vmin=-vmax, vmax=vmax)
-        for i, j in itertools.product(range(6), range(6)):
-            ax.text(j, i, fmt.format(E[i, j] + 0.0), ha="center", va="center", fontsize=6)
-        ax.set_xticks(range(6), LABELS, fontsize=7)
-        ax.set_yticks(range(6), LABELS, fontsize=7)
-        ax.set_title(f"N = {m['n']} (Timoshenko)", fontsize=9)
-    fig.colorbar(im, ax=list(axs[:k]), shrink=0.8, label="entry error, % of sqrt(Cii Cjj)")
-    ns = [m["n"] for m in models]
-    ax = axs[k]
-    # Log scale: errors of a few % and of several hundred % occur on the same link.  Floor at 0.01 %
-    # so that an exact model (error 0) still plots.
-    for key, style, nm in (("timoshenko", "-o", "Timoshenko"), ("euler_bernoulli", "--s", "Euler-Bernoulli")):
-        for blk in ("translation", "rotation"):
-            ax.plot(ns, [max(100 * m[key]["summary"][f"max_principal_error_{blk}"], 1e-2) for m in models], style,
-                    label=f"{blk}, {nm}")
-    ax.set_xscale("log", base=2)
-    ax.set_yscale("log")
-    ax.set_xticks(ns, [str(n) for n in ns])
-    ax.set_xlabel("N beams")
-    ax.set_ylabel("max principal compliance error, %")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=6)
-    ax.set_title(record["link"], fontsize=9)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    return buf.getvalue()
-
-
-def write_outputs(record: dict, out_dir) -> dict:
-    """Write compare.json, compare.md and compare.png into ``out_dir``, each atomically.
-
-    Everything is rendered in memory first; if a write still fails, the files this
-    call created (and the folder, if it created it) are removed, so a failure
-    leaves no partial set behind.
-    """
-    from .atomic import write_bytes
-
-    out_dir = Path(out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise LinkFeaError(f"--out {str(out_dir)!r} exists and is not a directory")
-    blobs = {
-        "compare.json": json.dumps(record, indent=1, allow_nan=False).encode(),
-        "compare.md": markdown_table(record).encode(),
-        "compare.png": figure_png(record),
-    }
-    made_dir = not out_dir.exists()
-    created = []
-    try:
-        for name, data in blobs.items():
-            path = out_dir / name
-            new = not path.exists()
-            write_bytes(path, data)
-            if new:
-                created.append(path)
-    except BaseException:
-        for path in created:
-            path.unlink(missing_ok=True)
-        if made_dir and out_dir.is_dir() and not any(out_dir.iterdir()):
-            out_dir.rmdir()
-        raise
-    return {name: str(out_dir / name) for name in blobs}
-
-
 def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid", out=None, axis=None,
-            material=None, base=None, tip=None, progress=None) -> dict:
+            material=None, base=None, tip=None, progress=None) -> Comparison:
     """FEA versus N-beam models of a link; optionally write ``out``/compare.{json,md,png}.
 
     Parameters
@@ -454,8 +251,8 @@ def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid"
 
     Returns
     -------
-    dict
-        The comparison record (as written to compare.json).
+    Comparison
+        The comparison; its ``record`` is what compare.json holds.
     """
     beams = parse_beams(beams)  # fail before the (slow) FEA
     if out is not None and Path(out).exists() and not Path(out).is_dir():
@@ -464,47 +261,7 @@ def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid"
     record = compare_link(link, C, beams, axis, info)
     if out is not None:
         write_outputs(record, out)
-    return record
-
-
-# --------------------------------------------------------------------------- library report
-def library_report(names=None, beams=DEFAULT_BEAMS, img_dir="docs/img", mesh_size=None) -> str:
-    """Compare every bundled cad/ link at its default parameters; Markdown of the results.
-
-    PNGs go to ``img_dir/beam_vs_fea_<name>.png``.  A link whose comparison fails is
-    reported with its error message instead of numbers.
-    """
-    from .atomic import write_bytes
-    from .cad import CAD_DIR
-
-    names = names or sorted(p.stem for p in CAD_DIR.glob("*.py") if not p.stem.startswith("_"))
-    img_dir = Path(img_dir)
-    rows, details = [], []
-    for name in names:
-        try:
-            rec = compare(name, beams, mesh_size=mesh_size)
-            write_bytes(img_dir / f"beam_vs_fea_{name}.png", figure_png(rec))
-        except LinkFeaError as exc:
-            rows.append(f"| {name} | – | failed: {exc} | | | | |")
-            continue
-        for m in rec["beams"]:
-            t, e = m["timoshenko"]["summary"], m["euler_bernoulli"]["summary"]
-            rows.append(f"| {name} | {m['n']} | {100 * e['max_principal_error_translation']:.0f} / "
-                        f"{100 * e['max_principal_error_rotation']:.0f} | "
-                        f"{100 * t['max_principal_error_translation']:.0f} / {100 * t['max_principal_error_rotation']:.0f}"
-                        f" | {t['max_angle_deg']:.1f} | {100 * t['max_abs_diagonal_error']:.0f} | "
-                        f"{100 * t['max_abs_coupling_error']:.0f} |")
-        mesh = rec["fea"].get("mesh", {})
-        details.append(markdown_table(rec) + f"\nFEA: {mode_text(rec)}; mesh {mesh}.\n\n"
-                       f"![{name}](img/beam_vs_fea_{name}.png)\n")
-    head = ("| link | N | EB max principal error, transl. / rot. (%) | Timoshenko, transl. / rot. (%) | "
-            "Timoshenko max angle (deg) | Timoshenko max abs diagonal (%) | Timoshenko max abs coupling (%) |\n"
-            "|---|---:|---:|---:|---:|---:|---:|\n")
-    return head + "\n".join(rows) + "\n\n" + "\n".join(details)
-
-
-def mode_text(rec: dict) -> str:
-    return str(rec["fea"].get("mode", "rigid")) + " tip coupling"
+    return Comparison(record)
 
 
 if __name__ == "__main__":  # python -m linkfea.compare [names...]: the library results as Markdown

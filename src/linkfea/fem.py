@@ -26,7 +26,9 @@ Units: N, mm, MPa.
 """
 from __future__ import annotations
 
+import logging
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Callable, Optional
 
@@ -36,6 +38,8 @@ import scipy.sparse as sp
 from .errors import LinkFeaError, SolverError
 from .frames import Frame
 from .materials import Material
+
+log = logging.getLogger(__name__)
 
 # Local edges of a tet, in the P2 node order 4..9.
 TET_EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]])
@@ -283,6 +287,7 @@ def pardiso_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
             solver.free_memory(everything=True)
             solver.factorized_A = sp.csr_matrix((0, 0))
 
+    solve.factorizer = "pardiso"
     return solve
 
 
@@ -292,15 +297,32 @@ def scipy_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
 
     K = symmetric_from_upper(U).tocsc()
     lu = splu(K, permc_spec="MMD_AT_PLUS_A")
-    return lambda B: lu.solve(np.asarray(B, dtype=float))
+
+    def solve(B):
+        return lu.solve(np.asarray(B, dtype=float))
+
+    solve.factorizer = "superlu"
+    return solve
 
 
 def default_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
-    """PARDISO if available and successful, else SuperLU."""
+    """PARDISO if available and successful, else SuperLU; a fallback is logged and recorded.
+
+    The returned ``solve`` carries ``factorizer`` (``"pardiso"`` or ``"superlu"``) and, after a
+    fallback, ``fallback_reason``; :func:`solve_link` copies both into ``FeaSolution.solver``.
+    """
     try:
         return pardiso_factorizer(U)
-    except Exception:  # missing package, unsupported platform or a PARDISO error code
-        return scipy_factorizer(U)
+    except ImportError as exc:  # pypardiso is not installed (e.g. not x86-64): the documented fallback
+        reason = f"pypardiso not available ({exc})"
+        log.info("PARDISO not used: %s; factoring with SuperLU", reason)
+    except Exception as exc:  # PARDISO installed but failed: say so, loudly
+        reason = f"PARDISO failed: {type(exc).__name__}: {exc}"
+        log.warning("%s; falling back to SuperLU (slower)", reason)
+        warnings.warn(f"{reason}; falling back to SuperLU", RuntimeWarning, stacklevel=2)
+    solve = scipy_factorizer(U)
+    solve.fallback_reason = reason
+    return solve
 
 
 # --------------------------------------------------------------------------
@@ -331,6 +353,9 @@ class FeaSolution:
     mode : str
     timing : dict
         Seconds spent in ``assemble``, ``factor`` and ``solve``.
+    solver : dict
+        ``factorizer`` that ran (``pardiso``, ``superlu``, or the name of an injected one) and
+        ``fallback_reason`` (None unless PARDISO was wanted but not used).
     ref_twists : ndarray (6, 6) or None
         Rigid mode only: reference-node twists (frame axes), column ``k`` for load ``k``.
     """
@@ -346,6 +371,7 @@ class FeaSolution:
     mode: str
     timing: dict = field(default_factory=dict)
     ref_twists: Optional[np.ndarray] = None
+    solver: dict = field(default_factory=dict)
 
 
 def rigid_motion_matrix(points: np.ndarray, origin: np.ndarray, axes: np.ndarray) -> np.ndarray:
@@ -509,4 +535,6 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
         displacements=u.T.reshape(6, n_nodes, 3),
         ref_nodes=ref_nodes, clamped_nodes=clamped, n_dofs=int(A.shape[0]),
         n_vertices=p2.n_vertices, frame=frame, mode=mode, timing=timing, ref_twists=ref_twists,
+        solver={"factorizer": getattr(solve, "factorizer", getattr(factorizer, "__name__", "custom")),
+                "fallback_reason": getattr(solve, "fallback_reason", None)},
     )

@@ -11,12 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .compliance import Compliance, check
 from .errors import LinkFeaError
 from .fem import rigid_motion_matrix
 from .frames import Frame, twist_transform
-
-# Smallest eigenvalue of the diagonally scaled compliance, relative to its largest, for positive definiteness.
-PD_RTOL = 1e-12
 
 
 def _rigid_basis(points, origin, axes) -> np.ndarray:
@@ -97,11 +95,12 @@ def fit_compliance(sol, frame: Frame | None = None):
 
 
 def check_compliance(C_raw):
-    """Symmetrize a raw compliance after measuring its asymmetry; require positive definiteness.
+    """Measure the asymmetry of a raw FEA compliance, symmetrize it and check it.
 
-    The symmetry error is measured on the diagonally scaled matrix
-    ``D^-1/2 C D^-1/2`` (units mix mm/N and rad/(N mm)):
-    ``||S - S^T||_F / ||S + S^T||_F``.
+    The symmetry error is a diagnostic of the fit, measured on the diagonally scaled matrix
+    ``S = D^-1/2 C D^-1/2`` (units mix mm/N and rad/(N mm)): ``||S - S^T||_F / ||S + S^T||_F``.
+    The symmetrized matrix then goes through the one compliance check,
+    :func:`linkfea.compliance.check`.
 
     Returns
     -------
@@ -116,27 +115,20 @@ def check_compliance(C_raw):
         If the matrix is not finite, not 6x6 or not positive definite.
     """
     C = np.asarray(C_raw, dtype=float)
-    if C.shape != (6, 6) or not np.all(np.isfinite(C)):
-        raise LinkFeaError(f"compliance must be a finite 6x6 matrix, got shape {C.shape}")
-    d = np.diag(C)
-    if np.any(d <= 0):
-        k = int(np.argmin(d))
-        raise LinkFeaError(f"compliance is not positive definite: diagonal entry {k} is {d[k]:.3e} <= 0 "
-                           "(is the link clamped, and is the reference block attached?)")
-    s = 1.0 / np.sqrt(d)
+    try:
+        C_sym = check(0.5 * (C + C.T) if C.shape == (6, 6) else C)
+    except LinkFeaError as exc:
+        raise LinkFeaError(f"{exc}; check the mesh, the clamp and the reference interfaces "
+                           "(is the link clamped, and is the reference block attached?)") from None
+    s = 1.0 / np.sqrt(np.diag(C))
     S = C * s[:, None] * s[None, :]
     sym_err = float(np.linalg.norm(S - S.T) / np.linalg.norm(S + S.T))
-    C_sym = 0.5 * (C + C.T)
-    ev_scaled = np.linalg.eigvalsh(0.5 * (S + S.T))
-    if ev_scaled[0] <= PD_RTOL * ev_scaled[-1]:
-        raise LinkFeaError(f"compliance is not positive definite (smallest scaled eigenvalue "
-                           f"{ev_scaled[0]:.3e}); check the mesh, clamp and reference interfaces")
     return C_sym, sym_err, float(np.linalg.eigvalsh(C_sym)[0])
 
 
 @dataclass(frozen=True)
-class Compliance:
-    """A checked 6x6 link compliance in a stated frame.
+class FittedCompliance:
+    """The compliance fitted from an FEA solution, with the fit's diagnostics.
 
     Attributes
     ----------
@@ -167,15 +159,20 @@ class Compliance:
         """Inverse of the compliance (N/mm, N mm/rad)."""
         return np.linalg.inv(self.matrix)
 
-    def to_frame(self, frame: Frame) -> "Compliance":
+    @property
+    def compliance(self) -> Compliance:
+        """The checked value (matrix, frame, units) handed on to results and vjm."""
+        return Compliance(self.matrix, self.frame)
+
+    def to_frame(self, frame: Frame) -> "FittedCompliance":
         """The same compliance expressed at another frame (adjoint map)."""
-        return Compliance(self.frame.compliance_to(self.matrix, frame), self.frame.compliance_to(self.raw, frame),
-                          frame, self.symmetry_error, self.fit_residual, self.min_eigenvalue, self.fit_residuals)
+        return FittedCompliance(self.frame.compliance_to(self.matrix, frame), self.frame.compliance_to(self.raw, frame),
+                                frame, self.symmetry_error, self.fit_residual, self.min_eigenvalue, self.fit_residuals)
 
 
-def compliance_from_solution(sol, frame: Frame | None = None) -> Compliance:
+def compliance_from_solution(sol, frame: Frame | None = None) -> FittedCompliance:
     """Fit, check and wrap the compliance of a :class:`linkfea.fem.FeaSolution`."""
     C_raw, res = fit_compliance(sol, frame)
     C, sym_err, min_ev = check_compliance(C_raw)
-    return Compliance(C, C_raw, sol.frame if frame is None else frame, sym_err, float(np.max(res)), min_ev,
-                      np.asarray(res))
+    return FittedCompliance(C, C_raw, sol.frame if frame is None else frame, sym_err, float(np.max(res)), min_ev,
+                            np.asarray(res))

@@ -10,6 +10,7 @@ Schema (``"schema": "linkfea.result/1"``)::
     frame        Frame.to_dict(): origin, x_axis, y_axis, z_axis in CAD coordinates (mm)
     mesh         mesher, mesher_version, n_nodes, n_tets, n_dofs, edge_length, envelope, quality {...}
     diagnostics  symmetry_error, fit_residual, min_eigenvalue, error_estimate (null unless --convergence)
+    solver       factorizer that ran (pardiso | superlu), fallback_reason (null unless PARDISO failed)
     timing       seconds per stage: cad, mesh, assemble, factor, solve, fit, total
     versions     python and package versions
 """
@@ -23,20 +24,13 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import plain, write_text
+from .compliance import TWIST, UNITS, WRENCH, check
 from .errors import LinkFeaError
 from .frames import Frame
 
 SCHEMA = "linkfea.result/1"
-WRENCH = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
-TWIST = ["dx", "dy", "dz", "rx", "ry", "rz"]
-UNITS = {
-    "compliance": {"force->translation": "mm/N", "moment->rotation": "rad/(N*mm)",
-                   "moment->translation": "mm/(N*mm) = 1/N", "force->rotation": "rad/N"},
-    "stiffness": {"translation->force": "N/mm", "rotation->moment": "N*mm/rad",
-                  "rotation->force": "N/rad", "translation->moment": "N*mm/mm = N"},
-    "length": "mm", "force": "N", "moment": "N*mm", "stress": "MPa", "time": "s",
-}
-SYMMETRY_RTOL = 1e-6
+__all__ = ["SCHEMA", "TWIST", "UNITS", "WRENCH", "read_result", "result_dict", "versions", "write_json_atomic",
+           "write_result"]
 
 
 def versions() -> dict:
@@ -50,29 +44,8 @@ def versions() -> dict:
 
 
 def result_dict(res) -> dict:
-    """The JSON document of a :class:`linkfea.pipeline.LinkResult`."""
-    link, mesh, sol, comp = res.link, res.mesh, res.solution, res.compliance
-    return plain({
-        "schema": SCHEMA,
-        "name": link.name,
-        "source": str(link.source),
-        "params": dict(link.params),
-        "material": {"name": res.material.name, "E": res.material.E, "nu": res.material.nu},
-        "mode": res.mode,
-        "block_ratio": res.block_ratio,
-        "compliance": comp.matrix,
-        "stiffness": comp.stiffness,
-        "order": {"wrench": WRENCH, "twist": TWIST},
-        "units": UNITS,
-        "frame": comp.frame.to_dict(),
-        "mesh": {"mesher": mesh.mesher, "mesher_version": mesh.mesher_version, "n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets), "n_dofs": int(sol.n_dofs),
-                 "n_p2_nodes": int(len(sol.points)), "edge_length": float(mesh.edge_length),
-                 "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)",
-                 "quality": dict(mesh.quality), "cache_key": mesh.cache_key},
-        "diagnostics": dict(res.diagnostics),
-        "timing": dict(res.timing),
-        "versions": versions(),
-    })
+    """The JSON document of a :class:`linkfea.result.LinkResult` (see :meth:`LinkResult.to_dict`)."""
+    return res.to_dict()
 
 
 def write_json_atomic(path, doc: dict) -> Path:
@@ -111,18 +84,7 @@ def read_result(path) -> dict:
     missing = [k for k in ("compliance", "frame", "units") if k not in doc]
     if missing:
         raise LinkFeaError(f"{path}: not a linkfea result, missing {', '.join(missing)}")
-    try:
-        C = np.asarray(doc["compliance"], dtype=float)
-    except (TypeError, ValueError):
-        raise LinkFeaError(f"{path}: compliance is not a numeric matrix") from None
-    if C.shape != (6, 6) or not np.all(np.isfinite(C)):
-        raise LinkFeaError(f"{path}: compliance must be a finite 6x6 matrix, got shape {C.shape}")
-    scale = np.sqrt(np.abs(np.outer(np.diag(C), np.diag(C)))) + np.finfo(float).tiny
-    if np.max(np.abs(C - C.T) / scale) > SYMMETRY_RTOL:
-        raise LinkFeaError(f"{path}: compliance is not symmetric")
-    d = np.diag(C)
-    if np.any(d <= 0) or np.linalg.eigvalsh(C / np.sqrt(np.outer(d, d)))[0] <= 0:
-        raise LinkFeaError(f"{path}: compliance is not positive definite")
+    C = check(doc["compliance"], f"{path}: compliance")
     doc["compliance"] = C
     doc["stiffness"] = np.linalg.inv(C)
     doc["frame_obj"] = Frame.from_dict(doc["frame"])

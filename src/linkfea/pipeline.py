@@ -3,58 +3,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Callable, Optional
-
-import numpy as np
+from typing import Callable
 
 from .errors import LinkFeaError
 from .materials import get_material
+from .result import LinkResult
 
-if TYPE_CHECKING:
-    from .fit import Compliance
-
-MODES = ("rigid", "block")
-
-
-@dataclass(frozen=True)
-class LinkResult:
-    """Everything the link stage produced for one link.
-
-    Attributes
-    ----------
-    link : linkfea.cad.Link
-    mesh : linkfea.mesh.LinkMesh
-        The (finest) mesh.
-    solution : linkfea.fem.FeaSolution
-        The (finest) solution: P2 nodes and the 6 displacement fields.
-    compliance : linkfea.fit.Compliance
-    mode : str
-    block_ratio : float or None
-    material : Material
-    timing : dict
-        Seconds per stage: cad, mesh, assemble, factor, solve, fit (finest mesh), total.
-    diagnostics : dict
-        symmetry_error, fit_residual, min_eigenvalue, error_estimate (None unless convergence ran) and notes.
-    """
-
-    link: object
-    mesh: object
-    solution: object
-    compliance: Compliance
-    mode: str
-    block_ratio: Optional[float]
-    material: object
-    timing: dict = field(default_factory=dict)
-    diagnostics: dict = field(default_factory=dict)
-
-    @property
-    def matrix(self) -> np.ndarray:
-        return self.compliance.matrix
-
-    @property
-    def stiffness(self) -> np.ndarray:
-        return self.compliance.stiffness
+__all__ = ["LinkResult", "compute"]
 
 
 def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh"):
@@ -112,6 +67,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         gmsh meshes the CAD faces exactly (default); pytetwild meshes a tessellation.
     """
     from .cad import build_link
+    from .fem import MODES
     from .mesh import DEFAULT_EPSILON, default_mesh_size
 
     epsilon = DEFAULT_EPSILON if epsilon is None else float(epsilon)
@@ -136,7 +92,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     t_cad = time.perf_counter() - t0
     H = float(mesh_size) if mesh_size is not None else default_mesh_size(link)
 
-    diagnostics: dict = {}
+    diagnostics = {}
     if convergence:
         from .convergence import richardson
 
@@ -159,6 +115,13 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     diagnostics.update(symmetry_error=float(comp.symmetry_error), fit_residual=float(comp.fit_residual),
                        min_eigenvalue=float(comp.min_eigenvalue))
     timing = {"cad": t_cad, **timing, "total": time.perf_counter() - t_all}
-    return LinkResult(link=link, mesh=mesh, solution=sol, compliance=comp, mode=mode,
-                      block_ratio=float(block_ratio) if mode == "block" else None, material=mat,
-                      timing=timing, diagnostics=diagnostics)
+    from .io import versions
+
+    mesh_info = {"mesher": mesh.mesher, "mesher_version": mesh.mesher_version, "n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets), "n_dofs": int(sol.n_dofs),
+                 "n_p2_nodes": int(len(sol.points)), "edge_length": float(mesh.edge_length),
+                 "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)",
+                 "quality": dict(mesh.quality), "cache_key": mesh.cache_key}
+    return LinkResult(value=comp.compliance, name=link.name, source=str(link.source), params=dict(link.params),
+                      material=mat, mode=mode, block_ratio=float(block_ratio) if mode == "block" else None,
+                      mesh_info=mesh_info, diagnostics=diagnostics, solver=dict(sol.solver), timing=timing,
+                      versions=versions(), link=link, mesh=mesh, solution=sol, fit=comp)

@@ -7,9 +7,7 @@ import numpy as np
 
 from .atomic import atomic_path
 from .io import WRENCH
-
-PICTURE_CASE = 1
-"""Load case drawn in the PNG: unit Fy (lateral bending)."""
+from .result import PICTURE_CASE
 
 
 def solution_grid(res):
@@ -44,13 +42,24 @@ def write_png(path, res, case: int = PICTURE_CASE, scale: float | None = None,
     The default scale makes the largest displacement 10 % of the bounding-box
     diagonal; it is printed in the title.
     """
+    path = Path(path)
+    pl = plotter(solution_grid(res), res.name, case, scale=scale, off_screen=True, window_size=window_size)
+    try:
+        with atomic_path(path) as tmp:
+            pl.screenshot(tmp)
+    finally:
+        pl.close()
+    return path
+
+
+def plotter(grid, name: str, case: int = PICTURE_CASE, scale: float | None = None, off_screen: bool | None = None,
+            window_size=(1200, 800)):
+    """A pyvista Plotter of load case ``case`` of ``grid`` (see :func:`solution_grid`), deformed by ``scale``."""
     import pyvista as pv
     from vtkmodules.vtkCommonCore import vtkLogger
 
     # Without a display VTK warns before falling back to off-screen rendering: not the user's business.
     vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
-    path = Path(path)
-    grid = solution_grid(res)
     u = grid.point_data[f"u_{WRENCH[case]}"]
     umax = float(np.linalg.norm(u, axis=1).max())
     diag = float(np.linalg.norm(np.ptp(grid.points, axis=0)))
@@ -58,15 +67,10 @@ def write_png(path, res, case: int = PICTURE_CASE, scale: float | None = None,
         scale = 0.1 * diag / umax if umax > 0 else 1.0
     grid.point_data["|u|"] = np.linalg.norm(u, axis=1)
     warped = grid.warp_by_vector(f"u_{WRENCH[case]}", factor=scale)
-    pl = pv.Plotter(off_screen=True, window_size=list(window_size))
+    pl = pv.Plotter(off_screen=off_screen, window_size=list(window_size))
     pl.add_mesh(grid.extract_surface(algorithm="dataset_surface"), style="wireframe", color="grey", opacity=0.3)
     pl.add_mesh(warped.extract_surface(algorithm="dataset_surface"), scalars="|u|", show_edges=False,
                 scalar_bar_args={"title": f"displacement per unit {WRENCH[case]} (mm)"})
-    pl.add_text(f"{res.link.name}: unit {WRENCH[case]}, deformation x {scale:.3g}", font_size=10)
+    pl.add_text(f"{name}: unit {WRENCH[case]}, deformation x {scale:.3g}", font_size=10)
     pl.view_isometric()  # type: ignore[call-arg]  # pyvista decorator hides the signature
-    try:
-        with atomic_path(path) as tmp:
-            pl.screenshot(tmp)
-    finally:
-        pl.close()
-    return path
+    return pl

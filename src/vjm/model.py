@@ -13,6 +13,9 @@ from functools import cached_property
 
 import numpy as np
 
+from linkfea.compliance import check as check_compliance
+from linkfea.errors import LinkFeaError
+
 from .chain import jacobian
 from .errors import VjmError
 from .models import ARCHITECTURES
@@ -24,27 +27,15 @@ MAP_BLOCK = 2048
 
 
 def validate_compliance(C, key: str) -> np.ndarray:
-    """A 6x6 symmetric positive-definite compliance, or VjmError naming ``key``."""
+    """A 6x6 symmetric positive-definite compliance, or VjmError naming ``key``.
+
+    The check and its tolerances are linkfea's, the one contract between the two packages
+    (:func:`linkfea.compliance.check`).
+    """
     try:
-        C = np.asarray(C, dtype=float)
-    except (TypeError, ValueError):
-        raise VjmError(f"{key}: compliance must be a 6x6 matrix of numbers") from None
-    if C.shape != (6, 6):
-        raise VjmError(f"{key}: compliance must be 6x6 (order Fx Fy Fz Mx My Mz), got shape {C.shape}")
-    if not np.all(np.isfinite(C)):
-        raise VjmError(f"{key}: compliance has non-finite entries")
-    scale = np.max(np.abs(C))
-    if scale == 0:
-        raise VjmError(f"{key}: compliance is all zeros; use 'rigid: true' for a rigid link")
-    asym = np.max(np.abs(C - C.T))
-    if asym > 1e-6 * scale:
-        raise VjmError(f"{key}: compliance is not symmetric (max |C - C^T| = {asym:.3g}, max |C| = {scale:.3g})")
-    C = 0.5 * (C + C.T)
-    # scale-free test: Jacobi-scaled matrix must be positive definite
-    d = np.sqrt(np.abs(np.diag(C)))
-    if np.any(d == 0) or np.min(np.linalg.eigvalsh(C / np.outer(d, d))) <= 1e-12:
-        raise VjmError(f"{key}: compliance is not positive definite")
-    return C
+        return check_compliance(C, f"{key}: compliance")
+    except LinkFeaError as exc:
+        raise VjmError(str(exc)) from None
 
 
 @dataclass(frozen=True)

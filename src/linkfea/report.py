@@ -1,0 +1,183 @@
+"""Rendering of a beam-versus-FEA comparison record: Markdown, PNG, the output folder, the library report."""
+from __future__ import annotations
+
+import io
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .errors import LinkFeaError
+
+LABELS = ("x", "y", "z", "rx", "ry", "rz")
+
+
+def markdown_table(record: dict) -> str:
+    """The comparison as Markdown: one row per model, errors in percent."""
+    lines = [f"### {record['link']}: beam models vs FEA", "",
+             f"Beam length {record['beam_length']:.1f} mm along the link x axis; material "
+             f"{record['material']['name']} (E = {record['material']['E']:g} MPa, nu = {record['material']['nu']:g}). "
+             "Errors in % (signed entry errors relative to sqrt(Cii Cjj) of the FEA; principal errors on the "
+             "translational / rotational 3x3 blocks).", "",
+             "| model | N | max principal err | transl. | rot. | max angle (deg) | "
+             + " | ".join(f"C{i}{i}" for i in range(1, 7)) + " | C26 | C35 | max coupling |",
+             "|---|---:|---:|---:|---:|---:|" + "---:|" * 9]
+    for m in record["beams"]:
+        for key, name in (("euler_bernoulli", "Euler-Bernoulli"), ("timoshenko", "Timoshenko")):
+            r = m[key]
+            s = r["summary"]
+            d = r["diagonal_error"]
+            c = r["coupling_error"]
+            lines.append(
+                f"| {name} | {m['n']} | {100 * s['max_principal_error']:.1f} | "
+                f"{100 * s['max_principal_error_translation']:.1f} | {100 * s['max_principal_error_rotation']:.1f} | "
+                f"{s['max_angle_deg']:.1f} | " + " | ".join(f"{100 * v:+.1f}" for v in d)
+                + f" | {100 * c['C26 (dy-Mz)']:+.1f} | {100 * c['C35 (dz-My)']:+.1f} | "
+                f"{100 * s['max_abs_coupling_error']:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def figure_png(record: dict) -> bytes:
+    """PNG: heatmaps of the signed Timoshenko entry errors for each N, and error versus N."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    models = record["beams"]
+    k = len(models)
+    fig, axs = plt.subplots(1, k + 1, figsize=(3.2 * k + 4.2, 3.6), gridspec_kw={"width_ratios": [1] * k + [1.3]})
+    im = None
+    # One colour scale for all N, from 5 % to 100 %, so that small errors stay visible.
+    vmax = float(np.clip(max(100.0 * np.max(np.abs(m["timoshenko"]["entry_error"])) for m in models), 5.0, 100.0))
+    fmt = "{:.1f}" if vmax < 20 else "{:.0f}"
+    for ax, m in zip(axs[:k], models):
+        E = 100.0 * np.array(m["timoshenko"]["entry_error"])
+        im = ax.imshow(np.clip(E, -vmax, vmax), cmap="RdBu_r", vmin=-vmax, vmax=vmax)
+        for i, j in itertools.product(range(6), range(6)):
+            ax.text(j, i, fmt.format(E[i, j] + 0.0), ha="center", va="center", fontsize=6)
+        ax.set_xticks(range(6), LABELS, fontsize=7)
+        ax.set_yticks(range(6), LABELS, fontsize=7)
+        ax.set_title(f"N = {m['n']} (Timoshenko)", fontsize=9)
+    fig.colorbar(im, ax=list(axs[:k]), shrink=0.8, label="entry error, % of sqrt(Cii Cjj)")
+    plot_error_vs_n(record, axs[k])
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def plot_error_vs_n(record: dict, ax):
+    """Largest principal compliance error (%) of the translation and rotation blocks versus N, on ``ax``."""
+    models = record["beams"]
+    ns = [m["n"] for m in models]
+    # Log scale: errors of a few % and of several hundred % occur on the same link.  Floor at 0.01 %
+    # so that an exact model (error 0) still plots.
+    for key, style, nm in (("timoshenko", "-o", "Timoshenko"), ("euler_bernoulli", "--s", "Euler-Bernoulli")):
+        for blk in ("translation", "rotation"):
+            ax.plot(ns, [max(100 * m[key]["summary"][f"max_principal_error_{blk}"], 1e-2) for m in models], style,
+                    label=f"{blk}, {nm}")
+    ax.set_xscale("log", base=2)
+    ax.set_yscale("log")
+    ax.set_xticks(ns, [str(n) for n in ns])
+    ax.set_xlabel("N beams")
+    ax.set_ylabel("max principal compliance error, %")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=6)
+    ax.set_title(record["link"], fontsize=9)
+    return ax
+
+
+ERROR_COLUMNS = ("model", "N", "max principal", "translation", "rotation", "max angle (deg)", "C11", "C22", "C33",
+                 "C44", "C55", "C66", "C26", "C35", "max coupling")
+
+
+def error_rows(record: dict) -> list[tuple]:
+    """One row per beam model and N: the columns :data:`ERROR_COLUMNS`, errors as fractions (angles in deg)."""
+    rows = []
+    for m in record["beams"]:
+        for key, name in (("euler_bernoulli", "Euler-Bernoulli"), ("timoshenko", "Timoshenko")):
+            r = m[key]
+            s, c = r["summary"], r["coupling_error"]
+            rows.append((name, int(m["n"]), s["max_principal_error"], s["max_principal_error_translation"],
+                         s["max_principal_error_rotation"], s["max_angle_deg"], *r["diagonal_error"],
+                         c["C26 (dy-Mz)"], c["C35 (dz-My)"], s["max_abs_coupling_error"]))
+    return rows
+
+
+def write_outputs(record: dict, out_dir) -> dict:
+    """Write compare.json, compare.md and compare.png into ``out_dir``, each atomically.
+
+    Everything is rendered in memory first; if a write still fails, the files this
+    call created (and the folder, if it created it) are removed, so a failure
+    leaves no partial set behind.
+    """
+    from .atomic import write_bytes
+
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise LinkFeaError(f"--out {str(out_dir)!r} exists and is not a directory")
+    blobs = {
+        "compare.json": json.dumps(record, indent=1, allow_nan=False).encode(),
+        "compare.md": markdown_table(record).encode(),
+        "compare.png": figure_png(record),
+    }
+    made_dir = not out_dir.exists()
+    created = []
+    try:
+        for name, data in blobs.items():
+            path = out_dir / name
+            new = not path.exists()
+            write_bytes(path, data)
+            if new:
+                created.append(path)
+    except BaseException:
+        for path in created:
+            path.unlink(missing_ok=True)
+        if made_dir and out_dir.is_dir() and not any(out_dir.iterdir()):
+            out_dir.rmdir()
+        raise
+    return {name: str(out_dir / name) for name in blobs}
+
+
+def library_report(names=None, beams=None, img_dir="docs/img", mesh_size=None) -> str:
+    """Compare every bundled cad/ link at its default parameters; Markdown of the results.
+
+    PNGs go to ``img_dir/beam_vs_fea_<name>.png``.  A link whose comparison fails is
+    reported with its error message instead of numbers.
+    """
+    from .atomic import write_bytes
+    from .cad import CAD_DIR
+    from .compare import DEFAULT_BEAMS, compare
+
+    beams = DEFAULT_BEAMS if beams is None else beams
+
+    names = names or sorted(p.stem for p in CAD_DIR.glob("*.py") if not p.stem.startswith("_"))
+    img_dir = Path(img_dir)
+    rows, details = [], []
+    for name in names:
+        try:
+            rec = compare(name, beams, mesh_size=mesh_size).record
+            write_bytes(img_dir / f"beam_vs_fea_{name}.png", figure_png(rec))
+        except LinkFeaError as exc:
+            rows.append(f"| {name} | – | failed: {exc} | | | | |")
+            continue
+        for m in rec["beams"]:
+            t, e = m["timoshenko"]["summary"], m["euler_bernoulli"]["summary"]
+            rows.append(f"| {name} | {m['n']} | {100 * e['max_principal_error_translation']:.0f} / "
+                        f"{100 * e['max_principal_error_rotation']:.0f} | "
+                        f"{100 * t['max_principal_error_translation']:.0f} / {100 * t['max_principal_error_rotation']:.0f}"
+                        f" | {t['max_angle_deg']:.1f} | {100 * t['max_abs_diagonal_error']:.0f} | "
+                        f"{100 * t['max_abs_coupling_error']:.0f} |")
+        mesh = rec["fea"].get("mesh", {})
+        details.append(markdown_table(rec) + f"\nFEA: {mode_text(rec)}; mesh {mesh}.\n\n"
+                       f"![{name}](img/beam_vs_fea_{name}.png)\n")
+    head = ("| link | N | EB max principal error, transl. / rot. (%) | Timoshenko, transl. / rot. (%) | "
+            "Timoshenko max angle (deg) | Timoshenko max abs diagonal (%) | Timoshenko max abs coupling (%) |\n"
+            "|---|---:|---:|---:|---:|---:|---:|\n")
+    return head + "\n".join(rows) + "\n\n" + "\n".join(details)
+
+
+def mode_text(rec: dict) -> str:
+    return str(rec["fea"].get("mode", "rigid")) + " tip coupling"
