@@ -102,7 +102,7 @@ def test_default_solver_is_recorded_and_a_fallback_is_said(steel, monkeypatch, c
     warning (logged and as a RuntimeWarning) and the reason in FeaSolution.solver."""
     import logging
 
-    import linkfea.fem as fem
+    import linkfea.solvers as solvers
 
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
     try:
@@ -116,8 +116,8 @@ def test_default_solver_is_recorded_and_a_fallback_is_said(steel, monkeypatch, c
     def broken(U):
         raise RuntimeError("PARDISO error -3 (simulated)")
 
-    monkeypatch.setattr(fem, "pardiso_factorizer", broken)
-    with caplog.at_level(logging.WARNING, logger="linkfea.fem"), pytest.warns(RuntimeWarning, match="SuperLU"):
+    monkeypatch.setattr(solvers, "pardiso_factorizer", broken)
+    with caplog.at_level(logging.WARNING, logger="linkfea.solvers"), pytest.warns(RuntimeWarning, match="SuperLU"):
         fb = solve_link(mesh, steel)
     assert fb.solver["factorizer"] == "superlu"
     assert "error -3" in fb.solver["fallback_reason"]

@@ -1,13 +1,9 @@
 """Quadratic-tetrahedron linear elasticity of a link under 6 unit wrenches.
 
-The link mesh (:class:`linkfea.mesh.LinkMesh`) is a linear tet mesh; it is
-promoted to 10-node quadratic tets (P2: the 4 vertices, then the midpoints of
-edges (0,1), (1,2), (0,2), (0,3), (1,3), (2,3) -- the order of scikit-fem's
-``ElementTetP2``, VTK's ``QUADRATIC_TETRA`` and CalculiX's C3D10 alike).
-
-Global numbering: P2 node ``n`` is vertex ``n`` for ``n < n_vertices``, then
-one node per unique mesh edge; degree of freedom ``3 n + c`` is component
-``c`` (CAD axes) of node ``n``.
+The link mesh (:class:`linkfea.mesh.LinkMesh`) is promoted to 10-node
+quadratic tets and assembled by :mod:`linkfea.p2`; the system is factored by
+:mod:`linkfea.solvers`.  This module holds the boundary conditions, the
+reference modes and the solve.
 
 Two reference modes give the 6 unit-load solutions:
 
@@ -26,9 +22,7 @@ Units: N, mm, MPa.
 """
 from __future__ import annotations
 
-import logging
 import time
-import warnings
 from dataclasses import dataclass, field
 from typing import Callable, Optional
 
@@ -36,293 +30,14 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import LinkFeaError, SolverError
-from .frames import Frame
+from .frames import Frame, skew
 from .materials import Material
-
-log = logging.getLogger(__name__)
-
-# Local edges of a tet, in the P2 node order 4..9.
-TET_EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]])
-# Local edges of a triangle.
-TRI_EDGES = np.array([[0, 1], [1, 2], [0, 2]])
+# p2_mesh, lame, the factorizers ...: imported from here by callers since before the split.
+from .p2 import P2Mesh, assemble_upper, lame, p2_mesh, symmetric_from_upper  # noqa: F401
+from .solvers import default_factorizer, pardiso_factorizer, scipy_factorizer  # noqa: F401
 
 MODES = ("rigid", "block")
-
-
-# --------------------------------------------------------------------------
-# P2 topology
-# --------------------------------------------------------------------------
-@dataclass(frozen=True)
-class P2Mesh:
-    """Quadratic-tet topology built on a linear tet mesh.
-
-    Attributes
-    ----------
-    points : ndarray (N, 3)
-        P2 node coordinates: vertices, then edge midpoints.
-    cells : ndarray (m, 10) int
-        P2 nodes of each tet (vertices, then edges in ``TET_EDGES`` order).
-    edges : ndarray (E, 2) int
-        Vertex pairs (sorted) of the unique edges; edge ``e`` is node ``n_vertices + e``.
-    n_vertices : int
-    """
-
-    points: np.ndarray
-    cells: np.ndarray
-    edges: np.ndarray
-    n_vertices: int
-
-    def facet_nodes(self, facets: np.ndarray) -> np.ndarray:
-        """Sorted unique P2 nodes (vertices and edge midpoints) of triangles ``facets`` (k, 3)."""
-        facets = np.asarray(facets, dtype=np.int64).reshape(-1, 3)
-        if len(facets) == 0:
-            return np.zeros(0, dtype=np.int64)
-        if facets.min() < 0 or facets.max() >= self.n_vertices:
-            raise LinkFeaError("interface facets refer to vertices that are not in the mesh")
-        pairs = np.sort(facets[:, TRI_EDGES].reshape(-1, 2), axis=1)
-        nv = self.n_vertices
-        keys = pairs[:, 0] * nv + pairs[:, 1]
-        ekeys = self.edges[:, 0] * nv + self.edges[:, 1]  # sorted ascending by construction
-        pos = np.searchsorted(ekeys, keys)
-        pos = np.minimum(pos, len(ekeys) - 1)
-        if not np.all(ekeys[pos] == keys):
-            raise LinkFeaError("interface facets are not faces of the tet mesh (an edge is missing)")
-        return np.unique(np.concatenate([facets.ravel(), nv + pos]))
-
-
-def p2_mesh(points: np.ndarray, tets: np.ndarray) -> P2Mesh:
-    """Promote a linear tet mesh to P2: add one node per unique edge at its midpoint."""
-    points = np.asarray(points, dtype=float)
-    tets = np.asarray(tets, dtype=np.int64)
-    if points.ndim != 2 or points.shape[1] != 3 or tets.ndim != 2 or tets.shape[1] != 4:
-        raise LinkFeaError(f"mesh must have points (n, 3) and tets (m, 4), got {points.shape} and {tets.shape}")
-    if len(tets) == 0:
-        raise LinkFeaError("mesh has no tetrahedra")
-    nv = len(points)
-    if tets.min() < 0 or tets.max() >= nv:
-        raise LinkFeaError("tets refer to points that do not exist")
-    pairs = np.sort(tets[:, TET_EDGES].reshape(-1, 2), axis=1)
-    keys = pairs[:, 0] * nv + pairs[:, 1]
-    ukeys, inv = np.unique(keys, return_inverse=True)
-    edges = np.stack([ukeys // nv, ukeys % nv], axis=1)
-    cells = np.hstack([tets, nv + inv.reshape(-1, 6)])
-    pts = np.vstack([points, 0.5 * (points[edges[:, 0]] + points[edges[:, 1]])])
-    return P2Mesh(pts, cells, edges, nv)
-
-
-# --------------------------------------------------------------------------
-# Vectorized P2 elasticity assembly
-# --------------------------------------------------------------------------
-def _p2_gradient_tensor() -> np.ndarray:
-    """Constant tensor ``T[a, b, k, l] = (1/V) int (dN_a/dlam_k)(dN_b/dlam_l)``.
-
-    With barycentric coordinates ``lam`` (gradients ``g_k``), the P2 shape
-    gradients are ``grad N_a = sum_{k,m} B[a,k,m] lam_m g_k`` (vertex:
-    ``(4 lam_i - 1) g_i``, edge (i,j): ``4 lam_j g_i + 4 lam_i g_j``; the
-    constant -1 is written ``-sum_m lam_m``).  The exact integral
-    ``int lam_m lam_n dV = V (1 + delta_mn) / 20`` then makes the element
-    integral exact (the same as a degree-2 quadrature rule).
-    """
-    B = np.zeros((10, 4, 4))
-    for i in range(4):
-        B[i, i, :] = -1.0
-        B[i, i, i] += 4.0
-    for e, (i, j) in enumerate(TET_EDGES):
-        B[4 + e, i, j] += 4.0
-        B[4 + e, j, i] += 4.0
-    M0 = (np.ones((4, 4)) + np.eye(4)) / 20.0
-    return np.einsum("akm,mn,bln->abkl", B, M0, B)
-
-
-_T = _p2_gradient_tensor()
-def _pair_tensor() -> np.ndarray:
-    """``T3[p, K, L]`` (55, 3, 3): ``T`` for local node pairs ``p = (a <= b)`` on the gradients ``g_1..g_3``.
-
-    ``g_0 = -g_1 - g_2 - g_3``, so only 3 independent gradients remain and
-    ``int dN_a/dx_i dN_b/dx_j = V sum_KL T3[p, K, L] g_K[i] g_L[j]``.
-    """
-    M = np.array([[-1.0, -1.0, -1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-    a, b = np.triu_indices(10)
-    return np.einsum("abkl,kK,lL->abKL", _T, M, M)[a, b]
-
-
-def tet_geometry(points: np.ndarray, tets: np.ndarray):
-    """Barycentric gradients ``g`` (m, 4, 3) and volumes ``V`` (m,) of linear tets."""
-    X = points[tets]  # (m, 4, 3)
-    Jt = X[:, 1:, :] - X[:, :1, :]  # rows: edge vectors from vertex 0, i.e. J^T
-    det = np.linalg.det(Jt)
-    if np.any(~np.isfinite(det)) or np.any(det <= 0.0):
-        bad = int(np.sum(~(det > 0)))
-        raise LinkFeaError(f"{bad} tetrahedra are degenerate or negatively oriented (zero/negative volume)")
-    # grad lam_{1..3} are the rows of J^{-1} = columns of (J^T)^{-1}.
-    g123 = np.linalg.inv(Jt).transpose(0, 2, 1)
-    g = np.concatenate([-g123.sum(axis=1, keepdims=True), g123], axis=1)
-    return g, det / 6.0
-
-
-# Local node pairs (a <= b) of a 10-node tet.
-_PAIR_A, _PAIR_B = np.triu_indices(10)
-_T3 = _pair_tensor().reshape(55, 9)
-_CHUNK = 8192
-
-
-def assemble_upper(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.ndarray] = None) -> sp.csr_matrix:
-    """Upper triangle (with diagonal) of the global P2 elasticity stiffness, CSR.
-
-    Isotropic elasticity: block ``(a, b)`` of an element matrix is
-    ``K_ij = lam S_ij + mu S_ji + mu delta_ij tr(S)`` with
-    ``S_ij = int dN_a/dx_i dN_b/dx_j`` integrated exactly (P2 gradients are
-    linear: ``int lam_m lam_n = V (1 + delta_mn) / 20``).  ``S`` of the 55
-    local node pairs (a <= b) comes from one small matrix product per element
-    chunk.  Blocks are transposed where the global node order is the reverse
-    of the local one (the element matrix is symmetric), summed per unique node
-    pair with ``bincount`` (cache-resident targets), then written once into a
-    CSR structure built from the node graph (upper half of the diagonal
-    blocks).  No COO sort.
-
-    Parameters
-    ----------
-    p2 : P2Mesh
-    lam, mu : float
-        Lame constants, MPa.
-    scale : ndarray (m,), optional
-        Per-element multiplier of both constants (e.g. the stiff block).
-    """
-    cells = p2.cells
-    m = len(cells)
-    N = len(p2.points)
-    g, V = tet_geometry(p2.points[:p2.n_vertices], cells[:, :4])
-    g123 = g[:, 1:, :]
-    w = V if scale is None else V * np.asarray(scale, dtype=float)  # per unit mu
-    ratio = lam / mu
-
-    # Node-level upper pattern: unique pairs (r <= c), sorted row-major.
-    na = cells[:, _PAIR_A]
-    nb = cells[:, _PAIR_B]
-    swapped = na > nb
-    ukeys, inv = np.unique((np.minimum(na, nb) * N + np.maximum(na, nb)).ravel(), return_inverse=True)
-    inv = inv.reshape(m, 55)
-    npairs = len(ukeys)
-    ur, uc = ukeys // N, ukeys % N
-
-    # Sum the 3x3 blocks (per unit mu) of all elements per node pair.
-    blocks = np.zeros((9, npairs))
-    for s0 in range(0, m, _CHUNK):
-        sl = slice(s0, min(s0 + _CHUNK, m))
-        mc = sl.stop - sl.start
-        H = np.einsum("eKi,eLj->eijKL", g123[sl] * w[sl, None, None], g123[sl]).reshape(mc * 9, 9)
-        S = (H @ _T3.T).reshape(mc, 3, 3, 55)
-        tr = S[:, 0, 0] + S[:, 1, 1] + S[:, 2, 2]
-        sw = swapped[sl]
-        idx = inv[sl].ravel()
-        for i in range(3):
-            blocks[4 * i] += np.bincount(idx, weights=((ratio + 1.0) * S[:, i, i] + tr).ravel(), minlength=npairs)
-            for j in range(i + 1, 3):
-                x = np.where(sw, S[:, j, i], S[:, i, j])  # S_ij of the block in global orientation
-                y = np.where(sw, S[:, i, j], S[:, j, i])
-                blocks[3 * i + j] += np.bincount(idx, weights=(ratio * x + y).ravel(), minlength=npairs)
-                blocks[3 * j + i] += np.bincount(idx, weights=(ratio * y + x).ravel(), minlength=npairs)
-    blocks *= mu
-
-    # CSR structure: DOF row 3r+i holds (3 - i) + 3 (deg - 1) entries; for DOF
-    # (3r+i, 3c+j) of the pair of rank q in node row r (degree D) the position is
-    # indptr[3r] + 3q + i (3D - 1) - i (i - 1) / 2 + j (diagonal pair: q = 0, j >= i).
-    deg = np.bincount(ur, minlength=N)
-    if np.any(deg == 0):
-        raise LinkFeaError("mesh has points that belong to no tetrahedron")
-    row_start = np.concatenate([[0], np.cumsum(deg)[:-1]])
-    rank = np.arange(npairs) - row_start[ur]
-    row_len = (3 - np.arange(3))[None, :] + 3 * (deg[:, None] - 1)
-    indptr = np.concatenate([[0], np.cumsum(row_len.ravel())])
-    nnz = int(indptr[-1])
-    bi, bj = np.repeat(np.arange(3), 3), np.tile(np.arange(3), 3)
-    keep = (rank[:, None] > 0) | (bj >= bi)[None, :]  # drop the lower half of diagonal blocks
-    pos = (indptr[3 * ur] + 3 * rank)[:, None] + bi * (3 * deg[ur, None] - 1) - bi * (bi - 1) // 2 + bj
-    data = np.empty(nnz)
-    cols = np.empty(nnz, dtype=np.int64)
-    data[pos[keep]] = blocks.T[keep]
-    cols[pos[keep]] = (3 * uc[:, None] + bj)[keep]
-    idx_dtype = np.int32 if nnz < 2**31 - 1 else np.int64
-    return sp.csr_matrix((data, cols.astype(idx_dtype), indptr.astype(idx_dtype)), shape=(3 * N, 3 * N))
-
-
-def symmetric_from_upper(U: sp.spmatrix) -> sp.csr_matrix:
-    """Full symmetric matrix from its upper triangle with diagonal."""
-    U = sp.csr_matrix(U)
-    return (U + sp.triu(U, k=1, format="csr").T).tocsr()
-
-
-def lame(material: Material):
-    """Lame constants (lambda, mu) in MPa."""
-    E, nu = material.E, material.nu
-    return E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
-
-
-# --------------------------------------------------------------------------
-# Solvers: a factorizer takes the upper triangle (CSR, SPD) and returns solve(B)
-# --------------------------------------------------------------------------
-_PARDISO = []  # one solver object per process: creating one searches the disk for MKL (~0.5 s)
-
-
-def pardiso_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
-    """Factor with MKL PARDISO, real symmetric positive definite (mtype=2), upper triangle."""
-    import pypardiso
-
-    if not _PARDISO:
-        _PARDISO.append(pypardiso.PyPardisoSolver(mtype=2))
-    solver = _PARDISO[0]
-    solver.set_matrix_type(2)
-    U = sp.csr_matrix(U)
-    U.sort_indices()
-    try:
-        solver.factorize(U)
-    except Exception:
-        solver.free_memory(everything=True)
-        raise
-
-    def solve(B):
-        try:
-            return solver.solve(U, np.asarray(B, dtype=float))
-        finally:
-            solver.free_memory(everything=True)
-            solver.factorized_A = sp.csr_matrix((0, 0))
-
-    solve.factorizer = "pardiso"
-    return solve
-
-
-def scipy_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
-    """Factor with SuperLU on the full symmetric matrix (fallback; slower)."""
-    from scipy.sparse.linalg import splu
-
-    K = symmetric_from_upper(U).tocsc()
-    lu = splu(K, permc_spec="MMD_AT_PLUS_A")
-
-    def solve(B):
-        return lu.solve(np.asarray(B, dtype=float))
-
-    solve.factorizer = "superlu"
-    return solve
-
-
-def default_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
-    """PARDISO if available and successful, else SuperLU; a fallback is logged and recorded.
-
-    The returned ``solve`` carries ``factorizer`` (``"pardiso"`` or ``"superlu"``) and, after a
-    fallback, ``fallback_reason``; :func:`solve_link` copies both into ``FeaSolution.solver``.
-    """
-    try:
-        return pardiso_factorizer(U)
-    except ImportError as exc:  # pypardiso is not installed (e.g. not x86-64): the documented fallback
-        reason = f"pypardiso not available ({exc})"
-        log.info("PARDISO not used: %s; factoring with SuperLU", reason)
-    except Exception as exc:  # PARDISO installed but failed: say so, loudly
-        reason = f"PARDISO failed: {type(exc).__name__}: {exc}"
-        log.warning("%s; falling back to SuperLU (slower)", reason)
-        warnings.warn(f"{reason}; falling back to SuperLU", RuntimeWarning, stacklevel=2)
-    solve = scipy_factorizer(U)
-    solve.fallback_reason = reason
-    return solve
+"""Reference modes: exact rigid coupling of the tip, or the seed's pseudo-rigid block."""
 
 
 # --------------------------------------------------------------------------
@@ -385,11 +100,7 @@ def rigid_motion_matrix(points: np.ndarray, origin: np.ndarray, axes: np.ndarray
     out = np.empty((len(d), 3, 6))
     out[:, :, :3] = R
     # (R r) x d = -skew(d) R r
-    sk = np.zeros((len(d), 3, 3))
-    sk[:, 0, 1], sk[:, 0, 2] = -d[:, 2], d[:, 1]
-    sk[:, 1, 0], sk[:, 1, 2] = d[:, 2], -d[:, 0]
-    sk[:, 2, 0], sk[:, 2, 1] = -d[:, 1], d[:, 0]
-    out[:, :, 3:] = -sk @ R
+    out[:, :, 3:] = -skew(d) @ R
     return out
 
 

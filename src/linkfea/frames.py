@@ -18,9 +18,19 @@ from .errors import LinkFeaError
 
 
 def skew(v) -> np.ndarray:
-    """Cross-product matrix: ``skew(a) @ b == np.cross(a, b)``."""
-    x, y, z = np.asarray(v, dtype=float)
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    """Cross-product matrices: ``skew(a) @ b == np.cross(a, b)``.
+
+    ``v`` (..., 3) gives (..., 3, 3); a complex ``v`` stays complex (vjm.nonlinear
+    differentiates by complex step), anything else becomes float.
+    """
+    v = np.asarray(v)
+    if not np.iscomplexobj(v):
+        v = v.astype(float)
+    S = np.zeros(v.shape[:-1] + (3, 3), dtype=v.dtype)
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
 
 
 def twist_transform(R, p) -> np.ndarray:

@@ -46,6 +46,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from linkfea.frames import skew as _skew
+
 from .chain import Chain, forward
 from .errors import EquilibriumError, VjmError
 from .transforms import AXIS, ROTATION, elementary, generator, rotation_vector, vee
@@ -58,15 +60,6 @@ MAX_ROT_STEP = 0.3
 MIN_LOAD_STEP = 1.0 / 1024
 #: round-off floor of a Newton step: 1e3 ulps of the machine's length (mm) or of 1 rad
 ROUNDOFF = 1e3 * np.finfo(float).eps
-
-
-def _skew(w):
-    w = np.asarray(w)
-    S = np.zeros(w.shape[:-1] + (3, 3), dtype=w.dtype)
-    S[..., 0, 1], S[..., 0, 2] = -w[..., 2], w[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = w[..., 2], -w[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -w[..., 1], w[..., 0]
-    return S
 
 
 def platform_rotation(phi):
