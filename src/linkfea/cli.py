@@ -53,6 +53,8 @@ def compute(
                                              help="mesher envelope / bbox diagonal (default 1e-3; smaller = "
                                                   "closer to small curved faces, slower)"),
     mesher: str = typer.Option("gmsh", "--mesher", help="gmsh (CAD-exact faces, default) or pytetwild (fTetWild)"),
+    assembler: str = typer.Option("kernel", "--assembler",
+                                  help="stiffness assembly: kernel (fast) or skfem (scikit-fem's asm, reference)"),
     out: Path = typer.Option(Path("out/result.json"), "--out", "-o", help="result JSON; .vtu and .png go beside it"),
     picture: bool = typer.Option(True, "--picture/--no-picture", help="write the .vtu and .png beside the JSON"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or tables"),
@@ -69,6 +71,7 @@ def compute(
         with console.status("starting") as status:
             res = run(spec, params=params, mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
                       material=material, base=base, tip=tip, convergence=convergence, epsilon=envelope, mesher=mesher,
+                      assembler=assembler,
                       progress=lambda msg: status.update(f"[bold]{msg}"))
         out = Path(out)
         if picture:

@@ -33,11 +33,13 @@ from .errors import LinkFeaError, SolverError
 from .frames import Frame, skew
 from .materials import Material
 # p2_mesh, lame, the factorizers ...: imported from here by callers since before the split.
-from .p2 import P2Mesh, assemble_upper, lame, p2_mesh, symmetric_from_upper  # noqa: F401
+from .p2 import P2Mesh, assemble_upper, assemble_upper_skfem, lame, p2_mesh, symmetric_from_upper  # noqa: F401
 from .solvers import default_factorizer, pardiso_factorizer, scipy_factorizer  # noqa: F401
 
 MODES = ("rigid", "block")
 """Reference modes: exact rigid coupling of the tip, or the seed's pseudo-rigid block."""
+ASSEMBLERS = {"kernel": assemble_upper, "skfem": assemble_upper_skfem}
+"""Stiffness assemblies on scikit-fem's P2 discretization: the fast kernel and scikit-fem's own."""
 
 
 # --------------------------------------------------------------------------
@@ -143,7 +145,8 @@ def interface_nodes(p2: P2Mesh, mesh, mode: str):
 
 
 def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float = 1000.0,
-               solver: Optional[Callable] = None, progress: Optional[Callable[[str], None]] = None) -> FeaSolution:
+               solver: Optional[Callable] = None, progress: Optional[Callable[[str], None]] = None,
+               assembler: str = "kernel") -> FeaSolution:
     """Solve the 6 unit-wrench load cases of a clamped link with P2 tets.
 
     Parameters
@@ -160,6 +163,10 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
         Defaults to :func:`default_factorizer` (PARDISO, else SuperLU).
     progress : callable, optional
         Called with a stage name ("assemble", "factor", "solve") when it starts.
+    assembler : {"kernel", "skfem"}
+        The stiffness assembly: the vectorized kernel (:func:`linkfea.p2.assemble_upper`,
+        default) or scikit-fem's own ``asm(linear_elasticity)``, the slower reference
+        (:func:`linkfea.p2.assemble_upper_skfem`).  Both on scikit-fem's discretization.
 
     Returns
     -------
@@ -167,6 +174,8 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     """
     if mode not in MODES:
         raise LinkFeaError(f"unknown reference mode {mode!r}; use one of {', '.join(MODES)}")
+    if assembler not in ASSEMBLERS:
+        raise LinkFeaError(f"unknown assembler {assembler!r}; use one of {', '.join(ASSEMBLERS)}")
     if not (np.isfinite(block_ratio) and block_ratio > 0):
         raise LinkFeaError(f"block_ratio must be a positive number, got {block_ratio}")
     report = progress or (lambda stage: None)
@@ -181,7 +190,7 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     clamped, ref_nodes = interface_nodes(p2, mesh, mode)
     lam0, mu0 = lame(material)
     scale = np.where(block, block_ratio, 1.0) if mode == "block" else None
-    U = assemble_upper(p2, lam0, mu0, scale)
+    U = ASSEMBLERS[assembler](p2, lam0, mu0, scale)
     n_nodes = len(p2.points)
 
     fixed = np.zeros(n_nodes, dtype=bool)
@@ -246,6 +255,7 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
         displacements=u.T.reshape(6, n_nodes, 3),
         ref_nodes=ref_nodes, clamped_nodes=clamped, n_dofs=int(A.shape[0]),
         n_vertices=p2.n_vertices, frame=frame, mode=mode, timing=timing, ref_twists=ref_twists,
-        solver={"factorizer": getattr(solve, "factorizer", getattr(factorizer, "__name__", "custom")),
+        solver={"assembler": assembler,
+                "factorizer": getattr(solve, "factorizer", getattr(factorizer, "__name__", "custom")),
                 "fallback_reason": getattr(solve, "fallback_reason", None)},
     )

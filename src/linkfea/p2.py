@@ -13,8 +13,8 @@ Units: N, mm, MPa.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Optional
+from dataclasses import dataclass, field
+from typing import Any, Optional
 
 import numpy as np
 import scipy.sparse as sp
@@ -33,44 +33,73 @@ TRI_EDGES = np.array([[0, 1], [1, 2], [0, 2]])
 # --------------------------------------------------------------------------
 @dataclass(frozen=True)
 class P2Mesh:
-    """Quadratic-tet topology built on a linear tet mesh.
+    """Quadratic-tet discretization of a linear tet mesh, owned by scikit-fem.
+
+    scikit-fem's ``MeshTet`` and ``ElementTetP2`` define the P2 nodes, their numbering
+    (vertices, then one node per mesh edge), their locations and the facets; the
+    attributes below are views of that, in the layout the assembly kernel and the
+    writers (VTK, CalculiX) use.
 
     Attributes
     ----------
     points : ndarray (N, 3)
-        P2 node coordinates: vertices, then edge midpoints.
+        P2 node coordinates (scikit-fem's DOF locations): vertices, then edge midpoints.
     cells : ndarray (m, 10) int
-        P2 nodes of each tet (vertices, then edges in ``TET_EDGES`` order).
+        P2 nodes of each tet (scikit-fem's element DOFs: vertices, then edges in
+        ``TET_EDGES`` order).
     edges : ndarray (E, 2) int
-        Vertex pairs (sorted) of the unique edges; edge ``e`` is node ``n_vertices + e``.
+        Vertex pairs (sorted) of the mesh edges; edge ``e`` is node ``n_vertices + e``.
     n_vertices : int
+    mesh : skfem.MeshTet
+    dofs : skfem.assembly.Dofs
+        Of the scalar ``ElementTetP2``: DOF ``n`` is P2 node ``n``; vector DOF ``3 n + c``
+        is component ``c`` of node ``n`` (scikit-fem's ``ElementVector`` numbering).
     """
 
     points: np.ndarray
     cells: np.ndarray
     edges: np.ndarray
     n_vertices: int
+    mesh: Any = field(default=None, repr=False)
+    dofs: Any = field(default=None, repr=False)
+
+    def facet_index(self, facets: np.ndarray) -> np.ndarray:
+        """Indices into scikit-fem's ``mesh.facets`` of triangles ``facets`` (k, 3) given by vertices."""
+        facets = np.asarray(facets, dtype=np.int64).reshape(-1, 3)
+        nv = self.n_vertices
+        if len(facets) and (facets.min() < 0 or facets.max() >= nv):
+            raise LinkFeaError("interface facets refer to vertices that are not in the mesh")
+        if nv >= 2**21:
+            raise LinkFeaError(f"mesh too large for facet lookup ({nv} vertices)")
+        ours = np.sort(facets, axis=1)
+        theirs = np.asarray(self.mesh.facets, dtype=np.int64)  # (3, nf), each column sorted
+        key = (ours[:, 0] * nv + ours[:, 1]) * nv + ours[:, 2]
+        fkey = (theirs[0] * nv + theirs[1]) * nv + theirs[2]
+        order = np.argsort(fkey)
+        pos = np.minimum(np.searchsorted(fkey, key, sorter=order), len(fkey) - 1)
+        idx = order[pos]
+        if not np.all(fkey[idx] == key):
+            raise LinkFeaError("interface facets are not faces of the tet mesh")
+        return idx
 
     def facet_nodes(self, facets: np.ndarray) -> np.ndarray:
-        """Sorted unique P2 nodes (vertices and edge midpoints) of triangles ``facets`` (k, 3)."""
-        facets = np.asarray(facets, dtype=np.int64).reshape(-1, 3)
-        if len(facets) == 0:
+        """Sorted unique P2 nodes (vertices and edge midpoints) of triangles ``facets`` (k, 3):
+        scikit-fem's DOFs of those facets."""
+        idx = self.facet_index(facets)
+        if len(idx) == 0:
             return np.zeros(0, dtype=np.int64)
-        if facets.min() < 0 or facets.max() >= self.n_vertices:
-            raise LinkFeaError("interface facets refer to vertices that are not in the mesh")
-        pairs = np.sort(facets[:, TRI_EDGES].reshape(-1, 2), axis=1)
-        nv = self.n_vertices
-        keys = pairs[:, 0] * nv + pairs[:, 1]
-        ekeys = self.edges[:, 0] * nv + self.edges[:, 1]  # sorted ascending by construction
-        pos = np.searchsorted(ekeys, keys)
-        pos = np.minimum(pos, len(ekeys) - 1)
-        if not np.all(ekeys[pos] == keys):
-            raise LinkFeaError("interface facets are not faces of the tet mesh (an edge is missing)")
-        return np.unique(np.concatenate([facets.ravel(), nv + pos]))
+        return np.unique(np.asarray(self.dofs.get_facet_dofs(idx).flatten(), dtype=np.int64))
 
 
 def p2_mesh(points: np.ndarray, tets: np.ndarray) -> P2Mesh:
-    """Promote a linear tet mesh to P2: add one node per unique edge at its midpoint."""
+    """Promote a linear tet mesh to P2 with scikit-fem (``MeshTet``, ``ElementTetP2`` DOFs).
+
+    The tets keep their vertex order (``sort_t=False``): the kernel needs the given,
+    positive orientation.
+    """
+    import skfem
+    from skfem.assembly import Dofs
+
     points = np.asarray(points, dtype=float)
     tets = np.asarray(tets, dtype=np.int64)
     if points.ndim != 2 or points.shape[1] != 3 or tets.ndim != 2 or tets.shape[1] != 4:
@@ -80,13 +109,38 @@ def p2_mesh(points: np.ndarray, tets: np.ndarray) -> P2Mesh:
     nv = len(points)
     if tets.min() < 0 or tets.max() >= nv:
         raise LinkFeaError("tets refer to points that do not exist")
-    pairs = np.sort(tets[:, TET_EDGES].reshape(-1, 2), axis=1)
-    keys = pairs[:, 0] * nv + pairs[:, 1]
-    ukeys, inv = np.unique(keys, return_inverse=True)
-    edges = np.stack([ukeys // nv, ukeys % nv], axis=1)
-    cells = np.hstack([tets, nv + inv.reshape(-1, 6)])
-    pts = np.vstack([points, 0.5 * (points[edges[:, 0]] + points[edges[:, 1]])])
-    return P2Mesh(pts, cells, edges, nv)
+    mesh = skfem.MeshTet(points.T, tets.T, sort_t=False, validate=False)
+    element = skfem.ElementTetP2()
+    dofs = Dofs(mesh, element)
+    cells = np.asarray(dofs.element_dofs.T, dtype=np.int64)
+    # DOF locations: scikit-fem maps the element's reference DOF locations to each tet.
+    X = mesh.mapping().F(np.asarray(element.doflocs, dtype=float).T)  # (3, m, 10)
+    pts = np.empty((int(dofs.N), 3))
+    pts[cells.ravel()] = X.transpose(1, 2, 0).reshape(-1, 3)
+    pts[:nv] = points  # vertices exactly as given
+    return P2Mesh(pts, cells, np.asarray(mesh.edges.T, dtype=np.int64), nv, mesh, dofs)
+
+
+def assemble_upper_skfem(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.ndarray] = None) -> sp.csr_matrix:
+    """The reference assembly: ``skfem.asm(linear_elasticity)`` on ``ElementVector(ElementTetP2)``.
+
+    ``intorder=2`` is exact for affine P2 (gradients are linear).  Same DOF numbering as
+    :func:`assemble_upper` (scikit-fem's); 7-10x slower (docs/benchmarks.md).  ``scale``
+    multiplies both constants per element (assembled per distinct value).
+    """
+    import skfem
+    from skfem.models.elasticity import linear_elasticity
+
+    element = skfem.ElementVector(skfem.ElementTetP2())
+    m = len(p2.cells)
+    scale = np.ones(m) if scale is None else np.asarray(scale, dtype=float)
+    K = None
+    for s in np.unique(scale):
+        elems = np.flatnonzero(scale == s)
+        basis = skfem.Basis(p2.mesh, element, intorder=2, elements=None if len(elems) == m else elems)
+        Ks = skfem.asm(linear_elasticity(s * lam, s * mu), basis)
+        K = Ks if K is None else K + Ks
+    return sp.triu(K, format="csr")
 
 
 # --------------------------------------------------------------------------

@@ -12,7 +12,7 @@ from .result import LinkResult
 __all__ = ["LinkResult", "compute"]
 
 
-def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh"):
+def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh", assembler="kernel"):
     from .fem import solve_link
     from .fit import compliance_from_solution
     from .mesh import mesh_link
@@ -21,7 +21,7 @@ def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, m
     mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=say,
                      mesher=mesher)
     t_mesh = time.perf_counter() - t0
-    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say)
+    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say, assembler=assembler)
     say("fit")
     t0 = time.perf_counter()
     comp = compliance_from_solution(sol)
@@ -34,7 +34,8 @@ def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, m
 def compute(spec, params: dict | None = None, mesh_size: float | None = None, mode: str = "rigid",
             block_ratio: float = 1000.0, material: str | None = None, base=None, tip=None,
             convergence: bool = False, progress: Callable[[str], None] | None = None,
-            cache_dir=None, epsilon: float | None = None, mesher: str = "gmsh") -> LinkResult:
+            cache_dir=None, epsilon: float | None = None, mesher: str = "gmsh",
+            assembler: str = "kernel") -> LinkResult:
     """Compute a link's 6x6 compliance at its reference frame.
 
     Parameters
@@ -65,9 +66,12 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         curved faces more closely (see ``mesh.quality``) but meshes much slower.
     mesher : {"gmsh", "pytetwild"}
         gmsh meshes the CAD faces exactly (default); pytetwild meshes a tessellation.
+    assembler : {"kernel", "skfem"}
+        Stiffness assembly (see :func:`linkfea.fem.solve_link`); ``skfem`` is the slower
+        reference path, equal to round-off.
     """
     from .cad import build_link
-    from .fem import MODES
+    from .fem import ASSEMBLERS, MODES
     from .mesh import DEFAULT_EPSILON, default_mesh_size
 
     epsilon = DEFAULT_EPSILON if epsilon is None else float(epsilon)
@@ -75,6 +79,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     say = progress or (lambda msg: None)
     if mode not in MODES:
         raise LinkFeaError(f"unknown mode {mode!r}; use rigid or block")
+    if assembler not in ASSEMBLERS:
+        raise LinkFeaError(f"unknown assembler {assembler!r}; use kernel or skfem")
     if mode == "block" and not (isinstance(block_ratio, (int, float)) and math.isfinite(block_ratio)
                                 and block_ratio > 1):
         raise LinkFeaError(f"block ratio must be a number > 1, got {block_ratio}")
@@ -100,7 +106,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         runs = []
         for h in sizes:
             say(f"convergence: mesh size {h:.3g} mm")
-            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon, mesher))
+            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon, mesher, assembler))
         rich = richardson(sizes, [r[2].matrix for r in runs])
         mesh, sol, comp, timing = runs[-1]
         diagnostics["error_estimate"] = float(rich.error_diagonal)
@@ -109,7 +115,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         diagnostics["error_estimate_note"] = ("Richardson estimate of the relative error of the diagonal "
                                               "(largest entry) from 3 mesh sizes" + (f"; {rich.note}" if rich.note else ""))
     else:
-        mesh, sol, comp, timing = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher)
+        mesh, sol, comp, timing = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
+                                              assembler)
         diagnostics["error_estimate"] = None
         diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
     diagnostics.update(symmetry_error=float(comp.symmetry_error), fit_residual=float(comp.fit_residual),
