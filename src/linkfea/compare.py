@@ -16,8 +16,16 @@ from .beammodel import BeamModel, beam_frame, beam_model, link_beam_model, link_
 from .errors import LinkFeaError
 from .materials import get_material
 from .metrics import CLUSTER_TOL, compare_compliance, entry_errors, principal_errors
-from .report import (ERROR_COLUMNS, LABELS, error_rows, figure_png, library_report, markdown_table,
-                     plot_error_vs_n, write_outputs)
+from .report import (
+    ERROR_COLUMNS,
+    LABELS,
+    error_rows,
+    figure_png,
+    library_report,
+    markdown_table,
+    plot_error_vs_n,
+    write_outputs,
+)
 
 __all__ = ["BeamModel", "Comparison", "ErrorTable", "CLUSTER_TOL", "DEFAULT_BEAMS", "LABELS", "UNITS", "beam_frame", "beam_model",
            "compare", "compare_compliance", "compare_link", "entry_errors", "fea_compliance", "fea_info",

@@ -32,8 +32,9 @@ import scipy.sparse as sp
 from .errors import LinkFeaError, SolverError
 from .frames import Frame, skew
 from .materials import Material
+
 # p2_mesh, lame, the factorizers ...: imported from here by callers since before the split.
-from .p2 import P2Mesh, assemble_upper, assemble_upper_skfem, lame, p2_mesh, symmetric_from_upper  # noqa: F401
+from .p2 import P2Mesh, assemble_upper, assemble_upper_skfem, lame, p2_mesh, symmetric_from_upper
 from .solvers import default_factorizer, pardiso_factorizer, scipy_factorizer  # noqa: F401
 
 MODES = ("rigid", "block")

@@ -98,7 +98,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     t_cad = time.perf_counter() - t0
     H = float(mesh_size) if mesh_size is not None else default_mesh_size(link)
 
-    diagnostics = {}
+    diagnostics: dict = {}
     if convergence:
         from .convergence import richardson
 

@@ -184,15 +184,14 @@ class LinkResult:
 
     # ------------------------------------------------------------------ display
     def __repr__(self) -> str:
-        np_opts = dict(precision=4, suppress_small=False, max_line_width=120)
         o = np.round(self.frame.origin, 4).tolist()
         x = np.round(self.frame.axes[0], 4).tolist()
         n = self.mesh_info.get("n_dofs")
         return (f"LinkResult({self.name!r}, {self.material.name}, mode {self.mode}, {n} DOF; "
                 f"frame origin {o} mm, x axis {x})\n"
-                f"compliance C ({UNITS_SHORT}):\n{np.array2string(self.compliance, **np_opts)}\n"
+                f"compliance C ({UNITS_SHORT}):\n{np.array2string(self.compliance, precision=4, max_line_width=120)}\n"
                 f"stiffness K = C^-1 (N/mm, N/rad, N, N mm/rad by block):\n"
-                f"{np.array2string(self.stiffness, **np_opts)}")
+                f"{np.array2string(self.stiffness, precision=4, max_line_width=120)}")
 
     def _repr_html_(self) -> str:
         def table(M, title, rows, cols):

@@ -47,7 +47,7 @@ def pardiso_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
             solver.free_memory(everything=True)
             solver.factorized_A = sp.csr_matrix((0, 0))
 
-    solve.factorizer = "pardiso"
+    setattr(solve, "factorizer", "pardiso")  # noqa: B010  (read back by solve_link)
     return solve
 
 
@@ -61,7 +61,7 @@ def scipy_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
     def solve(B):
         return lu.solve(np.asarray(B, dtype=float))
 
-    solve.factorizer = "superlu"
+    setattr(solve, "factorizer", "superlu")  # noqa: B010
     return solve
 
 
@@ -81,5 +81,5 @@ def default_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
         log.warning("%s; falling back to SuperLU (slower)", reason)
         warnings.warn(f"{reason}; falling back to SuperLU", RuntimeWarning, stacklevel=2)
     solve = scipy_factorizer(U)
-    solve.fallback_reason = reason
+    setattr(solve, "fallback_reason", reason)  # noqa: B010
     return solve
