@@ -2,7 +2,7 @@
 
 The P2 mesh of :mod:`linkfea.fem` is written as C3D10 elements (the local
 node order -- 4 vertices, then edges 1-2, 2-3, 3-1, 1-4, 2-4, 3-4 -- is the
-one :func:`linkfea.fem.p2_mesh` uses, so connectivity is copied as is, 1-based).
+one :func:`linkfea.p2.p2_mesh` uses, so connectivity is copied as is, 1-based).
 The same nodes are clamped and, in rigid mode, the same nodes are tied by
 ``*RIGID BODY, REF NODE=..., ROT NODE=...`` to a reference node at the frame
 origin.  One ``*STEP`` per unit load applies the force on the REF NODE and

@@ -218,7 +218,7 @@ def fea_compliance(spec, params=None, mesh_size=None, mode="rigid", material=Non
 
 
 def fea_info(res) -> tuple:
-    """``(C, link, info)`` of a :class:`linkfea.pipeline.LinkResult`: C in ``res.link.frame``."""
+    """``(C, link, info)`` of a :class:`linkfea.result.LinkResult`: C in ``res.link.frame``."""
     link, mesh, comp = res.link, res.mesh, res.value
     # The pipeline fits at the mesh frame, which is the link frame; the adjoint map makes that explicit.
     C = comp.to_frame(link.frame).matrix
