@@ -67,7 +67,7 @@ def main(argv=None):
     ap.add_argument("--threads", type=int, default=os.cpu_count())
     args = ap.parse_args(argv)
 
-    from linkfea.fem import solve_link, pardiso_factorizer
+    from linkfea.fem import pardiso_factorizer, solve_link
     from linkfea.fit import compliance_from_solution
     from linkfea.materials import get_material
 

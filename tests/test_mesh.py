@@ -145,3 +145,27 @@ def test_sizing_field_refines_only_near_small_curved_faces():
     # Distances are to the tessellated cylinder (chord error ~ 0.01 mm here).
     np.testing.assert_allclose(vals[inside], expect[inside], atol=0.01)
     assert vals.min() < np.pi + GRADING * d.min() + 0.01 < H
+
+
+def test_sizing_field_along_interface_borders():
+    """pytetwild's area-gate refinement: the field is edge_size on the edges of the interface
+    faces (their samples are background vertices) and edge_size + GRADING x distance elsewhere,
+    capped at H: checked against the distance to the base face's 4 border lines (x = 0,
+    y = +-10, z = +-5 on the 200 x 20 x 10 bar)."""
+    from linkfea.mesh import GRADING, sizing_field
+
+    bar = build_link("bar")
+    H, h = 4.0, 0.5
+    pts, tets, vals = sizing_field([bar.body], H, 0.01, bar.base_faces[0].Edges(), h)
+    assert tets.shape[1] == 4 and tets.max() < len(pts) and len(vals) == len(pts)
+    x, y, z = pts.T
+    # distance to the rectangle's boundary lines in the plane x = 0
+    dy = np.maximum(np.abs(y) - 10.0, 0.0)
+    dz = np.maximum(np.abs(z) - 5.0, 0.0)
+    inside = (np.abs(y) <= 10) & (np.abs(z) <= 5)
+    d_in = np.minimum(10.0 - np.abs(y), 5.0 - np.abs(z))
+    d_plane = np.where(inside, d_in, np.hypot(dy, dz))
+    d = np.hypot(x, d_plane)
+    np.testing.assert_allclose(vals, np.minimum(H, h + GRADING * d), atol=0.25 * h * GRADING + 1e-9)
+    on_edge = d < 1e-9
+    assert on_edge.sum() >= 4 * 10 and np.all(vals[on_edge] == h)
