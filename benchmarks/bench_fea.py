@@ -45,7 +45,7 @@ def _pipeline_mesh(mesh_size, mode, timing):
     t0 = time.perf_counter()
     mesh = mesh_link(link, mesh_size=mesh_size, with_block=(mode == "block"), use_cache=False)
     timing["mesh"] = time.perf_counter() - t0
-    return mesh, "cad/bar.py 200x20x10 (pipeline CAD + pytetwild)"
+    return mesh, "cad/bar.py 200x20x10 (pipeline CAD + gmsh)"
 
 
 def _structured_mesh(n, timing):
