@@ -47,14 +47,16 @@ def test_cad_to_compliance(workdir, monkeypatch):
     steel = get_material("steel")
     ref = cantilever_compliance(100.0, rect_section(20.0, 10.0, steel.nu), steel.E, steel.nu)
     assert np.all(np.abs(np.diag(C) / np.diag(ref) - 1.0) < 0.08)
-    w, h = _png(ns["png"])
+    w, h = _png(workdir / ns["png"])
     assert w > 100 and h > 100
+    assert np.array_equal(ns["same"].compliance, C)  # saved and loaded back exactly
 
 
 def test_beam_vs_fea(workdir, monkeypatch):
     ns = _run("beam_vs_fea", workdir, monkeypatch)
     out = workdir / ns["OUT"]
     rec = json.loads((out / "compare.json").read_text())
+    assert np.array_equal(np.array(rec["fea"]["compliance"]), ns["C_fea"])
     assert [m["n"] for m in rec["beams"]] == [1, 4]
     Cf = np.array(rec["fea"]["compliance"])
     assert np.all(np.linalg.eigvalsh(0.5 * (Cf + Cf.T)) > 0)
@@ -68,7 +70,7 @@ def test_machine_map_from_fea(workdir, monkeypatch):
     ns = _run("machine_map_from_fea", workdir, monkeypatch)
     model, smap, foot = ns["model"], ns["smap"], ns["foot"]
     # the machine uses exactly the FEA foot, through the saved JSON
-    assert np.allclose(model.foot.compliance, foot.matrix, rtol=1e-12, atol=0)
+    assert np.allclose(model.foot.compliance, foot.compliance, rtol=1e-12, atol=0)
     # the batched map equals pose-by-pose stiffness
     for i in (0, len(smap.points) // 2, len(smap.points) - 1):
         assert smap.k_tran[i] == pytest.approx(model.stiffness(smap.points[i]).k_tran, rel=1e-9)

@@ -10,16 +10,13 @@
 # %%
 from pathlib import Path
 
-import numpy as np
-
-from linkfea.compare import compare
+import linkfea
 
 OUT = Path("out/examples/beam_vs_fea")
-record = compare("orthoglide_foot", beams=(1, 4), mesh_size=8.0, out=OUT)
-C_fea = np.array(record["fea"]["compliance"])
-for model in record["beams"]:
-    s = model["timoshenko"]["summary"]
-    print(f"N = {model['n']}: " + ", ".join(f"{k} {v:.3g}" for k, v in s.items()))
+cmp = linkfea.compare("orthoglide_foot", beams=(1, 4), mesh_size=8.0)
+print(cmp.errors)                    # one row per N: principal, diagonal and coupling errors
+C_fea, C_1 = cmp.fea, cmp.beam(1)    # FEA and 1-beam (Timoshenko) compliances in the link frame
+ax = cmp.plot()                      # matplotlib Axes: the error against N
 
 # %% [markdown]
 # Torsion is the worst: the open pocket's Saint-Venant J is far below what the closed
@@ -27,4 +24,5 @@ for model in record["beams"]:
 # `compare.json` the full record (matrices in the link frame, units stated inside).
 
 # %%
+paths = cmp.save(OUT)
 print(sorted(p.name for p in OUT.iterdir()))

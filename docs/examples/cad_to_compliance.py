@@ -11,18 +11,16 @@ from pathlib import Path
 
 import numpy as np
 
+import linkfea
 from linkfea.beam import cantilever_compliance, rect_section
 from linkfea.materials import get_material
-from linkfea.pipeline import compute
-from linkfea.post import write_png
 
 OUT = Path("out/examples/cad_to_compliance")
 L = 100.0
-res = compute("bar", params={"length": L}, mesh_size=5.0)
-C = res.matrix                       # compliance at the tip frame, mm/N, rad/N, mm/(N mm), rad/(N mm)
-np.set_printoptions(precision=3, linewidth=120)
-print(f"{res.link.name}: {len(res.mesh.tets)} P2 tetrahedra; compliance at the tip frame, origin {res.link.frame.origin}")
-print(C)
+res = linkfea.compute("bar", params={"length": L}, mesh_size=5.0)
+print(res)                           # the matrices with their units (a table in Jupyter)
+C = res.compliance                   # 6x6 at the tip frame: mm/N, rad/N, mm/(N mm), rad/(N mm)
+print("frame origin (CAD, mm):", res.frame.origin)
 
 # %% [markdown]
 # A cantilever has a closed form: Timoshenko with Cowper's shear coefficient.  The FEA
@@ -36,8 +34,12 @@ rel = np.diag(C) / np.diag(C_beam) - 1.0
 print("FEA / Timoshenko - 1 on the diagonal:", np.round(rel, 3))
 
 # %% [markdown]
-# The deformed shape under a unit tip load, rendered off screen with pyvista.
+# The deformed shape under a unit tip load, rendered off screen with pyvista; `save` writes
+# the result JSON (compliance, frame, units, mesh and solver record) and the deformed mesh (.vtu).
 
 # %%
-png = write_png(OUT / "deformed.png", res)
-print(f"wrote {png}")
+png = OUT / "deformed.png"
+res.plot(off_screen=True, screenshot=png)
+path = res.save(OUT / "bar100.json")
+same = linkfea.load(path)            # the same compliance, read back
+print(f"wrote {png} and {path}")

@@ -12,14 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
+import linkfea
 import vjm
-from linkfea.io import write_result
-from linkfea.pipeline import compute
 from vjm.maps import compute_map, workspace_grid
 
 OUT = Path("out/examples/machine_map_from_fea")
-foot = compute("orthoglide_foot", mesh_size=8.0)
-foot_json = write_result(OUT / "foot.json", foot)        # compliance, frame and units, as `linkfea compute` writes
+foot = linkfea.compute("orthoglide_foot", mesh_size=8.0)
+foot_json = foot.save(OUT / "foot.json", vtu=False)       # compliance, frame and units, as `linkfea compute` writes
 
 model = vjm.load_model("data/orthoglide/puu.yaml", foot=foot_json)
 beam_model = vjm.load_model("data/orthoglide/puu.yaml")  # the same machine with the file's beam foot

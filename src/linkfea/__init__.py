@@ -12,8 +12,8 @@
 # module, makes ``linkfea.compare`` the function for good.
 from .compare import Comparison, compare
 from .compliance import Compliance
-from .errors import LinkFeaError
+from .errors import LinkFeaError, SolverError
 from .pipeline import compute
 from .result import LinkResult, load
 
-__all__ = ["Comparison", "Compliance", "LinkFeaError", "LinkResult", "compare", "compute", "load"]
+__all__ = ["Comparison", "Compliance", "LinkFeaError", "LinkResult", "SolverError", "compare", "compute", "load"]
