@@ -15,7 +15,10 @@ from ..errors import VjmError
 from . import effects as fx
 from . import modelops as mo
 from .data import StiffnessObs, read_csv
-from .fit.select import Z95, Term, forward_select
+from scipy import stats
+
+from . import observe
+from .fit.select import Z95, Term, clipped, fit_terms, forward_select, lack_of_fit
 from .locate import localize
 from .predict import (
     CALIBRATION,
@@ -134,7 +137,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     terms = {CALIBRATION: calibration_term(model)}
     for nm in cands:
         e = fx.get(nm)
-        terms[nm] = Term(nm, tuple(e.param_specs(model)), e.description)
+        terms[nm] = Term(nm, tuple(e.param_specs(model, ctx)), e.description)
     pred = Predictor(model, ctx, terms)
     k_base = len(terms[CALIBRATION].params)
     k_max = k_base + max([len(terms[c].params) for c in cands] or [0])
@@ -172,8 +175,34 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         sigma_source = "from the file (sigma_rel)" if sigma_known else "estimated from the residuals (F test)"
         prob = stiffness_problem(pred, data, sig_rel, sigma_known)
 
-    sel = forward_select(prob, cands, alpha=alpha, max_effects=max_effects, folds=folds, log=log)
+    # what this data can see: candidates with no observable parameter are never fitted
+    base0 = fit_terms(prob, (CALIBRATION,))
+    cal_cols = observe.calibration_columns(prob, base0.theta, CALIBRATION)
+    sens, unobservable, full_terms = {}, {}, {}
+    for nm in cands:
+        ts = observe.term_sensitivity(prob, base0.theta, CALIBRATION, nm)
+        sens[nm] = ts
+        full_terms[nm] = terms[nm]
+        if not ts.observable:
+            unobservable[nm] = (f"not observable on this data: over its whole allowed range it changes the "
+                                f"predictions by at most {float(np.max(ts.norms, initial=0.0)):.2g} sigma (root of the "
+                                f"chi-square change); never fitted")
+        elif ts.fixed:
+            specs = terms[nm].params
+            pred.fixed[nm] = (len(specs), ts.free, [p.start for p in specs])
+            terms[nm] = Term(nm, tuple(specs[i] for i in ts.free), terms[nm].description)
+    tested = [c for c in cands if c not in unobservable]
+    if log and unobservable:
+        log("not observable on this data: " + ", ".join(unobservable))
+
+    sel = forward_select(prob, tested, alpha=alpha, max_effects=max_effects, folds=folds, log=log, extra_tests=1)
     base, final = sel.baseline, sel.final
+
+    # lack of fit of the final model; its level shares alpha with the selection (Bonferroni)
+    pe = _pure_error(prob, data, kind) if not sigma_known else None
+    lof = lack_of_fit(final, pe)
+    lof["alpha"] = alpha / (len(tested) + 1)
+    lof["significant"] = bool(lof["p_value"] is not None and lof["p_value"] < lof["alpha"])
 
     # scale of the whitened residuals: 1 with known sigma, else the final model's residual variance
     s2 = 1.0 if sigma_known else final.chi2 / max(final.dof, 1)
@@ -221,7 +250,11 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     # updated model: calibration + named effects
     upd = apply_calibration(model, final.term_theta(prob, CALIBRATION))
     for nm in sel.selected:
-        upd = fx.get(nm).save(upd, final.term_theta(prob, nm))
+        upd = fx.get(nm).save(upd, pred.full_theta(nm, final.term_theta(prob, nm)))
+    if kind == "deflection":
+        loc_after = localize(U, W, rn_fin, mask, idx, q)
+    else:
+        loc_after = localize(U, np.zeros((data.n, 6)), (rw_f / s)[:, None], m1, idx, q)
 
     cand_rep = {}
     first = sel.rounds[0] if sel.rounds else {}
@@ -232,16 +265,34 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         vals = d["fit"].values(prob)
         cand_rep[nm] = {"description": fx.get(nm).description, "kind": fx.get(nm).kind,
                         "delta_bic": d["delta_bic"], "p_value": d["p_value"], "cv_error": d["cv_error"],
-                        "params": vals[nm], "named": nm in sel.selected}
+                        "params": vals[nm], "named": nm in sel.selected, "observable": True,
+                        "converged": bool(d["converged"]), "at_bound": list(d["clipped"]),
+                        "threshold": d["threshold"]}
     for i, nm in enumerate(sel.selected):
         d = sel.rounds[i][nm]
         cand_rep[nm]["selected_at_round"] = i + 1
         cand_rep[nm]["round_delta_bic"] = d["delta_bic"]
         cand_rep[nm]["round_p_value"] = d["p_value"]
         cand_rep[nm]["final_params"] = final.values(prob)[nm]
-    for nm, why in skipped.items():
+    for nm, why in {**skipped, **unobservable}.items():
         cand_rep[nm] = {"description": fx.get(nm).description, "skipped": why, "delta_bic": None,
-                        "p_value": None, "cv_error": None, "params": {}}
+                        "p_value": None, "cv_error": None, "params": {}, "named": False,
+                        "observable": nm not in unobservable if nm in sens else None}
+    for nm, ts in sens.items():
+        specs = full_terms[nm].params
+        cand_rep[nm]["sensitivity"] = {p.name: float(v) for p, v in zip(specs, ts.norms)}
+        if ts.fixed and ts.observable:
+            cand_rep[nm]["fixed"] = {specs[i].name: float(specs[i].start) for i in ts.fixed}
+
+    conf = _confounding(prob, sel, sens, cal_cols, cand_rep, alpha)
+    flags = _flags(prob, sel, final, cand_rep)
+    named = list(sel.selected)
+    if lof["significant"]:
+        verdict = "unexplained"
+    elif named:
+        verdict = "explained"
+    else:
+        verdict = "no_discrepancy"
 
     final_vals = final.values(prob)
     rep = {
@@ -258,10 +309,169 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         "calibration": final_vals[CALIBRATION],
         "final_params": final_vals,
         "localization": loc,
+        "localization_after": loc_after,
         "candidates": cand_rep,
+        "verdict": verdict,
+        "lack_of_fit": lof,
+        "confounded": conf["groups"],
+        "confounding": conf["details"],
+        "unobservable": unobservable,
+        "flags": flags,
+        "n_tested": len(tested),
     }
     rep["summary"] = summary(rep)
     return Diagnosis(rep, upd, U, per_before, per_after)
+
+
+#: canonical correlation (calibration projected out) above which two candidates are reported as one group
+COLLINEAR = 0.99
+#: ... and, for a named effect, the lower correlation at which an alternative that fits almost as well joins it
+NEAR_COLLINEAR = 0.9
+#: the calibration "mimics" a candidate when its columns reproduce the candidate's with this correlation
+MIMIC = 0.95
+#: calibration factors outside this range are implausibly far from the nominal values
+PLAUSIBLE = (0.5, 2.0)
+
+
+def _pure_error(prob, data, kind):
+    """(SS, dof) of repeated measurements (same posture and load) in the problem's whitened units, or None."""
+    r = prob.residuals((), np.zeros(0))  # any fixed prediction: the within-group scatter of r is that of y
+    if kind == "deflection":
+        key = np.hstack([np.round(data.P, 6), np.round(data.W, 9)])
+        _, g = np.unique(key, axis=0, return_inverse=True)
+        mask = data.mask
+        comp = np.broadcast_to(np.arange(6), mask.shape)[mask]
+        grp = np.broadcast_to(g.reshape(-1, 1), mask.shape)[mask] * 6 + comp
+    else:
+        key = np.hstack([np.round(data.P, 6), data.quantity[:, None]])
+        _, grp = np.unique(key, axis=0, return_inverse=True)
+    grp = np.asarray(grp).reshape(-1)
+    cnt = np.bincount(grp)
+    dof = int(np.sum(np.maximum(cnt - 1, 0)))
+    if dof == 0:
+        return None
+    mean = np.bincount(grp, r) / np.maximum(cnt, 1)
+    ss = float(np.sum((r - mean[grp]) ** 2))
+    return ss, dof
+
+
+def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha):
+    """Groups of candidates this data cannot tell apart, and candidates the calibration can mimic.
+
+    * two observable candidates whose signatures, with the calibration's
+      projected out, have a canonical correlation >= COLLINEAR form a group
+      whatever the data's outcome (the design cannot separate them);
+    * a named effect A and a candidate B of its selection round whose fit is
+      not worse by a (1 - alpha) chi-square(1) margin and whose partial
+      correlation with A is >= NEAR_COLLINEAR: "A or B";
+    * a candidate whose signature the calibration reproduces (correlation
+      >= MIMIC) is noted with the calibration change that imitates it, and
+      grouped with "calibration" when it was named or the calibration is
+      flagged (at a bound or implausibly far from nominal).
+    """
+    names = [n for n, ts in sens.items() if ts.observable]
+    Q = observe._orth(cal_cols)
+    resid = {n: observe.project_out(sens[n].Jfree, Q) for n in names}
+    raw = {n: np.linalg.norm(sens[n].Jfree) for n in names}
+    details = []
+    parent = {n: n for n in names}
+
+    def find(a):
+        while parent[a] != a:
+            a = parent[a]
+        return a
+
+    def corr(a, b):
+        if np.linalg.norm(resid[a]) <= 1e-6 * raw[a] or np.linalg.norm(resid[b]) <= 1e-6 * raw[b]:
+            return 0.0
+        return observe.canonical_correlation(resid[a], resid[b])
+
+    pair_c = {}
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            c = corr(a, b)
+            if c >= COLLINEAR:
+                parent[find(b)] = find(a)
+                pair_c[(a, b)] = c
+    groups = {}
+    for n in names:
+        groups.setdefault(find(n), []).append(n)
+    out = [g for g in groups.values() if len(g) > 1]
+    for g in out:
+        cs = [c for (a, b), c in pair_c.items() if a in g]
+        details.append({"names": list(g), "correlation": min(cs),
+                        "why": f"{' or '.join(g)}: this data cannot tell them apart (signature correlations "
+                               f"{min(cs):.3f}-{max(cs):.3f} once the calibration is projected out)"})
+
+    margin = float(stats.chi2.ppf(1.0 - alpha, 1))
+    for r, a in enumerate(sel.selected):
+        info = sel.rounds[r]
+        ca = info[a]["fit"].chi2
+        alt = []
+        for b, d in info.items():
+            if b == a or b not in resid or not d["converged"] or d["clipped"]:
+                continue
+            if d["fit"].chi2 - ca < margin:
+                c = corr(a, b)
+                if c >= NEAR_COLLINEAR:
+                    alt.append(b)
+                    details.append({"names": [a, b], "correlation": c,
+                                    "why": f"{a} or {b}: this data cannot tell them apart (signature correlation "
+                                           f"{c:.3f}; {b} fits worse by only {d['fit'].chi2 - ca:.1f} in chi-square)"})
+        if alt:
+            grp = next((g for g in out if a in g), None)
+            if grp is None:
+                out.append([a] + alt)
+            else:
+                grp.extend(b for b in alt if b not in grp)
+
+    cal_params = prob.terms["calibration"].params
+    cal_fit = sel.final.term_theta(prob, "calibration")
+    cal_flag = any(not (PLAUSIBLE[0] <= v <= PLAUSIBLE[1]) for v in cal_fit) or bool(clipped(prob, sel.final, "calibration"))
+    for n in names:
+        R, coef = observe.mimicry(sens[n].Jfree, cal_cols)
+        if R < MIMIC:
+            continue
+        c = cand_rep.get(n, {})
+        # the calibration change imitating the candidate at its round-1 fitted value (or one typical step)
+        ps = prob.terms[n].params
+        if c.get("params"):
+            dth = np.array([c["params"][p.name]["value"] - p.null for p in ps])
+        else:
+            dth = np.array([p.scale for p in ps])
+        spans = np.array([observe.span(p) for p in ps])
+        dcal = (coef @ (dth / spans)) * np.array([p.scale for p in cal_params])
+        looks = {p.name: float(p.null + v) for p, v in zip(cal_params, dcal)}
+        words = ", ".join(f"{k} = {v:.3g}" for k, v in looks.items())
+        c["mimicked_by_calibration"] = {"correlation": R, "looks_like": looks}
+        if n in sel.selected or cal_flag:
+            out.append([n, "calibration"])
+            details.append({"names": [n, "calibration"], "correlation": R,
+                            "why": f"{n} or calibration: on these postures and loads {n} looks like a calibration "
+                                   f"change ({words}; correlation {R:.3f})"})
+    return {"groups": out, "details": details}
+
+
+def _flags(prob, sel, final, cand_rep):
+    """Warnings: calibration at a bound or far from nominal, fits that did not converge or were clipped."""
+    flags = []
+    vals = final.values(prob)["calibration"]
+    at = set(clipped(prob, final, "calibration"))
+    for k, v in vals.items():
+        if k in at:
+            flags.append(f"calibration {k} = {v['value']:.3g} is at a bound of its range: the calibration is "
+                         "absorbing something it should not (a missing effect or a wrong model)")
+        elif not (PLAUSIBLE[0] <= v["value"] <= PLAUSIBLE[1]):
+            flags.append(f"calibration {k} = {v['value']:.3g} +- {Z95 * v['se']:.2g} is implausibly far from nominal "
+                         f"(outside {PLAUSIBLE[0]}-{PLAUSIBLE[1]}x): check the model or a missing effect it absorbs")
+    for r, info in enumerate(sel.rounds):
+        for nm, d in info.items():
+            if not d["converged"]:
+                flags.append(f"round {r + 1}: the fit of {nm} did not converge ({d['fit'].message}); not named")
+            elif d["clipped"] and d["p_value"] < d["threshold"]:
+                flags.append(f"round {r + 1}: {nm} ended with {', '.join(d['clipped'])} on a bound of its range; "
+                             "not named (the effect's shape or range does not fit the data)")
+    return flags
 
 
 def _per_pose(rn, mask, idx, m):
@@ -272,24 +482,53 @@ def _per_pose(rn, mask, idx, m):
     return np.sqrt(num / np.maximum(den, 1))
 
 
+def verdict_line(rep) -> str:
+    """One sentence: the verdict, the named effects (or groups) and the lack of fit."""
+    lof = rep["lack_of_fit"]
+    if lof.get("p_value") is None:
+        fit_s = lof.get("note", "lack of fit cannot be judged")
+    else:
+        fit_s = (f"lack of fit chi2_red {lof['chi2_red']:.3g} on {lof['dof']} dof, p = {lof['p_value']:.2g} "
+                 f"(level {lof['alpha']:.2g})")
+    groups = {tuple(g) for g in rep.get("confounded", [])}
+    named = []
+    for nm in rep["named_effects"]:
+        g = next((g for g in groups if nm in g), None)
+        named.append(" or ".join(g) + " (this data cannot tell them apart)" if g else nm)
+    v = rep["verdict"]
+    if v == "no_discrepancy":
+        return f"Verdict: no discrepancy: the calibrated model fits the data ({fit_s})."
+    if v == "explained":
+        return f"Verdict: explained by {'; '.join(named)}; the final model fits ({fit_s})."
+    head = "Verdict: unexplained: a significant gap remains"
+    if named:
+        head += f" after naming {'; '.join(named)}"
+    return f"{head} ({fit_s}); no candidate of the library explains it."
+
+
 def summary(rep) -> str:
     """The one-paragraph terminal summary."""
     cal = rep["calibration"]
     cal_s = ", ".join(f"{k} {v['value']:.3g} +- {Z95 * v['se']:.2g}" for k, v in cal.items())
-    if rep["named_effects"]:
-        parts = []
-        for nm in rep["named_effects"]:
-            c = rep["candidates"][nm]
-            ps = ", ".join(f"{k} = {v['value']:.4g} +- {Z95 * v['se']:.2g} {v['unit']}" for k, v in c["final_params"].items())
-            parts.append(f"{nm} ({ps}; round dBIC {c['round_delta_bic']:.1f}, p = {c['round_p_value']:.2g})")
-        verdict = "Missing effect(s) named: " + "; ".join(parts) + "."
-    else:
-        verdict = f"No missing effect: no candidate is significant at alpha = {rep['alpha']}."
-    return (f"{rep['n_observations']} observations at {rep['n_postures']} postures ({rep['data_kind']} data, "
-            f"sigma {rep['sigma_source']}). Baseline calibration: {cal_s}. {verdict} "
-            f"RMS {rep['rms_nominal']:.3g} (nominal) -> {rep['rms_before']:.3g} (calibrated) -> {rep['rms_after']:.3g} "
+    parts = [verdict_line(rep)]
+    for nm in rep["named_effects"]:
+        c = rep["candidates"][nm]
+        ps = ", ".join(f"{k} = {v['value']:.4g} +- {Z95 * v['se']:.2g} {v['unit']}" for k, v in c["final_params"].items())
+        parts.append(f"{nm}: {ps} (round dBIC {c['round_delta_bic']:.1f}, p = {c['round_p_value']:.2g}).")
+    for d in rep.get("confounding", []):
+        parts.append(d["why"] + ".")
+    if rep["verdict"] == "unexplained":
+        parts.append(f"Where the remaining gap is: {rep['localization_after']['summary']}.")
+    for f in rep.get("flags", []):
+        parts.append(f"Warning: {f}.")
+    if rep.get("unobservable"):
+        parts.append("Not observable on this data (not fitted): " + ", ".join(rep["unobservable"]) + ".")
+    return (" ".join(parts[:1]) + f" {rep['n_observations']} observations at {rep['n_postures']} postures "
+            f"({rep['data_kind']} data, sigma {rep['sigma_source']}); baseline calibration: {cal_s}. "
+            + " ".join(parts[1:]) +
+            f" RMS {rep['rms_nominal']:.3g} (nominal) -> {rep['rms_before']:.3g} (calibrated) -> {rep['rms_after']:.3g} "
             f"{rep['rms_units']}; reduced chi2 {rep['chi2_nominal']:.3g} -> {rep['chi2_before']:.3g} -> "
-            f"{rep['chi2_after']:.3g}. Gap located: {rep['localization']['summary']}.")
+            f"{rep['chi2_after']:.3g}. Gap before naming: {rep['localization']['summary']}.")
 
 
 def write_diagnosis(dg: Diagnosis, out_dir) -> None:

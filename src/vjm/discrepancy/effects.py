@@ -58,8 +58,10 @@ class Effect:
     # which data kinds the effect can explain: "deflection" and/or "stiffness"
     data_kinds: tuple = ("deflection", "stiffness")
 
-    def param_specs(self, model) -> tuple:
-        """Parameters, possibly depending on the baseline model (e.g. its current value as null)."""
+    def param_specs(self, model, ctx=None) -> tuple:
+        """Parameters, possibly depending on the baseline model (e.g. its current value as null)
+        and on the data set (``ctx``, a :class:`~vjm.discrepancy.predict.Context`, e.g. the
+        actuator travel it covers); ``ctx`` None when no data is at hand (``vjm simulate``)."""
         return self.params
 
     def apply(self, model, theta):
@@ -87,50 +89,123 @@ class Effect:
 
 
 # ---------------------------------------------------------------- model-kind effects
+#
+# Link effects are per link (foot, leg -- "bar" for parallelogram legs) and per
+# deformation mode of the link's 6-dof spring (frame x along the link): axial,
+# bending about y, bending about z, torsion, and the two translation-rotation
+# couplings a beam has (bending: c26, c35 of eq. 14; extension-torsion: c14).
+# Whether a mode can show at the end-effector is not argued here (the passive
+# joints release some of them at some postures): diagnose decides it from the
+# data's sensitivity (see vjm.discrepancy.observe) and never fits what the data
+# cannot see.
 
-@register
-class LinkCoupling(Effect):
-    name = "link_coupling"
-    description = ("translation-rotation coupling of the legs that the model lacks: extension-torsion "
-                   "c14 = kappa sqrt(c11 c44) (beam models of eq. 14 have none)")
+_LINKS = (("foot", "foot"), ("leg", "leg"), ("leg", "bar"))
+
+
+def _link_applies(model, key, label):
+    if mo.link_label(model, key) != label:
+        return f"the model has no {label} (its {key} is a {mo.link_label(model, key)})"
+    if getattr(model, key).compliance is None:
+        return f"the model's {label} is rigid" + (" (see foot_compliance)" if key == "foot" else "")
+    return None
+
+
+class LinkMode(Effect):
+    """A link's compliance in one deformation mode is ``factor`` x the model's."""
+
     kind = "model"
+    key = "leg"
+    label = "leg"
+    mode = "axial"
+    params = (Param("factor", start=1.0, lower=0.05, upper=20.0, scale=0.1, null=1.0, unit="x model compliance"),)
 
-    # Why not scale eq. 14's bending coupling c26, c35 (or the lateral-torsion
-    # terms c24, c34): in the chains of this package every 6-dof spring is
-    # followed, or preceded, by passive joints that release the rotations (and,
-    # for a U-U leg, the lateral tip translations) those terms couple, so they
-    # cannot change the end-effector deflection (checked: setting them changes
-    # the 3-PUU compliance by ~1e-16 relative).  A U-U leg carries only axial
-    # force and torsion, so the coupling that shows is extension-torsion.
+    def applies_to(self, model, data_kind):
+        return _link_applies(model, self.key, self.label) or super().applies_to(model, data_kind)
 
-    def param_specs(self, model):
-        k0 = mo.leg_coupling(model)
+    def apply(self, model, theta):
+        return mo.with_mode_factor(model, self.key, self.mode, float(theta[0]))
+
+
+class LinkBendingCoupling(Effect):
+    """A link's bending translation-rotation coupling (c26, c35) as a fraction of a beam's."""
+
+    kind = "model"
+    key = "leg"
+    label = "leg"
+
+    def param_specs(self, model, ctx=None):
+        k0 = mo.bending_coupling(model, self.key)
+        return (Param("kappa", start=k0, lower=-1.1, upper=1.1, scale=0.1, null=k0,
+                      unit="x beam-consistent coupling (eq. 14 = 1)"),)
+
+    def applies_to(self, model, data_kind):
+        return _link_applies(model, self.key, self.label) or super().applies_to(model, data_kind)
+
+    def apply(self, model, theta):
+        return mo.with_bending_coupling(model, self.key, float(theta[0]))
+
+
+class LinkExtensionTorsion(Effect):
+    """A link's extension-torsion coupling c14 = kappa sqrt(c11 c44)."""
+
+    kind = "model"
+    key = "leg"
+    label = "leg"
+
+    def param_specs(self, model, ctx=None):
+        k0 = mo.extension_torsion(model, self.key)
         return (Param("kappa", start=k0, lower=-0.9, upper=0.9, scale=0.1, null=k0, unit="1"),)
 
     def applies_to(self, model, data_kind):
-        if not mo.leg_is_flexible(model):
-            return "the model's leg is rigid"
-        return super().applies_to(model, data_kind)
+        return _link_applies(model, self.key, self.label) or super().applies_to(model, data_kind)
 
     def apply(self, model, theta):
-        return mo.with_leg_coupling(model, float(theta[0]))
+        return mo.with_extension_torsion(model, self.key, float(theta[0]))
+
+
+_MODE_WORDS = {"axial": "axial (extension) compliance", "bending_y": "bending compliance about its y axis",
+               "bending_z": "bending compliance about its z axis", "torsion": "torsion compliance"}
+
+for _key, _label in _LINKS:
+    for _mode, _words in _MODE_WORDS.items():
+        register(type(f"{_label}_{_mode}", (LinkMode,), {
+            "name": f"{_label}_{_mode}", "key": _key, "label": _label, "mode": _mode,
+            "description": f"the {_label}'s {_words} differs from the model's: factor x the model's "
+                           f"(a section stiffness / factor)"}))
+    register(type(f"{_label}_bending_coupling", (LinkBendingCoupling,), {
+        "name": f"{_label}_bending_coupling", "key": _key, "label": _label,
+        "description": f"the {_label}'s bending translation-rotation coupling (c26, c35) differs from the model's: "
+                       "kappa x a cantilever's (eq. 14: c26 = L^2/2EIz)"}))
+    register(type(f"{_label}_extension_torsion", (LinkExtensionTorsion,), {
+        "name": f"{_label}_extension_torsion", "key": _key, "label": _label,
+        "description": f"extension-torsion coupling of the {_label} that the model lacks: c14 = kappa sqrt(c11 c44) "
+                       "(pretwisted or unsymmetric links; straight beams have none)"}))
 
 
 @register
 class FootCompliance(Effect):
     name = "foot_compliance"
-    description = ("a flexible foot where the model has a rigid one: foot compliance = s x the leg's own "
-                   "compliance matrix (a beam-like foot)")
+    description = ("a flexible foot where the model has a rigid one: a cantilever of unknown section and length "
+                   "(tip compliances axial, bending_y, bending_z, torsion; eq. 14 couplings from the length)")
     kind = "model"
-    params = (Param("scale", start=0.0, lower=0.0, upper=50.0, scale=0.1, null=0.0, unit="x leg compliance"),)
+
+    def param_specs(self, model, ctx=None):
+        ct = 1.0 / model.actuator.stiffness  # mm/N: the actuator's compliance sets the scale
+        lr = float(model.geometry.get("r", 50.0))
+        return (Param("axial", start=0.0, lower=0.0, upper=10 * ct, scale=0.1 * ct, null=0.0, unit="mm/N"),
+                Param("bending_y", start=0.0, lower=0.0, upper=10 * ct, scale=0.1 * ct, null=0.0, unit="mm/N"),
+                Param("bending_z", start=0.0, lower=0.0, upper=10 * ct, scale=0.1 * ct, null=0.0, unit="mm/N"),
+                Param("torsion", start=0.0, lower=0.0, upper=10 * ct / lr**2, scale=0.1 * ct / lr**2, null=0.0,
+                      unit="rad/(N mm)"),
+                Param("length", start=lr, lower=0.1 * lr, upper=10 * lr, scale=0.2 * lr, null=lr, unit="mm"))
 
     def applies_to(self, model, data_kind):
         if not mo.foot_is_rigid(model):
-            return "the model already has a flexible foot (calibrate it instead)"
+            return "the model already has a flexible foot (see foot_axial, foot_bending_y, ...)"
         return None
 
     def apply(self, model, theta):
-        return mo.with_foot_compliance_scale(model, float(theta[0]))
+        return mo.with_foot_cantilever(model, *(float(t) for t in theta))
 
 
 @register
@@ -153,17 +228,21 @@ class PassiveJointCompliance(Effect):
 class ActuatorTravelStiffness(Effect):
     name = "actuator_travel_stiffness"
     description = ("actuator compliance varying linearly along the travel, as a ball screw between bearing and nut: "
-                   "c(q) = 1/k + slope (q - q_ref)")
+                   "c(q) = c0 (1 + slope (q - q_ref)); the constant c0 is the calibration's actuator_scale")
     kind = "model"
 
-    def param_specs(self, model):
-        s0 = mo.actuator_slope(model)
-        b = mo.actuator_slope_bound(model)
-        return (Param("compliance_slope", start=s0, lower=-b, upper=b, scale=b / 100.0, null=s0,
-                      unit="(mm/N)/mm"),)
+    def param_specs(self, model, ctx=None):
+        s0 = mo.actuator_relative_slope(model)
+        if ctx is not None:
+            lo, hi = mo.relative_slope_bounds(model, ctx.q())
+        else:
+            L = float(model.geometry.get("L", 100.0))
+            lo, hi = -0.9 / L, 0.9 / L
+        lo, hi = min(lo, s0), max(hi, s0)
+        return (Param("slope", start=s0, lower=lo, upper=hi, scale=0.05 * (hi - lo), null=s0, unit="1/mm"),)
 
     def apply(self, model, theta):
-        return mo.with_actuator_slope(model, float(theta[0]))
+        return mo.with_actuator_relative_slope(model, float(theta[0]))
 
 
 # ---------------------------------------------------------------- additive effects
@@ -171,13 +250,16 @@ class ActuatorTravelStiffness(Effect):
 @register
 class Gravity(Effect):
     name = "gravity"
-    description = "an unknown weight W on the platform: adds C(p) (0, 0, -W, 0, 0, 0) whatever the applied load"
+    description = ("an unknown weight W >= 0 on the platform along the known gravity direction g "
+                   "(geometry.gravity, default -z): adds C(p) (W g, 0, 0, 0) whatever the applied load")
     kind = "additive"
     data_kinds = ("deflection",)
-    params = (Param("weight", start=0.0, scale=1.0, null=0.0, unit="N"),)
+    # an upward force is not a weight: W >= 0 (a negative fit is another, unexplained, effect)
+    params = (Param("weight", start=0.0, lower=0.0, upper=1e5, scale=1.0, null=0.0, unit="N"),)
 
     def extra(self, ctx, theta, C):
-        return -theta[0] * C[:, :, 2]
+        g = mo.gravity_direction(ctx.model)
+        return theta[0] * np.einsum("nij,j->ni", C[:, :, :3], g)
 
 
 @register

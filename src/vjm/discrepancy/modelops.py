@@ -183,31 +183,159 @@ def with_link_scale(model, s: float):
     return model.replace(**ch)
 
 
-def leg_coupling(model) -> float:
-    """Current extension-torsion coupling coefficient ``kappa = c14 / sqrt(c11 c44)`` of the leg."""
-    C = model.leg.compliance
+#: architectures whose ``leg`` is one bar of a parallelogram (the effect names say "bar")
+PARALLELOGRAM = ("orthoglide-3PRPaR", "delta-3RRPaR")
+
+#: deformation modes of a link's 6-dof spring (frame x along the link): the compliance
+#: indices each mode owns (Fx..Mz order).  Bending about y couples Fz with My, about z Fy with Mz.
+MODES = {"axial": (0,), "bending_y": (2, 4), "bending_z": (1, 5), "torsion": (3,)}
+
+
+def link_label(model, key: str) -> str:
+    """The word users read for the model's link ``key``: foot, leg, or bar (parallelogram legs)."""
+    if key == "leg" and model.architecture in PARALLELOGRAM:
+        return "bar"
+    return key
+
+
+def link_compliance(model, key: str):
+    return getattr(model, key).compliance
+
+
+def with_mode_factor(model, key: str, mode: str, f: float):
+    """Link ``key``'s compliance with mode ``mode`` multiplied by ``f`` (a section stiffness / f).
+
+    ``C' = D C D`` with ``D = sqrt(f)`` on the mode's indices and 1 elsewhere: the
+    mode's own block (e.g. c22, c26, c66 for bending about z, as a beam's EIz
+    scales them all) scales by ``f``, its couplings to other modes by ``sqrt f``;
+    a congruence, so C' stays symmetric positive definite.
+    """
+    if f == 1.0:
+        return model
+    C = link_compliance(model, key)
+    if C is None:
+        raise VjmError(f"{link_label(model, key)}_{mode} needs a flexible {link_label(model, key)}")
+    d = np.ones(6)
+    d[list(MODES[mode])] = np.sqrt(f)
+    return model.replace(**{key: _link(C * np.outer(d, d))})
+
+
+#: c26 / sqrt(c22 c66) of an Euler-Bernoulli cantilever (eq. 14): (L^2/2) / (L^2/sqrt 3)
+BEAM_BENDING_COUPLING = np.sqrt(3.0) / 2.0
+
+
+def bending_coupling(model, key: str) -> float:
+    """Current bending coupling of link ``key`` as a fraction ``kappa`` of the beam-consistent value
+    (kappa = 1 for an eq. 14 cantilever: c26 = L^2/2EIz, c35 = -L^2/2EIy)."""
+    C = link_compliance(model, key)
+    if C is None:
+        return 0.0
+    for i, j, sgn in ((1, 5, 1.0), (2, 4, -1.0)):
+        den = BEAM_BENDING_COUPLING * np.sqrt(C[i, i] * C[j, j])
+        if den > 0 and C[i, j] != 0:
+            return float(sgn * C[i, j] / den)
+    return 0.0
+
+
+def with_bending_coupling(model, key: str, kappa: float):
+    """Link ``key`` with ``c26 = kappa (sqrt3/2) sqrt(c22 c66)`` and ``c35 = -kappa (sqrt3/2) sqrt(c33 c55)``.
+
+    ``kappa = 1`` is the translation-rotation coupling of a cantilever beam of the
+    link's own bending compliances (eq. 14), ``0`` none; ``|kappa| < 2/sqrt 3``
+    keeps each bending block positive definite.
+    """
+    C = link_compliance(model, key)
+    if C is None:
+        raise VjmError(f"{link_label(model, key)}_bending_coupling needs a flexible {link_label(model, key)}")
+    C = C.copy()
+    k = BEAM_BENDING_COUPLING * float(kappa)
+    C[1, 5] = C[5, 1] = k * np.sqrt(C[1, 1] * C[5, 5])
+    C[2, 4] = C[4, 2] = -k * np.sqrt(C[2, 2] * C[4, 4])
+    return model.replace(**{key: _link(C)})
+
+
+def extension_torsion(model, key: str = "leg") -> float:
+    """Current extension-torsion coupling ``kappa = c14 / sqrt(c11 c44)`` of link ``key``."""
+    C = link_compliance(model, key)
     if C is None or C[0, 0] <= 0 or C[3, 3] <= 0:
         return 0.0
     return float(C[0, 3] / np.sqrt(C[0, 0] * C[3, 3]))
 
 
-def with_leg_coupling(model, kappa: float):
-    """Leg compliance with the extension-torsion coupling ``c14 = c41 = kappa sqrt(c11 c44)``.
+def with_extension_torsion(model, key: str, kappa: float):
+    """Link ``key`` with the extension-torsion coupling ``c14 = c41 = kappa sqrt(c11 c44)``.
 
     An axial force then twists the link and a torque stretches it (pretwisted
     or helically stiffened links, unsymmetric FEA links); ``|kappa| < 1``
     keeps the compliance positive definite.  Straight prismatic beams (eq. 14)
     have ``kappa = 0``.
     """
-    if model.leg.compliance is None:
-        raise VjmError("link_coupling needs a flexible leg")
-    C = model.leg.compliance.copy()
+    C = link_compliance(model, key)
+    if C is None:
+        raise VjmError(f"{link_label(model, key)}_extension_torsion needs a flexible {link_label(model, key)}")
+    C = C.copy()
     C[0, 3] = C[3, 0] = kappa * np.sqrt(C[0, 0] * C[3, 3])
-    return model.replace(leg=_link(C))
+    return model.replace(**{key: _link(C)})
+
+
+# old names (one release): the leg's extension-torsion coupling
+def leg_coupling(model) -> float:
+    return extension_torsion(model, "leg")
+
+
+def with_leg_coupling(model, kappa: float):
+    return with_extension_torsion(model, "leg", kappa)
+
+
+def cantilever_compliance(axial, bending_y, bending_z, torsion, length) -> np.ndarray:
+    """6x6 tip compliance of a cantilever along x of free section stiffnesses (eq. 14 without shear).
+
+    Parameters are the tip compliances users can picture: ``axial`` = c11 =
+    L/EA (mm/N), ``bending_z`` = c22 = L^3/3EIz (mm/N, tip deflection along y
+    per N), ``bending_y`` = c33 = L^3/3EIy (mm/N), ``torsion`` = c44 = L/GJ
+    (rad/(N mm)), and the length L (mm), which sets the rotation terms
+    ``c66 = 3 c22 / L^2``, ``c26 = 3 c22 / (2L)``, ``c55 = 3 c33 / L^2``,
+    ``c35 = -3 c33 / (2L)`` (signs of eq. 14: Fy turns the tip by +rz).
+    """
+    L = float(length)
+    C = np.zeros((6, 6))
+    C[0, 0] = axial
+    C[3, 3] = torsion
+    C[1, 1], C[5, 5] = bending_z, 3.0 * bending_z / L**2
+    C[1, 5] = C[5, 1] = 1.5 * bending_z / L
+    C[2, 2], C[4, 4] = bending_y, 3.0 * bending_y / L**2
+    C[2, 4] = C[4, 2] = -1.5 * bending_y / L
+    return C
+
+
+def with_foot_cantilever(model, axial, bending_y, bending_z, torsion, length, floor=1e-9):
+    """A foot that is a cantilever of free section (see :func:`cantilever_compliance`); rigid when
+    every compliance is 0.  Compliances below ``floor`` x the actuator compliance (translations;
+    divided by length^2 for torsion) are raised to it so the spring stays positive definite."""
+    from ..model import Link
+
+    vals = np.array([axial, bending_y, bending_z, torsion], float)
+    if not np.any(vals > 0):
+        return model.replace(foot=Link.rigid())
+    ct = floor / model.actuator.stiffness
+    a, by, bz = (max(float(v), ct) for v in (axial, bending_y, bending_z))
+    t = max(float(torsion), ct / float(length) ** 2)
+    return model.replace(foot=_link(cantilever_compliance(a, by, bz, t, length)))
+
+
+def gravity_direction(model) -> np.ndarray:
+    """Unit gravity direction in world axes: ``geometry.gravity: [gx, gy, gz]`` if given, else -z."""
+    g = model.geometry.get("gravity")
+    v = np.array([0.0, 0.0, -1.0]) if g is None else np.asarray(g, float).reshape(3)
+    n = np.linalg.norm(v)
+    if not np.isfinite(n) or n == 0:
+        raise VjmError(f"geometry.gravity must be a non-zero direction [gx, gy, gz], got {g!r}")
+    return v / n
 
 
 def with_foot_compliance_scale(model, s: float):
-    """Foot compliance = ``s`` x the leg's compliance (rigid at s = 0)."""
+    """Foot compliance = ``s`` x the leg's compliance (rigid at s = 0): the shape simulate's old
+    ``foot_compliance`` used; kept for model files and scripts that call it."""
     from ..model import Link
 
     if s <= 0:
@@ -233,8 +361,39 @@ def actuator_slope(model) -> float:
     return float(model.actuator.compliance_slope)
 
 
+def actuator_relative_slope(model) -> float:
+    """Slope of the actuator compliance relative to its value at q_ref: ``c(q) = c0 (1 + s (q - q_ref))``, 1/mm."""
+    return float(model.actuator.compliance_slope * model.actuator.stiffness)
+
+
+def with_actuator_relative_slope(model, s: float):
+    a = model.actuator
+    return with_actuator_slope(model, float(s) / a.stiffness)
+
+
+def relative_slope_bounds(model, q, floor: float = 0.05, cap: float = 20.0):
+    """Bounds of the relative slope ``s`` over the actuator travel ``q`` present in the data.
+
+    The actuator compliance must stay above ``floor`` x c0 everywhere in the data
+    (``1 + s (q - q_ref) >= floor``) and change by at most ``cap`` x c0 over it
+    (``|s| max|q - q_ref| <= cap``): the positivity bound comes from the data's
+    own travel, so a steep but physical slope is not clipped.
+    """
+    dq = np.asarray(q, float).ravel() - model.actuator.q_ref
+    dq = dq[np.isfinite(dq)]
+    span = float(np.max(np.abs(dq))) if dq.size else float(model.geometry.get("L", 100.0))
+    span = max(span, 1e-9)
+    lo, hi = -cap / span, cap / span
+    if dq.size and dq.max() > 0:
+        lo = max(lo, -(1.0 - floor) / dq.max())
+    if dq.size and dq.min() < 0:
+        hi = min(hi, (1.0 - floor) / -dq.min())
+    return lo, hi
+
+
 def actuator_slope_bound(model) -> float:
-    """|slope| keeping the actuator compliance positive over +-L of travel around q_ref."""
+    """|slope| keeping the actuator compliance positive over +-L of travel around q_ref
+    (used only when no data says what the travel is)."""
     L = float(model.geometry.get("L", 100.0))
     return 0.9 / model.actuator.stiffness / L
 

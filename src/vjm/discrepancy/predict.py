@@ -44,6 +44,12 @@ class Context:
     def n(self) -> int:
         return int(self.idx.size)
 
+    def q(self) -> np.ndarray:
+        """(m, n_chains) actuator coordinates of the unique postures (nominal geometry)."""
+        if "q" not in self._cache:
+            self._cache["q"] = mo.actuator_coords(self.model, self.P)
+        return self._cache["q"]
+
     def clearance_unit(self) -> np.ndarray:
         """(n, 6) twist of a unit backlash in every actuator, each slipping in the direction of its force.
 
@@ -90,7 +96,19 @@ class Predictor:
     model: object
     ctx: Context
     terms: dict  # name -> Term (calibration + effects)
+    #: name -> (n_full, free indices, full default vector): parameters held fixed because the
+    #: data cannot see them (the Term then lists the free ones only)
+    fixed: dict = field(default_factory=dict)
     _cache: dict = field(default_factory=dict, repr=False)
+
+    def full_theta(self, name, th):
+        """An effect's full parameter vector from the fitted (free) part."""
+        if name not in self.fixed:
+            return np.asarray(th, float)
+        _, free, full = self.fixed[name]
+        out = np.array(full, float)
+        out[list(free)] = th
+        return out
 
     def build_model(self, names, theta):
         """Model with the calibration and the model-kind effects of ``names`` applied."""
@@ -98,7 +116,7 @@ class Predictor:
         blocks = []
         for nm in names:
             k = len(self.terms[nm].params)
-            blocks.append((nm, np.asarray(theta[i:i + k], float)))
+            blocks.append((nm, self.full_theta(nm, np.asarray(theta[i:i + k], float))))
             i += k
         for nm, th in blocks:
             if nm == CALIBRATION:

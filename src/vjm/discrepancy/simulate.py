@@ -52,9 +52,10 @@ def _effect_theta(model, name, vals):
     if bad:
         raise VjmError(f"effect {name}: unknown parameter(s) {', '.join(sorted(bad))}; known: {', '.join(sorted(known))}")
     missing = [p.name for p in specs if p.name not in vals]
-    if missing:
+    # a multi-parameter effect may leave some parameters at their null (e.g. a foot that only bends)
+    if missing and (len(missing) == len(specs)):
         raise VjmError(f"effect {name}: give a value for {', '.join(missing)} (e.g. {name}:{missing[0]}=...)")
-    return np.array([vals[p.name] for p in specs])
+    return np.array([vals.get(p.name, p.null) for p in specs])
 
 
 def _read_cols(path, cols):

@@ -101,6 +101,9 @@ class FitResult:
     sigma_known: bool
     success: bool
     residuals: np.ndarray = field(repr=False, default=None)
+    #: indices (into theta) of the parameters that ended on a bound of their range
+    at_bound: tuple = ()
+    message: str = ""
 
     @property
     def dof(self) -> int:
@@ -126,6 +129,16 @@ class FitResult:
                 d[p.name] = {"value": v, "se": s, "ci95": [v - Z95 * s, v + Z95 * s], "unit": p.unit}
                 i += 1
             out[nm] = d
+        return out
+
+    def bound_params(self, problem: Problem, name: str) -> list:
+        """Names of the parameters of term ``name`` that ended on a bound."""
+        out, i = [], 0
+        for nm in self.names:
+            for p in problem.terms[nm].params:
+                if nm == name and i in self.at_bound:
+                    out.append(p.name)
+                i += 1
         return out
 
     def term_theta(self, problem: Problem, name: str) -> np.ndarray:
@@ -177,7 +190,7 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
         r = r if mask is None else r[mask]
         return FitResult(names, x0, np.zeros(0), float(r @ r), r.size, 0, problem.sigma_known, True, r)
     sol = optimize.least_squares(fun, x0 / xs, bounds=(lo / xs, hi / xs), diff_step=1e-6,
-                                 method="trf", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=100)
+                                 method="trf", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=200)
     r = sol.fun
     n, k = r.size, len(params)
     chi2 = float(r @ r)
@@ -194,7 +207,12 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
     zero = np.diag(JtJ) <= 0
     se[zero] = np.inf
     theta = sol.x * xs
-    return FitResult(names, theta, se, chi2, n, k, problem.sigma_known, bool(sol.success), r)
+    # on a bound: the optimiser's active set, or within 1e-4 of the parameter's scale of it
+    # (trf stays strictly inside, so a clipped parameter ends a hair away from its bound)
+    tol = 1e-4 * xs
+    at = (sol.active_mask != 0) | (theta - lo <= tol) | (hi - theta <= tol)
+    return FitResult(names, theta, se, chi2, n, k, problem.sigma_known, bool(sol.success), r,
+                     tuple(int(i) for i in np.flatnonzero(at)), str(sol.message))
 
 
 def compare(problem: Problem, small: FitResult, big: FitResult) -> tuple[float, float]:
@@ -253,15 +271,63 @@ class Selection:
     alpha: float
 
 
+def clipped(problem: Problem, fr: FitResult, name: str) -> list:
+    """Parameters of term ``name`` that ended on a bound other than their null value.
+
+    A parameter on the bound at its null (a weight >= 0 fitted as 0) means
+    "no effect"; on any other bound the fit was clipped and its value and
+    test are not to be trusted.
+    """
+    out = []
+    specs = {p.name: p for p in problem.terms[name].params}
+    th = dict(zip([p.name for p in problem.terms[name].params], fr.term_theta(problem, name)))
+    for pn in fr.bound_params(problem, name):
+        p = specs[pn]
+        if abs(th[pn] - p.null) > 1e-3 * p.scale:
+            out.append(pn)
+    return out
+
+
+def lack_of_fit(fr: FitResult, pure_error: tuple | None = None) -> dict:
+    """Lack-of-fit test of a final model.
+
+    Known sigmas: ``chi2 ~ chi2(n - k)`` (``chi2_red`` = chi2 / dof).  Unknown
+    sigmas: with ``pure_error = (ss_pe, dof_pe)`` from repeated measurements
+    (whitened by the same common guess), ``F = (SS_lof / dof_lof) / (SS_pe /
+    dof_pe)`` ~ F(dof_lof, dof_pe), reported as ``chi2_red`` (the lack-of-fit
+    variance in units of the pure-error variance); without repeats the test
+    cannot be made (``p_value`` None and a note).
+    """
+    dof = fr.dof
+    if fr.sigma_known:
+        p = float(stats.chi2.sf(fr.chi2, dof)) if dof > 0 else None
+        return {"chi2_red": fr.chi2 / max(dof, 1), "dof": int(dof), "p_value": p,
+                "test": "chi2 test of the final model (known sigmas)"}
+    if pure_error is not None:
+        ss_pe, dof_pe = pure_error
+        dof_lof = dof - dof_pe
+        if dof_pe > 0 and dof_lof > 0 and ss_pe > 0:
+            F = max(fr.chi2 - ss_pe, 0.0) / dof_lof / (ss_pe / dof_pe)
+            return {"chi2_red": float(F), "dof": int(dof_lof), "dof_pure_error": int(dof_pe),
+                    "p_value": float(stats.f.sf(F, dof_lof, dof_pe)),
+                    "test": "F test of lack of fit against pure error from repeated measurements"}
+    return {"chi2_red": None, "dof": int(dof), "p_value": None,
+            "test": "none",
+            "note": "sigmas unknown and no repeated measurements: lack of fit cannot be judged"}
+
+
 def forward_select(problem: Problem, candidates, alpha: float = 0.01, max_effects: int = 3,
-                   folds: int = 5, seed: int = 0, log=None) -> Selection:
+                   folds: int = 5, seed: int = 0, log=None, extra_tests: int = 0) -> Selection:
     """Forward selection of candidate terms on top of the baseline.
 
     At each round every remaining candidate is fitted together with the terms
-    already chosen.  A candidate is *eligible* when its test p-value is below
-    ``alpha / m`` (Bonferroni over the ``m`` candidates of the round, so that
-    clean data names nothing with probability >= 1 - alpha), its BIC is lower
-    and its held-out-posture CV error is not larger than the current model's.
+    already chosen.  A candidate is *eligible* when its fit converged with no
+    parameter clipped on a bound (see :func:`clipped`), its test p-value is
+    below ``alpha / (m + extra_tests)`` (Bonferroni over the ``m`` candidates
+    of the round plus ``extra_tests`` other tests sharing the family-wise
+    level, e.g. the lack-of-fit test; clean data then names nothing with
+    probability >= 1 - alpha), its BIC is lower and its held-out-posture CV
+    error is not larger than the current model's.
     The eligible candidate with the lowest BIC is added.  Selection stops when
     no candidate is eligible: "no missing effect" if that happens at round 1.
     """
@@ -274,19 +340,24 @@ def forward_select(problem: Problem, candidates, alpha: float = 0.01, max_effect
     selected, rounds = [], []
     while remaining and len(selected) < max_effects:
         m = len(remaining)
+        thr = alpha / (m + extra_tests)
         info: dict[str, dict[str, Any]] = {}
         for c in remaining:
             fr = fit_terms(problem, cur.names + (c,), warm=cur)
             dbic, p = compare(problem, cur, fr)
-            info[c] = {"fit": fr, "delta_bic": dbic, "p_value": p, "cv_error": float("nan")}
-        # CV for all candidates in round 1 (reported), later only where it can decide
+            info[c] = {"fit": fr, "delta_bic": dbic, "p_value": p, "cv_error": float("nan"),
+                       "converged": fr.success, "clipped": clipped(problem, fr, c), "threshold": thr}
+        # CV only where it can decide (significant, lower BIC, converged, not clipped): it costs
+        # k refits per candidate, and on clean data it would be spent on every candidate
         for c in remaining:
-            if not rounds or (info[c]["p_value"] < alpha / m and info[c]["delta_bic"] < 0):
+            if (info[c]["p_value"] < thr and info[c]["delta_bic"] < 0 and info[c]["converged"]
+                    and not info[c]["clipped"]):
                 info[c]["cv_error"] = cv_error(problem, cur.names + (c,), fold_masks, warm=info[c]["fit"])
         for c in remaining:
             d = info[c]
             cv_ok = not np.isfinite(d["cv_error"]) or not np.isfinite(cv_cur) or d["cv_error"] <= cv_cur
-            d["eligible"] = bool(d["p_value"] < alpha / m and d["delta_bic"] < 0 and cv_ok)
+            d["eligible"] = bool(d["p_value"] < thr and d["delta_bic"] < 0 and cv_ok
+                                 and d["converged"] and not d["clipped"])
         rounds.append(info)
         if log:
             log(f"round {len(rounds)}: " + ", ".join(
