@@ -14,4 +14,37 @@ from .modelfile import load_model, save_model, with_links
 from .stiffness import StiffnessResult
 
 __all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "Link", "Joints", "StiffnessResult",
-           "load_model", "save_model", "with_links"]
+           "load_model", "save_model", "with_links", "diagnose"]
+
+
+def diagnose(model, data, **options):
+    """What did the model leave out?  ``vjm diagnose`` as a function.
+
+    Parameters
+    ----------
+    model : a :class:`Model`, the path of a model file or a bundled model name ("puu").
+    data : measurements (``vjm.discrepancy.data.Deflections`` / ``StiffnessObs``) or a CSV path.
+    options : ``alpha``, ``effects``, ``suggest``, ``forces_only``, ... of
+        :func:`vjm.discrepancy.diagnose.diagnose`.
+
+    Returns
+    -------
+    vjm.discrepancy.diagnose.Diagnosis
+        ``.verdict``, ``.named``, ``.confounded``, ``.summary()``, ``.updated_model``, ``.save(dir)``.
+
+    >>> d = vjm.diagnose("data/orthoglide/puu.yaml", "measurements.csv")   # doctest: +SKIP
+    >>> d.verdict, d.named                                                  # doctest: +SKIP
+    """
+    import os
+
+    from .discrepancy.data import read_csv
+    from .discrepancy.diagnose import diagnose as _diagnose
+
+    name = "<model>"
+    if isinstance(model, (str, os.PathLike)):
+        name = os.path.basename(os.fspath(model))
+        model = load_model(model)
+    if isinstance(data, (str, os.PathLike)):
+        data = read_csv(data)
+    options.setdefault("model_name", name)
+    return _diagnose(model, data, **options)

@@ -26,17 +26,23 @@ def diagnose_cmd(
     alpha: float = typer.Option(0.01, "--alpha", help="family-wise significance level of each selection round"),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="restrict the candidates (repeatable)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="print each selection round"),
+    suggest: int = typer.Option(0, "--suggest", min=0,
+                                help="write DIR/next_measurements.csv: N (posture, load) rows to measure next"),
+    forces_only: bool = typer.Option(False, "--forces-only", help="suggest force loads only (no torques)"),
 ):
     """Name the physical effect missing from MODEL that the measurements in DATA reveal."""
     from .diagnose import run
 
     try:
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
-                 log=(lambda s: typer.echo(s, err=True)) if verbose else None)
+                 log=(lambda s: typer.echo(s, err=True)) if verbose else None,
+                 suggest=suggest, forces_only=forces_only)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(dg.report["summary"])
     typer.echo(f"Report: {Path(out) / 'report.html'}")
+    if suggest:
+        typer.echo(f"Next measurements: {Path(out) / 'next_measurements.csv'}")
 
 
 def simulate_cmd(

@@ -299,3 +299,17 @@ def write_deflections(path, data: Deflections, header_comment: str | None = None
             rec.append(fmt(data.sigma_r[k]))
         w.writerow(rec)
     write_text(path, buf.getvalue())
+
+
+def write_design(path, rows, header_comment: str | None = None) -> None:
+    """Write (posture, load) rows ``x,y,z,Fx,Fy,Fz,Mx,My,Mz`` (no measured values): the measurement plan
+    ``vjm diagnose --suggest`` proposes, read back by ``vjm simulate --poses FILE --loads FILE``."""
+    buf = io.StringIO()
+    if header_comment:
+        for line in header_comment.splitlines():
+            buf.write(f"# {line}\n")
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(list(POS + WRENCH))
+    for r in np.asarray(rows, float):
+        w.writerow([repr(float(v) + 0.0) for v in r])  # + 0.0: no "-0.0" in the file
+    write_text(path, buf.getvalue())

@@ -11,13 +11,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scipy import stats
+
 from ..errors import VjmError
 from . import effects as fx
 from . import modelops as mo
-from .data import StiffnessObs, read_csv
-from scipy import stats
-
 from . import observe
+from .data import StiffnessObs, read_csv, write_design
 from .fit.select import Z95, Term, clipped, fit_terms, forward_select, lack_of_fit
 from .locate import localize
 from .predict import (
@@ -30,18 +30,59 @@ from .predict import (
     stiffness_problem,
     unique_postures,
 )
-from .report import plot_residuals, write_report_dir
+from .report import plot_before_after, plot_residuals, write_report_dir
+from .summary import verdict_line
 
 DEFAULT_ALPHA = 0.01
 
 
 @dataclass(frozen=True)
 class Diagnosis:
+    """Outcome of :func:`diagnose`: the report dictionary (what report.json holds), the updated
+    model, per-posture residuals, and the suggested next measurements (or None)."""
+
     report: dict
     model: object  # updated model
     P: np.ndarray  # unique postures
     rms_pose_before: np.ndarray  # normalized RMS per posture, calibrated baseline
     rms_pose_after: np.ndarray
+    next_measurements: np.ndarray | None = None  # (N, 9) x, y, z, Fx..Mz
+
+    @property
+    def verdict(self) -> str:
+        """"no_discrepancy", "explained" or "unexplained"."""
+        return self.report["verdict"]
+
+    @property
+    def named(self) -> list:
+        """Names of the effects added to the model."""
+        return list(self.report["named_effects"])
+
+    @property
+    def confounded(self) -> list:
+        """Groups of candidates (or a candidate and "calibration") this data cannot tell apart."""
+        return [list(g) for g in self.report["confounded"]]
+
+    @property
+    def updated_model(self):
+        """The model with the calibration and the named effects (what model_updated.yaml holds)."""
+        return self.model
+
+    def summary(self):
+        """A :class:`~vjm.discrepancy.summary.Summary` (``str()`` text, ``as_html()``), like statsmodels'."""
+        from .summary import Summary
+
+        return Summary(self.report)
+
+    def save(self, out_dir) -> None:
+        """Write report.json, report.html, figures, model_updated.yaml (and next_measurements.csv)."""
+        write_diagnosis(self, out_dir)
+
+    def _repr_html_(self) -> str:
+        return self.summary().as_html()
+
+    def __repr__(self) -> str:
+        return f"<Diagnosis {self.verdict}: named {self.named or 'nothing'}>"
 
 
 def _check_reachable(model, data):
@@ -108,13 +149,15 @@ def _robust_scale(r):
 
 
 def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int = 5, max_effects: int = 3,
-             model_name: str = "<model>", log=None) -> Diagnosis:
+             model_name: str = "<model>", log=None, suggest: int = 0, forces_only: bool = False) -> Diagnosis:
     """Run the workflow on a loaded model and a data set (:func:`read_csv` output).
 
     Parameters
     ----------
     alpha : family-wise significance level of each selection round.
     effects : candidate names (default: the whole registry).
+    suggest : number of (posture, load) rows to suggest measuring next (0: none).
+    forces_only : suggest force loads only (a rig that cannot apply torques).
     """
     kind = "stiffness" if isinstance(data, StiffnessObs) else "deflection"
     if kind == "stiffness":
@@ -286,6 +329,13 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
 
     conf = _confounding(prob, sel, sens, cal_cols, cand_rep, alpha)
     flags = _flags(prob, sel, final, cand_rep)
+    cal_names = [p.name for p in prob.terms[CALIBRATION].params]
+    for i in range(len(cal_names)):
+        for j in range(i + 1, len(cal_names)):
+            c = observe.canonical_correlation(cal_cols[:, [i]], cal_cols[:, [j]])
+            if c >= COLLINEAR:
+                flags.append(f"calibration {cal_names[i]} and {cal_names[j]} cannot be told apart on this data "
+                             f"(correlation {c:.3f}): their values are not to be trusted separately")
     named = list(sel.selected)
     if lof["significant"]:
         verdict = "unexplained"
@@ -319,8 +369,30 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         "flags": flags,
         "n_tested": len(tested),
     }
+    nxt = None
+    if suggest:
+        if kind != "deflection":
+            raise VjmError("--suggest needs deflection data (x,y,z,Fx..Mz,dx..rz): stiffness observations "
+                           "have no loads to design")
+        from .suggest import suggest as _suggest
+
+        vals = {}
+        for nm in cands:
+            d = first.get(nm)
+            if d is not None:
+                vals[nm] = d["fit"].term_theta(prob, nm)
+        for nm in final.names:
+            vals[nm] = final.term_theta(prob, nm)
+        comp = np.flatnonzero(mask.any(axis=0))
+        sd = np.where(mask, sigm, np.inf)[:, comp]
+        sp = np.median(sigm[:, comp], axis=0)
+        sg = _suggest(model, pred, (comp, sd, sp), vals, rep, int(suggest), forces_only)
+        nxt = sg.rows
+        rep["suggest"] = {"n": int(suggest), "file": "next_measurements.csv", "criterion": sg.criterion,
+                          "targets": sg.targets, "criterion_before": sg.before, "criterion_after": sg.after,
+                          "forces_only": bool(forces_only)}
     rep["summary"] = summary(rep)
-    return Diagnosis(rep, upd, U, per_before, per_after)
+    return Diagnosis(rep, upd, U, per_before, per_after, nxt)
 
 
 #: canonical correlation (calibration projected out) above which two candidates are reported as one group
@@ -366,8 +438,13 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha):
       correlation with A is >= NEAR_COLLINEAR: "A or B";
     * a candidate whose signature the calibration reproduces (correlation
       >= MIMIC) is noted with the calibration change that imitates it, and
-      grouped with "calibration" when it was named or the calibration is
-      flagged (at a bound or implausibly far from nominal).
+      grouped with "calibration" when it was not named and the calibration is
+      flagged (at a bound or implausibly far from nominal): the calibration
+      may have absorbed it.
+
+    A pair that the selection did separate (a named effect whose rival fitted
+    worse by more than the chi-square(1) margin in its round, or could not
+    fit) is never grouped, however collinear the linearised signatures.
     """
     names = [n for n, ts in sens.items() if ts.observable]
     Q = observe._orth(cal_cols)
@@ -386,9 +463,20 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha):
             return 0.0
         return observe.canonical_correlation(resid[a], resid[b])
 
+    # pairs the data did separate: a named effect whose rival fitted worse, in its round, by more
+    # than a (1 - alpha) chi-square(1) margin (or could not fit at all)
+    margin = float(stats.chi2.ppf(1.0 - alpha, 1))
+    separated = set()
+    for r, a in enumerate(sel.selected):
+        info = sel.rounds[r]
+        for b, d in info.items():
+            if b != a and (d["fit"].chi2 - info[a]["fit"].chi2 >= margin or not d["converged"] or d["clipped"]):
+                separated.add(frozenset((a, b)))
     pair_c = {}
     for i, a in enumerate(names):
         for b in names[i + 1:]:
+            if frozenset((a, b)) in separated:
+                continue
             c = corr(a, b)
             if c >= COLLINEAR:
                 parent[find(b)] = find(a)
@@ -403,7 +491,6 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha):
                         "why": f"{' or '.join(g)}: this data cannot tell them apart (signature correlations "
                                f"{min(cs):.3f}-{max(cs):.3f} once the calibration is projected out)"})
 
-    margin = float(stats.chi2.ppf(1.0 - alpha, 1))
     for r, a in enumerate(sel.selected):
         info = sel.rounds[r]
         ca = info[a]["fit"].chi2
@@ -444,7 +531,8 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha):
         looks = {p.name: float(p.null + v) for p, v in zip(cal_params, dcal)}
         words = ", ".join(f"{k} = {v:.3g}" for k, v in looks.items())
         c["mimicked_by_calibration"] = {"correlation": R, "looks_like": looks}
-        if n in sel.selected or cal_flag:
+        # a named effect was significant on top of the calibration: the data did separate them
+        if n not in sel.selected and cal_flag:
             out.append([n, "calibration"])
             details.append({"names": [n, "calibration"], "correlation": R,
                             "why": f"{n} or calibration: on these postures and loads {n} looks like a calibration "
@@ -482,30 +570,6 @@ def _per_pose(rn, mask, idx, m):
     return np.sqrt(num / np.maximum(den, 1))
 
 
-def verdict_line(rep) -> str:
-    """One sentence: the verdict, the named effects (or groups) and the lack of fit."""
-    lof = rep["lack_of_fit"]
-    if lof.get("p_value") is None:
-        fit_s = lof.get("note", "lack of fit cannot be judged")
-    else:
-        fit_s = (f"lack of fit chi2_red {lof['chi2_red']:.3g} on {lof['dof']} dof, p = {lof['p_value']:.2g} "
-                 f"(level {lof['alpha']:.2g})")
-    groups = {tuple(g) for g in rep.get("confounded", [])}
-    named = []
-    for nm in rep["named_effects"]:
-        g = next((g for g in groups if nm in g), None)
-        named.append(" or ".join(g) + " (this data cannot tell them apart)" if g else nm)
-    v = rep["verdict"]
-    if v == "no_discrepancy":
-        return f"Verdict: no discrepancy: the calibrated model fits the data ({fit_s})."
-    if v == "explained":
-        return f"Verdict: explained by {'; '.join(named)}; the final model fits ({fit_s})."
-    head = "Verdict: unexplained: a significant gap remains"
-    if named:
-        head += f" after naming {'; '.join(named)}"
-    return f"{head} ({fit_s}); no candidate of the library explains it."
-
-
 def summary(rep) -> str:
     """The one-paragraph terminal summary."""
     cal = rep["calibration"]
@@ -534,9 +598,13 @@ def summary(rep) -> str:
 def write_diagnosis(dg: Diagnosis, out_dir) -> None:
     """Write report.json, report.html, residuals PNG and model_updated.yaml atomically."""
     def figs(d):
+        plot_before_after(os.path.join(d, "before_after.png"), dg.rms_pose_before, dg.rms_pose_after, dg.verdict)
         plot_residuals(os.path.join(d, "residuals_per_posture.png"), dg.P, dg.rms_pose_before, dg.rms_pose_after,
                        "residual per posture: before vs after")
-        return ["residuals_per_posture.png"]
+        if dg.next_measurements is not None:
+            write_design(os.path.join(d, "next_measurements.csv"), dg.next_measurements,
+                         "next measurements suggested by vjm diagnose: " + dg.report["suggest"]["criterion"])
+        return ["before_after.png", "residuals_per_posture.png"]
 
     write_report_dir(out_dir, dg.report, lambda p: mo.save_model(dg.model, p), figs)
 

@@ -42,6 +42,27 @@ def plot_residuals(path, P, rms_before, rms_after, title):
     plt.close(fig)
 
 
+def plot_before_after(path, rms_before, rms_after, verdict):
+    """One small picture: per-posture normalized RMS residual before and after, sorted, with the noise level."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.0, 2.6), constrained_layout=True)
+    x = np.arange(1, len(rms_before) + 1)
+    ax.plot(x, np.sort(rms_before)[::-1], "-", color="tab:red", label="before (calibrated model)")
+    ax.plot(x, np.sort(rms_after)[::-1], "-", color="tab:blue", label="after (named effects added)")
+    ax.axhline(1.0, color="k", lw=0.8, ls="--", label="noise level")
+    ax.set_xlabel("postures, sorted by residual")
+    ax.set_ylabel("RMS residual / sigma")
+    ax.set_title(f"verdict: {verdict}")
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
 def _table(rows, header):
     h = "".join(f"<th>{html.escape(c)}</th>" for c in header)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
@@ -58,31 +79,59 @@ def _fmt(v, f="{:.4g}"):
 
 
 def render_html(rep: dict, figures) -> str:
+    """The HTML report: one-line verdict and the before/after picture first, then the evidence."""
+    from .summary import Summary, verdict_line
+
     named = rep["named_effects"]
-    verdict = ("Named missing effect(s): <b>" + ", ".join(named) + "</b>") if named else "<b>No missing effect</b>: no candidate is significant."
     cand_rows = []
     for name, c in rep["candidates"].items():
         ps = "; ".join(f"{k} = {_fmt(v['value'])} [{_fmt(v['ci95'][0])}, {_fmt(v['ci95'][1])}] {v['unit']}"
                        for k, v in c.get("params", {}).items())
+        state = ("named" if name in named else c.get("skipped") or
+                 ("fit did not converge" if c.get("converged") is False else "") or
+                 (f"at bound: {', '.join(c['at_bound'])}" if c.get("at_bound") else ""))
         cand_rows.append([name, _fmt(c.get("delta_bic"), "{:.1f}"), _fmt(c.get("p_value"), "{:.2g}"),
-                          _fmt(c.get("cv_error"), "{:.3f}"), "yes" if name in named else "", ps,
-                          c.get("description", "")])
+                          _fmt(c.get("cv_error"), "{:.3f}"), state, ps, c.get("description", "")])
     loc = rep["localization"]
     worst = [[_fmt(w["x"], "{:.1f}"), _fmt(w["y"], "{:.1f}"), _fmt(w["z"], "{:.1f}"),
               _fmt(w["rms_normalized"], "{:.2f}"), w["n"]] for w in loc.get("worst_postures", [])]
     dirs = [[k, _fmt(v["rms_normalized"], "{:.2f}"), v["n"]] for k, v in loc.get("by_load_direction", {}).items()]
     dirs += [[k, _fmt(v, "{:.3g}"), "-"] for k, v in loc.get("by_quantity", {}).items()]
-    figs = "".join(f'<figure><img src="{html.escape(f)}" alt="{html.escape(f)}"></figure>' for f in figures)
-    final = rep.get("final_params", {})
-    fin_rows = [[t, k, _fmt(v["value"]), f"[{_fmt(v['ci95'][0])}, {_fmt(v['ci95'][1])}]", v["unit"]]
-                for t, d in final.items() for k, v in d.items()]
+    first = [f for f in figures if f == "before_after.png"]
+    rest = [f for f in figures if f not in first]
+    top = "".join(f'<figure><img src="{html.escape(f)}" alt="before and after"></figure>' for f in first)
+    figs = "".join(f'<figure><img src="{html.escape(f)}" alt="{html.escape(f)}"></figure>' for f in rest)
+    conf = "".join(f"<li>{html.escape(d['why'])}</li>" for d in rep.get("confounding", []))
+    flags = "".join(f"<li>{html.escape(f)}</li>" for f in rep.get("flags", []))
+    unobs = "".join(f"<li><code>{html.escape(k)}</code>: {html.escape(v)}</li>" for k, v in rep.get("unobservable", {}).items())
+    gap = ""
+    if rep["verdict"] == "unexplained":
+        la = rep["localization_after"]
+        gap = (f"<h2>Where the remaining gap is</h2><p>No candidate of the library explains it. "
+               f"{html.escape(la.get('summary', ''))}.</p>"
+               + _table([[_fmt(w["x"], "{:.1f}"), _fmt(w["y"], "{:.1f}"), _fmt(w["z"], "{:.1f}"),
+                          _fmt(w["rms_normalized"], "{:.2f}"), w["n"]] for w in la.get("worst_postures", [])],
+                        ["x", "y", "z", "RMS normalized (after)", "n"]))
+    sug = ""
+    if rep.get("suggest"):
+        sg = rep["suggest"]
+        sug = (f"<h2>What to measure next</h2><p><code>{html.escape(sg['file'])}</code>: {sg['n']} (posture, load) rows"
+               f"{' (forces only)' if sg.get('forces_only') else ''}. Design: {html.escape(sg['criterion'])}.</p>")
     return f"""<!doctype html><html><head><meta charset="utf-8"><title>VJM discrepancy report</title>
-<style>body{{font-family:sans-serif;max-width:1100px;margin:auto}}table{{border-collapse:collapse}}
-td,th{{border:1px solid #ccc;padding:3px 6px;font-size:90%}}img{{max-width:100%}}</style></head><body>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:auto}}table{{border-collapse:collapse;margin:6px 0}}
+td,th{{border:1px solid #ccc;padding:3px 6px;font-size:90%}}img{{max-width:100%}}caption{{font-weight:bold}}</style></head><body>
 <h1>Discrepancy report</h1>
+<p style="font-size:120%"><b>{html.escape(verdict_line(rep))}</b></p>
+{top}
 <p>Model: <code>{html.escape(rep['model'])}</code>; data: <code>{html.escape(rep['data'])}</code>
 ({rep['n_observations']} observations, {rep['n_postures']} postures, sigma {html.escape(rep['sigma_source'])}).</p>
-<h2>Verdict</h2><p>{verdict}</p><p>{html.escape(rep['summary'])}</p>
+<p>{html.escape(rep['summary'])}</p>
+{gap}
+{'<h2>Cannot be told apart</h2><ul>' + conf + '</ul>' if conf else ''}
+{'<h2>Warnings</h2><ul>' + flags + '</ul>' if flags else ''}
+{sug}
+<h2>Summary tables</h2>
+{Summary(rep).as_html()}
 <h2>Gap before and after</h2>
 {_table([["RMS (data units)", _fmt(rep['rms_before']), _fmt(rep['rms_after'])],
          ["reduced chi2", _fmt(rep['chi2_before'], '{:.3f}'), _fmt(rep['chi2_after'], '{:.3f}')]],
@@ -91,12 +140,12 @@ td,th{{border:1px solid #ccc;padding:3px 6px;font-size:90%}}img{{max-width:100%}
 nominal model gave RMS {_fmt(rep.get('rms_nominal'))} and reduced chi2 {_fmt(rep.get('chi2_nominal'), '{:.3f}')}.</p>
 <h2>Evidence per candidate (each alone on top of the calibrated baseline)</h2>
 <p>delta_bic &lt; 0 favours the candidate; p from the {html.escape(rep['test'])}; cv_error is the RMS normalized
-residual on held-out postures (baseline: {_fmt(rep.get('cv_baseline'), '{:.3f}')}). Significance threshold
-alpha = {rep['alpha']} (Bonferroni over the candidates of each round).</p>
-{_table(cand_rows, ["effect", "delta_bic", "p_value", "cv_error", "named", "parameters (95% CI)", "description"])}
-<h2>Final model parameters</h2>
-{_table(fin_rows, ["term", "parameter", "value", "95% CI", "unit"])}
-<h2>Where the gap was</h2><p>{html.escape(loc.get('summary', ''))}</p>
+residual on held-out postures (baseline: {_fmt(rep.get('cv_baseline'), '{:.3f}')}), computed only for candidates
+that pass the test. Significance level alpha = {rep['alpha']} shared by Bonferroni over the
+{rep.get('n_tested', '')} candidates tested and the lack-of-fit test.</p>
+{_table(cand_rows, ["effect", "delta_bic", "p_value", "cv_error", "state", "parameters (95% CI)", "description"])}
+{'<h2>Not observable on this data (never fitted)</h2><ul>' + unobs + '</ul>' if unobs else ''}
+<h2>Where the gap was (before)</h2><p>{html.escape(loc.get('summary', ''))}</p>
 <h3>Worst postures (before)</h3>{_table(worst, ["x", "y", "z", "RMS normalized", "n"])}
 <h3>By dominant load direction (before)</h3>{_table(dirs, ["load", "RMS normalized", "n"])}
 {figs}

@@ -10,6 +10,9 @@ Design of the experiment
   * ``axes:F[:M]``   -- +-F N along x, y, z (and +-M N mm about x, y, z if M is given);
   * ``random:N:F``   -- N random force directions of magnitude F N (drawn per posture);
   * ``PATH.csv``     -- a CSV with columns Fx,Fy,Fz,Mx,My,Mz.
+The same CSV given to both ``--poses`` and ``--loads`` (columns x,y,z,Fx..Mz, e.g.
+``next_measurements.csv`` written by ``vjm diagnose --suggest``) is read as
+(posture, load) pairs, one measurement per row, instead of every load at every posture.
 Noise: independent Gaussian, ``noise_t`` (mm) on dx, dy, dz and ``noise_r``
 (rad) on rx, ry, rz; without ``noise_r`` rotations are left blank (translation-only
 data, the common case).  The sigmas are written in ``sigma_t``/``sigma_r``.
@@ -164,6 +167,11 @@ def _num(s, spec):
         raise VjmError(f"'{spec}': '{s}' is not a number") from None
 
 
+def _same_file(poses: str, loads: str) -> bool:
+    """--poses and --loads name the same CSV: its rows are (posture, load) pairs, not a product."""
+    return os.path.isfile(poses) and os.path.isfile(loads) and os.path.samefile(poses, loads)
+
+
 def true_model(model, effects):
     """Model with the model-kind hidden effects applied, and the additive ones as (effect, theta)."""
     add = []
@@ -214,11 +222,22 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
     model = mo.load_model(model_path)
     effects = [parse_effect(s) for s in effect_specs]
     rng = np.random.default_rng([seed, 1])
-    P0 = design_poses(model, poses, rng)
-    L = design_loads(loads, len(P0), rng)
-    k = L.shape[1]
-    P = np.repeat(P0, k, axis=0)
-    W = L.reshape(-1, 6)
+    if _same_file(poses, loads):
+        # one file with x,y,z,Fx..Mz (e.g. next_measurements.csv of vjm diagnose --suggest): paired rows
+        P = _read_cols(poses, ["x", "y", "z"])
+        W = _read_cols(loads, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
+        if len(P) == 0:
+            raise VjmError(f"--poses {poses}: no data rows")
+        bad = ~_reachable(model, P)
+        if bad.any():
+            raise VjmError(f"{os.path.basename(poses)}: row {int(np.argmax(bad)) + 2}, columns 'x,y,z': posture "
+                           f"({P[bad][0, 0]:g}, {P[bad][0, 1]:g}, {P[bad][0, 2]:g}) mm is unreachable")
+    else:
+        P0 = design_poses(model, poses, rng)
+        L = design_loads(loads, len(P0), rng)
+        k = L.shape[1]
+        P = np.repeat(P0, k, axis=0)
+        W = L.reshape(-1, 6)
     data = simulate(model, effects, P, W, noise_t, noise_r, seed)
     desc = ", ".join(f"{n}:" + ",".join(f"{a}={b:g}" for a, b in v.items()) for n, v in effects) or "none"
     write_deflections(out, data, f"simulated by vjm simulate from {os.path.basename(str(model_path))}; "

@@ -190,7 +190,7 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
         r = r if mask is None else r[mask]
         return FitResult(names, x0, np.zeros(0), float(r @ r), r.size, 0, problem.sigma_known, True, r)
     sol = optimize.least_squares(fun, x0 / xs, bounds=(lo / xs, hi / xs), diff_step=1e-6,
-                                 method="trf", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=200)
+                                 method="trf", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=100)
     r = sol.fun
     n, k = r.size, len(params)
     chi2 = float(r @ r)

@@ -1,0 +1,124 @@
+"""The diagnosis in words and tables: the verdict line and a statsmodels-like Summary.
+
+``Summary(report)`` prints as fixed-width text (``str()``) and renders as an
+HTML table set (``as_html()``, ``_repr_html_`` for notebooks); both come
+from the same rows, so they cannot disagree.
+"""
+from __future__ import annotations
+
+import html
+
+Z95 = 1.959963984540054
+
+
+def _named_words(rep) -> list:
+    groups = [tuple(g) for g in rep.get("confounded", [])]
+    out = []
+    for nm in rep["named_effects"]:
+        g = next((g for g in groups if nm in g), None)
+        out.append(" or ".join(g) + " (this data cannot tell them apart)" if g else nm)
+    return out
+
+
+def verdict_line(rep) -> str:
+    """One sentence: the verdict, the named effects (or groups) and the lack of fit."""
+    lof = rep["lack_of_fit"]
+    if lof.get("p_value") is None:
+        fit_s = lof.get("note", "lack of fit cannot be judged")
+    else:
+        fit_s = (f"lack of fit chi2_red {lof['chi2_red']:.3g} on {lof['dof']} dof, p = {lof['p_value']:.2g} "
+                 f"(level {lof['alpha']:.2g})")
+    named = _named_words(rep)
+    v = rep["verdict"]
+    if v == "no_discrepancy":
+        return f"Verdict: no discrepancy: the calibrated model fits the data ({fit_s})."
+    if v == "explained":
+        return f"Verdict: explained by {'; '.join(named)}; the final model fits ({fit_s})."
+    head = "Verdict: unexplained: a significant gap remains"
+    if named:
+        head += f" after naming {'; '.join(named)}"
+    return f"{head} ({fit_s}); no candidate of the library explains it."
+
+
+def _f(v, fmt="{:.4g}"):
+    if v is None:
+        return "-"
+    try:
+        return fmt.format(v)
+    except (TypeError, ValueError):
+        return str(v)
+
+
+class Summary:
+    """Tables of a diagnosis: header (verdict, fit, data), named effects, candidates, warnings."""
+
+    def __init__(self, report: dict):
+        self.report = report
+
+    def tables(self) -> list:
+        """[(title, header, rows)] with string cells."""
+        r = self.report
+        lof = r["lack_of_fit"]
+        cal = ", ".join(f"{k} {v['value']:.3g} +- {Z95 * v['se']:.2g}" for k, v in r["calibration"].items())
+        head = [["verdict", r["verdict"]],
+                ["named effects", "; ".join(_named_words(r)) or "none"],
+                ["lack of fit", "cannot be judged (sigmas unknown, no repeats)" if lof.get("p_value") is None else
+                 f"chi2_red {lof['chi2_red']:.3g}, dof {lof['dof']}, p = {lof['p_value']:.3g} (level {lof['alpha']:.2g})"],
+                ["observations", f"{r['n_observations']} at {r['n_postures']} postures ({r['data_kind']})"],
+                ["sigma", r["sigma_source"]],
+                ["calibration", cal],
+                ["RMS before -> after", f"{_f(r['rms_before'])} -> {_f(r['rms_after'])} {r['rms_units']}"],
+                ["reduced chi2 before -> after", f"{_f(r['chi2_before'], '{:.3f}')} -> {_f(r['chi2_after'], '{:.3f}')}"],
+                ["candidates tested", f"{r.get('n_tested', '-')} (Bonferroni, family-wise alpha {r['alpha']})"]]
+        fin = []
+        for t, d in r["final_params"].items():
+            for k, v in d.items():
+                fin.append([t, k, _f(v["value"]), _f(v["se"]), f"[{_f(v['ci95'][0])}, {_f(v['ci95'][1])}]", v["unit"]])
+        cand = []
+        for nm, c in r["candidates"].items():
+            state = ("named" if c.get("named") else "not observable" if c.get("observable") is False else
+                     "skipped" if c.get("skipped") else "not converged" if c.get("converged") is False else
+                     "at bound" if c.get("at_bound") else "")
+            cand.append([nm, _f(c.get("delta_bic"), "{:.1f}"), _f(c.get("p_value"), "{:.2g}"),
+                         _f(c.get("threshold"), "{:.2g}"), state])
+        notes = [[d["why"]] for d in r.get("confounding", [])] + [[f] for f in r.get("flags", [])]
+        if r["verdict"] == "unexplained":
+            notes.append([f"remaining gap: {r['localization_after']['summary']}"])
+        if r.get("suggest"):
+            notes.append([f"next measurements ({r['suggest']['n']} rows, {r['suggest']['file']}): "
+                          f"{r['suggest']['criterion']}"])
+        out = [("Diagnosis", ["", ""], head),
+               ("Final model parameters", ["term", "parameter", "value", "se", "95% CI", "unit"], fin),
+               ("Candidates (round 1, each on top of the calibrated model)",
+                ["effect", "dBIC", "p", "level", "state"], cand)]
+        if notes:
+            out.append(("Notes", ["note"], notes))
+        return out
+
+    def as_text(self) -> str:
+        lines = [verdict_line(self.report), ""]
+        for title, header, rows in self.tables():
+            w = [max(len(str(x)) for x in col) for col in zip(header, *rows)] if rows else [len(h) for h in header]
+            width = sum(w) + 2 * (len(w) - 1)
+            lines += [title.center(max(width, len(title))), "=" * max(width, len(title))]
+            if any(header):
+                lines.append("  ".join(str(h).ljust(n) for h, n in zip(header, w)))
+                lines.append("-" * max(width, len(title)))
+            lines += ["  ".join(str(c).ljust(n) for c, n in zip(row, w)) for row in rows]
+            lines.append("")
+        return "\n".join(lines)
+
+    def as_html(self) -> str:
+        parts = [f"<p><b>{html.escape(verdict_line(self.report))}</b></p>"]
+        for title, header, rows in self.tables():
+            h = "".join(f"<th>{html.escape(str(c))}</th>" for c in header) if any(header) else ""
+            body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
+            parts.append(f"<table><caption>{html.escape(title)}</caption>"
+                         f"{'<tr>' + h + '</tr>' if h else ''}{body}</table>")
+        return "\n".join(parts)
+
+    def __str__(self) -> str:
+        return self.as_text()
+
+    def _repr_html_(self) -> str:
+        return self.as_html()

@@ -1,0 +1,310 @@
+"""Verdict, lack of fit, observability, confounding, robust fits and the suggested design.
+
+References are independent of the code under test: scipy.stats (chi2 and
+one-way ANOVA) for the tests, constructed signatures with a known null
+direction or a known collinearity, the compliance matrices of the model
+itself for what a data set can see, and terms written out here (not in the
+effect library) for the out-of-library cases.
+"""
+import json
+
+import numpy as np
+import pytest
+import typer
+from scipy import stats
+from typer.testing import CliRunner
+
+import vjm
+from vjm.discrepancy import modelops as mo
+from vjm.discrepancy import observe
+from vjm.discrepancy.cli import register
+from vjm.discrepancy.data import Deflections, read_csv, write_deflections
+from vjm.discrepancy.diagnose import diagnose
+from vjm.discrepancy.fit.select import FitResult, Param, Problem, Term, fit_terms, lack_of_fit
+from vjm.discrepancy.simulate import design_loads, simulate
+from vjm.model import Link
+
+PUU = "data/orthoglide/puu.yaml"
+MODEL = vjm.load_model(PUU).replace(foot=Link.rigid())
+_rng = np.random.default_rng(0)
+_P0 = _rng.uniform(-60.0, 90.0, (14, 3))
+_L = design_loads("axes:100", len(_P0), _rng)
+P = np.repeat(_P0, _L.shape[1], axis=0)
+W = _L.reshape(-1, 6)
+NOISE = 1e-3
+FEW = ["gravity", "clearance", "passive_joint_compliance", "actuator_travel_stiffness"]
+
+
+# ---------------------------------------------------------------- statistics on constructed cases
+
+def test_lack_of_fit_known_sigma_is_the_chi2_tail():
+    """chi2 = 130 on 120 - 2 dof: p is scipy's chi2 survival function, chi2_red the ratio."""
+    fr = FitResult(("a",), np.zeros(2), np.zeros(2), 130.0, 120, 2, True, True)
+    lof = lack_of_fit(fr)
+    assert lof["dof"] == 118
+    assert lof["p_value"] == pytest.approx(stats.chi2.sf(130.0, 118), rel=1e-12)
+    assert lof["chi2_red"] == pytest.approx(130.0 / 118)
+
+
+def test_lack_of_fit_pure_error_equals_one_way_anova():
+    """Unknown sigma, repeats: a one-mean model's lack-of-fit F against pure error is the one-way
+    ANOVA F of the groups (scipy.stats.f_oneway), computed here from the raw groups."""
+    rng = np.random.default_rng(5)
+    groups = [rng.normal(mu, 1.0, 4) for mu in (0.0, 0.3, -0.2, 1.1, 0.5, 0.0)]
+    y = np.concatenate(groups)
+    g = np.repeat(np.arange(len(groups)), 4)
+    terms = {"mean": Term("mean", (Param("m", 0.0, scale=1.0),))}
+    prob = Problem(lambda names, th: y - (th[0] if names else 0.0), terms, g, False, ("mean",))
+    fr = fit_terms(prob, ("mean",))
+    ss_pe = float(sum(((x - x.mean()) ** 2).sum() for x in groups))
+    lof = lack_of_fit(fr, (ss_pe, y.size - len(groups)))
+    F, p = stats.f_oneway(*groups)
+    assert lof["chi2_red"] == pytest.approx(F, rel=1e-6)
+    assert lof["p_value"] == pytest.approx(p, rel=1e-6)
+    assert lof["dof"] == len(groups) - 1
+
+
+def test_lack_of_fit_cannot_be_judged_without_sigma_or_repeats():
+    fr = FitResult(("a",), np.zeros(1), np.zeros(1), 3.0, 50, 1, False, True)
+    lof = lack_of_fit(fr)
+    assert lof["p_value"] is None and "cannot be judged" in lof["note"]
+
+
+def _linear_problem(cols, sigma_known=True):
+    """Whitened residuals of y = 0 against sum_j theta_j cols[:, j] (terms 'base' + one per column)."""
+    x = np.linspace(-1, 1, cols.shape[0])
+    terms = {"base": Term("base", (Param("a", 1.0, scale=1.0, null=1.0),))}
+    names = []
+    for j in range(cols.shape[1]):
+        terms[f"t{j}"] = Term(f"t{j}", (Param("c", 0.0, lower=-10, upper=10, scale=1.0),))
+        names.append(f"t{j}")
+
+    def res(nm, th):
+        f = th[0] * x
+        for k, n in enumerate(nm[1:], start=1):
+            f = f + th[k] * cols[:, int(n[1:])]
+        return x - f
+
+    return Problem(res, terms, np.arange(x.size) // 4, sigma_known, ("base",)), x
+
+
+def test_observability_finds_the_known_null_direction():
+    """A two-parameter term whose second parameter never enters the residuals, and one whose two
+    parameters enter only through their sum: one parameter held fixed in each; a term with
+    no effect at all is not observable."""
+    x = np.linspace(-1, 1, 80)
+    terms = {"base": Term("base", (Param("a", 1.0, scale=1.0, null=1.0),)),
+             "dead": Term("dead", (Param("u", 0.0, lower=-10, upper=10, scale=1.0),
+                                   Param("v", 0.0, lower=-10, upper=10, scale=1.0))),
+             "sum": Term("sum", (Param("u", 0.0, lower=-10, upper=10, scale=1.0),
+                                 Param("v", 0.0, lower=-10, upper=10, scale=1.0))),
+             "none": Term("none", (Param("u", 0.0, lower=-10, upper=10, scale=1.0),))}
+
+    def res(names, th):
+        f = th[0] * x
+        if names[1:] == ("dead",):
+            f = f + th[1] * x**2
+        elif names[1:] == ("sum",):
+            f = f + (th[1] + th[2]) * np.sin(3 * x)
+        return (x - f) / 0.01
+
+    prob = Problem(res, terms, np.arange(80) // 4, True, ("base",))
+    base = fit_terms(prob, ("base",))
+    dead = observe.term_sensitivity(prob, base.theta, "base", "dead")
+    assert dead.free == (0,) and dead.fixed == (1,)
+    s = observe.term_sensitivity(prob, base.theta, "base", "sum")
+    assert len(s.free) == 1 and len(s.fixed) == 1
+    none = observe.term_sensitivity(prob, base.theta, "base", "none")
+    assert not none.observable
+
+
+def test_confounding_of_constructed_collinear_signatures():
+    """Signatures x^2 and x^2 + 0.001 sin(5x) are collinear (corr > 0.99); x^2 and x^3 are not;
+    x and 2x + x^2 are collinear once the calibration column x is projected out only if the rest is."""
+    x = np.linspace(-1, 1, 200)
+    a, b, c = x**2, x**2 + 1e-3 * np.sin(5 * x), x**3
+    assert observe.canonical_correlation(a[:, None], b[:, None]) > 0.99
+    assert observe.canonical_correlation(a[:, None], c[:, None]) < 0.1
+    cal = x[:, None]
+    # raw correlation of x^3 and x is high (0.92), partial correlation with x projected out is not 1
+    assert observe.canonical_correlation(c[:, None], cal) > 0.9
+    assert observe.partial_correlation((x + x**2)[:, None], (2 * x + x**2)[:, None], cal) == pytest.approx(1.0)
+    # a signature entirely in the calibration's span is mimicked by it, with the right coefficient
+    R, coef = observe.mimicry((3 * x)[:, None], cal)
+    assert R == pytest.approx(1.0) and coef[0, 0] == pytest.approx(3.0)
+
+
+# ---------------------------------------------------------------- what the 3-PUU data can see
+
+def test_leg_bending_coupling_unobservable_and_foot_coupling_observable_by_the_compliance():
+    """Independent of the fit: the 3-PUU compliance does not change when the leg's c26/c35 are
+    zeroed (U-U leg), but does when the foot's are zeroed, except at Q0 (seed: 0 at Q0, ~2 % at Q2)."""
+    full = vjm.load_model(PUU)
+    Q0, Q2 = np.zeros((1, 3)), np.full((1, 3), 73.65)
+
+    def zero_coupling(m, key):
+        C = getattr(m, key).compliance.copy()
+        C[1, 5] = C[5, 1] = C[2, 4] = C[4, 2] = 0.0
+        return m.replace(**{key: Link(C, None)})
+
+    C = full.stiffness_map(np.vstack([Q0, Q2])).C
+    Cl = zero_coupling(full, "leg").stiffness_map(np.vstack([Q0, Q2])).C
+    Cf = zero_coupling(full, "foot").stiffness_map(np.vstack([Q0, Q2])).C
+    rel = lambda A, B: np.abs(A - B).max() / np.abs(B).max()  # noqa: E731
+    assert rel(Cl[1], C[1]) < 1e-9 and rel(Cl[0], C[0]) < 1e-9
+    assert rel(Cf[0], C[0]) < 1e-9
+    assert rel(Cf[1], C[1]) > 1e-3
+    # and the diagnosis agrees: the leg's coupling is reported not observable, never fitted
+    data = simulate(MODEL, [], P, W, NOISE, None, 0)
+    rep = diagnose(MODEL, data, effects=["leg_bending_coupling", "gravity"]).report
+    assert "leg_bending_coupling" in rep["unobservable"]
+    assert rep["candidates"]["leg_bending_coupling"]["observable"] is False
+    assert rep["candidates"]["leg_bending_coupling"]["p_value"] is None
+
+
+# ---------------------------------------------------------------- verdicts on the 3-PUU
+
+def test_clean_data_verdict_no_discrepancy_and_report_keys():
+    data = simulate(MODEL, [], P, W, NOISE, None, 11)
+    dg = vjm.diagnose(MODEL, data, effects=FEW)
+    rep = dg.report
+    assert dg.verdict == "no_discrepancy" and dg.named == []
+    lof = rep["lack_of_fit"]
+    assert set(lof) >= {"chi2_red", "dof", "p_value"} and lof["p_value"] > lof["alpha"]
+    assert lof["alpha"] == pytest.approx(0.01 / (rep["n_tested"] + 1))
+    assert isinstance(rep["confounded"], list)
+    text = str(dg.summary())
+    assert text.startswith("Verdict: no discrepancy")
+    assert "<table" in dg._repr_html_()
+
+
+def _upward(model, F):
+    """An upward force F on the platform (not a weight), written here: C(p) (0, 0, +F, 0, 0, 0)."""
+    C = model.stiffness_map(P).C
+    return F * C[:, :, 2]
+
+
+def test_out_of_library_effects_end_unexplained():
+    """Two terms written here, not in the library: an upward force (gravity's fit stays at its
+    bound W >= 0 and is not named), and a contact that stiffens with the load (deflection
+    ~ |F|^(2/3) along F).  Both: verdict unexplained and the summary says where the gap is."""
+    base = simulate(MODEL, [], P, W, NOISE, None, 3)
+    for extra in (_upward(MODEL, 20.0),
+                  np.hstack([3e-3 * (np.abs(W[:, :3]) / 100.0) ** (2 / 3) * np.sign(W[:, :3]), np.zeros((len(W), 3))])):
+        T = base.T.copy()
+        T[:, :3] += extra[:, :3]
+        d = Deflections(base.P, base.W, T, base.sigma_t, None, base.rows, "x.csv")
+        rep = diagnose(MODEL, d, effects=FEW).report
+        assert rep["verdict"] == "unexplained", rep["summary"]
+        assert rep["lack_of_fit"]["p_value"] < rep["lack_of_fit"]["alpha"]
+        assert "no candidate of the library explains it" in rep["summary"]
+        assert "Where the remaining gap is" in rep["summary"]
+        if "gravity" in rep["candidates"] and rep["candidates"]["gravity"]["params"]:
+            assert "gravity" not in rep["named_effects"]
+
+
+def test_named_effect_with_remaining_gap_is_unexplained():
+    """A library effect (weight, written here as C (0,0,-W)) plus an out-of-library contact term:
+    gravity may be named, the verdict is still unexplained."""
+    C = MODEL.stiffness_map(P).C
+    base = simulate(MODEL, [], P, W, NOISE, None, 4)
+    T = base.T.copy()
+    T[:, :3] += -15.0 * C[:, :3, 2] + 4e-3 * (np.abs(W[:, :3]) / 100.0) ** 2 * np.sign(W[:, :3])
+    rep = diagnose(MODEL, Deflections(base.P, base.W, T, base.sigma_t, None, base.rows, "y.csv"), effects=FEW).report
+    assert rep["verdict"] == "unexplained", rep["summary"]
+    assert "gravity" in rep["named_effects"]
+
+
+def test_clipped_fit_is_never_named():
+    """A leg 40x softer in torsion than the model (truth built here by editing c44), fitted by a
+    candidate whose factor range ends at 20x: the fit ends on its bound, is flagged, is not named,
+    and the verdict is not "explained"."""
+    C = MODEL.leg.compliance.copy()
+    C[3, 3] *= 40.0
+    soft = MODEL.replace(leg=Link(C, None))
+    data = simulate(soft, [], P, W, NOISE, None, 1)
+    rep = diagnose(MODEL, data, effects=["leg_torsion"]).report
+    c = rep["candidates"]["leg_torsion"]
+    assert c["at_bound"] == ["factor"], c
+    assert rep["named_effects"] == [] and rep["verdict"] == "unexplained", rep["summary"]
+    assert any("on a bound" in f for f in rep["flags"]), rep["flags"]
+
+
+# ---------------------------------------------------------------- suggested measurements
+
+def _cli():
+    app = typer.Typer()
+    register(app)
+
+    @app.callback()
+    def _root():
+        pass
+
+    return app
+
+
+def test_suggest_file_is_read_by_simulate(tmp_path):
+    """diagnose --suggest 10 writes x,y,z,Fx..Mz rows with the data's load magnitudes; vjm simulate
+    --poses F --loads F reads them as 10 paired measurements at exactly those rows."""
+    data = simulate(MODEL, [], P, W, NOISE, None, 2)
+    csv = tmp_path / "d.csv"
+    write_deflections(csv, data)
+    runner = CliRunner()
+    out = tmp_path / "rep"
+    r = runner.invoke(_cli(), ["diagnose", PUU, str(csv), "--out", str(out), "--suggest", "10",
+                               "--effect", "gravity", "--effect", "clearance"])
+    assert r.exit_code == 0, r.output
+    nm = out / "next_measurements.csv"
+    lines = [ln for ln in nm.read_text().splitlines() if not ln.startswith("#")]
+    assert lines[0] == "x,y,z,Fx,Fy,Fz,Mx,My,Mz" and len(lines) == 11
+    rows = np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]])
+    f = np.linalg.norm(rows[:, 3:6], axis=1)
+    m = np.linalg.norm(rows[:, 6:], axis=1)
+    assert np.all((np.isclose(f, 100.0) & (m == 0)) | ((f == 0) & np.isclose(m, 100.0 * 100.0)))
+    assert np.all(MODEL.arch.reachable(MODEL, rows[:, :3]))
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["suggest"]["n"] == 10 and ("D-optimal" in rep["suggest"]["criterion"] or
+                                         "T-optimal" in rep["suggest"]["criterion"])
+    sim = tmp_path / "new.csv"
+    r = runner.invoke(_cli(), ["simulate", PUU, "--poses", str(nm), "--loads", str(nm), "--noise-t", "0.001",
+                               "--out", str(sim)])
+    assert r.exit_code == 0, r.output
+    d2 = read_csv(sim)
+    assert d2.n == 10
+    np.testing.assert_allclose(d2.P, rows[:, :3])
+    np.testing.assert_allclose(d2.W, rows[:, 3:])
+
+
+def test_suggest_forces_only_has_no_moments():
+    data = simulate(MODEL, [], P, W, NOISE, None, 2)
+    dg = diagnose(MODEL, data, effects=["gravity", "clearance"], suggest=6, forces_only=True)
+    assert dg.next_measurements.shape == (6, 9)
+    assert np.all(dg.next_measurements[:, 6:] == 0)
+    assert dg.report["suggest"]["forces_only"] is True
+
+
+@pytest.mark.slow
+def test_suggested_measurements_separate_a_confounded_pair():
+    """8 postures near Q0 under forces only: a hidden elastic passive joint is reported in a group it
+    cannot be separated from (the leg's torsion, the foot, ...).  Measuring the 24 suggested rows
+    (T-optimal, torques allowed) and diagnosing old + new data resolves the group: the passive
+    joints are named alone."""
+    rng = np.random.default_rng(1)
+    P0 = rng.uniform(-15.0, 15.0, (8, 3))
+    L = design_loads("axes:100", len(P0), rng)
+    Pq, Wq = np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6)
+    truth = [("passive_joint_compliance", {"compliance": 2e-7})]
+    eff = ["passive_joint_compliance", "foot_compliance", "gravity"]
+    d1 = simulate(MODEL, truth, Pq, Wq, NOISE, None, 1)
+    dg = diagnose(MODEL, d1, effects=eff, suggest=24)
+    grp = [g for g in dg.confounded if "passive_joint_compliance" in g]
+    assert grp and "foot_compliance" in grp[0], dg.report["summary"]
+    new = dg.next_measurements
+    d2 = simulate(MODEL, truth, new[:, :3], new[:, 3:], NOISE, NOISE * 1e-2, 2)
+    T2 = d2.T.copy()
+    T2[:, 3:] = np.nan  # the same rig: translations only
+    both = Deflections(np.vstack([d1.P, d2.P]), np.vstack([d1.W, d2.W]), np.vstack([d1.T, T2]),
+                       np.r_[d1.sigma_t, d2.sigma_t], None)
+    rep = diagnose(MODEL, both, effects=eff).report
+    assert rep["named_effects"] == ["passive_joint_compliance"], rep["summary"]
+    assert not any("passive_joint_compliance" in g and "foot_compliance" in g for g in rep["confounded"]), rep["summary"]
