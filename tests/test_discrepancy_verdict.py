@@ -15,7 +15,6 @@ from scipy import stats
 from typer.testing import CliRunner
 
 import vjm
-from vjm.discrepancy import modelops as mo
 from vjm.discrepancy import observe
 from vjm.discrepancy.cli import register
 from vjm.discrepancy.data import Deflections, read_csv, write_deflections

@@ -10,7 +10,6 @@ import os
 from dataclasses import dataclass
 
 import numpy as np
-
 from scipy import stats
 
 from ..errors import VjmError
@@ -383,10 +382,10 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
                 vals[nm] = d["fit"].term_theta(prob, nm)
         for nm in final.names:
             vals[nm] = final.term_theta(prob, nm)
-        comp = np.flatnonzero(mask.any(axis=0))
-        sd = np.where(mask, sigm, np.inf)[:, comp]
-        sp = np.median(sigm[:, comp], axis=0)
-        sg = _suggest(model, pred, (comp, sd, sp), vals, rep, int(suggest), forces_only)
+        mcomp = np.flatnonzero(mask.any(axis=0))
+        sd = np.where(mask, sigm, np.inf)[:, mcomp]
+        sp = np.median(sigm[:, mcomp], axis=0)
+        sg = _suggest(model, pred, (mcomp, sd, sp), vals, rep, int(suggest), forces_only)
         nxt = sg.rows
         rep["suggest"] = {"n": int(suggest), "file": "next_measurements.csv", "criterion": sg.criterion,
                           "targets": sg.targets, "criterion_before": sg.before, "criterion_after": sg.after,
