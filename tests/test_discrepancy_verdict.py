@@ -307,3 +307,27 @@ def test_suggested_measurements_separate_a_confounded_pair():
     rep = diagnose(MODEL, both, effects=eff).report
     assert rep["named_effects"] == ["passive_joint_compliance"], rep["summary"]
     assert not any("passive_joint_compliance" in g and "foot_compliance" in g for g in rep["confounded"]), rep["summary"]
+
+
+def test_independent_columns_drops_a_dependent_one():
+    x = np.linspace(-1, 1, 50)
+    J = np.stack([x, x**2, 2 * x + 1e-4 * x**3, np.zeros_like(x), x**3], axis=1)
+    assert observe.independent_columns(J) == (0, 1, 4)
+
+
+def test_calibration_factor_inseparable_on_the_data_is_held_at_nominal():
+    """Postures within 2 mm of Q0 under forces only: leg axial compliance and actuator compliance act
+    in series along the same axes, so link_scale cannot be told from actuator_scale; it is held at 1,
+    flagged, and the actuator factor (truth 0.8, set here on the model) is still found."""
+    rng = np.random.default_rng(3)
+    P0 = rng.uniform(-2.0, 2.0, (6, 3))
+    L = design_loads("axes:100", len(P0), rng)
+    Pq, Wq = np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6)
+    a = MODEL.actuator
+    data = simulate(MODEL.replace(actuator=type(a)(0.8 * a.stiffness, a.compliance_slope, a.q_ref)), [],
+                    Pq, Wq, NOISE, None, 5)
+    rep = diagnose(MODEL, data, effects=["gravity"]).report
+    assert rep["calibration_held"] == {"link_scale": 1.0}
+    assert any("link_scale held" in f for f in rep["flags"])
+    act = rep["calibration"]["actuator_scale"]
+    assert abs(act["value"] - 0.8) <= 3 * act["se"], act

@@ -217,9 +217,22 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         sigma_source = "from the file (sigma_rel)" if sigma_known else "estimated from the residuals (F test)"
         prob = stiffness_problem(pred, data, sig_rel, sigma_known)
 
-    # what this data can see: candidates with no observable parameter are never fitted
+    # what this data can see.  The calibration first: a factor whose column is (nearly) a
+    # combination of the ones before it (e.g. link_scale next to actuator_scale on postures near
+    # Q0, where leg and actuator are in series along the same axis) is held at nominal
+    cal_specs = terms[CALIBRATION].params
+    th_cal = np.array([p.start for p in cal_specs])
+    cal_free = observe.independent_columns(observe.calibration_columns(prob, th_cal, CALIBRATION))
+    cal_held = {cal_specs[i].name: float(th_cal[i]) for i in range(len(cal_specs)) if i not in cal_free}
+    if cal_held:
+        pred.fixed[CALIBRATION] = (len(cal_specs), tuple(cal_free), list(th_cal))
+        terms[CALIBRATION] = Term(CALIBRATION, tuple(cal_specs[i] for i in cal_free), terms[CALIBRATION].description)
+        if log:
+            log("calibration held at nominal (not separable on this data): " + ", ".join(cal_held))
+    # then the candidates: those with no observable parameter are never fitted
     base0 = fit_terms(prob, (CALIBRATION,))
     cal_cols = observe.calibration_columns(prob, base0.theta, CALIBRATION)
+    cal_q = observe._orth(cal_cols)
     sens, unobservable, full_terms = {}, {}, {}
     for nm in cands:
         ts = observe.term_sensitivity(prob, base0.theta, CALIBRATION, nm)
@@ -229,6 +242,13 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
             unobservable[nm] = (f"not observable on this data: over its whole allowed range it changes the "
                                 f"predictions by at most {float(np.max(ts.norms, initial=0.0)):.2g} sigma (root of the "
                                 f"chi-square change); never fitted")
+            continue
+        # what is left of its signature once the calibration has done what it can
+        part = observe.project_out(ts.Jfree, cal_q)
+        left = float(np.max(np.linalg.norm(part, axis=0), initial=0.0))
+        if left < observe.NOISE_NORM:
+            unobservable[nm] = (f"not separable from the calibration on this data: what the calibration cannot "
+                                f"imitate of it stays below {left:.2g} sigma over its whole range; never fitted")
         elif ts.fixed:
             specs = terms[nm].params
             pred.fixed[nm] = (len(specs), ts.free, [p.start for p in specs])
@@ -290,7 +310,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         per_after = _per_pose((rw_f / s)[:, None], m1, idx, len(U))
 
     # updated model: calibration + named effects
-    upd = apply_calibration(model, final.term_theta(prob, CALIBRATION))
+    upd = apply_calibration(model, pred.full_theta(CALIBRATION, final.term_theta(prob, CALIBRATION)))
     for nm in sel.selected:
         upd = fx.get(nm).save(upd, pred.full_theta(nm, final.term_theta(prob, nm)))
     if kind == "deflection":
@@ -328,6 +348,9 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
 
     conf = _confounding(prob, sel, sens, cal_cols, cand_rep, alpha)
     flags = _flags(prob, sel, final, cand_rep)
+    for k, v in cal_held.items():
+        flags.append(f"calibration {k} held at {v:g}: on this data it cannot be told apart from "
+                     f"{', '.join(p.name for p in prob.terms[CALIBRATION].params)}")
     cal_names = [p.name for p in prob.terms[CALIBRATION].params]
     for i in range(len(cal_names)):
         for j in range(i + 1, len(cal_names)):
@@ -356,6 +379,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         "test": "likelihood-ratio chi2 test" if sigma_known else "F test",
         "alpha": alpha, "cv_baseline": sel.cv_baseline, "cv_folds": folds,
         "calibration": final_vals[CALIBRATION],
+        "calibration_held": cal_held,
         "final_params": final_vals,
         "localization": loc,
         "localization_after": loc_after,
@@ -445,7 +469,7 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha):
     worse by more than the chi-square(1) margin in its round, or could not
     fit) is never grouped, however collinear the linearised signatures.
     """
-    names = [n for n, ts in sens.items() if ts.observable]
+    names = [n for n, ts in sens.items() if ts.observable and cand_rep.get(n, {}).get("p_value") is not None]
     Q = observe._orth(cal_cols)
     resid = {n: observe.project_out(sens[n].Jfree, Q) for n in names}
     raw = {n: np.linalg.norm(sens[n].Jfree) for n in names}

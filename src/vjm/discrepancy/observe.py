@@ -113,6 +113,28 @@ def term_sensitivity(problem, base_theta, cal_name, name) -> TermSensitivity:
     return TermSensitivity(name, J, norms, tuple(free), fixed)
 
 
+#: sine of the angle below which a column counts as lying in the span of the columns before it
+DEPENDENT = 0.05
+
+
+def independent_columns(J, tol=DEPENDENT) -> tuple:
+    """Indices of the columns of J kept in order (Gram-Schmidt): a column whose component
+    orthogonal to the kept ones is below ``tol`` x its norm (correlation above ~0.9987) is dropped."""
+    kept: list = []
+    Q = np.zeros((J.shape[0], 0))
+    for j in range(J.shape[1]):
+        v = J[:, j]
+        n = np.linalg.norm(v)
+        if not np.isfinite(n) or n == 0:
+            continue
+        r = v - Q @ (Q.T @ v)
+        if np.linalg.norm(r) < tol * n:
+            continue
+        kept.append(j)
+        Q = np.hstack([Q, (r / np.linalg.norm(r))[:, None]])
+    return tuple(kept)
+
+
 def _orth(A, tol=1e-10):
     """Orthonormal basis of the column space of A (SVD, relative tolerance)."""
     if A.size == 0:
