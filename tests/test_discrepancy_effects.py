@@ -38,7 +38,7 @@ NOISE = 1e-3  # mm
 # effects the original library had (renamed or reshaped since): strict checks at 3 seeds
 TRUTH = {
     "leg_extension_torsion": {"kappa": 0.5},
-    "foot_compliance": {"axial": 2e-5, "bending_y": 4e-5, "bending_z": 4e-5, "torsion": 2e-8, "length": 80.0},
+    "foot_compliance": {"axial": 5e-5, "bending_y": 5e-4, "bending_z": 5e-4, "torsion": 1e-7, "length": 80.0},
     "passive_joint_compliance": {"compliance": 1e-7},
     "actuator_travel_stiffness": {"slope": 0.003},
     "gravity": {"weight": 10.0},
