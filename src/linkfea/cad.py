@@ -112,7 +112,8 @@ def is_step(spec) -> bool:
 
 def build_link(spec, params: dict | None = None, material: str | None = None,
                base=None, tip=None, with_block: bool = True, block_length: float | None = None) -> Link:
-    """Build a :class:`Link` from a cad/ script (name or path) or a STEP file.
+    """Build a :class:`Link` from a cad/ script (name or path), a STEP file or a triangle surface
+    (STL, OBJ, PLY: :mod:`linkfea.surface`).
 
     For scripts, ``base``/``tip`` override the script's selectors and
     ``material`` the script's material; a new ``tip`` also rebuilds the frame
@@ -121,6 +122,15 @@ def build_link(spec, params: dict | None = None, material: str | None = None,
     """
     if material is not None:
         get_material(material)
+    from .surface import is_surface, load_surface
+
+    if is_surface(spec):
+        if params:
+            raise LinkFeaError("--param applies to cad/ scripts, not to surface files")
+        if base is None or tip is None:
+            raise LinkFeaError("a surface file (STL, OBJ, PLY) needs --base and --tip selectors")
+        return load_surface(spec, parse_selector(base), parse_selector(tip), material or "steel",
+                            with_block=with_block, block_length=block_length)
     if is_step(spec):
         if params:
             raise LinkFeaError("--param applies to cad/ scripts, not to STEP files")

@@ -40,7 +40,7 @@ def _fail(msg: str) -> None:
 
 @app.command()
 def compute(
-    spec: str = typer.Argument(..., help="cad/ script (path or name such as 'bar') or a STEP file"),
+    spec: str = typer.Argument(..., help="cad/ script (path or name such as 'bar'), a STEP file or an STL/OBJ/PLY surface"),
     param: Optional[List[str]] = typer.Option(None, "--param", "-p", help="script parameter NAME=VALUE (repeatable)"),
     mesh_size: Optional[float] = typer.Option(None, "--mesh-size", help="target tet edge length, mm"),
     mode: str = typer.Option("rigid", "--mode", help="rigid (exact tip coupling) or block (pseudo-rigid block)"),
@@ -52,7 +52,8 @@ def compute(
     envelope: Optional[float] = typer.Option(None, "--envelope",
                                              help="mesher envelope / bbox diagonal (default 1e-3; smaller = "
                                                   "closer to small curved faces, slower)"),
-    mesher: str = typer.Option("gmsh", "--mesher", help="gmsh (CAD-exact faces, default) or pytetwild (fTetWild)"),
+    mesher: Optional[str] = typer.Option(None, "--mesher", help="gmsh (CAD-exact faces; default for scripts and "
+                                         "STEP) or pytetwild (fTetWild; default for STL/OBJ/PLY)"),
     assembler: str = typer.Option("kernel", "--assembler",
                                   help="stiffness assembly: kernel (fast) or skfem (scikit-fem's asm, reference)"),
     out: Path = typer.Option(Path("out/result.json"), "--out", "-o", help="result JSON; .vtu and .png go beside it"),

@@ -34,7 +34,7 @@ def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, m
 def compute(spec, params: dict | None = None, mesh_size: float | None = None, mode: str = "rigid",
             block_ratio: float = 1000.0, material: str | None = None, base=None, tip=None,
             convergence: bool = False, progress: Callable[[str], None] | None = None,
-            cache_dir=None, epsilon: float | None = None, mesher: str = "gmsh",
+            cache_dir=None, epsilon: float | None = None, mesher: str | None = None,
             assembler: str = "kernel") -> LinkResult:
     """Compute a link's 6x6 compliance at its reference frame.
 
@@ -64,8 +64,9 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         fTetWild envelope relative to the bounding-box diagonal (default
         :data:`linkfea.mesh.DEFAULT_EPSILON` = 1e-3).  Smaller follows small
         curved faces more closely (see ``mesh.quality``) but meshes much slower.
-    mesher : {"gmsh", "pytetwild"}
-        gmsh meshes the CAD faces exactly (default); pytetwild meshes a tessellation.
+    mesher : {"gmsh", "pytetwild"}, optional
+        gmsh meshes the CAD faces exactly (default for scripts and STEP); pytetwild meshes a
+        tessellation (default for STL, OBJ and PLY surfaces).
     assembler : {"kernel", "skfem"}
         Stiffness assembly (see :func:`linkfea.fem.solve_link`); ``skfem`` is the slower
         reference path, equal to round-off.
@@ -85,7 +86,10 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
                                 and block_ratio > 1):
         raise LinkFeaError(f"block ratio must be a number > 1, got {block_ratio}")
     from .mesh import MESHERS
+    from .surface import is_surface
 
+    if mesher is None:
+        mesher = "pytetwild" if is_surface(spec) else "gmsh"
     if mesher not in MESHERS:
         raise LinkFeaError(f"unknown mesher {mesher!r}; use gmsh or pytetwild")
     if mesh_size is not None and not (math.isfinite(mesh_size) and mesh_size > 0):

@@ -1,0 +1,109 @@
+"""Triangle-surface input (STL, OBJ, PLY): a closed triangle mesh made into a link.
+
+Surfaces from topology optimisation, scans or other tools have no B-rep.  The
+triangles are read with trimesh, checked and repaired only where that is safe
+(coincident vertices merged, degenerate and duplicate triangles dropped,
+winding made consistent and outward); a surface that is still open is an error.
+Each triangle then becomes a planar face of an OpenCASCADE solid, so the
+selectors (``plane:``, ``box:``) pick input triangles, and the frame and block
+follow the STEP rules (:func:`linkfea.step.interface_frame_and_block`).  Such
+links are meshed by pytetwild by default (fTetWild is made for triangle soups).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .errors import LinkFeaError
+from .frames import Frame
+from .materials import get_material
+from .selectors import Selector
+
+if TYPE_CHECKING:
+    from .cad import Link
+
+SUFFIXES = (".stl", ".obj", ".ply")
+
+
+def is_surface(spec) -> bool:
+    return Path(str(spec)).suffix.lower() in SUFFIXES
+
+
+def read_surface(path) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (n, 3) and outward triangles (m, 3) of a closed surface file, after the safe repairs."""
+    import trimesh
+
+    path = Path(path)
+    if not path.is_file():
+        raise LinkFeaError(f"surface file {str(path)!r} not found")
+    try:
+        tm = trimesh.load(str(path), force="mesh", process=True)
+    except Exception as exc:  # trimesh raises various errors on unreadable files
+        raise LinkFeaError(f"cannot read surface file {str(path)!r}: {exc}") from None
+    if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
+        raise LinkFeaError(f"{path.name}: no triangles in the file")
+    tm.update_faces(tm.nondegenerate_faces())
+    tm.update_faces(tm.unique_faces())
+    tm.remove_unreferenced_vertices()
+    if not tm.is_watertight:
+        edges = np.sort(tm.edges, axis=1)
+        _, counts = np.unique(edges, axis=0, return_counts=True)
+        raise LinkFeaError(f"{path.name}: the surface is not watertight ({int(np.sum(counts == 1))} open edges); "
+                           "close it in the tool that made it and export again")
+    trimesh.repair.fix_winding(tm)
+    trimesh.repair.fix_inversion(tm)
+    if not (tm.is_winding_consistent and tm.volume > 0):
+        raise LinkFeaError(f"{path.name}: the surface has no consistent outward orientation (self-intersecting?)")
+    return np.asarray(tm.vertices, dtype=float), np.asarray(tm.faces, dtype=np.int64)
+
+
+def solid_from_triangles(V: np.ndarray, F: np.ndarray, label: str):
+    """An OpenCASCADE solid with one planar face per triangle (sewn, closed)."""
+    import cadquery as cq
+    from OCP.BRepBuilderAPI import (
+        BRepBuilderAPI_MakeFace,
+        BRepBuilderAPI_MakePolygon,
+        BRepBuilderAPI_MakeSolid,
+        BRepBuilderAPI_Sewing,
+    )
+    from OCP.gp import gp_Pnt
+    from OCP.TopAbs import TopAbs_SHELL
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    sew = BRepBuilderAPI_Sewing(1e-9 * max(float(np.ptp(V, axis=0).max()), 1.0))
+    for tri in F:
+        poly = BRepBuilderAPI_MakePolygon(*(gp_Pnt(*map(float, V[i])) for i in tri), True)
+        sew.Add(BRepBuilderAPI_MakeFace(poly.Wire(), True).Face())
+    sew.Perform()
+    exp = TopExp_Explorer(sew.SewedShape(), TopAbs_SHELL)
+    if not exp.More():
+        raise LinkFeaError(f"{label}: the triangles do not sew into a closed shell")
+    solid = cq.Solid(BRepBuilderAPI_MakeSolid(TopoDS.Shell_s(exp.Current())).Solid())
+    if solid.Volume() < 0:
+        solid = cq.Solid(solid.wrapped.Reversed())
+    if not (solid.isValid() and solid.Volume() > 0):
+        raise LinkFeaError(f"{label}: the triangles do not make a valid closed solid")
+    return solid
+
+
+def load_surface(path, base: Selector, tip: Selector, material: str = "steel",
+                 with_block: bool = True, block_length: float | None = None) -> Link:
+    """A :class:`linkfea.cad.Link` from a closed triangle surface (see the module docstring)."""
+    from .cad import Link, check_link
+    from .step import interface_frame_and_block
+
+    path = Path(path)
+    V, F = read_surface(path)
+    body = solid_from_triangles(V, F, path.name)
+    get_material(material)
+    link = Link(name=path.stem, body=body, block=None, base=base, tip=tip,
+                frame=Frame(np.zeros(3), np.eye(3)), params={}, material=material, source=str(path))
+    check_link(link)
+    frame, block, h = interface_frame_and_block(body, link.base_faces, link.tip_faces, with_block,
+                                                block_length, path.name)
+    return Link(name=path.stem, body=body, block=block, base=base, tip=tip, frame=frame,
+                params={"block_length": h} if with_block and h is not None else {},
+                material=material, source=str(path))
