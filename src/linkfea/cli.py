@@ -152,6 +152,59 @@ def compare_cmd(
         con.print(f"wrote {', '.join(str(Path(out) / n) for n in ('compare.json', 'compare.md', 'compare.png'))}")
 
 
+@app.command("sweep")
+def sweep_cmd(
+    spec: str = typer.Argument(..., help="cad/ script (path or name such as 'bar') or a STEP file"),
+    param: Optional[List[str]] = typer.Option(None, "--param", "-p",
+                                              help="NAME=SPEC, SPEC a list 10,15,20 or a range lo:hi:step "
+                                                   "(repeatable: full grid)"),
+    sample: Optional[int] = typer.Option(None, "--sample", help="a Latin hypercube of N designs instead of the grid"),
+    seed: Optional[int] = typer.Option(None, "--seed", help="seed of the Latin hypercube"),
+    mesh_size: Optional[float] = typer.Option(None, "--mesh-size", help="target tet edge length, mm"),
+    mode: str = typer.Option("rigid", "--mode", help="rigid (exact tip coupling) or block (pseudo-rigid block)"),
+    block_ratio: float = typer.Option(1000.0, "--block-ratio", help="block stiffness factor E_block/E (block mode)"),
+    material: Optional[str] = typer.Option(None, "--material", help="material name (steel, aluminium, ...)"),
+    base: Optional[str] = typer.Option(None, "--base", help="base selector (required for STEP files)"),
+    tip: Optional[str] = typer.Option(None, "--tip", help="tip selector (required for STEP files)"),
+    envelope: Optional[float] = typer.Option(None, "--envelope", help="mesher envelope / bbox diagonal"),
+    convergence: bool = typer.Option(False, "--convergence", help="3 mesh sizes + Richardson error estimate"),
+    mesher: str = typer.Option("gmsh", "--mesher", help="gmsh (CAD-exact faces, default) or pytetwild (fTetWild)"),
+    out: Path = typer.Option(..., "--out", "-o", help="output folder: sweep.parquet, sweep.csv, sweep.png, results/"),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of a running Dask scheduler"),
+    workers: Optional[int] = typer.Option(None, "--workers", help="local worker processes (default: one per core)"),
+    memory_limit: str = typer.Option("auto", "--memory-limit", help="per local worker, e.g. 4GB (auto: RAM/workers)"),
+    retry_failed: bool = typer.Option(False, "--retry-failed", help="recompute designs recorded as failed"),
+    plot: Optional[str] = typer.Option(None, "--plot", help="compliance entries to plot, e.g. dy_Fy,rz_Mz "
+                                                            "(default: the diagonal)"),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar or summary"),
+):
+    """Run the pipeline over a grid or sample of link parameters on Dask (resumable)."""
+    from .sweep import make_sweep, run_sweep
+
+    try:
+        sw = make_sweep(spec, param or [], dict(mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
+                                                material=material, base=base, tip=tip, envelope=envelope,
+                                                convergence=convergence or None, mesher=mesher),
+                        sample=sample, seed=seed)
+        if workers is not None and workers < 1:
+            raise LinkFeaError(f"--workers must be >= 1, got {workers}")
+        rep = run_sweep(sw, out, scheduler=scheduler, workers=workers, memory_limit=memory_limit,
+                        retry_failed=retry_failed, plot=plot.split(",") if plot else None, progress=not quiet)
+    except LinkFeaError as exc:
+        _fail(str(exc))
+    if not quiet or rep.interrupted:
+        n_ok = sum(r["status"] == "ok" for r in rep.rows)
+        print(f"{rep.n_designs} designs: {len(rep.skipped)} already done, {len(rep.computed)} computed, "
+              f"{len(rep.failed)} failed, {len(rep.unfinished)} unfinished; {n_ok} ok in the table "
+              f"({rep.seconds:.1f} s); wrote {out}/sweep.parquet, sweep.csv, sweep.png, results/", file=sys.stderr)
+    if rep.interrupted:
+        raise typer.Exit(code=130)
+    if rep.unfinished:
+        print(f"error: {len(rep.unfinished)} designs unfinished (lost workers); rerun to complete them",
+              file=sys.stderr)
+        raise typer.Exit(code=1)
+
+
 def main(argv=None) -> int:
     """Console entry point (``linkfea``)."""
     try:

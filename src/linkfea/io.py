@@ -2,7 +2,9 @@
 
 Schema (``"schema": "linkfea.result/1"``)::
 
-    name, source, params, material {name, E, nu}, mode, block_ratio,
+    name, source, params, material {name, E, nu, density (t/mm^3)}, mode, block_ratio,
+    volume_mm3   the link body's CAD volume, mm^3 (reference block excluded)
+    mass_kg      volume * density, kg (null if the material has no density)
     compliance   6x6 nested lists, t = C w
     stiffness    6x6 nested lists, inverse of compliance
     order        {"wrench": [Fx..Mz], "twist": [dx..rz]}

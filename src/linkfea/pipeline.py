@@ -135,4 +135,5 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     return LinkResult(value=comp.compliance, name=link.name, source=str(link.source), params=dict(link.params),
                       material=mat, mode=mode, block_ratio=float(block_ratio) if mode == "block" else None,
                       mesh_info=mesh_info, diagnostics=diagnostics, solver=dict(sol.solver), timing=timing,
-                      versions=versions(), link=link, mesh=mesh, solution=sol, fit=comp)
+                      versions=versions(), volume=float(link.body.Volume()), link=link, mesh=mesh, solution=sol,
+                      fit=comp)

@@ -50,6 +50,9 @@ class LinkResult:
         Seconds per stage: cad, mesh, assemble, factor, solve, fit (finest mesh), total.
     versions : dict
         Python and package versions of the run.
+    volume : float or None
+        CAD volume of the link body in mm^3 (the reference block is no part of the link);
+        with the material's density it gives :attr:`mass` in kg.
     link, mesh, solution, fit
         The CAD :class:`~linkfea.cad.Link`, the :class:`~linkfea.mesh.LinkMesh`, the
         :class:`~linkfea.fem.FeaSolution` and the :class:`~linkfea.fit.FittedCompliance`;
@@ -70,6 +73,7 @@ class LinkResult:
     solver: dict = field(default_factory=dict)
     timing: dict = field(default_factory=dict)
     versions: dict = field(default_factory=dict)
+    volume: Optional[float] = None
     link: Any = field(default=None, repr=False)
     mesh: Any = field(default=None, repr=False)
     solution: Any = field(default=None, repr=False)
@@ -101,6 +105,14 @@ class LinkResult:
     def units(self) -> dict:
         return self.value.units
 
+    @property
+    def mass(self) -> Optional[float]:
+        """The link body's mass in kg (None without a volume or a material density)."""
+        if self.volume is None:
+            return None
+        m = self.material.mass_kg(self.volume)
+        return m if np.isfinite(m) else None
+
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict:
         """The result JSON document (schema ``linkfea.result/1``)."""
@@ -112,8 +124,11 @@ class LinkResult:
             "name": self.name,
             "source": str(self.source),
             "params": dict(self.params),
-            "material": {"name": self.material.name, "E": self.material.E, "nu": self.material.nu},
+            "material": {"name": self.material.name, "E": self.material.E, "nu": self.material.nu,
+                         "density": self.material.density},
             "mode": self.mode,
+            "volume_mm3": self.volume,
+            "mass_kg": self.mass,
             "block_ratio": self.block_ratio,
             "compliance": self.compliance,
             "stiffness": self.stiffness,
@@ -227,14 +242,17 @@ def load(path) -> LinkResult:
     doc = read_result(path)
     try:
         mat = doc["material"]
-        material = Material(str(mat["name"]), float(mat["E"]), float(mat["nu"]))
+        density = mat.get("density")
+        material = Material(str(mat["name"]), float(mat["E"]), float(mat["nu"]),
+                            None if density is None else float(density))
         return LinkResult(
             value=Compliance(doc["compliance"], doc["frame_obj"], doc["units"], what=f"{path}: compliance"),
             name=str(doc["name"]), source=str(doc["source"]), params=dict(doc.get("params") or {}),
             material=material, mode=str(doc["mode"]), block_ratio=doc.get("block_ratio"),
             mesh_info=dict(doc.get("mesh") or {}), diagnostics=dict(doc.get("diagnostics") or {}),
             solver=dict(doc.get("solver") or {}), timing=dict(doc.get("timing") or {}),
-            versions=dict(doc.get("versions") or {}), path=path)
+            versions=dict(doc.get("versions") or {}), path=path,
+            volume=None if doc.get("volume_mm3") is None else float(doc["volume_mm3"]))
     except (KeyError, TypeError, ValueError) as exc:
         raise LinkFeaError(f"{path}: not a complete linkfea result ({exc!r})") from None
 

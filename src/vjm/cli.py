@@ -103,6 +103,30 @@ def table1(model_puu: Path = typer.Argument(..., help="3-PUU model YAML"),
         typer.echo(line)
 
 
+@app.command("sweep")
+def sweep_cmd(model: Path = typer.Argument(..., help="model YAML"),
+              foot: Optional[Path] = typer.Option(None, "--foot", help="`linkfea sweep` folder or result JSON"),
+              leg: Optional[Path] = typer.Option(None, "--leg", help="`linkfea sweep` folder or result JSON"),
+              bar: Optional[Path] = typer.Option(None, "--bar", help="parallelogram legs: the bar's sweep or JSON"),
+              grid: int = typer.Option(9, "--grid", help="points per axis of the workspace grid"),
+              out: Path = typer.Option(..., "--out", help="output folder (tradeoffs.csv/.parquet, pareto.*)")):
+    """Machine trade-offs: every combination of link designs, worst/mean k_tran and k_rot, mass, Pareto set."""
+    from .sweep import sweep
+
+    try:
+        res = sweep(model, out, grid, foot=foot, leg=leg, bar=bar)
+    except user_errors() as exc:
+        _fail(exc)
+    front = sorted((r for r in res.rows if r["pareto"]), key=lambda r: r["moving_mass_kg"])
+    roles = [k for k in ("foot", "leg") if k in res.rows[0]]
+    typer.echo(f"{len(res.rows)} combinations on {res.n_points} reachable points; non-dominated "
+               f"(moving mass kg, worst k_tran mm/N):")
+    for r in front:
+        typer.echo("  " + " ".join(f"{k}={r[k]}" for k in roles)
+                   + f"  {r['moving_mass_kg']:.4g} kg  {r['k_tran_max']:.4g} mm/N")
+    typer.echo(f"wrote {out}/tradeoffs.csv, tradeoffs.parquet, pareto.csv, pareto.json, pareto.png")
+
+
 def _register_extensions():
     try:
         from .discrepancy.cli import register
