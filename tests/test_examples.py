@@ -81,9 +81,9 @@ def test_machine_map_from_fea(workdir, monkeypatch):
 
 def test_diagnose(workdir, monkeypatch):
     ns = _run("diagnose", workdir, monkeypatch)
-    rep = ns["rep"]
-    assert rep["named_effects"] == ["gravity"]
-    lo, hi = rep["final_params"]["gravity"]["weight"]["ci95"]
+    dg = ns["dg"]
+    assert dg.verdict == "explained" and dg.named == ["gravity"]
+    lo, hi = dg.report["final_params"]["gravity"]["weight"]["ci95"]
     assert lo < 15.0 < hi  # the hidden weight
     out = workdir / ns["OUT"]
     assert (out / "report.html").stat().st_size > 0 and (out / "model_updated.yaml").exists()

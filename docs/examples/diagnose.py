@@ -4,7 +4,8 @@
 # Measurements are simulated on a "true" machine: the 3-PUU model plus a 15 N weight on the
 # platform that the model does not know about, at 12 random postures under +-100 N along each
 # axis, with 1 um of noise.  The diagnosis calibrates the model, tests each candidate effect
-# of its library and names the one the data need.
+# of its library and names the one the data need, with a verdict: "explained" when the named
+# effects leave only noise, "unexplained" when a significant gap remains, "no_discrepancy".
 
 # %%
 from pathlib import Path
@@ -12,7 +13,6 @@ from pathlib import Path
 import numpy as np
 
 import vjm
-from vjm.discrepancy.diagnose import diagnose, write_diagnosis
 from vjm.discrepancy.simulate import design_loads, design_poses, simulate
 
 OUT = Path("out/examples/diagnose")
@@ -24,8 +24,15 @@ P, W = np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6)
 data = simulate(model, [("gravity", {"weight": 15.0})], P, W, 1e-3, None, seed=1)
 
 # %%
-dg = diagnose(model, data)
-rep = dg.report
-print(rep["summary"])
-print("named:", rep["named_effects"])
-write_diagnosis(dg, OUT)                            # report.html, report.json, model_updated.yaml
+dg = vjm.diagnose(model, data)
+print(dg.verdict, dg.named)
+print(dg.summary())
+dg.save(OUT)                                        # report.html, report.json, model_updated.yaml
+
+# %% [markdown]
+# The updated model carries the named effect with its fitted parameters (the `effects` of
+# `model_updated.yaml`); it loads and computes like any other model.
+
+# %%
+updated = dg.updated_model
+print(updated.effects)
