@@ -258,6 +258,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         log("not observable on this data: " + ", ".join(unobservable))
 
     sel = forward_select(prob, tested, alpha=alpha, max_effects=max_effects, folds=folds, log=log, extra_tests=1)
+    sel, rivals = _rival_check(prob, sel, tested, sens, cal_cols, alpha)
     base, final = sel.baseline, sel.final
 
     # lack of fit of the final model; its level shares alpha with the selection (Bonferroni)
@@ -346,7 +347,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         if ts.fixed and ts.observable:
             cand_rep[nm]["fixed"] = {specs[i].name: float(specs[i].start) for i in ts.fixed}
 
-    conf = _confounding(prob, sel, sens, cal_cols, cand_rep, alpha)
+    conf = _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals)
     flags = _flags(prob, sel, final, cand_rep)
     for k, v in cal_held.items():
         flags.append(f"calibration {k} held at {v:g}: on this data it cannot be told apart from "
@@ -450,7 +451,58 @@ def _pure_error(prob, data, kind):
     return ss, dof
 
 
-def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha):
+def _rival_check(prob, sel, tested, sens, cal_cols, alpha):
+    """Each named effect against its rivals, with the OTHER named effects in the model.
+
+    Forward selection compares candidates one round at a time, so an effect can
+    win its round only because a second effect was not in the model yet.  Here
+    every named effect A is swapped for each tested candidate B whose signature
+    is correlated with A's (partial correlation >= NEAR_COLLINEAR) and the
+    model refitted: B fitting better replaces A; B within the chi-square(1)
+    (1 - alpha) margin is a rival the data cannot exclude.  Returns the
+    (possibly updated) selection and ``{A: [(B, chi2_B - chi2_A, corr), ...]}``
+    over every B checked (fits that failed or were clipped have ``inf``).
+    """
+    import dataclasses
+
+    Q = observe._orth(cal_cols)
+
+    def corr(a, b):
+        ra, rb = observe.project_out(sens[a].Jfree, Q), observe.project_out(sens[b].Jfree, Q)
+        if np.linalg.norm(ra) <= 1e-6 * np.linalg.norm(sens[a].Jfree) or \
+                np.linalg.norm(rb) <= 1e-6 * np.linalg.norm(sens[b].Jfree):
+            return 0.0
+        return observe.canonical_correlation(ra, rb)
+
+    selected, final = list(sel.selected), sel.final
+    rivals: dict = {}
+    for k in range(len(selected)):
+        a = selected[k]
+        checked = []
+        for b in tested:
+            if b in final.names:
+                continue
+            c = corr(a, b)
+            if c < NEAR_COLLINEAR:
+                continue
+            others = tuple(x for x in final.names if x != a)
+            fb = fit_terms(prob, others + (b,), warm=final)
+            ok = fb.success and not clipped(prob, fb, b)
+            checked.append((b, (fb.chi2 - final.chi2) if ok else float("inf"), c, fb if ok else None))
+        best = min(checked, key=lambda t: t[1], default=None)
+        if best is not None and best[1] < 0:
+            # the rival explains the data better with the other named effects in place: swap
+            b, d, c, fb = best
+            selected[k] = b
+            checked = [(a, -d, c, final)] + [(x, dx - d, cx, f) for x, dx, cx, f in checked if x != b]
+            final, a = fb, b
+        rivals[a] = [(x, dx, cx) for x, dx, cx, _ in checked]
+    if selected != list(sel.selected):
+        sel = dataclasses.replace(sel, selected=tuple(selected), final=final)
+    return sel, rivals
+
+
+def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
     """Groups of candidates this data cannot tell apart, and candidates the calibration can mimic.
 
     * two observable candidates whose signatures, with the calibration's
@@ -490,10 +542,18 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha):
     # than a (1 - alpha) chi-square(1) margin (or could not fit at all)
     margin = float(stats.chi2.ppf(1.0 - alpha, 1))
     separated = set()
-    for r, a in enumerate(sel.selected):
-        info = sel.rounds[r]
+    for a, checked in (rivals or {}).items():
+        for b, d, _ in checked:
+            if d >= margin:
+                separated.add(frozenset((a, b)))
+    for r, a in enumerate(sel.selected):  # rivals not re-checked: the selection round's evidence
+        info = sel.rounds[r] if r < len(sel.rounds) else {}
+        if a not in info:
+            continue
         for b, d in info.items():
-            if b != a and (d["fit"].chi2 - info[a]["fit"].chi2 >= margin or not d["converged"] or d["clipped"]):
+            done = any(b == x for x, _, _ in (rivals or {}).get(a, []))
+            if b != a and not done and (d["fit"].chi2 - info[a]["fit"].chi2 >= margin or not d["converged"]
+                                        or d["clipped"]):
                 separated.add(frozenset((a, b)))
     pair_c = {}
     for i, a in enumerate(names):
@@ -514,20 +574,15 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha):
                         "why": f"{' or '.join(g)}: this data cannot tell them apart (signature correlations "
                                f"{min(cs):.3f}-{max(cs):.3f} once the calibration is projected out)"})
 
-    for r, a in enumerate(sel.selected):
-        info = sel.rounds[r]
-        ca = info[a]["fit"].chi2
+    for a in sel.selected:
         alt = []
-        for b, d in info.items():
-            if b == a or b not in resid or not d["converged"] or d["clipped"]:
-                continue
-            if d["fit"].chi2 - ca < margin:
-                c = corr(a, b)
-                if c >= NEAR_COLLINEAR:
-                    alt.append(b)
-                    details.append({"names": [a, b], "correlation": c,
-                                    "why": f"{a} or {b}: this data cannot tell them apart (signature correlation "
-                                           f"{c:.3f}; {b} fits worse by only {d['fit'].chi2 - ca:.1f} in chi-square)"})
+        for b, d, c in (rivals or {}).get(a, []):
+            if b in resid and d < margin:
+                alt.append(b)
+                details.append({"names": [a, b], "correlation": c,
+                                "why": f"{a} or {b}: this data cannot tell them apart (signature correlation "
+                                       f"{c:.3f}; with the other named effects in place {b} fits worse by only "
+                                       f"{d:.1f} in chi-square)"})
         if alt:
             grp = next((g for g in out if a in g), None)
             if grp is None:
