@@ -30,6 +30,7 @@ demo: $(STAMP)
 	$(BIN)/vjm table1 $(PUU) $(PRPAR) $(LINKS) --leg $(OUT)/leg/result.json --bar $(OUT)/bar/result.json
 	$(BIN)/vjm map $(PUU) --grid 41 --slice z=0 $(LINKS) --leg $(OUT)/leg/result.json --out $(OUT)/maps/puu
 	$(BIN)/vjm map $(PRPAR) --grid 41 --slice z=0 $(LINKS) --leg $(OUT)/bar/result.json --out $(OUT)/maps/prpar
+	$(BIN)/vjm map data/machines/hexapod_6ups.yaml --grid 41 --slice z=550 --orientation 0,0,0.1 --out $(OUT)/maps/hexapod
 	$(BIN)/vjm simulate $(PUU) --effect clearance:backlash=0.003 --poses random:30 --loads axes:100 \
 	    --noise-t 0.001 --seed 1 --out $(OUT)/diagnose/measurements.csv
 	$(BIN)/vjm diagnose $(PUU) $(OUT)/diagnose/measurements.csv --out $(OUT)/diagnose/report

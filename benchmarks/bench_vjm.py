@@ -74,5 +74,55 @@ def main(n=50):
           f"Python {platform.python_version()}, numpy {np.__version__}, one thread")
 
 
+#: issue 12 targets: hexapod map poses/s with the general IK; description / built-in time ratio
+TARGET_HEXAPOD, TARGET_DESC_RATIO = 20_000, 3.0
+
+
+def machines(n=30):
+    import scipy.spatial  # noqa: F401  (imported by the IK on first use: keep it out of the timing)
+
+    from vjm.kinematics import as_poses
+
+    hexa = vjm.load_model("data/machines/hexapod_6ups.yaml")
+    lo, hi = hexa.arch.workspace
+    axes = [np.linspace(lo[k], hi[k], n) for k in range(3)]
+    G = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    X = np.hstack([G, np.tile([0.02, -0.03, 0.05], (len(G), 1))])
+    hexa.stiffness_map(X[:100])  # warm-up
+    load0 = os.getloadavg()[0]
+    def fresh_map(m, P):
+        m._kin_cache.clear()  # time the inverse kinematics too, not the model's cache of small batches
+        return m.stiffness_map(P)
+
+    th, _ = best_time(lambda: fresh_map(hexa, X))
+    F = as_poses(X, 6)
+    tk, kins = best_time(lambda: [hexa._solve_kinematics(F[a:a + 2048]) for a in range(0, len(F), 2048)])
+    ts, _ = best_time(lambda: [hexa.stiffness_map(k) for k in kins])
+    a = vjm.load_model("data/orthoglide/puu.yaml")
+    b = vjm.load_model("data/machines/orthoglide_puu.yaml")
+    ax = np.linspace(-73.65, 126.35, 50)
+    P = np.stack(np.meshgrid(ax, ax, ax, indexing="ij"), -1).reshape(-1, 3)
+    b.stiffness_map(P[:100])
+    tb, rb = best_time(lambda: fresh_map(b, P))
+    ta, ra = best_time(lambda: fresh_map(a, P))
+    load1 = os.getloadavg()[0]
+    err = np.max(np.abs(rb.K - ra.K) / np.max(np.abs(ra.K), axis=(1, 2))[:, None, None])
+    rh = len(X) / th
+    print(f"6-UPS hexapod, {len(X)} poses ({n}^3 grid of its workspace box, orientation (0.02, -0.03, 0.05) rad), "
+          f"general IK; best of {REPEAT}")
+    print(f"stiffness_map: {th:.2f} s, {rh:,.0f} poses/s  (IK alone {len(X) / tk:,.0f} poses/s, "
+          f"stiffness from the kinematics {len(X) / ts:,.0f} poses/s)")
+    print(f"target (>= {TARGET_HEXAPOD:,} poses/s): {'met' if rh >= TARGET_HEXAPOD else 'NOT met'}")
+    print(f"Orthoglide 3-PUU, {len(P)} poses (50^3 grid): description file {tb:.2f} s ({len(P) / tb:,.0f} poses/s), "
+          f"built-in module {ta:.2f} s ({len(P) / ta:,.0f} poses/s); ratio {tb / ta:.2f}x, max relative "
+          f"difference of K {err:.1e}")
+    print(f"target (within {TARGET_DESC_RATIO:g}x): {'met' if tb / ta <= TARGET_DESC_RATIO else 'NOT met'}")
+    print(f"machine: {os.cpu_count()} cores, load average {load0:.1f} -> {load1:.1f} (other processes), "
+          f"Python {platform.python_version()}, numpy {np.__version__}, one thread")
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 50)
+    if len(sys.argv) > 1 and sys.argv[1] == "machines":
+        machines(int(sys.argv[2]) if len(sys.argv) > 2 else 30)
+    else:
+        main(int(sys.argv[1]) if len(sys.argv) > 1 else 50)

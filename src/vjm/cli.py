@@ -28,13 +28,16 @@ def _load(model: Path, foot: Optional[Path], leg: Optional[Path]):
     return load_model(model, foot=foot, leg=leg)
 
 
-def _point(text: str) -> np.ndarray:
+def _point(text: str, option: str = "--at", sizes=(3, 6)) -> np.ndarray:
+    """x,y,z (mm) or x,y,z,rx,ry,rz (rotation vector, rad) from the command line."""
     try:
         p = np.array([float(v) for v in text.split(",")])
     except ValueError:
-        raise VjmError(f"--at expects x,y,z in mm, got {text!r}") from None
-    if p.shape != (3,):
-        raise VjmError(f"--at expects three numbers x,y,z in mm, got {text!r}")
+        raise VjmError(f"{option} expects numbers x,y,z[,rx,ry,rz] (mm, rad), got {text!r}") from None
+    if p.shape[0] not in sizes:
+        raise VjmError(f"{option} expects {' or '.join(map(str, sizes))} numbers "
+                       f"({'x,y,z' if 3 in sizes else ''}{'[,rx,ry,rz]' if 6 in sizes else 'rx,ry,rz'}), "
+                       f"got {text!r}")
     return p
 
 
@@ -44,7 +47,8 @@ LEG = typer.Option(None, "--leg", help="linkfea result JSON replacing the model'
 
 @app.command()
 def stiffness(model: Path = typer.Argument(..., help="model YAML"),
-              at: str = typer.Option(..., "--at", help="end-effector point x,y,z in mm"),
+              at: str = typer.Option(..., "--at", help="end-effector point x,y,z in mm [,rx,ry,rz: platform "
+                                                       "rotation vector in rad, 6-dof platforms]"),
               as_json: bool = typer.Option(False, "--json", help="print JSON (K, C, k_tran, k_rot, rank, frame, units)"),
               foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG):
     """Cartesian stiffness of MODEL at one point."""
@@ -57,7 +61,8 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
         typer.echo(json.dumps(r.to_dict(), indent=1))
         return
     np.set_printoptions(precision=4, linewidth=120)
-    typer.echo(f"{m.architecture} at ({at}) mm  [world axes, at the end-effector point]")
+    typer.echo(f"{m.architecture if m.description is None else m.name} at ({at}) mm  "
+               f"[world axes, at the end-effector point]")
     typer.echo(f"K (N/mm, N/rad, N mm/rad):\n{r.K}")
     typer.echo(f"k_tran = {r.k_tran:.4g} mm/N   (largest eigenvalue of C[:3,:3])")
     typer.echo(f"k_rot  = {r.k_rot:.4g} rad/(N mm)   (largest eigenvalue of C[3:,3:])")
@@ -68,6 +73,9 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
 def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
             grid: int = typer.Option(30, "--grid", help="points per axis"),
             slice_: Optional[str] = typer.Option(None, "--slice", help="fix one axis, e.g. z=0"),
+            orientation: str = typer.Option("0,0,0", "--orientation",
+                                            help="6-dof platforms: the fixed platform rotation vector rx,ry,rz "
+                                                 "(rad) of the map"),
             out: Path = typer.Option(..., "--out", help="output directory (k_tran.png, k_rot.png, map.npz)"),
             foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG):
     """k_tran and k_rot over the workspace box: PNG maps and an .npz of K, k_tran, k_rot."""
@@ -77,6 +85,8 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
         m = _load(model, foot, leg)
         axes, G, fixed = workspace_grid(m, grid, slice_)
         P = G.reshape(-1, 3)
+        if m.dof == 6:  # a 6-dof platform's map is a slice at a fixed orientation
+            P = np.hstack([P, np.broadcast_to(_point(orientation, "--orientation", (3,)), (len(P), 3))])
         smap = compute_map(m, P, axes, fixed, where=f"{grid}-point grid{' at ' + slice_ if slice_ else ''}")
         smap.save(out)
     except user_errors() as exc:

@@ -16,14 +16,18 @@ import numpy as np
 from linkfea.compliance import check as check_compliance
 from linkfea.errors import LinkFeaError
 
-from .chain import jacobian
+from .chain import _frame_product
+from .description import Description
 from .errors import VjmError
+from .kinematics import Kinematics, as_poses
 from .models import ARCHITECTURES
-from .models.base import as_points
 from .stiffness import StiffnessResult, assemble, assemble_soa, chain_stiffness, chain_stiffness_frames
+from .transforms import rotation_vector
 
 #: poses per block in :meth:`Model.stiffness_map` (working set of a block stays in cache)
 MAP_BLOCK = 2048
+#: batches of kinematics a model keeps (see :meth:`Model.kinematics`)
+KIN_CACHE = 8
 
 
 def validate_compliance(C, key: str) -> np.ndarray:
@@ -108,6 +112,9 @@ class Model:
     effects : dict, kept verbatim for the discrepancy workflow
     name : free text
     path : the file this model was read from (resolves relative paths), or None
+    links : further named links of a described machine (``links:`` of a description file)
+    description : the machine description (:class:`vjm.description.Description`) of
+        architecture ``"description"``, else None
     """
 
     architecture: str
@@ -119,6 +126,10 @@ class Model:
     effects: dict = field(default_factory=dict)
     name: str = ""
     path: str | None = None
+    links: dict = field(default_factory=dict)
+    description: Description | None = None
+    #: kinematics of recent small pose batches (see :meth:`kinematics`); not a parameter
+    _kin_cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         if self.architecture not in ARCHITECTURES:
@@ -136,104 +147,189 @@ class Model:
                 raise VjmError(f"{key} must be a vjm.model.Link")
             if link.compliance is not None:
                 object.__setattr__(self, key, Link(validate_compliance(link.compliance, key), link.source))
-        if self.foot.compliance is None and self.leg.compliance is None:
-            raise VjmError("foot and leg are both rigid: the legs' constraint directions would be infinitely "
-                           "stiff; give at least one of them a compliance")
+        if not isinstance(self.links, dict):
+            raise VjmError("links must be a mapping name -> vjm.model.Link")
+        links = {}
+        for key, link in self.links.items():
+            if not isinstance(link, Link):
+                raise VjmError(f"links.{key} must be a vjm.model.Link")
+            links[key] = link if link.compliance is None else \
+                Link(validate_compliance(link.compliance, f"links.{key}"), link.source)
+        object.__setattr__(self, "links", links)
         if not isinstance(self.effects, dict):
             raise VjmError("effects must be a mapping name -> parameters")
+        self.arch.validate(self)
+
+    def link(self, name: str) -> Link:
+        """The link called ``name``: ``foot``, ``leg`` or one of ``links``."""
+        if name in ("foot", "leg"):
+            return getattr(self, name)
+        if name not in self.links:
+            raise VjmError(f"no link {name!r}; links: foot, leg{''.join(', ' + k for k in self.links)}")
+        return self.links[name]
 
     # -- derived, computed once per model ---------------------------------
     @cached_property
     def arch(self):
-        return ARCHITECTURES[self.architecture]
+        return ARCHITECTURES[self.architecture].bind(self)
 
     @cached_property
     def chains(self):
         """The chains (eq. 1) of this model, built once."""
         return self.arch.chains(self)
 
+    @cached_property
+    def kinematic_key(self) -> tuple:
+        """What the kinematics depend on: architecture, geometry and chain structure (never a compliance)."""
+        geo = tuple(sorted((k, repr(v)) for k, v in self.geometry.items()))
+        return (self.architecture, geo, self.joints.passive_stiffness is None, self.arch.kinematic_key(self))
+
+    @property
+    def dof(self) -> int:
+        """Degrees of freedom of the platform: 3 (translations) or 6."""
+        return self.arch.platform_dof(self)
+
     def replace(self, **changes) -> "Model":
-        """A copy with some fields changed (validated), like ``dataclasses.replace``."""
-        return dataclasses.replace(self, **changes)
+        """A copy with some fields changed (validated), like ``dataclasses.replace``.
+
+        The copy shares this model's cache of recent kinematics when its
+        kinematic key is unchanged (a change of springs, say), so repeated
+        stiffness evaluations at the same poses redo only the spring part.
+        """
+        new = dataclasses.replace(self, **changes)
+        if new.kinematic_key == self.kinematic_key:
+            object.__setattr__(new, "_kin_cache", self._kin_cache)
+        return new
 
     # -- per-pose computations --------------------------------------------
-    def inverse_kinematics(self, P) -> np.ndarray:
-        """Actuator coordinates (n, n_chains) (mm, or rad for rotary) of points P (n, 3).
+    def _solve_kinematics(self, frames: np.ndarray) -> Kinematics:
+        q, vals = self.arch.solve(self, frames)
+        return Kinematics(self.kinematic_key, self.chains, frames, np.asarray(q, dtype=float),
+                          tuple(np.asarray(v, dtype=float) for v in vals))
 
-        Raises VjmError for an unreachable point.
+    def kinematics(self, P) -> Kinematics:
+        """Inverse kinematics of poses P (see :func:`vjm.kinematics.as_poses`), solved once.
+
+        Raises VjmError for an unreachable pose.  The last few small batches
+        (up to ``MAP_BLOCK`` poses) are kept, so that asking again for the same
+        poses costs nothing.
         """
-        q, _ = self.arch.inverse_kinematics(self, as_points(P))
-        return q
+        if isinstance(P, Kinematics):
+            return self._check_kinematics(P)
+        frames = as_poses(P, self.dof)
+        if frames.shape[0] > MAP_BLOCK:
+            return self._solve_kinematics(frames)
+        key = frames.tobytes()
+        cache = self._kin_cache
+        kin = cache.get(key)
+        if kin is None:
+            kin = self._solve_kinematics(frames)
+            if len(cache) >= KIN_CACHE:
+                cache.pop(next(iter(cache)))
+            cache[key] = kin
+        return kin
 
-    def _chain_data(self, P):
-        P = as_points(P)
-        q, vals = self.arch.inverse_kinematics(self, P)
-        comps = self.arch.compliances(self, P, vals, q)
-        out = []
-        for ch, v, c in zip(self.chains, vals, comps):
-            T, J = jacobian(ch, v)
-            err = np.max(np.abs(T[:, :3, 3] - P)) if len(P) else 0.0
-            if err > 1e-6 * (1.0 + np.max(np.abs(P))):
-                raise VjmError(f"internal: chain {ch.name} does not close on the pose (error {err:.3g} mm)")
-            out.append((ch, v, J, c))
-        return P, q, out
+    def _check_kinematics(self, kin: Kinematics) -> Kinematics:
+        if kin.key != self.kinematic_key:
+            raise VjmError("these kinematics belong to a model with another architecture, geometry or chain "
+                           "structure; compute them with this model's kinematics(P)")
+        return kin
+
+    def inverse_kinematics(self, P) -> np.ndarray:
+        """Actuator coordinates (n, n_chains) (mm, or rad for rotary) of poses P.
+
+        Raises VjmError for an unreachable pose.
+        """
+        return self.kinematics(P).q
+
+    def compliances(self, kin: Kinematics) -> list[dict]:
+        """Per chain, ``{spring name: compliance (k, k) or (n, k, k)}`` at these kinematics (rigid springs omitted)."""
+        return self.arch.compliances(self, kin.points, list(kin.values), kin.q)
+
+    def _closed(self, kin: Kinematics, k: int, p_end: np.ndarray, tol: float) -> None:
+        err = np.max(np.abs(p_end - kin.points), initial=0.0)
+        if err > tol:
+            raise VjmError(f"internal: chain {kin.chains[k].name} does not close on the pose (error {err:.3g} mm)")
 
     def chain_stiffness(self, P) -> tuple[np.ndarray, np.ndarray]:
         """Each chain's stiffness K_i (n, n_chains, 6, 6) and J_q rank (n, n_chains)."""
-        _, _, data = self._chain_data(P)
-        Ks, ranks = zip(*(chain_stiffness(ch, J, c) for ch, _, J, c in data))
+        kin = self.kinematics(P)
+        Ks, ranks = self._chain_stiffness(kin)
         return np.stack(Ks, axis=1), np.stack(ranks, axis=1)
 
-    def stiffness_map(self, P) -> StiffnessResult:
-        """Stiffness at every point of P (n, 3): batched, no loop over poses.
+    def _chain_stiffness(self, kin: Kinematics):
+        tol = 1e-6 * (1.0 + np.max(np.abs(kin.points), initial=0.0))
+        out = []
+        for k, (ch, J, c) in enumerate(zip(kin.chains, kin.jacobians, self.compliances(kin))):
+            self._closed(kin, k, frame_points(ch, kin.values[k]), tol)
+            out.append(chain_stiffness(ch, J, c))
+        return tuple(zip(*out))
 
-        The points are processed in blocks of ``MAP_BLOCK`` poses with the
-        pose axis last, so that the intermediate arrays stay in cache; a bad
-        point raises the same VjmError as the whole batch would.
+    def stiffness_map(self, P) -> StiffnessResult:
+        """Stiffness at every pose of P (points (n, 3), poses (n, 6) or (n, 4, 4), or a
+        :class:`~vjm.kinematics.Kinematics`): batched, no loop over poses.
+
+        The poses are processed in blocks of ``MAP_BLOCK`` with the pose axis
+        last, so that the intermediate arrays stay in cache; a bad pose raises
+        the same VjmError as the whole batch would.
         """
-        P = as_points(P)
-        n = P.shape[0]
+        if isinstance(P, Kinematics):
+            kin = self._check_kinematics(P)
+            frames = kin.frames
+        else:
+            frames = as_poses(P, self.dof)
+            kin = self.kinematics(frames) if frames.shape[0] <= MAP_BLOCK else None
+        n = frames.shape[0]
+        pts = frames[:, :3, 3]
         out = (np.empty((n, 6, 6)), np.empty((n, 6, 6)), np.empty(n), np.empty(n),
                np.empty(n, dtype=int), np.empty(n, dtype=bool), np.empty((n, len(self.chains)), dtype=int))
-        tol = 1e-6 * (1.0 + (np.max(np.abs(P)) if n else 0.0))
-        for a in range(0, n, MAP_BLOCK):
-            self._map_block(P, a, out, tol)
+        tol = 1e-6 * (1.0 + (np.max(np.abs(pts)) if n else 0.0))
+        step = MAP_BLOCK if kin is not None else self.arch.ik_block
+        for a0 in range(0, n, step):
+            b0 = min(n, a0 + step)
+            if kin is not None:
+                kb = kin if (a0, b0) == (0, n) else kin.take(slice(a0, b0))
+            else:
+                try:
+                    kb = self._solve_kinematics(frames[a0:b0])
+                    self.compliances(kb)
+                except VjmError:
+                    # report the error the whole batch gives (first offending pose, first check)
+                    self.compliances(self._solve_kinematics(frames))
+                    raise
+            for a in range(a0, b0, MAP_BLOCK):
+                b = min(b0, a + MAP_BLOCK)
+                self._map_block(kb if (a, b) == (a0, b0) else kb.take(slice(a - a0, b - a0)), a, out, tol)
         K, C, kt, kr, rank, inv, chain_rank = out
-        return StiffnessResult(P, K, C, kt, kr, rank, inv, chain_rank)
+        rot = rotation_vector(frames[:, :3, :3]) if self.dof == 6 else None
+        return StiffnessResult(pts, K, C, kt, kr, rank, inv, chain_rank, rot)
 
-    def _map_block(self, P, a, out, tol):
-        """Poses ``a : a + MAP_BLOCK`` of :meth:`stiffness_map`, written into ``out``."""
-        b = min(P.shape[0], a + MAP_BLOCK)
+    def _map_block(self, kin: Kinematics, a: int, out, tol: float) -> None:
+        """Poses ``a : a + kin.n`` of :meth:`stiffness_map`, written into ``out``."""
+        b = a + kin.n
         K, C, kt, kr, rank, inv, chain_rank = out
-        try:
-            q, vals = self.arch.inverse_kinematics(self, P[a:b])
-            comps = self.arch.compliances(self, P[a:b], vals, q)
-        except VjmError:
-            # report the error the whole batch gives (first offending point, first check)
-            q, vals = self.arch.inverse_kinematics(self, P)
-            self.arch.compliances(self, P, vals, q)
-            raise
         Ksum = None
-        for k, (ch, v, c) in enumerate(zip(self.chains, vals, comps)):
+        for k, (ch, v, c) in enumerate(zip(kin.chains, kin.values, self.compliances(kin))):
             Kc, chain_rank[a:b, k], pe = chain_stiffness_frames(ch, np.ascontiguousarray(v.T), c)
-            err = np.max(np.abs(pe - P[a:b].T))
-            if err > tol:
-                raise VjmError(f"internal: chain {ch.name} does not close on the pose (error {err:.3g} mm)")
+            self._closed(kin, k, pe.T, tol)
             Ksum = Kc if Ksum is None else Ksum + Kc
         Cb, rank[a:b], inv[a:b], kt[a:b], kr[a:b] = assemble_soa(Ksum)
         K[a:b] = Ksum.transpose(2, 0, 1)
         C[a:b] = Cb.transpose(2, 0, 1)
 
     def stiffness(self, p) -> StiffnessResult:
-        """Stiffness at one point p (3,): K (6, 6), C, k_tran, k_rot, rank ..."""
+        """Stiffness at one pose p: a point (3,), (x, y, z, rx, ry, rz) or a 4x4 frame.
+
+        K (6, 6), C, k_tran, k_rot, rank ... (no leading pose axis)."""
         p = np.asarray(p, dtype=float)
-        if p.shape != (3,):
-            raise VjmError(f"a pose is a point (x, y, z) in mm, got shape {p.shape}")
-        return self.stiffness_map(p[None, :]).pose(0)
+        if p.shape not in ((3,), (6,), (4, 4)):
+            raise VjmError(f"a pose is a point (x, y, z) in mm, (x, y, z, rx, ry, rz) or a 4x4 frame; "
+                           f"got shape {p.shape}")
+        return self.stiffness_map(p[None]).pose(0)
 
     def deflection(self, P, wrench) -> np.ndarray:
         """Linear deflection twist ``C w`` (n, 6) (or (6,)) under wrench(es) (Fx..Mz, N and N mm)."""
-        single = np.ndim(P) == 1
+        single = _single(P)
         res = self.stiffness_map(P)
         W = np.broadcast_to(np.asarray(wrench, dtype=float), (res.K.shape[0], 6))
         t = np.einsum("nij,nj->ni", res.C, W)
@@ -251,16 +347,27 @@ class Model:
           when the load pushes the actuator towards increasing ``q0``.
         * ``"twist"``: (n, 6) the deflection ``C w``.
 
-        For a single point (3,) the leading axis is dropped.
+        For a single pose the leading axis is dropped.
         """
-        single = np.ndim(P) == 1
-        P, _, data = self._chain_data(P)
-        Ks, ranks = zip(*(chain_stiffness(ch, J, c) for ch, _, J, c in data))
-        res = assemble(P, list(Ks), list(ranks))
-        W = np.broadcast_to(np.asarray(wrench, dtype=float), (P.shape[0], 6))
+        single = _single(P)
+        kin = self.kinematics(P)
+        Ks, ranks = self._chain_stiffness(kin)
+        res = assemble(kin.points, list(Ks), list(ranks))
+        W = np.broadcast_to(np.asarray(wrench, dtype=float), (kin.n, 6))
         t = np.einsum("nij,nj->ni", res.C, W)
         f = np.stack([np.einsum("nij,nj->ni", K, t) for K in Ks], axis=1)
         tau = np.stack([np.einsum("ni,ni->n", J[:, :, ch.actuated[0]], f[:, k])
-                        for k, (ch, _, J, _) in enumerate(data)], axis=1)
+                        for k, (ch, J) in enumerate(zip(kin.chains, kin.jacobians))], axis=1)
         out = {"chain_wrench": f, "actuator": tau, "twist": t}
         return {k: v[0] for k, v in out.items()} if single else out
+
+
+def _single(P) -> bool:
+    """A single pose (3,), (6,) or (4, 4) rather than a batch."""
+    return not isinstance(P, Kinematics) and np.shape(P) in ((3,), (6,), (4, 4))
+
+
+def frame_points(chain, values) -> np.ndarray:
+    """End points (n, 3) of a chain at variable values (n, n_vars)."""
+    cols, _ = _frame_product(chain, np.ascontiguousarray(np.asarray(values, dtype=float).T))
+    return cols[3].T

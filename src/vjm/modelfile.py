@@ -38,12 +38,16 @@ import yaml
 
 from linkfea.atomic import plain, write_text
 
+from .description import parse_description
 from .errors import VjmError
 from .model import Actuator, Joints, Link, Model, validate_compliance
 from .models import ARCHITECTURES
+from .models.described import NAME as DESCRIBED
 from .resources import data_file
 
 TOP_KEYS = ("architecture", "name", "geometry", "actuator", "foot", "leg", "joints", "effects")
+#: keys of a machine description (vjm.description), besides TOP_KEYS
+DESCRIPTION_KEYS = ("platform", "links", "chains")
 LINK_KINDS = ("rigid", "compliance", "beam", "linkfea")
 
 
@@ -143,9 +147,13 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
     """Build a validated Model from the mapping of a model file."""
     if not isinstance(d, dict):
         raise VjmError("a model file must be a YAML mapping")
-    extra = set(d) - set(TOP_KEYS)
+    described = "chains" in d or d.get("architecture") == DESCRIBED
+    known = TOP_KEYS + DESCRIPTION_KEYS if described else TOP_KEYS
+    extra = set(d) - set(known)
     if extra:
-        raise VjmError(f"unknown top-level keys {sorted(extra)}; known: {list(TOP_KEYS)}")
+        raise VjmError(f"unknown top-level keys {sorted(extra)}; known: {list(known)}")
+    if described:
+        return _described_from_dict(d, base_dir, path)
     for k in ("architecture", "geometry", "actuator", "foot", "leg"):
         if k not in d:
             raise VjmError(f"{k}: missing (required keys: architecture, geometry, actuator, foot, leg)")
@@ -162,6 +170,19 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
     extra = set(act) - {"stiffness", "compliance_slope", "q_ref"}
     if extra:
         raise VjmError(f"actuator: unknown keys {sorted(extra)}")
+    actuator, jo, effects = _common(d)
+    return Model(arch, geo, actuator, parse_link(d["foot"], "foot", base_dir), parse_link(d["leg"], "leg", base_dir),
+                 jo, dict(effects), str(d.get("name", "")), path)
+
+
+def _common(d: dict):
+    """Actuator, joints and effects of a model file."""
+    act = d["actuator"]
+    if not isinstance(act, dict) or "stiffness" not in act:
+        raise VjmError("actuator must be a mapping with at least 'stiffness'")
+    extra = set(act) - {"stiffness", "compliance_slope", "q_ref"}
+    if extra:
+        raise VjmError(f"actuator: unknown keys {sorted(extra)}")
     actuator = Actuator(**{k: _num(v, f"actuator.{k}") for k, v in act.items()})
     joints = d.get("joints") or {}
     if not isinstance(joints, dict) or set(joints) - {"passive_stiffness"}:
@@ -171,8 +192,36 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
     effects = d.get("effects") or {}
     if not isinstance(effects, dict):
         raise VjmError("effects must be a mapping name -> parameters")
-    return Model(arch, geo, actuator, parse_link(d["foot"], "foot", base_dir), parse_link(d["leg"], "leg", base_dir),
-                 jo, dict(effects), str(d.get("name", "")), path)
+    return actuator, jo, effects
+
+
+def _described_from_dict(d: dict, base_dir: str, path: str | None) -> Model:
+    """A machine description (vjm.description): platform, chains, links."""
+    if d.get("architecture", DESCRIBED) != DESCRIBED:
+        raise VjmError(f"architecture: a file with chains describes its machine itself; leave 'architecture' "
+                       f"out or set it to {DESCRIBED!r}, got {d['architecture']!r}")
+    for k in ("actuator", "chains", "platform"):
+        if k not in d:
+            raise VjmError(f"{k}: missing (a machine description needs platform, chains and actuator)")
+    geo = d.get("geometry") or {}
+    if not isinstance(geo, dict):
+        raise VjmError("geometry must be a mapping of lengths in mm")
+    geo = {k: _num(v, f"geometry.{k}") for k, v in geo.items()}
+    links_raw = d.get("links") or {}
+    if not isinstance(links_raw, dict):
+        raise VjmError("links must be a mapping name -> link ({rigid: true}, {compliance: ...}, {beam: ...}, "
+                       "{linkfea: path})")
+    for k in ("foot", "leg"):
+        if k in links_raw:
+            raise VjmError(f"links.{k}: give {k} at the top level, as in every model file")
+    links = {str(k): parse_link(v, f"links.{k}", base_dir) for k, v in links_raw.items()}
+    names = set(links) | {k for k in ("foot", "leg") if k in d}
+    desc = parse_description(d, geo, names)
+    actuator, jo, effects = _common(d)
+    foot = parse_link(d["foot"], "foot", base_dir) if "foot" in d else Link.rigid()
+    leg = parse_link(d["leg"], "leg", base_dir) if "leg" in d else Link.rigid()
+    return Model(DESCRIBED, geo, actuator, foot, leg, jo, dict(effects), str(d.get("name", "")), path,
+                 links=links, description=desc)
 
 
 def load_model(path, foot=None, leg=None) -> Model:
@@ -208,6 +257,21 @@ def _link_to_yaml(link: Link, out_dir: str):
 def model_to_dict(model: Model, out_dir: str = ".") -> dict:
     """The mapping that :func:`model_from_dict` reads back to an equal model."""
     a = model.actuator
+    if model.description is not None:
+        out = {"name": model.name, "geometry": {k: float(v) for k, v in model.geometry.items()},
+               "actuator": {"stiffness": float(a.stiffness), "compliance_slope": float(a.compliance_slope),
+                            "q_ref": float(a.q_ref)}}
+        for k in ("foot", "leg"):
+            if getattr(model, k).source != {"rigid": True} or k in model.description.links:
+                out[k] = _link_to_yaml(getattr(model, k), out_dir)
+        out["joints"] = {"passive_stiffness": model.joints.passive_stiffness}
+        out["effects"] = plain(model.effects)
+        raw = model.description.raw
+        out["platform"] = plain(raw["platform"])
+        if model.links:
+            out["links"] = {k: _link_to_yaml(v, out_dir) for k, v in model.links.items()}
+        out["chains"] = plain(raw["chains"])
+        return out
     return {
         "architecture": model.architecture,
         "name": model.name,

@@ -50,6 +50,7 @@ from linkfea.frames import skew as _skew
 
 from .chain import Chain, forward
 from .errors import EquilibriumError, VjmError
+from .kinematics import Kinematics, as_poses
 from .transforms import AXIS, ROTATION, elementary, generator, rotation_vector, vee
 
 #: relative eigenvalue below which a (scaled) spring compliance direction is held rigid
@@ -120,12 +121,12 @@ def _spring_basis(C):
 
 
 def _setup(model, P):
-    P = np.asarray(P, dtype=float).reshape(-1, 3)
+    """The chains' unknowns, springs and nominal values at poses P (or a Kinematics); returns (points, chains)."""
+    kin = model.kinematics(P)
+    P = kin.points
     n = P.shape[0]
-    q, vals = model.arch.inverse_kinematics(model, P)
-    comps = model.arch.compliances(model, P, vals, q)
     out = []
-    for ch, v, cdict in zip(model.chains, vals, comps):
+    for ch, v, cdict in zip(kin.chains, kin.values, model.compliances(kin)):
         v = np.asarray(v, dtype=float).reshape(n, ch.n_vars)
         blocks = []  # (vars, basis (n,k,k), kappa (n,k), fixed (n,k))
         for s in ch.springs:
@@ -261,7 +262,8 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     Parameters
     ----------
     model : vjm Model
-    P : (n, 3) end-effector points, mm
+    P : (n, 3) end-effector points, mm; for a 6-dof platform (n, 6) poses x, y, z, rx, ry, rz
+        or (n, 4, 4) frames (see :func:`vjm.kinematics.as_poses`); or a Kinematics
     W : (n, 6) or (6,) platform wrenches Fx Fy Fz Mx My Mz, N and N mm
     tol : convergence when the Newton step of the platform pose is below ``tol`` x its size
     max_iter : Newton iterations allowed per load increment
@@ -276,10 +278,9 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     -------
     (n, 6) twists ``(p - p0, rotation vector)``, mm and rad [, info]
     """
-    P = np.atleast_2d(np.asarray(P, dtype=float))
-    if P.ndim != 2 or P.shape[1] != 3:
-        raise VjmError(f"points must have shape (n, 3), got {np.shape(P)}")
-    n = P.shape[0]
+    if not isinstance(P, Kinematics):
+        P = as_poses(P, model.dof)
+    n = P.n if isinstance(P, Kinematics) else P.shape[0]
     try:
         W = np.array(np.broadcast_to(np.asarray(W, dtype=float), (n, 6)))
     except ValueError:
@@ -396,7 +397,7 @@ def deflection(model, p, wrench, tol: float = 1e-11, max_iter: int = 60, return_
     (naming the pose) if the equilibrium is not found.
     """
     w = np.asarray(wrench, dtype=float).reshape(6)
-    t, info = deflection_map(model, np.asarray(p, dtype=float).reshape(1, 3), w[None], tol=tol,
+    t, info = deflection_map(model, np.asarray(p, dtype=float)[None], w[None], tol=tol,
                              max_iter=max_iter, return_info=True)
     if return_info:
         return t[0], {"iterations": int(info["iterations"][0]), "load_steps": int(info["load_steps"][0]),

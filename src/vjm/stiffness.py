@@ -283,6 +283,7 @@ class StiffnessResult:
     rank : (n,) numerical rank of K (6 at regular postures)
     invertible : (n,) bool
     chain_rank : (n, n_chains) rank of each chain's passive-joint Jacobian ``J_q``
+    rotation : (n, 3) platform orientation (rotation vector, rad) of 6-dof platforms, else None
     """
 
     points: np.ndarray
@@ -293,15 +294,17 @@ class StiffnessResult:
     rank: np.ndarray
     invertible: np.ndarray
     chain_rank: np.ndarray = field(default=None)
+    rotation: np.ndarray | None = None
 
     def pose(self, i: int) -> "StiffnessResult":
         """The result of pose ``i`` alone (no leading axis)."""
-        return StiffnessResult(*(getattr(self, f)[i] for f in
-                                 ("points", "K", "C", "k_tran", "k_rot", "rank", "invertible", "chain_rank")))
+        fields = ("points", "K", "C", "k_tran", "k_rot", "rank", "invertible", "chain_rank")
+        return StiffnessResult(**{f: getattr(self, f)[i] for f in fields},
+                               rotation=None if self.rotation is None else self.rotation[i])
 
     def to_dict(self) -> dict:
         """JSON-ready dict (single pose or map), frames and units stated."""
-        return {
+        out = {
             "point_mm": np.asarray(self.points).tolist(),
             "K": np.asarray(self.K).tolist(),
             "C": np.asarray(self.C).tolist(),
@@ -314,6 +317,9 @@ class StiffnessResult:
             "order": "dx dy dz rx ry rz / Fx Fy Fz Mx My Mz",
             "units": {"K": "N/mm, N/rad, N mm/rad", "C": "mm/N, mm/(N mm), rad/(N mm)"},
         }
+        if self.rotation is not None:
+            out["rotation_vector_rad"] = np.asarray(self.rotation).tolist()
+        return out
 
 
 def assemble(points: np.ndarray, chain_K: list, chain_ranks: list) -> StiffnessResult:

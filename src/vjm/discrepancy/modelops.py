@@ -29,42 +29,11 @@ def save_model(model, path) -> None:
 # --------------------------------------------------------------- per-pose quantities
 
 
-_KIN_MEMO: dict = {}
-
-
-def _kinematics(model, P):
-    """Inverse kinematics and chain Jacobians at P, memoized.
-
-    They depend on the architecture, the geometry, the chain structure (joint
-    springs present or not) and P only -- not on any compliance -- so a fit
-    that changes stiffness parameters reuses them and only redoes the
-    bordered solve (eq. 11) and the sum (eq. 13).
-    """
-    from ..chain import jacobian
-
-    P = np.ascontiguousarray(P, dtype=float)
-    key = (model.architecture, tuple(sorted((k, float(v)) for k, v in model.geometry.items()
-                                            if isinstance(v, (int, float)))),
-           model.joints.passive_stiffness is None, P.tobytes())
-    hit = _KIN_MEMO.get(key)
-    if hit is None:
-        q, vals = model.arch.inverse_kinematics(model, P)
-        Js = [jacobian(ch, v)[1] for ch, v in zip(model.chains, vals)]
-        if len(_KIN_MEMO) > 32:
-            _KIN_MEMO.clear()
-        hit = _KIN_MEMO[key] = (q, vals, Js)
-    return hit
-
-
 def stiffness_result(model, P):
-    """``model.stiffness_map(P)`` with the kinematics memoized (same numbers, see tests)."""
-    from ..stiffness import assemble, chain_stiffness
-
-    P = np.ascontiguousarray(P, dtype=float)
-    q, vals, Js = _kinematics(model, P)
-    comps = model.arch.compliances(model, P, vals, q)
-    Ks, ranks = zip(*(chain_stiffness(ch, J, c) for ch, J, c in zip(model.chains, Js, comps)))
-    return assemble(P, list(Ks), list(ranks))
+    """``model.stiffness_map(P)``.  The model keeps the kinematics of recent pose batches and
+    shares them with the models ``replace`` derives from it (same geometry), so a fit that
+    changes stiffness parameters only redoes the spring part (eq. 11, 13)."""
+    return model.stiffness_map(P)
 
 
 def compliance_map(model, P) -> np.ndarray:

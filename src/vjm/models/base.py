@@ -11,11 +11,24 @@ import numpy as np
 from ..chain import Chain
 from ..errors import VjmError
 
+#: spring names shared by the chains and the compliances of every architecture (one string contract)
+ACTUATOR = "actuator"
+FOOT = "foot"
+LEG = "leg"
+
 
 class Architecture:
-    """Base class; subclasses set ``name``, ``geometry_keys`` and implement the hooks."""
+    """Base class; subclasses set ``name``, ``geometry_keys`` and implement the hooks.
+
+    A new architecture is one module with a subclass and one line in
+    ``vjm.models.ARCHITECTURES`` (see ``docs/add_architecture.md``).
+    """
 
     name = ""
+    #: poses per inverse-kinematics batch of a map (the stiffness runs in blocks of ``model.MAP_BLOCK``)
+    ik_block = 2048
+    #: the spring names its chains declare (``ChainBuilder`` names, keys of :meth:`compliances`)
+    springs: tuple[str, ...] = (ACTUATOR, FOOT, LEG)
     geometry_keys: tuple[str, ...] = ()
     #: unit of the actuator stiffness (prismatic N/mm, rotary N mm/rad)
     actuator_unit = "N/mm"
@@ -25,6 +38,32 @@ class Architecture:
 
     def chains(self, model) -> tuple[Chain, ...]:
         raise NotImplementedError
+
+    def bind(self, model) -> "Architecture":
+        """The architecture as one model sees it (a described machine carries its own workspace)."""
+        return self
+
+    def validate(self, model) -> None:
+        """Checks of a model that depend on the architecture (VjmError)."""
+        if model.foot.compliance is None and model.leg.compliance is None:
+            raise VjmError("foot and leg are both rigid: the legs' constraint directions would be infinitely "
+                           "stiff; give at least one of them a compliance")
+
+    def platform_dof(self, model) -> int:
+        """3 (a translational platform, the built-in architectures) or 6."""
+        return 3
+
+    def kinematic_key(self, model):
+        """Anything besides architecture, geometry and joint springs that the chains depend on."""
+        return None
+
+    def solve(self, model, frames: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Inverse kinematics of platform frames (n, 4, 4): actuator coordinates and chain values.
+
+        Translational architectures answer from the points alone (their
+        closed-form :meth:`inverse_kinematics`).
+        """
+        return self.inverse_kinematics(model, frames[:, :3, 3])
 
     def reachable(self, model, P: np.ndarray) -> np.ndarray:
         """Boolean mask (n,) of points the inverse kinematics accepts."""

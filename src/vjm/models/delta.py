@@ -22,9 +22,8 @@ import numpy as np
 from ..chain import ChainBuilder
 from ..errors import VjmError
 from ..transforms import homogeneous
-from .base import Architecture, as_points
-from .orthoglide import _parallelogram_leg_compliances
-from .parallelogram import add_parallelogram_leg
+from .base import FOOT, Architecture, as_points
+from .parallelogram import PARALLELOGRAM_JOINT_SPRINGS, add_parallelogram_leg, parallelogram_leg_compliances
 
 PHI = (0.0, 2 * np.pi / 3, 4 * np.pi / 3)
 
@@ -51,6 +50,7 @@ class DeltaRRPaR(Architecture):
     name = "delta-3RRPaR"
     geometry_keys = ("L", "r", "d", "R", "arm")
     actuator_unit = "N mm/rad"
+    springs: tuple[str, ...] = Architecture.springs + PARALLELOGRAM_JOINT_SPRINGS
     workspace = ((-150.0, -150.0, -600.0), (150.0, 150.0, -350.0))
 
     def reachable(self, model, P):
@@ -71,7 +71,7 @@ class DeltaRRPaR(Architecture):
             b.const(homogeneous(R, R[:, 0] * g["R"]))
             b.actuated("rz", "q0")
             b.const(homogeneous(p=(g["arm"], 0.0, 0.0)))
-            b.spring6("foot")
+            b.spring6(FOOT)
             add_parallelogram_leg(b, g["L"], js, last="q3")
             b.const(homogeneous(p=(-g["r"], 0.0, 0.0)))
             out.append(b.build())
@@ -107,4 +107,4 @@ class DeltaRRPaR(Architecture):
         return q0, vals
 
     def compliances(self, model, P, chain_values, q_act):
-        return _parallelogram_leg_compliances(model, chain_values, q_act, ("r1x", "r1y", "r2x", "r2y"))
+        return parallelogram_leg_compliances(model, chain_values, q_act)

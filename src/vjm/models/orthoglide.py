@@ -33,8 +33,8 @@ import numpy as np
 from ..chain import ChainBuilder
 from ..errors import VjmError
 from ..transforms import homogeneous
-from .base import Architecture, actuator_compliance, as_points, joint_spring_compliance
-from .parallelogram import add_parallelogram_leg, parallelogram_compliance, parallelogram_stiffness
+from .base import ACTUATOR, FOOT, LEG, Architecture, actuator_compliance, as_points, joint_spring_compliance
+from .parallelogram import PARALLELOGRAM_JOINT_SPRINGS, add_parallelogram_leg, parallelogram_leg_compliances
 
 #: rotation part of T_base^i (columns: chain x, y, z axes in world), eq. 15-16
 BASE_R = {
@@ -43,6 +43,8 @@ BASE_R = {
     "z": np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]),
 }
 CHAINS = ("x", "y", "z")
+#: 1-dof springs of the two U joints of a 3-PUU leg (with ``joints.passive_stiffness``)
+U_JOINT_SPRINGS = ("u1", "u2")
 
 
 def base_transform(i: str, L: float, r: float) -> np.ndarray:
@@ -95,12 +97,13 @@ def _actuated_foot(i: str, L: float, r: float) -> ChainBuilder:
     b = ChainBuilder(i)
     b.const(base_transform(i, L, r))
     b.actuated("tx", "q0")
-    b.spring6("foot")
+    b.spring6(FOOT)
     return b
 
 
 class OrthoglidePUU(Architecture):
     name = "orthoglide-3PUU"
+    springs: tuple[str, ...] = (ACTUATOR, FOOT, LEG) + U_JOINT_SPRINGS
     geometry_keys: tuple[str, ...] = ("L", "r")
     #: the Orthoglide's Cartesian workspace cube, Q1 to Q2 (seed Fig. 4c)
     workspace = ((-73.65,) * 3, (126.35,) * 3)
@@ -116,13 +119,13 @@ class OrthoglidePUU(Architecture):
             b = _actuated_foot(i, L, r)
             b.passive("rz", "q1")
             if js:
-                b.spring1("rx", "u1")
+                b.spring1("rx", U_JOINT_SPRINGS[0])
             b.passive("ry", "q2")
             b.const(homogeneous(p=(L, 0.0, 0.0)))
-            b.spring6("leg")
+            b.spring6(LEG)
             b.passive("ry", "q3")
             if js:
-                b.spring1("rx", "u2")
+                b.spring1("rx", U_JOINT_SPRINGS[1])
             b.passive("rz", "q4")
             b.const(tool_transform(i, r))
             out.append(b.build())
@@ -148,13 +151,14 @@ class OrthoglidePUU(Architecture):
         cj = joint_spring_compliance(model)
         out = []
         for k in range(3):
-            d = {"actuator": actuator_compliance(model, q_act[:, k])}
+            d = {ACTUATOR: actuator_compliance(model, q_act[:, k])}
             if model.foot.compliance is not None:
-                d["foot"] = model.foot.compliance
+                d[FOOT] = model.foot.compliance
             if model.leg.compliance is not None:
-                d["leg"] = model.leg.compliance
+                d[LEG] = model.leg.compliance
             if cj is not None:
-                d["u1"] = d["u2"] = cj
+                for s in U_JOINT_SPRINGS:
+                    d[s] = cj
             out.append(d)
         return out
 
@@ -164,6 +168,7 @@ class OrthoglidePRPaR(OrthoglidePUU):
 
     name = "orthoglide-3PRPaR"
     geometry_keys = ("L", "r", "d")
+    springs: tuple[str, ...] = (ACTUATOR, FOOT, LEG) + PARALLELOGRAM_JOINT_SPRINGS
 
     def chains(self, model):
         L, r = model.geometry["L"], model.geometry["r"]
@@ -177,24 +182,4 @@ class OrthoglidePRPaR(OrthoglidePUU):
         return tuple(out)
 
     def compliances(self, model, P, chain_values, q_act):
-        return _parallelogram_leg_compliances(model, chain_values, q_act, ("r1x", "r1y", "r2x", "r2y"))
-
-
-def _parallelogram_leg_compliances(model, chain_values, q_act, joint_springs):
-    if model.leg.compliance is None:
-        raise VjmError("leg: a parallelogram leg needs compliant bars (rigid: true would leave its "
-                       "stiffness undefined); give the bar's compliance")
-    L, d = model.geometry["L"], model.geometry["d"]
-    cj = joint_spring_compliance(model)
-    out = []
-    for k, ch in enumerate(model.chains):
-        q = chain_values[k][:, ch.index("q2")]
-        Kp, _ = parallelogram_stiffness(model.leg.compliance, L, d, q)
-        dct = {"actuator": actuator_compliance(model, q_act[:, k]), "leg": parallelogram_compliance(Kp, q)}
-        if model.foot.compliance is not None:
-            dct["foot"] = model.foot.compliance
-        if cj is not None:
-            for s in joint_springs:
-                dct[s] = cj
-        out.append(dct)
-    return out
+        return parallelogram_leg_compliances(model, chain_values, q_act)

@@ -17,9 +17,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..chain import ChainBuilder, jacobian
+from ..errors import VjmError
 from ..linalg import cholesky, lower_inverse
 from ..stiffness import chain_stiffness
 from ..transforms import homogeneous
+from .base import ACTUATOR, FOOT, LEG, actuator_compliance, joint_spring_compliance
+
+#: 1-dof springs of a parallelogram leg's end revolutes (with ``joints.passive_stiffness``)
+PARALLELOGRAM_JOINT_SPRINGS = ("r1x", "r1y", "r2x", "r2y")
 
 
 def _tz(a):
@@ -120,15 +125,39 @@ def add_parallelogram_leg(b: ChainBuilder, L: float, joint_springs: bool, last: 
     ``Rz(q1) Ry(q2)``, ``Tx(L) Ry(-q2)`` with the equivalent 6-dof spring ``leg`` in base axes,
     then ``Rz(last)``.  With ``joint_springs`` each end gets 1-dof springs about the two axes
     its rotations leave constrained (``r1x, r1y`` and ``r2x, r2y``)."""
+    r1x, r1y, r2x, r2y = PARALLELOGRAM_JOINT_SPRINGS
     b.passive("rz", "q1")
     if joint_springs:
-        b.spring1("rx", "r1x")
-        b.spring1("ry", "r1y")
+        b.spring1("rx", r1x)
+        b.spring1("ry", r1y)
     b.passive("ry", "q2")
     b.const(homogeneous(p=(L, 0.0, 0.0)))
     b.passive("ry", "q2", coef=-1.0)
-    b.spring6("leg")
+    b.spring6(LEG)
     b.passive("rz", last)
     if joint_springs:
-        b.spring1("rx", "r2x")
-        b.spring1("ry", "r2y")
+        b.spring1("rx", r2x)
+        b.spring1("ry", r2y)
+
+
+def parallelogram_leg_compliances(model, chain_values, q_act) -> list[dict]:
+    """Per chain, the spring compliances of a machine with parallelogram legs (3-PRPaR, Delta):
+    the actuator, the foot, the leg's equivalent spring from its two bars at the chain's
+    parallelogram angle ``q2`` (eq. 20-22) and the optional joint springs."""
+    if model.leg.compliance is None:
+        raise VjmError("leg: a parallelogram leg needs compliant bars (rigid: true would leave its "
+                       "stiffness undefined); give the bar's compliance")
+    L, d = model.geometry["L"], model.geometry["d"]
+    cj = joint_spring_compliance(model)
+    out = []
+    for k, ch in enumerate(model.chains):
+        q = chain_values[k][:, ch.index("q2")]
+        Kp, _ = parallelogram_stiffness(model.leg.compliance, L, d, q)
+        dct = {ACTUATOR: actuator_compliance(model, q_act[:, k]), LEG: parallelogram_compliance(Kp, q)}
+        if model.foot.compliance is not None:
+            dct[FOOT] = model.foot.compliance
+        if cj is not None:
+            for s in PARALLELOGRAM_JOINT_SPRINGS:
+                dct[s] = cj
+        out.append(dct)
+    return out
