@@ -458,7 +458,7 @@ def _rival_check(prob, sel, tested, sens, cal_cols, alpha):
     win its round only because a second effect was not in the model yet.  Here
     every named effect A is swapped for each tested candidate B whose signature
     is correlated with A's (partial correlation >= NEAR_COLLINEAR) and the
-    model refitted: B fitting better replaces A; B within the chi-square(1)
+    model refitted: B with a lower BIC replaces A; B within the chi-square(1)
     (1 - alpha) margin is a rival the data cannot exclude.  Returns the
     (possibly updated) selection and ``{A: [(B, chi2_B - chi2_A, corr), ...]}``
     over every B checked (fits that failed or were clipped have ``inf``).
@@ -489,8 +489,9 @@ def _rival_check(prob, sel, tested, sens, cal_cols, alpha):
             fb = fit_terms(prob, others + (b,), warm=final)
             ok = fb.success and not clipped(prob, fb, b)
             checked.append((b, (fb.chi2 - final.chi2) if ok else float("inf"), c, fb if ok else None))
-        best = min(checked, key=lambda t: t[1], default=None)
-        if best is not None and best[1] < 0:
+        # swap on BIC, as the selection chose (a rival with more parameters must fit better by more)
+        best = min((t for t in checked if t[3] is not None), key=lambda t: t[3].bic, default=None)
+        if best is not None and best[3].bic < final.bic:
             # the rival explains the data better with the other named effects in place: swap
             b, d, c, fb = best
             selected[k] = b
