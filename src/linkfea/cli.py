@@ -168,7 +168,7 @@ def sweep_cmd(
     tip: Optional[str] = typer.Option(None, "--tip", help="tip selector (required for STEP files)"),
     envelope: Optional[float] = typer.Option(None, "--envelope", help="mesher envelope / bbox diagonal"),
     convergence: bool = typer.Option(False, "--convergence", help="3 mesh sizes + Richardson error estimate"),
-    mesher: str = typer.Option("gmsh", "--mesher", help="gmsh (CAD-exact faces, default) or pytetwild (fTetWild)"),
+    mesher: Optional[str] = typer.Option(None, "--mesher", help="gmsh or pytetwild (default: as linkfea compute)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder: sweep.parquet, sweep.csv, sweep.png, results/"),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of a running Dask scheduler"),
     workers: Optional[int] = typer.Option(None, "--workers", help="local worker processes (default: one per core)"),
