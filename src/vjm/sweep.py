@@ -30,8 +30,6 @@ from .errors import VjmError
 from .model import Link, Model
 
 ROLES = ("foot", "leg")
-#: bars per leg of each architecture (a parallelogram has two bars, each the linkfea ``leg`` design)
-LEG_BARS = {"orthoglide-3PUU": 1, "orthoglide-3PRPaR": 2, "delta-3RRPaR": 2}
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,8 +44,8 @@ class LinkDesign:
 
 
 def legs_bars(model: Model) -> int:
-    """Bars per leg: 2 for parallelogram legs (architectures with ``PaR``), else 1."""
-    return LEG_BARS.get(model.architecture, 2 if "PaR" in model.architecture else 1)
+    """Bars per leg, as the architecture declares: 2 for a parallelogram leg (each the ``leg`` design), else 1."""
+    return model.arch.leg_bars
 
 
 def _design_from_result(path: Path, label: str, params: dict, role: str) -> LinkDesign:

@@ -30,6 +30,8 @@ class Architecture:
     #: the spring names its chains declare (``ChainBuilder`` names, keys of :meth:`compliances`)
     springs: tuple[str, ...] = (ACTUATOR, FOOT, LEG)
     geometry_keys: tuple[str, ...] = ()
+    #: bars that make up one leg: 1, or 2 for a parallelogram leg (whose ``leg`` spring is one bar)
+    leg_bars = 1
     #: unit of the actuator stiffness (prismatic N/mm, rotary N mm/rad)
     actuator_unit = "N/mm"
 

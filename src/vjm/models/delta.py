@@ -50,6 +50,7 @@ class DeltaRRPaR(Architecture):
     name = "delta-3RRPaR"
     geometry_keys = ("L", "r", "d", "R", "arm")
     actuator_unit = "N mm/rad"
+    leg_bars = 2
     springs: tuple[str, ...] = Architecture.springs + PARALLELOGRAM_JOINT_SPRINGS
     workspace = ((-150.0, -150.0, -600.0), (150.0, 150.0, -350.0))
 

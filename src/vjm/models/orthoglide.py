@@ -168,6 +168,7 @@ class OrthoglidePRPaR(OrthoglidePUU):
 
     name = "orthoglide-3PRPaR"
     geometry_keys = ("L", "r", "d")
+    leg_bars = 2
     springs: tuple[str, ...] = (ACTUATOR, FOOT, LEG) + PARALLELOGRAM_JOINT_SPRINGS
 
     def chains(self, model):
