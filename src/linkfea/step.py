@@ -31,8 +31,6 @@ def load_step(path, base: Selector, tip: Selector, material: str = "steel",
     """
     import cadquery as cq
 
-    from .cad import Link, check_link
-
     path = Path(path)
     if not path.is_file():
         raise LinkFeaError(f"STEP file {str(path)!r} not found")
@@ -48,6 +46,19 @@ def load_step(path, base: Selector, tip: Selector, material: str = "steel",
                            "(several bodies, or a self-intersecting solid split on import)")
     body = solids[0]
     validate_solid(body, path.name)
+    return link_from_solid(body, path, base, tip, material, with_block, block_length)
+
+
+def link_from_solid(body, path: Path, base: Selector, tip: Selector, material: str, with_block: bool,
+                    block_length: float | None) -> Link:
+    """The :class:`linkfea.cad.Link` of a checked solid read from ``path`` (a STEP file or a triangle surface).
+
+    The selectors are checked on ``body`` (:func:`linkfea.cad.check_link`), then the frame and
+    the block come from the tip faces (:func:`interface_frame_and_block`).  ``params`` records
+    the block length used (a planar tip in block mode), nothing else.
+    """
+    from .cad import Link, check_link
+
     get_material(material)
     link = Link(name=path.stem, body=body, block=None, base=base, tip=tip,
                 frame=Frame(np.zeros(3), np.eye(3)), params={}, material=material, source=str(path))
@@ -55,7 +66,7 @@ def load_step(path, base: Selector, tip: Selector, material: str = "steel",
     frame, block, h = interface_frame_and_block(body, link.base_faces, link.tip_faces, with_block,
                                                 block_length, path.name)
     return Link(name=path.stem, body=body, block=block, base=base, tip=tip, frame=frame,
-                params={"block_length": h} if with_block else {},
+                params={"block_length": h} if with_block and h is not None else {},
                 material=material, source=str(path))
 
 

@@ -17,8 +17,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import LinkFeaError
-from .frames import Frame
-from .materials import get_material
 from .selectors import Selector
 
 if TYPE_CHECKING:
@@ -92,18 +90,9 @@ def solid_from_triangles(V: np.ndarray, F: np.ndarray, label: str):
 def load_surface(path, base: Selector, tip: Selector, material: str = "steel",
                  with_block: bool = True, block_length: float | None = None) -> Link:
     """A :class:`linkfea.cad.Link` from a closed triangle surface (see the module docstring)."""
-    from .cad import Link, check_link
-    from .step import interface_frame_and_block
+    from .step import link_from_solid
 
     path = Path(path)
     V, F = read_surface(path)
     body = solid_from_triangles(V, F, path.name)
-    get_material(material)
-    link = Link(name=path.stem, body=body, block=None, base=base, tip=tip,
-                frame=Frame(np.zeros(3), np.eye(3)), params={}, material=material, source=str(path))
-    check_link(link)
-    frame, block, h = interface_frame_and_block(body, link.base_faces, link.tip_faces, with_block,
-                                                block_length, path.name)
-    return Link(name=path.stem, body=body, block=block, base=base, tip=tip, frame=frame,
-                params={"block_length": h} if with_block and h is not None else {},
-                material=material, source=str(path))
+    return link_from_solid(body, path, base, tip, material, with_block, block_length)
