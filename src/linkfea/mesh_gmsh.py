@@ -44,6 +44,15 @@ MIN_SIZE_FACTOR = 0.1
 """Smallest edge length allowed by the curvature rule, as a fraction of the target size:
 a tiny fillet does not explode the element count."""
 
+CORNER_SIZE_FACTOR = 1.0
+"""Edge length on the concave (re-entrant) CAD edges, as a fraction of the target size."""
+
+INTERFACE_SIZE_FACTOR = 1.0
+"""Edge length on the edges bounding the base and tip faces, as a fraction of the target size."""
+
+FEATURE_GRADING = 0.3
+"""Growth of the edge length away from a refined concave or interface edge (mm per mm)."""
+
 ALGORITHM_2D = 6
 """Frontal-Delaunay for the surfaces."""
 
@@ -134,37 +143,106 @@ def _curve_radius(gmsh, curve: int) -> float:
     return float(1.0 / k.max()) if len(k) and k.max() > 1e-9 else float("inf")
 
 
-def _refine_interface_edges(gmsh, surfaces: list[int], H: float) -> None:
-    """A size field along the curved edges of the planar interface faces (:data:`EDGE_SEGMENTS_PER_CIRCLE`).
+def _interface_edge_fields(gmsh, surfaces: list[int], H: float) -> list[int]:
+    """Size fields along the curved edges of the planar interface faces (:data:`EDGE_SEGMENTS_PER_CIRCLE`).
 
     Curved interface faces (a bore) are left to the curvature rule: their chord error is the
     surface's own, which finer edges would not remove.
     """
     planar = [s for s in surfaces if gmsh.model.getType(2, s) == "Plane"]
     if not planar:
-        return
+        return []
     curves = sorted({abs(t) for _, t in gmsh.model.getBoundary([(2, s) for s in planar], combined=False,
                                                               oriented=False)})
-    sizes = {}
+    sizes: dict[float, list[int]] = {}
     for c in curves:
         h = 2.0 * np.pi * _curve_radius(gmsh, c) / EDGE_SEGMENTS_PER_CIRCLE
         if h < H:
             sizes.setdefault(round(max(h, MIN_SIZE_FACTOR * H), 9), []).append(c)
-    if not sizes:
+    return [_threshold(gmsh, cs, h, H, EDGE_GRADING) for h, cs in sorted(sizes.items())]
+
+
+def _threshold(gmsh, curves: list[int], h: float, H: float, grading: float) -> int:
+    """A gmsh field: size ``h`` on ``curves``, growing by ``grading`` per mm up to ``H``."""
+    f = gmsh.model.mesh.field
+    d = f.add("Distance")
+    f.setNumbers(d, "CurvesList", curves)
+    f.setNumber(d, "Sampling", 100)
+    t = f.add("Threshold")
+    f.setNumber(t, "InField", d)
+    f.setNumber(t, "SizeMin", h)
+    f.setNumber(t, "SizeMax", H)
+    f.setNumber(t, "DistMin", 0.0)
+    f.setNumber(t, "DistMax", (H - h) / grading)
+    return t
+
+
+def concave_edges(solid) -> list:
+    """The concave (re-entrant) edges of a CAD solid, where the stress is singular.
+
+    At the middle ``p`` of an edge shared by two faces with outward normals ``n1`` and ``n2``,
+    the point ``p + d (n1 - n2)`` lies inside the solid exactly when the edge is concave (the
+    material is the union of the two half-spaces there, not their intersection).  Tangent
+    edges (``n1 ~ n2``, a fillet's border) are not corners.
+    """
+    import cadquery as cq
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    amap = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(solid.wrapped, TopAbs_EDGE, TopAbs_FACE, amap)
+    d = 1e-4 * float(solid.BoundingBox().DiagonalLength)
+    out = []
+    for i in range(1, amap.Extent() + 1):
+        faces = {cq.Face(f).hashCode(): cq.Face(f) for f in amap.FindFromIndex(i)}
+        if len(faces) != 2:
+            continue
+        edge = cq.Edge(amap.FindKey(i))
+        p = edge.positionAt(0.5)
+        f1, f2 = faces.values()
+        n = f1.normalAt(p) - f2.normalAt(p)
+        if n.Length < 0.1:
+            continue
+        if solid.isInside(p + n * d, tolerance=0.1 * d):
+            out.append(edge)
+    return out
+
+
+def _corner_fields(gmsh, solid, curves: list[int], H: float) -> list[int]:
+    """A size field along the concave edges of ``solid`` (:data:`CORNER_SIZE_FACTOR`), matched to
+    gmsh ``curves`` by length and centre of mass; an edge gmsh split (a fragment) is left out."""
+    h = CORNER_SIZE_FACTOR * H
+    if h >= H:
+        return []
+    occ = gmsh.model.occ
+    cand = {c: (float(occ.getMass(1, c)), np.array(occ.getCenterOfMass(1, c))) for c in curves}
+    size = float(solid.BoundingBox().DiagonalLength)
+    tags = []
+    for e in concave_edges(solid):
+        L, c = float(e.Length()), np.array(e.Center().toTuple())
+        for t, (Lt, ct) in cand.items():
+            if abs(Lt - L) <= MATCH_TOL * L and np.linalg.norm(ct - c) <= MATCH_TOL * size:
+                tags.append(t)
+                break
+    return [_threshold(gmsh, sorted(set(tags)), h, H, FEATURE_GRADING)] if tags else []
+
+
+def _size_fields(gmsh, solid, body_vols: list[int], interfaces: list[int], H: float) -> None:
+    """The background size: the smallest of the interface-edge, interface-border and corner fields."""
+    fields = _interface_edge_fields(gmsh, interfaces, H)
+    if INTERFACE_SIZE_FACTOR < 1.0:
+        curves = sorted({abs(t) for _, t in gmsh.model.getBoundary([(2, s) for s in interfaces], combined=False,
+                                                                  oriented=False)})
+        fields.append(_threshold(gmsh, curves, INTERFACE_SIZE_FACTOR * H, H, FEATURE_GRADING))
+    bnd = gmsh.model.getBoundary([(3, v) for v in body_vols], combined=False, oriented=False)
+    surf = sorted({abs(t) for _, t in bnd})
+    curves = sorted({abs(t) for _, t in gmsh.model.getBoundary([(2, s) for s in surf], combined=False,
+                                                              oriented=False)})
+    fields += _corner_fields(gmsh, solid, curves, H)
+    if not fields:
         return
     f = gmsh.model.mesh.field
-    fields = []
-    for h, cs in sorted(sizes.items()):
-        d = f.add("Distance")
-        f.setNumbers(d, "CurvesList", cs)
-        f.setNumber(d, "Sampling", 100)
-        t = f.add("Threshold")
-        f.setNumber(t, "InField", d)
-        f.setNumber(t, "SizeMin", h)
-        f.setNumber(t, "SizeMax", H)
-        f.setNumber(t, "DistMin", 0.0)
-        f.setNumber(t, "DistMax", (H - h) / EDGE_GRADING)
-        fields.append(t)
     m = f.add("Min")
     f.setNumbers(m, "FieldsList", fields)
     f.setAsBackgroundMesh(m)
@@ -220,7 +298,7 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float) -> GmshMe
                     raise LinkFeaError(f"{name}: the block shares no face with the body after the fragment")
             else:
                 tip_s = match_surfaces(tip_faces, surfaces, size, f"{name}: tip")
-            _refine_interface_edges(gmsh, base_s + tip_s, H)
+            _size_fields(gmsh, body, body_vols, base_s + tip_s, H)
             try:
                 gmsh.model.mesh.generate(3)
             except Exception as exc:  # gmsh raises a bare Exception with its last error

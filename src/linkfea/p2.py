@@ -109,7 +109,8 @@ def p2_mesh(points: np.ndarray, tets: np.ndarray) -> P2Mesh:
     nv = len(points)
     if tets.min() < 0 or tets.max() >= nv:
         raise LinkFeaError("tets refer to points that do not exist")
-    mesh = skfem.MeshTet(points.T, tets.T, sort_t=False, validate=False)
+    # C-contiguous (n_dim, n) arrays: scikit-fem would copy them itself, with a warning each.
+    mesh = skfem.MeshTet(np.ascontiguousarray(points.T), np.ascontiguousarray(tets.T), sort_t=False, validate=False)
     element = skfem.ElementTetP2()
     dofs = Dofs(mesh, element)
     cells = np.asarray(dofs.element_dofs.T, dtype=np.int64)
