@@ -28,7 +28,7 @@ from typing import Optional
 import numpy as np
 
 from .errors import LinkFeaError, SolverError
-from .fem import interface_nodes, p2_mesh, rigid_motion_matrix
+from .fem import interface_nodes, link_p2, rigid_motion_matrix
 from .fit import fit_rigid_motion
 from .materials import Material
 
@@ -89,7 +89,7 @@ def write_inp(path, mesh, material: Material, mode: str = "rigid", block_ratio: 
         ``ref`` and ``rot`` node numbers (1-based, rigid mode), the ``ref_nodes``
         (0-based P2 indices) and the P2 ``points``.
     """
-    p2 = p2_mesh(mesh.points, mesh.tets)
+    p2 = link_p2(mesh)
     clamped, ref_nodes = interface_nodes(p2, mesh, mode)
     block = np.asarray(mesh.block, dtype=bool)
     frame = mesh.frame

@@ -34,7 +34,7 @@ from .frames import Frame, skew
 from .materials import Material
 
 # p2_mesh, lame, the factorizers ...: imported from here by callers since before the split.
-from .p2 import P2Mesh, assemble_upper, assemble_upper_skfem, lame, p2_mesh, symmetric_from_upper
+from .p2 import P2Mesh, assemble_upper, assemble_upper_skfem, lame, link_p2, p2_mesh, symmetric_from_upper  # noqa: F401
 from .solvers import default_factorizer, pardiso_factorizer, scipy_factorizer  # noqa: F401
 
 MODES = ("rigid", "block")
@@ -187,7 +187,7 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
 
     report("assemble")
     t0 = time.perf_counter()
-    p2 = p2_mesh(mesh.points, mesh.tets)
+    p2 = link_p2(mesh)
     clamped, ref_nodes = interface_nodes(p2, mesh, mode)
     lam0, mu0 = lame(material)
     scale = np.where(block, block_ratio, 1.0) if mode == "block" else None

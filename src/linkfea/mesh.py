@@ -30,7 +30,7 @@ import hashlib
 import os
 import tempfile
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
@@ -49,6 +49,10 @@ DEFAULT_EPSILON = 1e-3
 ANGULAR_TOL = 0.1
 """Tessellation angular deflection, rad: a circle becomes a >= 63-gon, whose area is 0.2% short.
 (0.2 rad loses 0.7% of a circle's area, which shows in the compliance.)"""
+
+CURVED = True
+"""gmsh meshes are second order in geometry: the P2 node of a boundary edge lies on the CAD
+surface, not on the chord (isoparametric P2; docs/benchmarks.md measures the gain)."""
 
 MESHERS = ("gmsh", "pytetwild")
 DEFAULT_MESHER = "gmsh"
@@ -90,6 +94,9 @@ class LinkMesh:
         ``"gmsh"`` or ``"pytetwild"`` ('' for meshes built by hand).
     mesher_version : str
         Version of the mesher's package.
+    curved_edges, curved_points : ndarray (k, 2) int and (k, 3), or None
+        Second-order geometry: mesh edges (vertex pairs) whose P2 node lies off the midpoint, on
+        the CAD surface (gmsh), and those nodes; None for straight-sided P2 (pytetwild).
     """
 
     points: np.ndarray
@@ -104,6 +111,8 @@ class LinkMesh:
     cache_key: str = ""
     mesher: str = ""
     mesher_version: str = ""
+    curved_edges: np.ndarray | None = None
+    curved_points: np.ndarray | None = None
 
     @property
     def n_nodes(self) -> int:
@@ -437,10 +446,14 @@ def _mesh_with_gmsh(link, H, block_solid, say, area_gate) -> LinkMesh:
     if not tip_faces:
         raise LinkFeaError(f"{link.name}: tip selector {link.tip} finds no face")
     say(f"meshing with gmsh (edge {H:.3g} mm)")
-    g = mesh_gmsh.mesh_gmsh(link.name, link.body, block_solid, base_faces, tip_faces, H)
+    g = mesh_gmsh.mesh_gmsh(link.name, link.body, block_solid, base_faces, tip_faces, H, curved=CURVED)
     say("checking interfaces")
-    return finish_mesh(link, g.points, g.tets, g.block, g.base_facets, g.tip_facets, block_solid, H, 0.0, "",
-                       "gmsh", mesh_gmsh.version(), area_gate)
+    m = finish_mesh(link, g.points, g.tets, g.block, g.base_facets, g.tip_facets, block_solid, H, 0.0, "",
+                    "gmsh", mesh_gmsh.version(), area_gate)
+    if g.curved_edges is None:
+        return m
+    m.quality["n_curved_edges"] = int(len(g.curved_edges))
+    return replace(m, curved_edges=g.curved_edges, curved_points=g.curved_points)
 
 
 def _clean(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -72,6 +72,12 @@ class GmshMesh:
     block: np.ndarray
     base_facets: np.ndarray
     tip_facets: np.ndarray
+    curved_edges: np.ndarray | None = None
+    curved_points: np.ndarray | None = None
+
+
+# gmsh's 10-node tetrahedron: node 4 + k sits on the edge GMSH_TET10_EDGES[k] of the vertices 0-3.
+GMSH_TET10_EDGES = np.array([[0, 1], [1, 2], [2, 0], [3, 0], [3, 2], [3, 1]])
 
 
 def version() -> str:
@@ -248,12 +254,15 @@ def _size_fields(gmsh, solid, body_vols: list[int], interfaces: list[int], H: fl
     f.setAsBackgroundMesh(m)
 
 
-def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float) -> GmshMesh:
+def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float, curved: bool = False) -> GmshMesh:
     """Mesh ``body`` (and ``block``, fragment-fused) at target size ``H`` mm; see the module docstring.
 
     ``base_faces`` and ``tip_faces`` are CAD faces of ``body``.  Returns
     positively oriented tets, the block flag per tet, and the triangles of the
-    base and tip surfaces.
+    base and tip surfaces.  With ``curved``, gmsh also makes the mesh second order (mid-edge
+    nodes of boundary edges on the CAD surfaces): ``curved_edges`` (k, 2) are the vertex pairs
+    whose mid-edge node is not the midpoint, ``curved_points`` (k, 3) those nodes (for the
+    curved-element comparison of ``benchmarks/bench_fea.py``; the P2 solve uses straight edges).
     """
     import gmsh
 
@@ -303,6 +312,8 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float) -> GmshMe
                 gmsh.model.mesh.generate(3)
             except Exception as exc:  # gmsh raises a bare Exception with its last error
                 raise SolverError(f"{name}: gmsh failed to mesh the link: {exc}") from None
+            if curved:
+                gmsh.model.mesh.setOrder(2)
             tags, coords, _ = gmsh.model.mesh.getNodes()
             points = np.asarray(coords, dtype=float).reshape(-1, 3)
             index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
@@ -313,17 +324,21 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float) -> GmshMe
                 out = [np.asarray(n, dtype=np.int64).reshape(-1, nn) for ty, n in zip(types, nodes) if ty == etype]
                 return index[np.vstack(out)] if out else np.zeros((0, nn), dtype=np.int64)
 
-            parts = [(elements(3, v, 4, 4), False) for v in body_vols] + [(elements(3, v, 4, 4), True)
-                                                                         for v in block_vols]
+            (tet_type, tet_n), (tri_type, tri_n) = ((11, 10), (9, 6)) if curved else ((4, 4), (2, 3))
+            parts = [(elements(3, v, tet_type, tet_n), False) for v in body_vols] + [
+                (elements(3, v, tet_type, tet_n), True) for v in block_vols]
             tets = np.vstack([p for p, _ in parts])
             block_flag = np.concatenate([np.full(len(p), b) for p, b in parts])
-            base_tris = np.vstack([elements(2, s, 2, 3) for s in base_s])
-            tip_tris = np.vstack([elements(2, s, 2, 3) for s in tip_s])
+            base_tris = np.vstack([elements(2, s, tri_type, tri_n) for s in base_s])[:, :3]
+            tip_tris = np.vstack([elements(2, s, tri_type, tri_n) for s in tip_s])[:, :3]
+            mids = tets[:, 4:]
+            tets = tets[:, :4]
         finally:
             gmsh.finalize()
     if len(tets) == 0:
         raise LinkFeaError(f"{name}: gmsh produced no tetrahedra (mesh size {H:g} mm too large?)")
     # Keep only the points the tets use, in first-use order of their sorted tags (deterministic).
+    tets_gmsh = tets
     used, inv = np.unique(tets, return_inverse=True)
     remap = np.full(len(points), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
@@ -331,9 +346,19 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float) -> GmshMe
     base_tris, tip_tris = remap[base_tris], remap[tip_tris]
     if (base_tris < 0).any() or (tip_tris < 0).any():
         raise LinkFeaError(f"{name}: an interface triangle has a node outside the volume mesh")
+    curved_edges = curved_points = None
+    if curved:
+        pairs = np.sort(remap[tets_gmsh[:, GMSH_TET10_EDGES]].reshape(-1, 2), axis=1)
+        mid = points[mids.reshape(-1)]
+        pairs, first = np.unique(pairs, axis=0, return_index=True)
+        mid = mid[first]
+        off = np.linalg.norm(mid - 0.5 * (points[used][pairs[:, 0]] + points[used][pairs[:, 1]]), axis=1)
+        keep = off > 1e-12 * float(np.ptp(points[used], axis=0).max())
+        curved_edges, curved_points = pairs[keep], mid[keep]
     points = points[used]
     from .mesh import tet_volumes
 
     neg = tet_volumes(points, tets) < 0
     tets[neg] = tets[neg][:, [0, 2, 1, 3]]
-    return GmshMesh(points=points, tets=tets, block=block_flag, base_facets=base_tris, tip_facets=tip_tris)
+    return GmshMesh(points=points, tets=tets, block=block_flag, base_facets=base_tris, tip_facets=tip_tris,
+                    curved_edges=curved_edges, curved_points=curved_points)

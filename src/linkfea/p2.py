@@ -54,6 +54,9 @@ class P2Mesh:
     dofs : skfem.assembly.Dofs
         Of the scalar ``ElementTetP2``: DOF ``n`` is P2 node ``n``; vector DOF ``3 n + c``
         is component ``c`` of node ``n`` (scikit-fem's ``ElementVector`` numbering).
+    curved : ndarray (m,) bool or None
+        Cells with a mid-edge node off its edge's midpoint (second-order geometry: a boundary
+        edge on a curved CAD face).  They are integrated isoparametrically; None: all straight.
     """
 
     points: np.ndarray
@@ -62,6 +65,7 @@ class P2Mesh:
     n_vertices: int
     mesh: Any = field(default=None, repr=False)
     dofs: Any = field(default=None, repr=False)
+    curved: Optional[np.ndarray] = field(default=None, repr=False)
 
     def facet_index(self, facets: np.ndarray) -> np.ndarray:
         """Indices into scikit-fem's ``mesh.facets`` of triangles ``facets`` (k, 3) given by vertices."""
@@ -91,11 +95,15 @@ class P2Mesh:
         return np.unique(np.asarray(self.dofs.get_facet_dofs(idx).flatten(), dtype=np.int64))
 
 
-def p2_mesh(points: np.ndarray, tets: np.ndarray) -> P2Mesh:
+def p2_mesh(points: np.ndarray, tets: np.ndarray, curved_edges: Optional[np.ndarray] = None,
+            curved_points: Optional[np.ndarray] = None) -> P2Mesh:
     """Promote a linear tet mesh to P2 with scikit-fem (``MeshTet``, ``ElementTetP2`` DOFs).
 
     The tets keep their vertex order (``sort_t=False``): the kernel needs the given,
-    positive orientation.
+    positive orientation.  ``curved_edges`` (k, 2) vertex pairs and ``curved_points`` (k, 3)
+    move those edges' nodes off the midpoints (second-order geometry, e.g. gmsh's mid-edge
+    nodes on the CAD surfaces); a cell whose curved map would fold (Jacobian not positive at
+    a quadrature point) gets its edges straightened back.
     """
     import skfem
     from skfem.assembly import Dofs
@@ -119,13 +127,101 @@ def p2_mesh(points: np.ndarray, tets: np.ndarray) -> P2Mesh:
     pts = np.empty((int(dofs.N), 3))
     pts[cells.ravel()] = X.transpose(1, 2, 0).reshape(-1, 3)
     pts[:nv] = points  # vertices exactly as given
-    return P2Mesh(pts, cells, np.asarray(mesh.edges.T, dtype=np.int64), nv, mesh, dofs)
+    edges = np.asarray(mesh.edges.T, dtype=np.int64)
+    curved = None
+    if curved_edges is not None and len(curved_edges):
+        pts, curved = _curve_edges(pts, cells, edges, nv, np.asarray(curved_edges, dtype=np.int64),
+                                   np.asarray(curved_points, dtype=float))
+    return P2Mesh(pts, cells, edges, nv, mesh, dofs, curved)
+
+
+def link_p2(mesh) -> P2Mesh:
+    """The P2 mesh of a :class:`linkfea.mesh.LinkMesh`, with its second-order geometry if it has one."""
+    return p2_mesh(mesh.points, mesh.tets, getattr(mesh, "curved_edges", None), getattr(mesh, "curved_points", None))
+
+
+def _curve_edges(pts, cells, edges, nv, curved_edges, curved_points):
+    """Move the nodes of ``curved_edges`` to ``curved_points``; straighten the edges of cells that fold."""
+    key = edges[:, 0] * nv + edges[:, 1]
+    ce = np.sort(curved_edges, axis=1)
+    ck = ce[:, 0] * nv + ce[:, 1]
+    order = np.argsort(key)
+    pos = order[np.minimum(np.searchsorted(key, ck, sorter=order), len(key) - 1)]
+    if not np.all(key[pos] == ck):
+        raise LinkFeaError("curved edges that are not edges of the tet mesh")
+    straight = pts.copy()
+    pts = pts.copy()
+    pts[nv + pos] = curved_points
+    for _ in range(3):
+        moved = np.any(pts[cells[:, 4:]] != straight[cells[:, 4:]], axis=(1, 2))
+        idx = np.flatnonzero(moved)
+        _, det = _isoparametric_gradients(pts[cells[idx]])
+        bad = idx[np.any(det <= 0.0, axis=1)]
+        if len(bad) == 0:
+            return pts, moved
+        nodes = np.unique(cells[bad, 4:])
+        pts[nodes] = straight[nodes]
+    raise LinkFeaError("curved elements: straightening the folded cells did not converge")
+
+
+CURVED_QUADRATURE_DEGREE = 2
+"""Quadrature of curved cells: scikit-fem's degree-2 rule on the tet, the 4 points of C3D10 in
+CalculiX and Abaqus (exact on straight cells; the CalculiX cross-check then solves the same
+discrete problem on curved meshes too)."""
+
+
+def _quadrature():
+    """scikit-fem's rule of :data:`CURVED_QUADRATURE_DEGREE` on the reference tet: points (3, nq), weights (nq,) (sum 1/6)."""
+    from skfem.quadrature import get_quadrature
+    from skfem.refdom import RefTet
+
+    X, W = get_quadrature(RefTet, CURVED_QUADRATURE_DEGREE)
+    return np.asarray(X, dtype=float), np.asarray(W, dtype=float)
+
+
+def _p2_reference_gradients(X: np.ndarray) -> np.ndarray:
+    """dN_a/dxi_k (nq, 10, 3) of the 10 P2 shape functions at reference points ``X`` (3, nq).
+
+    Barycentric ``lam = (1 - xi1 - xi2 - xi3, xi1, xi2, xi3)``; vertex ``i``: ``lam_i (2 lam_i - 1)``,
+    edge (i, j) of :data:`TET_EDGES`: ``4 lam_i lam_j`` (scikit-fem's ``ElementTetP2`` order).
+    """
+    lam = np.vstack([1.0 - X.sum(axis=0), X]).T  # (nq, 4)
+    dlam = np.vstack([-np.ones(3), np.eye(3)])  # (4, 3): d lam_m / d xi_k
+    dN_dlam = np.zeros((len(lam), 10, 4))
+    for i in range(4):
+        dN_dlam[:, i, i] = 4.0 * lam[:, i] - 1.0
+    for e, (i, j) in enumerate(TET_EDGES):
+        dN_dlam[:, 4 + e, i] = 4.0 * lam[:, j]
+        dN_dlam[:, 4 + e, j] = 4.0 * lam[:, i]
+    return dN_dlam @ dlam
+
+
+def _isoparametric_gradients(X: np.ndarray):
+    """Physical gradients (m, nq, 10, 3) and Jacobian determinants (m, nq) of 10-node tets with nodes ``X`` (m, 10, 3)."""
+    Q, _ = _quadrature()
+    dN = _p2_reference_gradients(Q)  # (nq, 10, 3)
+    J = np.einsum("eai,qak->eqik", X, dN)  # dx_i / dxi_k
+    det = np.linalg.det(J)
+    Jinv = np.linalg.inv(np.where(det[..., None, None] > 0, J, np.eye(3)))
+    return np.einsum("qak,eqki->eqai", dN, Jinv), det
+
+
+def _isoparametric_pair_integrals(X: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``S[e, i, j, p] = w_e int dN_a/dx_i dN_b/dx_j`` (m, 3, 3, 55) over curved 10-node tets, pairs ``p = (a <= b)``.
+
+    The rule of :data:`CURVED_QUADRATURE_DEGREE` (the integrand is rational on a curved cell).
+    """
+    _, W = _quadrature()
+    G, det = _isoparametric_gradients(X)
+    wq = det * W[None, :] * w[:, None]  # (m, nq)
+    return np.einsum("eq,eqpi,eqpj->eijp", wq, G[:, :, _PAIR_A], G[:, :, _PAIR_B])
 
 
 def assemble_upper_skfem(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.ndarray] = None) -> sp.csr_matrix:
     """The reference assembly: ``skfem.asm(linear_elasticity)`` on ``ElementVector(ElementTetP2)``.
 
-    ``intorder=2`` is exact for affine P2 (gradients are linear).  Same DOF numbering as
+    ``intorder=2`` is exact for affine P2 (gradients are linear); a curved mesh uses scikit-fem's
+    ``MeshTet2`` (isoparametric) with the kernel's rule, :data:`CURVED_QUADRATURE_DEGREE`.  Same DOF numbering as
     :func:`assemble_upper` (scikit-fem's); 7-10x slower (docs/benchmarks.md).  ``scale``
     multiplies both constants per element (assembled per distinct value).
     """
@@ -135,10 +231,16 @@ def assemble_upper_skfem(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.n
     element = skfem.ElementVector(skfem.ElementTetP2())
     m = len(p2.cells)
     scale = np.ones(m) if scale is None else np.asarray(scale, dtype=float)
+    mesh, intorder = p2.mesh, 2
+    if p2.curved is not None and p2.curved.any():
+        # Second-order geometry: scikit-fem's isoparametric P2 mesh on the same nodes, the kernel's rule.
+        mesh = skfem.MeshTet2(np.ascontiguousarray(p2.points.T), np.ascontiguousarray(p2.cells[:, :4].T),
+                              sort_t=False)
+        intorder = CURVED_QUADRATURE_DEGREE
     K = None
     for s in np.unique(scale):
         elems = np.flatnonzero(scale == s)
-        basis = skfem.Basis(p2.mesh, element, intorder=2, elements=None if len(elems) == m else elems)
+        basis = skfem.Basis(mesh, element, intorder=intorder, elements=None if len(elems) == m else elems)
         Ks = skfem.asm(linear_elasticity(s * lam, s * mu), basis)
         K = Ks if K is None else K + Ks
     return sp.triu(K, format="csr")
@@ -227,7 +329,9 @@ def assemble_upper(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.ndarray
     N = len(p2.points)
     g, V = tet_geometry(p2.points[:p2.n_vertices], cells[:, :4])
     g123 = g[:, 1:, :]
-    w = V if scale is None else V * np.asarray(scale, dtype=float)  # per unit mu
+    ws = np.ones(m) if scale is None else np.asarray(scale, dtype=float)
+    w = V * ws  # per unit mu
+    curved = p2.curved if p2.curved is not None and p2.curved.any() else None
     ratio = lam / mu
 
     # Node-level upper pattern: unique pairs (r <= c), sorted row-major.
@@ -246,6 +350,10 @@ def assemble_upper(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.ndarray
         mc = sl.stop - sl.start
         H = np.einsum("eKi,eLj->eijKL", g123[sl] * w[sl, None, None], g123[sl]).reshape(mc * 9, 9)
         S = (H @ _T3.T).reshape(mc, 3, 3, 55)
+        if curved is not None:
+            cv = np.flatnonzero(curved[sl])
+            if len(cv):
+                S[cv] = _isoparametric_pair_integrals(p2.points[cells[sl][cv]], ws[sl][cv])
         tr = S[:, 0, 0] + S[:, 1, 1] + S[:, 2, 2]
         sw = swapped[sl]
         idx = inv[sl].ravel()

@@ -130,7 +130,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
 
     mesh_info = {"mesher": mesh.mesher, "mesher_version": mesh.mesher_version, "n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets), "n_dofs": int(sol.n_dofs),
                  "n_p2_nodes": int(len(sol.points)), "edge_length": float(mesh.edge_length),
-                 "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)",
+                 "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)" + (
+                     ", curved boundary edges" if getattr(mesh, "curved_edges", None) is not None else ""),
                  "quality": dict(mesh.quality), "cache_key": mesh.cache_key}
     return LinkResult(value=comp.compliance, name=link.name, source=str(link.source), params=dict(link.params),
                       material=mat, mode=mode, block_ratio=float(block_ratio) if mode == "block" else None,
