@@ -349,9 +349,9 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float, curved: b
     curved_edges = curved_points = None
     if curved:
         pairs = np.sort(remap[tets_gmsh[:, GMSH_TET10_EDGES]].reshape(-1, 2), axis=1)
-        mid = points[mids.reshape(-1)]
-        pairs, first = np.unique(pairs, axis=0, return_index=True)
-        mid = mid[first]
+        n = len(used)
+        _, first = np.unique(pairs[:, 0] * n + pairs[:, 1], return_index=True)  # one row per edge
+        pairs, mid = pairs[first], points[mids.reshape(-1)[first]]
         off = np.linalg.norm(mid - 0.5 * (points[used][pairs[:, 0]] + points[used][pairs[:, 1]]), axis=1)
         keep = off > 1e-12 * float(np.ptp(points[used], axis=0).max())
         curved_edges, curved_points = pairs[keep], mid[keep]
