@@ -91,7 +91,7 @@ def foot_end_to_end(warm_runs: int = 3):
     print("\n## foot end to end (rigid, gmsh, default mesh)")
     t0 = time.perf_counter()
     r = compute("orthoglide_foot")
-    print(f"first call in this process (imports of cadquery etc. done before): {time.perf_counter() - t0:.2f} s "
+    print(f"first call in this process (its cad stage includes importing cadquery): {time.perf_counter() - t0:.2f} s "
           f"({_stages(r.timing)})")
     runs = []
     for _ in range(warm_runs):
