@@ -135,6 +135,21 @@ def test_invalid_design_fails_alone(client, tmp_path):
     assert run_sweep(sw, tmp_path, client=client, retry_failed=True).failed == [sw.designs[1].key]
 
 
+def test_local_workers_run_without_the_dashboard_sampler(client):
+    """The local cluster's workers received its lean settings (the 10 ms stack sampler off), so
+    one worker per core leaves the designs the CPU."""
+    import dask
+
+    from linkfea.sweep import LEAN_CLUSTER_CONFIG
+
+    def settings():
+        return {k: dask.config.get(k) for k in LEAN_CLUSTER_CONFIG}
+
+    got = client.run(settings)
+    assert len(got) == 2 and all(v == LEAN_CLUSTER_CONFIG for v in got.values()), got
+    assert dask.config.get("distributed.worker.profile.enabled") is True  # the caller's own config untouched
+
+
 def test_lost_workers_keep_finished_results_and_rerun_completes(client, tmp_path):
     sw = make_sweep("bar", ["length=90,110,130,150"], {"mesh_size": 6.0})
     written = {}
