@@ -214,7 +214,9 @@ def _isoparametric_pair_integrals(X: np.ndarray, w: np.ndarray) -> np.ndarray:
     _, W = _quadrature()
     G, det = _isoparametric_gradients(X)
     wq = det * W[None, :] * w[:, None]  # (m, nq)
-    return np.einsum("eq,eqpi,eqpj->eijp", wq, G[:, :, _PAIR_A], G[:, :, _PAIR_B])
+    GA = (G[:, :, _PAIR_A] * wq[:, :, None, None]).transpose(0, 2, 3, 1)  # (m, 55, 3, nq)
+    GB = G[:, :, _PAIR_B].transpose(0, 2, 1, 3)  # (m, 55, nq, 3)
+    return np.matmul(GA, GB).transpose(0, 2, 3, 1)  # batched 3 x nq x 3 products: (m, 3, 3, 55)
 
 
 def assemble_upper_skfem(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.ndarray] = None) -> sp.csr_matrix:
