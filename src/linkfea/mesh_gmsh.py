@@ -76,8 +76,6 @@ class GmshMesh:
     curved_points: np.ndarray | None = None
 
 
-# gmsh's 10-node tetrahedron: node 4 + k sits on the edge GMSH_TET10_EDGES[k] of the vertices 0-3.
-GMSH_TET10_EDGES = np.array([[0, 1], [1, 2], [2, 0], [3, 0], [3, 2], [3, 1]])
 
 
 def version() -> str:
@@ -254,15 +252,47 @@ def _size_fields(gmsh, solid, body_vols: list[int], interfaces: list[int], H: fl
     f.setAsBackgroundMesh(m)
 
 
+def _curved_edge_nodes(gmsh, vols: list[int], points: np.ndarray, elements):
+    """Second-order geometry of the boundary: each mesh edge on a curved CAD face or edge, as a vertex
+    pair (indices into ``points``) and its midpoint projected onto that face or edge (gmsh's
+    closest point on the OCC geometry; an edge on a CAD edge goes onto the CAD edge).  Planar faces
+    and straight CAD edges keep their midpoints, so they are skipped.
+    """
+    surfs = sorted({abs(t) for _, t in gmsh.model.getBoundary([(3, v) for v in vols], combined=False,
+                                                             oriented=False)})
+    curves = sorted({abs(t) for _, t in gmsh.model.getBoundary([(2, s) for s in surfs], combined=False,
+                                                              oriented=False)})
+    found = []
+    for dim, ents, skip, etype, nn, local in ((2, surfs, "Plane", 2, 3, [[0, 1], [1, 2], [2, 0]]),
+                                               (1, curves, "Line", 1, 2, [[0, 1]])):
+        for e in ents:
+            if gmsh.model.getType(dim, e) == skip:
+                continue
+            el = elements(dim, e, etype, nn)
+            if len(el) == 0:
+                continue
+            pairs = np.unique(np.sort(el[:, local].reshape(-1, 2), axis=1), axis=0)
+            mid = 0.5 * (points[pairs[:, 0]] + points[pairs[:, 1]])
+            proj, _ = gmsh.model.getClosestPoint(dim, e, mid.ravel())
+            found.append((pairs, np.asarray(proj, dtype=float).reshape(-1, 3)))
+    if not found:
+        return np.zeros((0, 2), dtype=np.int64), np.zeros((0, 3))
+    # An edge on a CAD edge also borders its faces: the CAD edge's projection (listed last) wins.
+    pairs = np.vstack([p for p, _ in found])[::-1]
+    proj = np.vstack([q for _, q in found])[::-1]
+    n = len(points)
+    _, first = np.unique(pairs[:, 0] * n + pairs[:, 1], return_index=True)
+    return pairs[first], proj[first]
+
+
 def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float, curved: bool = False) -> GmshMesh:
     """Mesh ``body`` (and ``block``, fragment-fused) at target size ``H`` mm; see the module docstring.
 
     ``base_faces`` and ``tip_faces`` are CAD faces of ``body``.  Returns
     positively oriented tets, the block flag per tet, and the triangles of the
-    base and tip surfaces.  With ``curved``, gmsh also makes the mesh second order (mid-edge
-    nodes of boundary edges on the CAD surfaces): ``curved_edges`` (k, 2) are the vertex pairs
-    whose mid-edge node is not the midpoint, ``curved_points`` (k, 3) those nodes (for the
-    curved-element comparison of ``benchmarks/bench_fea.py``; the P2 solve uses straight edges).
+    base and tip surfaces.  With ``curved``, the mesh gets second-order geometry on its boundary
+    (:func:`_curved_edge_nodes`): ``curved_edges`` (k, 2) are the vertex pairs whose P2 node is
+    not the midpoint, ``curved_points`` (k, 3) those nodes, on the CAD faces.
     """
     import gmsh
 
@@ -312,8 +342,6 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float, curved: b
                 gmsh.model.mesh.generate(3)
             except Exception as exc:  # gmsh raises a bare Exception with its last error
                 raise SolverError(f"{name}: gmsh failed to mesh the link: {exc}") from None
-            if curved:
-                gmsh.model.mesh.setOrder(2)
             tags, coords, _ = gmsh.model.mesh.getNodes()
             points = np.asarray(coords, dtype=float).reshape(-1, 3)
             index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
@@ -324,21 +352,19 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float, curved: b
                 out = [np.asarray(n, dtype=np.int64).reshape(-1, nn) for ty, n in zip(types, nodes) if ty == etype]
                 return index[np.vstack(out)] if out else np.zeros((0, nn), dtype=np.int64)
 
-            (tet_type, tet_n), (tri_type, tri_n) = ((11, 10), (9, 6)) if curved else ((4, 4), (2, 3))
-            parts = [(elements(3, v, tet_type, tet_n), False) for v in body_vols] + [
-                (elements(3, v, tet_type, tet_n), True) for v in block_vols]
+            parts = [(elements(3, v, 4, 4), False) for v in body_vols] + [(elements(3, v, 4, 4), True)
+                                                                         for v in block_vols]
             tets = np.vstack([p for p, _ in parts])
             block_flag = np.concatenate([np.full(len(p), b) for p, b in parts])
-            base_tris = np.vstack([elements(2, s, tri_type, tri_n) for s in base_s])[:, :3]
-            tip_tris = np.vstack([elements(2, s, tri_type, tri_n) for s in tip_s])[:, :3]
-            mids = tets[:, 4:]
-            tets = tets[:, :4]
+            base_tris = np.vstack([elements(2, s, 2, 3) for s in base_s])
+            tip_tris = np.vstack([elements(2, s, 2, 3) for s in tip_s])
+            if curved:
+                mid_pairs, mid_points = _curved_edge_nodes(gmsh, body_vols + block_vols, points, elements)
         finally:
             gmsh.finalize()
     if len(tets) == 0:
         raise LinkFeaError(f"{name}: gmsh produced no tetrahedra (mesh size {H:g} mm too large?)")
     # Keep only the points the tets use, in first-use order of their sorted tags (deterministic).
-    tets_gmsh = tets
     used, inv = np.unique(tets, return_inverse=True)
     remap = np.full(len(points), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
@@ -348,13 +374,10 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float, curved: b
         raise LinkFeaError(f"{name}: an interface triangle has a node outside the volume mesh")
     curved_edges = curved_points = None
     if curved:
-        pairs = np.sort(remap[tets_gmsh[:, GMSH_TET10_EDGES]].reshape(-1, 2), axis=1)
-        n = len(used)
-        _, first = np.unique(pairs[:, 0] * n + pairs[:, 1], return_index=True)  # one row per edge
-        pairs, mid = pairs[first], points[mids.reshape(-1)[first]]
-        off = np.linalg.norm(mid - 0.5 * (points[used][pairs[:, 0]] + points[used][pairs[:, 1]]), axis=1)
-        keep = off > 1e-12 * float(np.ptp(points[used], axis=0).max())
-        curved_edges, curved_points = pairs[keep], mid[keep]
+        pairs = np.sort(remap[mid_pairs], axis=1)
+        off = np.linalg.norm(mid_points - 0.5 * (points[mid_pairs[:, 0]] + points[mid_pairs[:, 1]]), axis=1)
+        keep = (off > 1e-12 * float(np.ptp(points[used], axis=0).max())) & (pairs >= 0).all(axis=1)
+        curved_edges, curved_points = pairs[keep], mid_points[keep]
     points = points[used]
     from .mesh import tet_volumes
 

@@ -155,7 +155,7 @@ def _curve_edges(pts, cells, edges, nv, curved_edges, curved_points):
     for _ in range(3):
         moved = np.any(pts[cells[:, 4:]] != straight[cells[:, 4:]], axis=(1, 2))
         idx = np.flatnonzero(moved)
-        _, det = _isoparametric_gradients(pts[cells[idx]])
+        det = _isoparametric_jacobians(pts[cells[idx]])[2]
         bad = idx[np.any(det <= 0.0, axis=1)]
         if len(bad) == 0:
             return pts, moved
@@ -196,14 +196,20 @@ def _p2_reference_gradients(X: np.ndarray) -> np.ndarray:
     return dN_dlam @ dlam
 
 
-def _isoparametric_gradients(X: np.ndarray):
-    """Physical gradients (m, nq, 10, 3) and Jacobian determinants (m, nq) of 10-node tets with nodes ``X`` (m, 10, 3)."""
+def _isoparametric_jacobians(X: np.ndarray):
+    """Reference gradients (nq, 10, 3), Jacobians (m, nq, 3, 3) and their determinants (m, nq) of
+    10-node tets with nodes ``X`` (m, 10, 3) at the quadrature points."""
     Q, _ = _quadrature()
     dN = _p2_reference_gradients(Q)  # (nq, 10, 3)
-    J = np.einsum("eai,qak->eqik", X, dN)  # dx_i / dxi_k
-    det = np.linalg.det(J)
+    J = np.matmul(X.transpose(0, 2, 1)[:, None], dN[None])  # (m, nq, 3, 3): dx_i / dxi_k
+    return dN, J, np.linalg.det(J)
+
+
+def _isoparametric_gradients(X: np.ndarray):
+    """Physical gradients (m, nq, 10, 3) and Jacobian determinants (m, nq) of 10-node tets with nodes ``X`` (m, 10, 3)."""
+    dN, J, det = _isoparametric_jacobians(X)
     Jinv = np.linalg.inv(np.where(det[..., None, None] > 0, J, np.eye(3)))
-    return np.einsum("qak,eqki->eqai", dN, Jinv), det
+    return np.matmul(dN[None], Jinv), det  # dN/dx = dN/dxi J^-1
 
 
 def _isoparametric_pair_integrals(X: np.ndarray, w: np.ndarray) -> np.ndarray:
