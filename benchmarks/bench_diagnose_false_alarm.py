@@ -205,12 +205,14 @@ def power(reps: int, n_post: int, n_loads: int, log=print, effects=None) -> dict
     return out
 
 
-def pair_runs(reps: int, n_post: int, n_loads: int, log=print) -> dict:
+def pair_runs(reps: int, n_post: int, n_loads: int, log=print, only=None) -> dict:
     """Every pair of library effects that can be hidden together (tests/truth.py ``pairs()``),
     at their test sizes, ``reps`` sets each: verdict and names."""
     out = {}
     with tempfile.TemporaryDirectory() as work:
         for a, b in tr.pairs():
+            if only and f"{a}+{b}" not in only:
+                continue
             runs = []
             for r in range(reps):
                 P, W = tr.design(n_post, n_loads, seed=40_000 + r)
@@ -273,6 +275,7 @@ def main(argv=None):
     ap.add_argument("--only", choices=("false_alarm", "power", "pairs"))
     ap.add_argument("--pair-reps", type=int, default=1, help="sets per pair of effects")
     ap.add_argument("--effect", action="append", help="power of these effects only (repeatable)")
+    ap.add_argument("--pair", action="append", help="only this pair A+B (repeatable; split a run over processes)")
     ap.add_argument("--first", type=int, default=0, help="first clean-set seed index (split a run over processes)")
     ap.add_argument("--merge", nargs="+", help="print the tables of earlier --json results (false alarms merged)")
     ap.add_argument("--json")
@@ -283,14 +286,16 @@ def main(argv=None):
             with open(path, encoding="utf-8") as fh:
                 res.append(json.load(fh))
         fas = [r["false_alarm"] for r in res if r.get("false_alarm")]
-        pw = next((r["power"] for r in res if r.get("power")), None)
-        pr = next((r["pairs"] for r in res if r.get("pairs")), None)
+        pws = [r["power"] for r in res if r.get("power")]
+        pw = {k: v for p in pws for k, v in p.items()} or None
+        prs = [r["pairs"] for r in res if r.get("pairs")]
+        pr = {k: v for p in prs for k, v in p.items()} or None
         print(markdown(merge_false_alarms(fas) if fas else None, pw, "; ".join(r["meta"] for r in res), pr))
         return
     t0 = time.perf_counter()
     fa = false_alarms(a.sets, a.postures, a.loads, first=a.first) if a.only in (None, "false_alarm") else None
     pw = power(a.reps, a.postures, a.loads, effects=a.effect) if a.only in (None, "power") else None
-    pr = pair_runs(a.pair_reps, a.postures, a.loads) if a.only in (None, "pairs") else None
+    pr = pair_runs(a.pair_reps, a.postures, a.loads, only=a.pair) if a.only in (None, "pairs") else None
     meta = (f"{a.postures} postures x {a.loads} loads, 1 um / 10 urad noise, alpha {ALPHA}; "
             f"wall {time.perf_counter() - t0:.0f} s, load average {os.getloadavg()[0]:.1f}")
     print(markdown(fa, pw, meta, pr))
