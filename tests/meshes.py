@@ -70,3 +70,16 @@ def bar_link_mesh(L, w, h, nx, ny, nz, block_length=0.0, nb=0, frame=None) -> Li
         frame=frame or Frame(np.array([L, 0.0, 0.0]), np.eye(3)),
         edge_length=float(max(L / nx, w / ny, h / nz)),
     )
+
+
+def skfem_dof_order(points, basis) -> np.ndarray:
+    """Index of each DOF of a scikit-fem P2 vector ``basis`` in the kernel's numbering
+    (3 per node of ``points``, node order), matched by coordinates (checked to 1e-12)."""
+    from scipy.spatial import cKDTree
+
+    dist, node = cKDTree(points).query(basis.doflocs.T)
+    assert dist.max() < 1e-12
+    comp = np.empty(basis.N, dtype=int)
+    comp[basis.nodal_dofs] = np.arange(3)[:, None]
+    comp[basis.edge_dofs] = np.arange(3)[:, None]
+    return 3 * node + comp

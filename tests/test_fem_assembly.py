@@ -2,8 +2,7 @@
 import numpy as np
 import pytest
 import skfem
-from meshes import bar_link_mesh, box_mesh
-from scipy.spatial import cKDTree
+from meshes import bar_link_mesh, box_mesh, skfem_dof_order
 from skfem.models.elasticity import linear_elasticity
 
 from linkfea.errors import LinkFeaError
@@ -31,12 +30,7 @@ def test_assembly_equals_skfem(steel):
 
     p2 = p2_mesh(pts, tets)
     K = symmetric_from_upper(assemble_upper(p2, lam, mu)).toarray()
-    dist, node = cKDTree(p2.points).query(basis.doflocs.T)
-    assert dist.max() < 1e-12
-    comp = np.empty(K.shape[0], dtype=int)
-    comp[basis.nodal_dofs] = np.arange(3)[:, None]
-    comp[basis.edge_dofs] = np.arange(3)[:, None]
-    ours = 3 * node + comp
+    ours = skfem_dof_order(p2.points, basis)
     assert len(np.unique(ours)) == K.shape[0]
     K_ours = K[np.ix_(ours, ours)]
     assert np.abs(K_ours - K_ref).max() <= 1e-12 * np.abs(K_ref).max()

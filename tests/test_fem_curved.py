@@ -8,8 +8,7 @@ import math
 import numpy as np
 import pytest
 import skfem
-from meshes import box_mesh
-from scipy.spatial import cKDTree
+from meshes import box_mesh, skfem_dof_order
 from skfem.models.elasticity import linear_elasticity
 
 from linkfea.fem import assemble_upper, lame, rigid_motion_matrix, symmetric_from_upper
@@ -38,12 +37,7 @@ def test_curved_assembly_equals_scikit_fem_isoparametric(steel):
     mesh2 = skfem.MeshTet2(np.ascontiguousarray(p2.points.T), np.ascontiguousarray(tets.T), sort_t=False)
     basis = skfem.Basis(mesh2, skfem.ElementVector(skfem.ElementTetP2()), intorder=CURVED_QUADRATURE_DEGREE)
     K_ref = skfem.asm(linear_elasticity(lam, mu), basis).toarray()
-    dist, node = cKDTree(p2.points).query(basis.doflocs.T)
-    assert dist.max() < 1e-12
-    comp = np.empty(K.shape[0], dtype=int)
-    comp[basis.nodal_dofs] = np.arange(3)[:, None]
-    comp[basis.edge_dofs] = np.arange(3)[:, None]
-    ours = 3 * node + comp
+    ours = skfem_dof_order(p2.points, basis)
     assert np.abs(K[np.ix_(ours, ours)] - K_ref).max() <= 1e-12 * np.abs(K_ref).max()
     Rm = rigid_motion_matrix(p2.points, [0.3, -0.2, 0.1], np.eye(3)).reshape(-1, 6)
     assert np.abs(K @ Rm).max() < 1e-9 * np.abs(K).max() * np.abs(Rm).max()
