@@ -132,6 +132,24 @@ def test_backlash_is_odd_and_slips_each_actuator_by_b(rows):
     np.testing.assert_allclose(tr.deflections(t, P, W) - tr.deflections(tr.Truth(tr.nominal()), P, W), bw, atol=1e-14)
 
 
+def test_joint_backlash_is_odd_linear_and_does_work_on_the_load(rows):
+    """The U joints' clearance from two nonlinear equilibria: odd in the load (every moment
+    changes sign), proportional to b (finite rotations add an even term ~5 b relative: 1e-3
+    allows 10x that at b = 2e-5), never
+    doing negative work, and the only change to the deflections."""
+    P, W = rows[0][:48], rows[1][:48]
+    b = 2e-5
+    t = tr.Truth(tr.nominal(), joint_backlash=b)
+    jw = tr.joint_slip_twist(t, P, W)
+    assert np.abs(jw[:, 3:]).max() > 1e-5  # rad: the legs' tilts turn the platform
+    np.testing.assert_allclose(tr.joint_slip_twist(t, P, -W), -jw, atol=1e-3 * np.abs(jw).max())
+    half = tr.joint_slip_twist(tr.Truth(tr.nominal(), joint_backlash=b / 2), P, W)
+    np.testing.assert_allclose(2 * half, jw, atol=1e-3 * np.abs(jw).max())
+    assert np.all(np.einsum("ni,ni->n", W, jw) > 0.0)
+    np.testing.assert_allclose(tr.deflections(t, P, W) - tr.deflections(tr.Truth(tr.nominal()), P, W), jw,
+                               atol=1e-14)
+
+
 def test_weight_is_the_even_part(rows):
     """t(w) + t(-w) = 2 C(p) (0, 0, -m g) for the linear truth; the weight's own work is positive."""
     P, W = rows

@@ -43,6 +43,7 @@ TRUTH = {
     "actuator_travel_stiffness": {"slope": 0.003},
     "gravity": {"weight": 10.0},
     "clearance": {"backlash": 0.002},
+    "passive_clearance": {"backlash": 2e-5},
     "geometric_nonlinearity": {"scale": 1.0},
 }
 

@@ -21,6 +21,12 @@ machine does, not what its own effect code wrote.  The true deflections are
     stress-free motion of the translational 3-PUU, so by the unit-load theorem
     the actuator forces depend on the force part of the wrench only); the
     platform moves by ``dp = J^-1 (b sign(tau))`` without rotating;
+  - ``joint_backlash``: every U joint's cross tilts by ``b`` (rad) about its
+    constrained direction, toward the moment it carries there.  Solved by
+    :mod:`vjm.nonlinear` on the true machine with stiff U-joint springs: the
+    moments are read off the springs' rotations under the load, and the slips
+    are imposed as the springs' rest values (``offsets``) in a second,
+    load-free equilibrium of the whole overconstrained machine;
   - out-of-library effects: ``hysteresis`` (a fraction of the previous load's
     elastic deflection at the same posture remains: friction in the joints)
     and ``contact`` (a Hertz-like contact at the tool whose deflection grows as
@@ -193,6 +199,8 @@ class Truth:
     backlash : mm, each actuator slips by this in the direction of its force
     backlash_sign : ``"applied"`` (sign of the applied load's actuator force) or ``"total"``
         (applied load plus weight)
+    joint_backlash : rad, each U joint tilts by this about its constrained direction, toward
+        the moment the applied load puts there
     hysteresis : dimensionless, fraction of the previous load's elastic deflection (same
         posture, file order) that remains (out of library)
     contact : mm / N^(2/3), translation ``contact |F|^(2/3) F/|F|`` (out of library)
@@ -203,6 +211,7 @@ class Truth:
     weight: float = 0.0
     backlash: float = 0.0
     backlash_sign: str = "applied"
+    joint_backlash: float = 0.0
     hysteresis: float = 0.0
     contact: float = 0.0
 
@@ -238,6 +247,23 @@ def backlash_twist(truth: Truth, P, W) -> np.ndarray:
     return slip_twist(P, e, truth.L)
 
 
+#: U-joint springs stiff enough that the joints are ideal to ~1e-8 (a steel leg's torsion: ~4e-7 rad/(N mm))
+JOINT_STIFF = 1e13  # N mm/rad
+U_JOINTS = ("u1", "u2")
+
+
+def joint_slip_twist(truth: Truth, P, W) -> np.ndarray:
+    """(n, 6) platform twist of the U joints' clearance (zero slip where a joint carries no moment)."""
+    m = build(variant(truth.model, joints={"passive_stiffness": JOINT_STIFF}))
+    P = np.asarray(P, dtype=float)
+    W = np.array(np.broadcast_to(np.asarray(W, dtype=float), (len(P), 6)))
+    _, info = nonlinear.deflection_map(m, P, W, return_info=True)
+    rot = {j: np.stack([info["springs"][c][j][:, 0] for c in range(len(info["springs"]))], axis=1) for j in U_JOINTS}
+    tol = 1e-9 * max(max(np.abs(r).max() for r in rot.values()), 1e-300)
+    slip = {j: (truth.joint_backlash * np.where(np.abs(r) > tol, np.sign(r), 0.0))[:, :, None] for j, r in rot.items()}
+    return nonlinear.deflection_map(m, P, np.zeros_like(W), offsets=slip)
+
+
 def contact_twist(truth: Truth, W) -> np.ndarray:
     """(n, 6) Hertz-like contact at the tool: ``contact |F|^(2/3)`` along F (stiffens with load)."""
     F = np.asarray(W, dtype=float)[:, :3]
@@ -263,6 +289,8 @@ def deflections(truth: Truth, P, W) -> np.ndarray:
     t = elastic(truth, P, W)
     if truth.backlash:
         t = t + backlash_twist(truth, P, W)
+    if truth.joint_backlash:
+        t = t + joint_slip_twist(truth, P, W)
     if truth.contact:
         t = t + contact_twist(truth, W)
     if truth.hysteresis:
@@ -431,6 +459,7 @@ LIBRARY = {
                                        lambda s: ({"joints": {"passive_stiffness": 1.0 / s}}, {})),
     "actuator_travel_stiffness": Hidden("puu", 2e-3, "1/mm", _slope),
     "clearance": Hidden("puu", 2e-3, "mm", lambda s: ({}, {"backlash": s})),
+    "passive_clearance": Hidden("puu", 2e-5, "rad", lambda s: ({}, {"joint_backlash": s})),
     "gravity": Hidden("puu", 3.0, "N", lambda s: ({}, {"weight": s})),
     "geometric_nonlinearity": Hidden("puu", 1.0, "x (100 N, 5000 N mm) loads",
                                      lambda s: ({}, {"nonlinear": True})),

@@ -97,10 +97,11 @@ class _ChainData:
     fixed: np.ndarray   # (n, m) bool
     D: np.ndarray       # (n, m, n_joints): d(joint factor angle)/dx
     joints: tuple       # factor indices of the non-constant factors
+    x0: np.ndarray      # (n, m) rest values of x: imposed spring deformations (0 without offsets)
 
     def take(self, idx):
         return _ChainData(self.chain, self.v0[idx], self.R0[idx], self.S[idx], self.kappa[idx],
-                          self.fixed[idx], self.D[idx], self.joints)
+                          self.fixed[idx], self.D[idx], self.joints, self.x0[idx])
 
 
 def _spring_basis(C):
@@ -120,41 +121,73 @@ def _spring_basis(C):
     return s[:, :, None] * E, kappa, rigid
 
 
-def _setup(model, P):
-    """The chains' unknowns, springs and nominal values at poses P (or a Kinematics); returns (points, chains)."""
+def _rest_coordinates(ch, name, theta0, B, rigid, n):
+    """Spring ``name``'s imposed deformation ``theta0`` (n, k) in its energy coordinates ``xi = B^-1 theta``."""
+    k = B.shape[1]
+    try:
+        th = np.broadcast_to(np.asarray(theta0, dtype=float), (n, k))
+    except ValueError:
+        raise VjmError(f"offsets[{name!r}] of chain {ch.name!r} must have shape ({n}, {k}) or ({k},), "
+                       f"got {np.shape(theta0)}") from None
+    xi = np.linalg.solve(B, th[:, :, None])[:, :, 0]
+    if np.any(rigid & (np.abs(xi) > 0)) and np.any(np.abs(xi[rigid]) > 1e-12 * np.abs(xi).max()):
+        raise VjmError(f"offsets[{name!r}] of chain {ch.name!r} deforms a direction in which the spring is rigid")
+    return np.where(rigid, 0.0, xi)
+
+
+def _setup(model, P, offsets=None):
+    """The chains' unknowns, springs and nominal values at poses P (or a Kinematics); returns (points, chains).
+
+    ``offsets``: {spring name: (n, n_chains, k) or broadcastable} rest deformations of springs."""
     kin = model.kinematics(P)
     P = kin.points
     n = P.shape[0]
+    offsets = dict(offsets or {})
+    unknown = set(offsets) - {s.name for ch in kin.chains for s in ch.springs}
+    if unknown:
+        raise VjmError(f"offsets name springs the model does not have: {sorted(unknown)}")
     out = []
-    for ch, v, cdict in zip(kin.chains, kin.values, model.compliances(kin)):
+    for ci, (ch, v, cdict) in enumerate(zip(kin.chains, kin.values, model.compliances(kin))):
         v = np.asarray(v, dtype=float).reshape(n, ch.n_vars)
-        blocks = []  # (vars, basis (n,k,k), kappa (n,k), fixed (n,k))
+        blocks = []  # (vars, basis (n,k,k), kappa (n,k), fixed (n,k), rest xi (n,k))
         for s in ch.springs:
             C = cdict.get(s.name)
-            if C is None:
-                continue  # rigid link: its coordinates stay at their nominal values
             k = len(s.vars)
+            if C is None:
+                if s.name in offsets:
+                    raise VjmError(f"offsets[{s.name!r}]: the spring is rigid in chain {ch.name!r}")
+                continue  # rigid link: its coordinates stay at their nominal values
             C = np.broadcast_to(np.asarray(C, dtype=float).reshape(-1, k, k), (n, k, k))
-            blocks.append((list(s.vars), *_spring_basis(C)))
+            B, kap, fx = _spring_basis(C)
+            x0 = np.zeros((n, k))
+            if s.name in offsets:
+                th = np.asarray(offsets[s.name], dtype=float)
+                if th.ndim not in (2, 3) or th.shape[-2] != len(kin.chains):
+                    raise VjmError(f"offsets[{s.name!r}] must have shape (n, {len(kin.chains)}, k) or "
+                                   f"({len(kin.chains)}, k): one row per chain, got {th.shape}")
+                x0 = _rest_coordinates(ch, s.name, th[..., ci, :], B, fx, n)
+            blocks.append((list(s.vars), B, kap, fx, x0))
         for j in ch.passive:
-            blocks.append(([j], np.ones((n, 1, 1)), np.zeros((n, 1)), np.zeros((n, 1), bool)))
+            blocks.append(([j], np.ones((n, 1, 1)), np.zeros((n, 1)), np.zeros((n, 1), bool), np.zeros((n, 1))))
         m = sum(len(b[0]) for b in blocks)
         S = np.zeros((n, m, ch.n_vars))
         kappa = np.zeros((n, m))
         fixed = np.zeros((n, m), bool)
+        rest = np.zeros((n, m))
         row = 0
-        for vars_, B, kap, fx in blocks:
+        for vars_, B, kap, fx, x0 in blocks:
             k = len(vars_)
             S[:, row:row + k, vars_] = np.swapaxes(B, 1, 2)  # d theta_v / d xi_j = B[v, j]
             kappa[:, row:row + k] = kap
             fixed[:, row:row + k] = fx
+            rest[:, row:row + k] = x0
             row += k
         joints = tuple(i for i, f in enumerate(ch.factors) if f.kind != "const")
         Fm = np.zeros((ch.n_vars, len(joints)))
         for jj, i in enumerate(joints):
             Fm[ch.factors[i].var, jj] += ch.factors[i].coef
         T0 = forward(ch, v)
-        out.append(_ChainData(ch, v, T0[:, :3, :3].copy(), S, kappa, fixed, S @ Fm, joints))
+        out.append(_ChainData(ch, v, T0[:, :3, :3].copy(), S, kappa, fixed, S @ Fm, joints, rest))
     return P, out
 
 
@@ -254,7 +287,7 @@ def _describe(P, W, idx):
 
 
 def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_info: bool = False,
-                   strict: bool = True):
+                   strict: bool = True, offsets=None):
     """Nonlinear platform deflections (n, 6) for points P (n, 3) and wrenches W (n, 6) or (6,).
 
     All (pose, wrench) pairs are solved together (see the module docstring).
@@ -273,6 +306,11 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
         wrench each chain carries, world axes at the platform point)
     strict : raise VjmError naming the poses whose equilibrium was not found; with
         ``strict=False`` their rows are NaN and ``info["converged"]`` is False
+    offsets : optional {spring name: (n, n_chains, k) or (n_chains, k)} imposed deformations
+        of springs (their rest values: a joint's slip in its clearance, an assembly error), rad
+        or mm, in the spring's variables; applied together with the load (same ramp).  The
+        twist returned is then measured from the unloaded posture *without* the offsets.
+        ``info["springs"]`` gives every spring's deformation at equilibrium.
 
     Returns
     -------
@@ -287,11 +325,12 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
         raise VjmError(f"wrenches must have shape (6,) or ({n}, 6), got {np.shape(W)}") from None
     if not np.all(np.isfinite(W)):
         raise VjmError("wrenches must be finite numbers")
-    P, chains = _setup(model, P)
+    P, chains = _setup(model, P, offsets)
     nx = sum(cd.S.shape[1] for cd in chains)
     nc = 6 * len(chains)
     kappa = np.concatenate([cd.kappa for cd in chains], axis=1)
     fixed = np.concatenate([cd.fixed for cd in chains], axis=1)
+    x_rest = np.concatenate([cd.x0 for cd in chains], axis=1)
     # length scale of the machine for the round-off floor of the convergence test
     lref = max([np.max(np.abs(P))] + [np.max(np.abs(f.T[:3, 3])) for cd in chains for f in cd.chain.factors
                                        if f.kind == "const"])
@@ -305,7 +344,7 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     iters = np.zeros(n, int)
     steps = np.zeros(n, int)
     prev = np.full(n, np.inf)
-    done = np.all(W == 0.0, axis=1)
+    done = np.all(W == 0.0, axis=1) & np.all(x_rest == 0.0, axis=1)
     failed = np.zeros(n, bool)
     cap = max(1, int(max_iter))
     while True:
@@ -318,7 +357,7 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
         s = np.minimum(s_ok[act] + ds[act], 1.0)
         w = W[act] * s[:, None]
         g, G, Hs = _linearize(ch_a, x, u, lam, P[act])
-        r = np.concatenate([kappa[act] * x - np.einsum("nci,nc->ni", G[:, :, :nx], lam),
+        r = np.concatenate([kappa[act] * (x - s[:, None] * x_rest[act]) - np.einsum("nci,nc->ni", G[:, :, :nx], lam),
                             -w - np.einsum("nci,nc->ni", G[:, :, nx:], lam), g], axis=1)
         N = nx + 6 + nc
         A = np.zeros((act.size, N, N))
@@ -370,9 +409,21 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
         t[bad] = np.nan
     if return_info:
         info = {"converged": ~failed, "iterations": iters, "load_steps": steps,
-                "chain_wrench": z[:, nx + 6:].reshape(n, len(chains), 6)}
+                "chain_wrench": z[:, nx + 6:].reshape(n, len(chains), 6),
+                "springs": _spring_deformations(chains, z[:, :nx])}
         return t, info
     return t
+
+
+def _spring_deformations(chains, x) -> list[dict]:
+    """Per chain, {spring name: (n, k) deformation ``theta = v - v0`` of its variables} at unknowns x."""
+    out, col = [], 0
+    for cd in chains:
+        m = cd.S.shape[1]
+        dv = np.einsum("nm,nmv->nv", x[:, col:col + m], cd.S)
+        out.append({s.name: dv[:, list(s.vars)] for s in cd.chain.springs})
+        col += m
+    return out
 
 
 def _max_rotation_change(chains, dx):

@@ -276,6 +276,25 @@ class Clearance(Effect):
 
 
 @register
+class PassiveClearance(Effect):
+    name = "passive_clearance"
+    description = ("clearance in the passive joints: each U-joint cross or pivot tilts by b about its constrained "
+                   "direction(s), toward the moment it carries there, seen at the end-effector through the "
+                   "unit-load influence of that joint")
+    kind = "additive"
+    data_kinds = ("deflection",)
+    params = (Param("backlash", start=0.0, lower=0.0, upper=0.05, scale=1e-5, null=0.0, unit="rad"),)
+
+    def applies_to(self, model, data_kind):
+        if not mo.joint_spring_names(model):
+            return "the model's passive joints have no constrained directions to slip in"
+        return super().applies_to(model, data_kind)
+
+    def extra(self, ctx, theta, C):
+        return theta[0] * ctx.passive_clearance_unit()
+
+
+@register
 class GeometricNonlinearity(Effect):
     name = "geometric_nonlinearity"
     description = ("load-dependent stiffness: s x (nonlinear equilibrium deflection - linear C w) of the model "

@@ -62,6 +62,44 @@ def actuator_influence(model, P) -> np.ndarray:
     return np.stack(cols, axis=-1)
 
 
+#: compliance (rad/(N mm)) of the probe springs put into ideal passive joints to read the moment each
+#: carries about its constrained direction: 1e-15 is 1e-8 of a steel leg's torsion compliance, so the
+#: load sharing is the ideal joints' to that relative order
+JOINT_PROBE_COMPLIANCE = 1e-15
+
+
+def joint_spring_names(model) -> tuple:
+    """Names of the 1-dof passive-joint springs (U-joint crosses, pivots) the model's chains carry
+    with elastic passive joints (``joints.passive_stiffness``); () if its joints have none."""
+    ideal = {s.name for ch in with_passive_compliance(model, 0.0).chains for s in ch.springs}
+    elastic = with_passive_compliance(model, JOINT_PROBE_COMPLIANCE)
+    return tuple(dict.fromkeys(s.name for ch in elastic.chains for s in ch.springs if s.name not in ideal))
+
+
+def joint_spring_influence(model, P) -> np.ndarray:
+    """(m, n_springs, 6): ``a_s`` with the moment of passive-joint spring s ``tau_s = a_s . w`` (N mm)
+    under a wrench w at the end-effector, for every such spring of every chain (chain by chain).
+
+    ``tau_s = J_s^T f_i``: the chain's share ``f_i`` of the load (eq. 9, 12) projected on the
+    spring's Jacobian column.  A model with ideal passive joints gets probe springs of
+    :data:`JOINT_PROBE_COMPLIANCE`, so the moments are those its joints carry as reactions.
+    By the unit-load theorem ``a_s`` is also the end-effector twist of a unit rotation imposed in
+    that spring (a slip of the joint about its constrained direction).
+    """
+    mj = model if passive_compliance(model) > 0 else with_passive_compliance(model, JOINT_PROBE_COMPLIANCE)
+    names = set(joint_spring_names(model))
+    kin = mj.kinematics(P)
+    m = kin.n
+    F = np.stack([np.asarray(mj.joint_forces(kin, np.broadcast_to(np.eye(6)[j], (m, 6)))["chain_wrench"])
+                  for j in range(6)], axis=-1)  # (m, n_chains, 6 wrench comps, 6 unit loads)
+    cols = []
+    for k, (ch, J) in enumerate(zip(kin.chains, kin.jacobians)):
+        for s in ch.springs:
+            if s.name in names:
+                cols.append(np.einsum("ni,nij->nj", J[:, :, s.vars[0]], F[:, k]))
+    return np.stack(cols, axis=1) if cols else np.zeros((m, 0, 6))
+
+
 _NL_MEMO: dict = {}
 
 

@@ -29,6 +29,15 @@ def unique_postures(P, decimals=6):
     return P[first], idx.reshape(-1)
 
 
+def _slip_toward(A, W) -> np.ndarray:
+    """(n, 6) ``sum_s a_s sign(a_s . w)``: every joint of influence ``A`` (n, k, 6) slipping by one unit
+    toward the force it carries under ``W`` (n, 6); the work ``w . t`` is >= 0."""
+    tau = np.einsum("ncj,nj->nc", A, W)
+    # forces below 1e-9 of the largest are "zero": no preferred side, no slip
+    s = np.where(np.abs(tau) > 1e-9 * np.abs(tau).max(initial=1e-300), np.sign(tau), 0.0)
+    return np.einsum("nc,ncj->nj", s, A)
+
+
 @dataclass
 class Context:
     """Per-data-set precomputations on the nominal model (cached lazily)."""
@@ -59,12 +68,18 @@ class Context:
         force sign, ``t = sum_i a_i sign(a_i . w)``, whose work ``w . t`` is >= 0.
         """
         if "clear" not in self._cache:
-            A = mo.actuator_influence(self.model, self.P)[self.idx]  # (n, nc, 6)
-            tau = np.einsum("ncj,nj->nc", A, self.W)
-            # forces below 1e-9 of the largest are "zero": no preferred side, no slip
-            s = np.where(np.abs(tau) > 1e-9 * np.abs(tau).max(initial=1e-300), np.sign(tau), 0.0)
-            self._cache["clear"] = np.einsum("nc,ncj->nj", s, A)
+            self._cache["clear"] = _slip_toward(mo.actuator_influence(self.model, self.P)[self.idx], self.W)
         return self._cache["clear"]
+
+    def passive_clearance_unit(self) -> np.ndarray:
+        """(n, 6) twist of a unit slip (1 rad) in every passive-joint spring, each toward its moment.
+
+        As :meth:`clearance_unit`, with the moments ``tau_s = a_s . w`` the passive joints carry
+        about their constrained directions (:func:`~vjm.discrepancy.modelops.joint_spring_influence`).
+        """
+        if "pclear" not in self._cache:
+            self._cache["pclear"] = _slip_toward(mo.joint_spring_influence(self.model, self.P)[self.idx], self.W)
+        return self._cache["pclear"]
 
     def nonlinear_delta(self) -> np.ndarray:
         """(n, 6) nonlinear-equilibrium deflection minus the linear ``C w`` of the nominal model."""
