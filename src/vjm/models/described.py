@@ -169,12 +169,12 @@ class Described(Architecture):
         for ks in groups.values():
             spec0 = desc.chains[ks[0]]
             base = self._build(model, spec0, power=0)
-            Fs = []
-            for k in ks:
+            Fs = np.empty((len(ks) * n, 4, 4))
+            for j, k in enumerate(ks):
                 Sk = self._symmetry(model, k)
-                Fs.append(frames if Sk is None else np.linalg.inv(Sk) @ frames @ Sk)
+                Fs[j * n:(j + 1) * n] = frames if Sk is None else np.linalg.inv(Sk) @ frames @ Sk
             v, okk, err = solve_chain(base, self._unknowns(base), self._seed_values(spec0, base),
-                                      seed_frame(desc), np.concatenate(Fs))
+                                      seed_frame(desc), Fs)
             for j, k in enumerate(ks):
                 ch = chains[k]
                 sl = slice(j * n, (j + 1) * n)
