@@ -19,6 +19,8 @@ from .base import ACTUATOR, Architecture, actuator_compliance, joint_spring_comp
 from .parallelogram import parallelogram_compliance, parallelogram_stiffness
 
 NAME = "description"
+#: kinematic keys of the models that passed ``validate`` (oldest first)
+_VALID: dict = {}
 
 
 def _fmt(frame: np.ndarray, dof: int) -> str:
@@ -53,6 +55,18 @@ class Described(Architecture):
         desc = model.description
         if desc is None:
             raise VjmError("a 'description' model needs a machine description (platform and chains)")
+        # what is checked depends on the kinematics only: a copy changed in its springs (as a
+        # calibration makes hundreds of) is not checked again
+        key = model.kinematic_key
+        if key in _VALID:
+            return
+        self._validate(model)
+        if len(_VALID) >= 64:
+            _VALID.pop(next(iter(_VALID)))
+        _VALID[key] = True
+
+    def _validate(self, model):
+        desc = model.description
         chains = model.chains
         # every chain must close at the seed posture, from its seed values
         X0 = seed_frame(desc)
