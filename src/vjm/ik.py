@@ -12,12 +12,20 @@ because the target orientation is reachable, and a pose whose residual does
 not vanish is unreachable).  The Jacobian is the chain's own (eq. 3-5), the
 linear solve a batched Cholesky over poses, pose axis last.
 
-Starting point and continuation: every pose starts from the description's
-seed posture.  A pose whose Newton iteration does not close is continued
-along the straight path of poses from the seed pose to it (``PATH_STEPS``
-intermediate poses, each started from the previous solution), which keeps
-the solution on the seed's assembly branch; a pose that still does not
-close is reported unreachable.
+Starting point and continuation: a pose starts from the description's seed
+posture, or in a large batch from a near anchor: the poses are ordered along a
+Z-order curve, one in ``ANCHOR_EVERY`` is solved from the seed and the others
+start from the nearer anchor around them on the curve plus the first-order
+change of the coordinates (the seed again where that change exceeds a step's
+limit).  A pose whose Newton iteration does not close restarts from the seed,
+then is continued along the straight path of poses from the seed pose to it
+(``PATH_STEPS`` intermediate poses, each started from the previous solution),
+which keeps the solution on the seed's assembly branch; a pose that still does
+not close is reported unreachable.
+
+Batches of ``COMPILED_FROM`` poses or more run the compiled kernels of
+:mod:`vjm.ik_kernel` (numba) pose by pose, smaller ones the numpy code below
+batched over poses: same steps, same results to round-off.
 """
 from __future__ import annotations
 
@@ -100,8 +108,11 @@ def encode(chain: Chain):
     for k, f in enumerate(chain.factors):
         if f.kind == "const":
             T[k] = f.T
-    assert all(AXIS[k] == i % 3 and ROTATION[k] == (i >= 3) for i, k in enumerate(KINDS))  # the kernel's codes
     return code, var, coef, T
+
+
+# the kernels read a code's axis as code % 3 and a rotation as code >= 3
+assert all(AXIS[k] == i % 3 and ROTATION[k] == (i >= 3) for i, k in enumerate(KINDS))
 
 
 def _step_limits(chain: Chain, U, ell: float) -> np.ndarray:
@@ -198,6 +209,7 @@ class Closure:
 
 
 def closure(chain: Chain, unknowns) -> Closure:
+    """The :class:`Closure` of ``chain`` solved for its variables ``unknowns``."""
     U = list(unknowns)
     ell = chain_size(chain)
     rc = rigid_chain(chain, U)

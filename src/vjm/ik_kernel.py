@@ -6,8 +6,8 @@ factors is some hundred of them per Newton iteration).  These kernels run the
 same arithmetic pose by pose in compiled loops: the chain product and its
 Jacobian in one pass over the factors (eq. 3-5 as in
 :func:`vjm.chain._frame_product`), the residual, the Cholesky solve of the
-normal equations and the step rules of :func:`vjm.ik.newton`, with the same
-order of operations, so both paths agree to round-off.
+normal equations and the step and stopping rules of :func:`vjm.ik.newton`, so
+both paths take the same steps and agree to round-off.
 
 A chain is passed as arrays (see :func:`vjm.ik.encode`): per factor a code
 (0-5: tx ty tz rx ry rz, 6: a constant), the variable, the coefficient and the
