@@ -115,6 +115,17 @@ def encode(chain: Chain):
 assert all(AXIS[k] == i % 3 and ROTATION[k] == (i >= 3) for i, k in enumerate(KINDS))
 
 
+def conjugate(S: np.ndarray, frames: np.ndarray, out: np.ndarray) -> None:
+    """``out = S^-1 frames S`` for frames (n, 4, 4): the poses a copy ``S chain S^-1`` of a
+    chain reaches at ``frames``, as the original chain sees them."""
+    kern = _kernel() if frames.shape[0] >= COMPILED_FROM else None
+    if kern is None:
+        out[:] = np.linalg.inv(S) @ frames @ S
+    else:
+        kern.conjugate(np.linalg.inv(S), np.ascontiguousarray(S, dtype=float), np.ascontiguousarray(frames, dtype=float),
+                       out)
+
+
 def _step_limits(chain: Chain, U, ell: float) -> np.ndarray:
     """Largest Newton step (MAX_STEP) of each unknown: rad for an angle, times ``ell`` for a length."""
     rot = np.array([any(f.var == u and ROTATION[f.kind] for f in chain.factors if f.kind != "const") for u in U])
@@ -391,17 +402,17 @@ def _from_anchors(cl: Closure, frames, X, order, oka, va, seed, compiled):
     j = np.searchsorted(apos, pos, side="right") - 1
     before, after = np.maximum(j, 0), np.minimum(j + 1, apos.size - 1)
     anc = order[apos]
-    db = np.sum((X - X[anc[before]]) ** 2, axis=1)
-    da = np.sum((X - X[anc[after]]) ** 2, axis=1)
-    near = np.where(da < db, after, before)
     ell = cl.ell
-    Fa = frames[anc]
     kern = _kernel() if compiled else None
     if kern is not None:
         v0 = np.empty((cl.k, n))
-        kern.predict(*cl.code, np.ascontiguousarray(va), np.ascontiguousarray(Fa), np.ascontiguousarray(frames),
-                     near, ell, cl.lim, seed, v0)
+        kern.predict(*cl.code, np.ascontiguousarray(va), anc, np.ascontiguousarray(frames), np.ascontiguousarray(X),
+                     before, after, ell, cl.lim, seed, v0)
         return v0
+    db = np.sum((X - X[anc[before]]) ** 2, axis=1)
+    da = np.sum((X - X[anc[after]]) ** 2, axis=1)
+    near = np.where(da < db, after, before)
+    Fa = frames[anc]
     _, _, Jt = closure_error(cl.chain, va, np.ascontiguousarray(Fa[:, :3, :3].transpose(1, 2, 0)),
                              np.ascontiguousarray(Fa[:, :3, 3].T))
     A = Jt.transpose(2, 1, 0)                                   # (na, 6, k)

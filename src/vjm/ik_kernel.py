@@ -226,11 +226,13 @@ def newton(code, var, coef, T, vt, R, p, ell, lim, max_iter, close_tol, stall_to
 
 
 @njit(cache=True, error_model="numpy")
-def predict(code, var, coef, T, va, Fa, frames, near, ell, lim, seed, v0):  # pragma: no cover - compiled
+def predict(code, var, coef, T, va, anc, frames, X, before, after, ell, lim, seed, v0):  # pragma: no cover
     """Starting values ``v0`` (k, n): each pose's anchor's values ``va`` (k, na) plus the
-    first-order change ``J^+ (dp, ell omega)`` from the anchor frame ``Fa`` (na, 4, 4) to the pose's
-    ``frames`` (n, 4, 4), J the anchor's Jacobian (as vjm.ik._from_anchors); the ``seed`` (k,)
-    where that change exceeds a Newton step's limits ``lim`` (k,) or is not finite."""
+    first-order change ``J^+ (dp, ell omega)`` from the anchor's frame to the pose's, J the
+    anchor's Jacobian (as vjm.ik._from_anchors); the ``seed`` (k,) where that change exceeds a
+    Newton step's limits ``lim`` (k,) or is not finite.  The anchors are the poses ``anc`` (na,)
+    of ``frames`` (n, 4, 4); pose i takes the nearer (coordinates ``X``, (n, 6)) of anchors
+    ``before[i]`` and ``after[i]``."""
     k, na = va.shape
     nf = code.size
     F = np.empty((3, 4))
@@ -257,16 +259,22 @@ def predict(code, var, coef, T, va, Fa, frames, near, ell, lim, seed, v0):  # pr
                 Jp[a, b, c] = x[b]
     d = np.empty(6)
     for i in range(frames.shape[0]):
-        a = near[i]
+        db, da = 0.0, 0.0
+        for c in range(6):
+            db += (X[i, c] - X[anc[before[i]], c]) ** 2
+            da += (X[i, c] - X[anc[after[i]], c]) ** 2
+        a = after[i] if da < db else before[i]
+        ia = anc[a]
+        f, g = frames[i], frames[ia]
         for c in range(3):
-            d[c] = frames[i, c, 3] - Fa[a, c, 3]
+            d[c] = f[c, 3] - g[c, 3]
         # small rotation R R_anchor^T, first order: its vee; (R R_a^T)[s, t] = row s of R . row t of R_a
-        m21 = frames[i, 2, 0] * Fa[a, 1, 0] + frames[i, 2, 1] * Fa[a, 1, 1] + frames[i, 2, 2] * Fa[a, 1, 2]
-        m12 = frames[i, 1, 0] * Fa[a, 2, 0] + frames[i, 1, 1] * Fa[a, 2, 1] + frames[i, 1, 2] * Fa[a, 2, 2]
-        m02 = frames[i, 0, 0] * Fa[a, 2, 0] + frames[i, 0, 1] * Fa[a, 2, 1] + frames[i, 0, 2] * Fa[a, 2, 2]
-        m20 = frames[i, 2, 0] * Fa[a, 0, 0] + frames[i, 2, 1] * Fa[a, 0, 1] + frames[i, 2, 2] * Fa[a, 0, 2]
-        m10 = frames[i, 1, 0] * Fa[a, 0, 0] + frames[i, 1, 1] * Fa[a, 0, 1] + frames[i, 1, 2] * Fa[a, 0, 2]
-        m01 = frames[i, 0, 0] * Fa[a, 1, 0] + frames[i, 0, 1] * Fa[a, 1, 1] + frames[i, 0, 2] * Fa[a, 1, 2]
+        m21 = f[2, 0] * g[1, 0] + f[2, 1] * g[1, 1] + f[2, 2] * g[1, 2]
+        m12 = f[1, 0] * g[2, 0] + f[1, 1] * g[2, 1] + f[1, 2] * g[2, 2]
+        m02 = f[0, 0] * g[2, 0] + f[0, 1] * g[2, 1] + f[0, 2] * g[2, 2]
+        m20 = f[2, 0] * g[0, 0] + f[2, 1] * g[0, 1] + f[2, 2] * g[0, 2]
+        m10 = f[1, 0] * g[0, 0] + f[1, 1] * g[0, 1] + f[1, 2] * g[0, 2]
+        m01 = f[0, 0] * g[1, 0] + f[0, 1] * g[1, 1] + f[0, 2] * g[1, 2]
         d[3] = ell * (0.5 * (m21 - m12))
         d[4] = ell * (0.5 * (m02 - m20))
         d[5] = ell * (0.5 * (m10 - m01))
@@ -279,3 +287,18 @@ def predict(code, var, coef, T, va, Fa, frames, near, ell, lim, seed, v0):  # pr
             near_enough = near_enough and abs(y) <= lim[b]      # False for NaN too
         for b in range(k):
             v0[b, i] = va[b, a] + x[b] if near_enough else seed[b]
+
+
+@njit(cache=True, error_model="numpy")
+def conjugate(Si, S, frames, out):  # pragma: no cover - compiled
+    """``out[i] = Si @ frames[i] @ S`` for frames (n, 4, 4): a pose seen by a copy of a chain."""
+    for i in range(frames.shape[0]):
+        f = frames[i]
+        o = out[i]
+        for a in range(4):
+            m0 = Si[a, 0] * f[0, 0] + Si[a, 1] * f[1, 0] + Si[a, 2] * f[2, 0] + Si[a, 3] * f[3, 0]
+            m1 = Si[a, 0] * f[0, 1] + Si[a, 1] * f[1, 1] + Si[a, 2] * f[2, 1] + Si[a, 3] * f[3, 1]
+            m2 = Si[a, 0] * f[0, 2] + Si[a, 1] * f[1, 2] + Si[a, 2] * f[2, 2] + Si[a, 3] * f[3, 2]
+            m3 = Si[a, 0] * f[0, 3] + Si[a, 1] * f[1, 3] + Si[a, 2] * f[2, 3] + Si[a, 3] * f[3, 3]
+            for b in range(4):
+                o[a, b] = m0 * S[0, b] + m1 * S[1, b] + m2 * S[2, b] + m3 * S[3, b]

@@ -13,7 +13,7 @@ import numpy as np
 from ..chain import ChainBuilder, jacobian
 from ..description import constant_matrix, seed_frame
 from ..errors import VjmError
-from ..ik import chain_size, solve_chain
+from ..ik import chain_size, conjugate, solve_chain
 from ..kinematics import as_poses
 from .base import ACTUATOR, Architecture, actuator_compliance, joint_spring_compliance
 from .parallelogram import parallelogram_compliance, parallelogram_stiffness
@@ -186,7 +186,10 @@ class Described(Architecture):
             Fs = np.empty((len(ks) * n, 4, 4))
             for j, k in enumerate(ks):
                 Sk = self._symmetry(model, k)
-                Fs[j * n:(j + 1) * n] = frames if Sk is None else np.linalg.inv(Sk) @ frames @ Sk
+                if Sk is None:
+                    Fs[j * n:(j + 1) * n] = frames
+                else:
+                    conjugate(Sk, frames, Fs[j * n:(j + 1) * n])
             v, okk, err = solve_chain(base, self._unknowns(base), self._seed_values(spec0, base),
                                       seed_frame(desc), Fs)
             for j, k in enumerate(ks):
