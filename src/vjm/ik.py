@@ -12,24 +12,37 @@ because the target orientation is reachable, and a pose whose residual does
 not vanish is unreachable).  The Jacobian is the chain's own (eq. 3-5), the
 linear solve a batched Cholesky over poses, pose axis last.
 
-Starting point and continuation: every pose starts from the description's
-seed posture.  A pose whose Newton iteration does not close is continued
-along the straight path of poses from the seed pose to it (``PATH_STEPS``
-intermediate poses, each started from the previous solution), which keeps
-the solution on the seed's assembly branch; a pose that still does not
-close is reported unreachable.
+Starting point and continuation: a pose starts from the description's seed
+posture, or in a large batch from a near anchor: the poses are ordered along a
+Z-order curve, one in ``ANCHOR_EVERY`` is solved from the seed and the others
+start from the nearer anchor around them on the curve plus the first-order
+change of the coordinates (the seed again where that change exceeds a step's
+limit).  A pose whose Newton iteration does not close restarts from the seed,
+then is continued along the straight path of poses from the seed pose to it
+(``PATH_STEPS`` intermediate poses, each started from the previous solution),
+which keeps the solution on the seed's assembly branch; a pose that still does
+not close is reported unreachable.
+
+Batches of ``COMPILED_FROM`` poses or more run the compiled kernels of
+:mod:`vjm.ik_kernel` (numba) pose by pose, smaller ones the numpy code below
+batched over poses: same steps, same results to round-off.
 """
 from __future__ import annotations
 
+import functools
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from .chain import Chain, Factor, _frame_product
-from .transforms import ROTATION, rotation_vector
+from .transforms import AXIS, KINDS, ROTATION, rotation_vector, vee
 
-#: in a batch, one pose in this many is solved from the seed and the others start from the nearest of them
+#: in a batch, one pose in this many (along a curve through the poses) is solved from the seed
+#: and the others start from a near one of them
 ANCHOR_EVERY = 16
+#: batches of this many poses or more use the compiled kernels (smaller ones need no numba)
+COMPILED_FROM = 256
 #: Newton iterations from the seed posture, and per intermediate pose of a path
 MAX_ITER = 20
 #: intermediate poses of the continuation path from the seed pose (the last one is the target)
@@ -70,6 +83,53 @@ def rigid_chain(chain: Chain, unknowns) -> Chain:
         factors.append(Factor("const", T=T))
     names = tuple(chain.var_names[v] for v in unknowns)
     return Chain(chain.name, tuple(factors), names, tuple(chain.roles[v] for v in unknowns), ())
+
+
+@functools.cache
+def _kernel():
+    """The compiled kernels (:mod:`vjm.ik_kernel`), or None where numba is not installed
+    (then the numpy path below runs: same arithmetic, batched over poses)."""
+    try:
+        from . import ik_kernel
+    except ImportError:
+        return None
+    return ik_kernel
+
+
+def encode(chain: Chain):
+    """A chain as arrays for :mod:`vjm.ik_kernel`: per factor a code (index in ``KINDS``, or
+    ``len(KINDS)`` for a constant), the variable, the coefficient and the 4x4 constant."""
+    nf = len(chain.factors)
+    code = np.array([len(KINDS) if f.kind == "const" else KINDS.index(f.kind) for f in chain.factors],
+                    dtype=np.int64).reshape(nf)
+    var = np.array([max(f.var, 0) for f in chain.factors], dtype=np.int64).reshape(nf)
+    coef = np.array([f.coef for f in chain.factors], dtype=float).reshape(nf)
+    T = np.zeros((nf, 4, 4))
+    for k, f in enumerate(chain.factors):
+        if f.kind == "const":
+            T[k] = f.T
+    return code, var, coef, T
+
+
+# the kernels read a code's axis as code % 3 and a rotation as code >= 3
+assert all(AXIS[k] == i % 3 and ROTATION[k] == (i >= 3) for i, k in enumerate(KINDS))
+
+
+def conjugate(S: np.ndarray, frames: np.ndarray, out: np.ndarray) -> None:
+    """``out = S^-1 frames S`` for frames (n, 4, 4): the poses a copy ``S chain S^-1`` of a
+    chain reaches at ``frames``, as the original chain sees them."""
+    kern = _kernel() if frames.shape[0] >= COMPILED_FROM else None
+    if kern is None:
+        out[:] = np.linalg.inv(S) @ frames @ S
+    else:
+        kern.conjugate(np.linalg.inv(S), np.ascontiguousarray(S, dtype=float), np.ascontiguousarray(frames, dtype=float),
+                       out)
+
+
+def _step_limits(chain: Chain, U, ell: float) -> np.ndarray:
+    """Largest Newton step (MAX_STEP) of each unknown: rad for an angle, times ``ell`` for a length."""
+    rot = np.array([any(f.var == u and ROTATION[f.kind] for f in chain.factors if f.kind != "const") for u in U])
+    return np.where(rot, MAX_STEP, MAX_STEP * ell)
 
 
 def _end_and_jacobian(chain: Chain, vt: np.ndarray):
@@ -143,20 +203,47 @@ def _normal_solve(A: np.ndarray, r: np.ndarray) -> np.ndarray:
     return np.stack(x)
 
 
-def newton(chain: Chain, unknowns, vt: np.ndarray, R: np.ndarray, p: np.ndarray, max_iter: int = MAX_ITER):
-    """Newton on one chain's closure for targets (R, p), from values ``vt`` (n_vars, n).
+@dataclass(frozen=True, eq=False)
+class Closure:
+    """One chain's loop closure, prepared for Newton: its :func:`rigid_chain` on the unknowns,
+    the chain's size ``ell`` (mm), each unknown's largest step ``lim`` (k,) and the arrays of
+    :func:`encode`.  Values in this space are (k, n): the unknowns only, pose axis last."""
 
-    Returns the values (n_vars, n), a converged mask (n,) and the final position error (n,) mm.
-    """
-    vt = np.array(vt, dtype=float)
-    n = vt.shape[1]
-    ell = chain_size(chain)
+    chain: Chain
+    ell: float
+    lim: np.ndarray
+    code: tuple
+
+    @property
+    def k(self) -> int:
+        return self.chain.n_vars
+
+
+def closure(chain: Chain, unknowns) -> Closure:
+    """The :class:`Closure` of ``chain`` solved for its variables ``unknowns``."""
     U = list(unknowns)
-    rot = np.array([any(f.var == u and ROTATION[f.kind] for f in chain.factors if f.kind != "const") for u in U])
-    lim = np.where(rot, MAX_STEP, MAX_STEP * ell)[:, None]
-    full, chain = vt, rigid_chain(chain, U)
-    vt = np.ascontiguousarray(full[U])
-    U = list(range(len(U)))
+    ell = chain_size(chain)
+    rc = rigid_chain(chain, U)
+    return Closure(rc, ell, _step_limits(chain, U, ell), encode(rc))
+
+
+def newton(cl: Closure, v: np.ndarray, R: np.ndarray, p: np.ndarray, max_iter: int = MAX_ITER,
+           compiled: bool = True):
+    """Newton on one chain's closure for targets (R, p), from values ``v`` (k, n) of its unknowns.
+
+    Returns the values (k, n), a converged mask (n,) and the final error (n,) mm.  ``compiled``:
+    the kernels of :mod:`vjm.ik_kernel` where numba is installed, else the numpy path (same steps).
+    """
+    vt = np.array(v, dtype=float)
+    n = vt.shape[1]
+    ell = cl.ell
+    kern = _kernel() if compiled else None
+    if kern is not None:
+        ok, err = np.zeros(n, dtype=bool), np.full(n, np.inf)
+        kern.newton(*cl.code, vt, np.ascontiguousarray(R, dtype=float), np.ascontiguousarray(p, dtype=float), ell,
+                    cl.lim, int(max_iter), CLOSE_TOL, STALL_TOL, PREDICT_TOL, ok, err)
+        return vt, ok, err
+    chain, lim = cl.chain, cl.lim[:, None]
     ok = np.zeros(n, dtype=bool)
     err = np.full(n, np.inf)
     # working set: poses still iterating (plus finished ones until compacting pays off)
@@ -205,39 +292,60 @@ def newton(chain: Chain, unknowns, vt: np.ndarray, R: np.ndarray, p: np.ndarray,
             err[act[tiny]] = 0.0
             vt[:, act[tiny]] = v[:, tiny]
             live &= ~tiny
-    full[list(unknowns)] = vt
-    return full, ok, err
+    return vt, ok, err
 
 
-def solve_chain(chain: Chain, unknowns, seed: np.ndarray, seed_frame: np.ndarray, frames: np.ndarray):
+def solve_chain(chain: Chain, unknowns, seed: np.ndarray, seed_frame: np.ndarray, frames: np.ndarray,
+                compiled: bool | None = None):
     """Values (n, n_vars) of one chain closing on platform frames (n, 4, 4), from a seed posture.
 
-    ``seed`` (n_vars,) are the chain's values at the platform frame ``seed_frame`` (4, 4).
-    Direct Newton from the seed first; poses it leaves open are continued along the path
-    of poses from the seed frame (see the module docstring).  Returns values (n, n_vars),
-    converged mask (n,) and closure error (n,) mm.
+    ``seed`` (n_vars,) are the chain's values at the platform frame ``seed_frame`` (4, 4); the
+    variables other than ``unknowns`` keep their seed values.  Direct Newton from the seed, or
+    from a near anchor in a large batch; poses left open are continued along the path of poses
+    from the seed frame (see the module docstring).  Returns values (n, n_vars), converged mask
+    (n,) and closure error (n,) mm.  ``compiled``: use the compiled kernels (default: for
+    batches of ``COMPILED_FROM`` poses or more, where they repay loading them).
     """
+    n = frames.shape[0]
+    if compiled is None:
+        compiled = n >= COMPILED_FROM
+    U = list(unknowns)
+    seed = np.asarray(seed, dtype=float)
+    vu, ok, err = _solve(closure(chain, U), seed[U], seed_frame, np.asarray(frames, dtype=float), compiled)
+    out = np.empty((n, chain.n_vars))
+    out[:] = seed
+    out[:, U] = vu.T
+    return out, ok, err
+
+
+def _solve(cl: Closure, seed, seed_frame, frames, compiled):
+    """:func:`solve_chain` in the unknowns' space: values (k, n), ok (n,), err (n,)."""
     n = frames.shape[0]
     R = np.ascontiguousarray(frames[:, :3, :3].transpose(1, 2, 0))
     p = np.ascontiguousarray(frames[:, :3, 3].T)
-    vt0 = np.repeat(np.asarray(seed, dtype=float)[:, None], n, axis=1)
+    v0 = None                    # None: every pose starts from the seed
     if n >= 4 * ANCHOR_EVERY:
-        # anchors from the seed, the other poses from their nearest anchor (fewer iterations)
-        anc = np.arange(0, n, ANCHOR_EVERY)
-        va, oka, _ = solve_chain(chain, unknowns, seed, seed_frame, frames[anc])
+        # anchors from the seed, the other poses from a near anchor (fewer iterations)
+        X = _pose_coordinates(frames, cl.ell)
+        order = _curve_order(X)
+        anc = order[::ANCHOR_EVERY]
+        va, oka, _ = _solve(cl, seed, seed_frame, frames[anc], compiled)
         if oka.any():
-            vt0 = _from_anchors(chain, unknowns, frames, anc[oka], va[oka])
-    vt, ok, err = newton(chain, unknowns, vt0, R, p)
+            v0 = _from_anchors(cl, frames, X, order, oka, va[:, oka], seed, compiled)
+    anchored = v0 is not None
+    if v0 is None:
+        v0 = np.repeat(seed[:, None], n, axis=1)
+    vt, ok, err = newton(cl, v0, R, p, compiled=compiled)
     bad = np.flatnonzero(~ok)
-    if bad.size:
-        vs = np.repeat(np.asarray(seed, dtype=float)[:, None], bad.size, axis=1)
-        v2, ok2, e2 = newton(chain, unknowns, vs, R[:, :, bad], p[:, bad])
+    if bad.size and anchored:
+        vs = np.repeat(seed[:, None], bad.size, axis=1)
+        v2, ok2, e2 = newton(cl, vs, R[:, :, bad], p[:, bad], compiled=compiled)
         vt[:, bad], ok[bad], err[bad] = v2, ok2, e2
         bad = bad[~ok2]
     if bad.size:
-        vs = np.repeat(np.asarray(seed, dtype=float)[:, None], bad.size, axis=1)
-        vt[:, bad], ok[bad], err[bad] = _continue(chain, unknowns, vs, seed_frame, frames[bad])
-    return np.ascontiguousarray(vt.T), ok, err
+        vs = np.repeat(seed[:, None], bad.size, axis=1)
+        vt[:, bad], ok[bad], err[bad] = _continue(cl, vs, seed_frame, frames[bad], compiled)
+    return vt, ok, err
 
 
 def _vee_product(A, B):
@@ -250,43 +358,84 @@ def _vee_product(A, B):
     return 0.5 * np.stack([m(2, 1) - m(1, 2), m(0, 2) - m(2, 0), m(1, 0) - m(0, 1)], axis=1)
 
 
-def _from_anchors(chain, unknowns, frames, anc, va):
-    """Starting values (n_vars, n) of every pose: its nearest solved anchor's values plus the
-    first-order change ``dv = J^+ (dp, omega)`` from the anchor's frame to the pose's (the
-    anchor's Jacobian of the solved coordinates), which leaves an error of second order."""
-    from scipy.spatial import cKDTree
+def _pose_coordinates(frames: np.ndarray, ell: float) -> np.ndarray:
+    """Coordinates (n, 6) of platform frames for finding near poses: the point (mm) and the
+    orientation as ``ell vee(R)`` (sin of the angle times the axis, times the chain's size)."""
+    return np.concatenate([frames[:, :3, 3], ell * vee(frames[:, :3, :3])], axis=1)
 
-    ell = chain_size(chain)
-    R = frames[:, :3, :3]
-    # orientation by vee(R) (sin of the angle times the axis): enough to find a near anchor
-    X = np.concatenate([frames[:, :3, 3], ell * _vee_product(R, np.eye(3))], axis=1)
-    _, near = cKDTree(X[anc]).query(X)
-    U = list(unknowns)
-    rc = rigid_chain(chain, U)
+
+#: bits per coordinate of the Z-order key
+CURVE_BITS = 10
+#: bit ``b`` of a coordinate goes to bit ``6 b`` of the key (the six coordinates interleaved)
+_SPREAD = np.zeros(1 << CURVE_BITS, dtype=np.int64)
+for _b in range(CURVE_BITS):
+    _SPREAD |= ((np.arange(1 << CURVE_BITS) >> _b) & 1) << (6 * _b)
+
+
+def _curve_order(X: np.ndarray) -> np.ndarray:
+    """The rows of X (n, 6) in the order of a Z-order (Morton) curve through their bounding box,
+    one scale for all coordinates: poses close along the curve are close in space."""
+    lo = X.min(axis=0)
+    span = float(np.max(X.max(axis=0) - lo))
+    q = ((X - lo) * ((1 << CURVE_BITS) / span if span > 0 else 0.0)).astype(np.int64)
+    np.clip(q, 0, (1 << CURVE_BITS) - 1, out=q)
+    key = _SPREAD[q[:, 0]]
+    for d in range(1, 6):
+        key |= _SPREAD[q[:, d]] << d
+    return np.argsort(key, kind="stable")
+
+
+def _from_anchors(cl: Closure, frames, X, order, oka, va, seed, compiled):
+    """Starting values (k, n) of every pose: a near solved anchor's values plus the first-order
+    change ``dv = J^+ (dp, omega)`` from the anchor's frame to the pose's (the anchor's Jacobian
+    of the solved coordinates), which leaves an error of second order.  Where ``dv`` exceeds a
+    Newton step's limits (``MAX_STEP``) the anchor is too far to trust its branch: such a pose
+    starts from the ``seed`` (k,), as without anchors.
+
+    The anchors are every ``ANCHOR_EVERY``-th pose along the curve ``order`` (:func:`_curve_order`),
+    ``oka`` those that converged, ``va`` (k, na) their values; a pose takes the nearer (in ``X``)
+    of the converged anchors just before and after it along the curve."""
+    n = frames.shape[0]
+    pos = np.empty(n, dtype=np.int64)
+    pos[order] = np.arange(n)
+    apos = np.flatnonzero(oka) * ANCHOR_EVERY                  # curve positions of the converged anchors
+    j = np.searchsorted(apos, pos, side="right") - 1
+    before, after = np.maximum(j, 0), np.minimum(j + 1, apos.size - 1)
+    anc = order[apos]
+    ell = cl.ell
+    kern = _kernel() if compiled else None
+    if kern is not None:
+        v0 = np.empty((cl.k, n))
+        kern.predict(*cl.code, np.ascontiguousarray(va), anc, np.ascontiguousarray(frames), np.ascontiguousarray(X),
+                     before, after, ell, cl.lim, seed, v0)
+        return v0
+    db = np.sum((X - X[anc[before]]) ** 2, axis=1)
+    da = np.sum((X - X[anc[after]]) ** 2, axis=1)
+    near = np.where(da < db, after, before)
     Fa = frames[anc]
-    _, _, Jt = closure_error(rc, np.ascontiguousarray(va[:, U].T), np.ascontiguousarray(Fa[:, :3, :3].transpose(1, 2, 0)),
+    _, _, Jt = closure_error(cl.chain, va, np.ascontiguousarray(Fa[:, :3, :3].transpose(1, 2, 0)),
                              np.ascontiguousarray(Fa[:, :3, 3].T))
     A = Jt.transpose(2, 1, 0)                                   # (na, 6, k)
     A[:, 3:] *= ell
     At = np.swapaxes(A, 1, 2)
     H = At @ A
-    H[:, np.arange(len(U)), np.arange(len(U))] *= 1.0 + 1e-12
+    H[:, np.arange(cl.k), np.arange(cl.k)] *= 1.0 + 1e-12
     try:
         Jp = np.linalg.solve(H, At)                             # (na, k, 6) least-squares inverse
     except np.linalg.LinAlgError:
-        return np.ascontiguousarray(va[near].T)
+        return np.repeat(seed[:, None], n, axis=1)
     Fn = Fa[near]
-    d = np.empty((frames.shape[0], 6))
+    d = np.empty((n, 6))
     d[:, :3] = frames[:, :3, 3] - Fn[:, :3, 3]
-    d[:, 3:] = ell * _vee_product(R, Fn[:, :3, :3])       # small rotation R R_anchor^T, first order
-    v0 = va[near].copy()
-    v0[:, U] += np.einsum("nki,ni->nk", Jp[near], d)
-    return np.ascontiguousarray(v0.T)
+    d[:, 3:] = ell * _vee_product(frames[:, :3, :3], Fn[:, :3, :3])   # small rotation R R_anchor^T, first order
+    dv = np.einsum("nki,ni->kn", Jp[near], d)
+    near_enough = np.all(np.abs(dv) <= cl.lim[:, None], axis=0)       # False for NaN too
+    return np.where(near_enough, va[:, near] + dv, seed[:, None])
 
 
-def _continue(chain, unknowns, vt, seed_frame, frames):
+def _continue(cl: Closure, vt, seed_frame, frames, compiled):
     """Newton along the path of poses from ``seed_frame`` to each frame (interpolated position,
-    rotation along the geodesic)."""
+    rotation along the geodesic), values (k, n) of the unknowns."""
     from .kinematics import rotation_matrix
 
     n = frames.shape[0]
@@ -298,8 +447,8 @@ def _continue(chain, unknowns, vt, seed_frame, frames):
         Rs = rotation_matrix(s * w) @ R0
         ps = p0 + s * (frames[:, :3, 3] - p0)
         live = np.flatnonzero(ok)
-        v, ok_s, e = newton(chain, unknowns, vt[:, live], np.ascontiguousarray(Rs[live].transpose(1, 2, 0)),
-                            np.ascontiguousarray(ps[live].T))
+        v, ok_s, e = newton(cl, vt[:, live], np.ascontiguousarray(Rs[live].transpose(1, 2, 0)),
+                            np.ascontiguousarray(ps[live].T), compiled=compiled)
         vt[:, live] = v
         ok[live] = ok_s
         err[live] = e

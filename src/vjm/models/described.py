@@ -13,12 +13,14 @@ import numpy as np
 from ..chain import ChainBuilder, jacobian
 from ..description import constant_matrix, seed_frame
 from ..errors import VjmError
-from ..ik import chain_size, solve_chain
+from ..ik import chain_size, conjugate, solve_chain
 from ..kinematics import as_poses
 from .base import ACTUATOR, Architecture, actuator_compliance, joint_spring_compliance
 from .parallelogram import parallelogram_compliance, parallelogram_stiffness
 
 NAME = "description"
+#: kinematic keys of the models that passed ``validate`` (oldest first)
+_VALID: dict = {}
 
 
 def _fmt(frame: np.ndarray, dof: int) -> str:
@@ -53,6 +55,18 @@ class Described(Architecture):
         desc = model.description
         if desc is None:
             raise VjmError("a 'description' model needs a machine description (platform and chains)")
+        # what is checked depends on the kinematics only: a copy changed in its springs (as a
+        # calibration makes hundreds of) is not checked again
+        key = model.kinematic_key
+        if key in _VALID:
+            return
+        self._validate(model)
+        if len(_VALID) >= 64:
+            _VALID.pop(next(iter(_VALID)))
+        _VALID[key] = True
+
+    def _validate(self, model):
+        desc = model.description
         chains = model.chains
         # every chain must close at the seed posture, from its seed values
         X0 = seed_frame(desc)
@@ -169,12 +183,15 @@ class Described(Architecture):
         for ks in groups.values():
             spec0 = desc.chains[ks[0]]
             base = self._build(model, spec0, power=0)
-            Fs = []
-            for k in ks:
+            Fs = np.empty((len(ks) * n, 4, 4))
+            for j, k in enumerate(ks):
                 Sk = self._symmetry(model, k)
-                Fs.append(frames if Sk is None else np.linalg.inv(Sk) @ frames @ Sk)
+                if Sk is None:
+                    Fs[j * n:(j + 1) * n] = frames
+                else:
+                    conjugate(Sk, frames, Fs[j * n:(j + 1) * n])
             v, okk, err = solve_chain(base, self._unknowns(base), self._seed_values(spec0, base),
-                                      seed_frame(desc), np.concatenate(Fs))
+                                      seed_frame(desc), Fs)
             for j, k in enumerate(ks):
                 ch = chains[k]
                 sl = slice(j * n, (j + 1) * n)
