@@ -48,7 +48,18 @@ PAIRS = [
     ("gravity", "geometric_nonlinearity"),
     ("foot_torsion", "actuator_travel_stiffness"),
     ("passive_joint_compliance", "actuator_travel_stiffness"),
+    ("leg_axial", "clearance"),  # a link mode the calibration nearly takes, next to an odd term
 ]
+#: pairs the diagnosis gets wrong on this data (seed 202), both effects in the library and the true
+#: machine far from the model given: strict xfail, so that a fix shows
+WRONG_PAIRS = {
+    ("foot_bending_coupling", "leg_extension_torsion"):
+        "verdict unexplained (chi2_red 1.27, p 3e-13): only foot_extension_torsion named, the foot's "
+        "c26/c35 coupling never enters",
+    ("passive_joint_compliance", "foot_extension_torsion"):
+        "names foot_torsion, leg_extension_torsion and foot_bending_y (explained, chi2_red 1.02): "
+        "one effect too many, and the joint springs stand for no named effect's group",
+}
 
 
 @pytest.fixture(scope="module")
@@ -139,10 +150,13 @@ def test_each_library_effect_is_named(tmp_path, name):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("pair", PAIRS, ids=["+".join(p) for p in PAIRS])
+@pytest.mark.parametrize("pair", PAIRS + [pytest.param(p, marks=pytest.mark.xfail(strict=True, reason=r))
+                                          for p, r in WRONG_PAIRS.items()],
+                         ids=["+".join(p) for p in [*PAIRS, *WRONG_PAIRS]])
 def test_pairs_of_library_effects_are_named(tmp_path, rows, pair):
     model, truth = tr.hide(*pair)
     P, W = rows
+    assert tr.signature_chi2(model, truth, P, W)[1] >= CHI2_SEEN  # the pair shows, calibration refit
     rep = diagnose(tmp_path, model, tr.measure(truth, P, W, seed=202))
     assert rep["verdict"] == "explained", _describe(rep)
     assert tr.names_exactly(rep, pair), _describe(rep)
