@@ -1,4 +1,4 @@
-"""Independent truth for `vjm diagnose`: measurement sets of the Orthoglide 3-PUU.
+"""Independent truth for `vjm diagnose`: measurement sets of the Orthoglide 3-PUU and 3-PRPaR.
 
 Nothing here uses :mod:`vjm.discrepancy` (neither its effect library nor its
 simulator), so a diagnosis that passes on these sets finds what a richer
@@ -25,6 +25,15 @@ machine does, not what its own effect code wrote.  The true deflections are
     elastic deflection at the same posture remains: friction in the joints)
     and ``contact`` (a Hertz-like contact at the tool whose deflection grows as
     ``|F|^(2/3)`` along the force: it stiffens with the load).
+
+The 3-PRPaR (``data/orthoglide/prpar.yaml``, parallelogram legs) shares the
+3-PUU's actuators, workspace and leg inverse kinematics, so the terms above
+hold for it as written; its bar's effects are richer prpar.yaml files.
+
+Every effect of the library has a true machine in :data:`LIBRARY`, and
+:func:`signature_chi2` says whether a data set can show it at all (the
+noise-free gap between true and given deflections once the model given has
+refit its own actuator and link scales).
 
 Noise: independent Gaussian on each component, ``sigma_t`` (mm) and
 ``sigma_r`` (rad), written as columns (known sigmas) or left out with every
