@@ -10,7 +10,7 @@ each set with its own random postures of the Q1-Q2 cube, its own loads
   given (puu.yaml); a false alarm is any verdict other than
   ``no_discrepancy``.  The rate is given with its Clopper-Pearson 95 %
   interval, to compare with the nominal alpha.
-* **Power**: for each library effect of tests/truth.py (``LIBRARY``), the
+* **Power**: for each library effect of tests/truth.py (``LIBRARY``) its data show (``seen``), the
   size starts where the effect adds a chi-square of 100 to the model given
   and is halved per step, ``--reps`` independent sets per size; an effect is detected *alone* when it alone is named with verdict
   ``explained``, and *at group level* when tests/truth.py ``names_exactly``
@@ -29,7 +29,7 @@ Run (CPU-heavy: nice it):
         [--sets 200] [--reps 5] [--pair-reps 1] [--postures 24] [--loads 12]
         [--only false_alarm|power|pairs] [--effect NAME ...] [--json out.json]
 
-* **Pairs**: every pair of library effects that can be hidden together
+* **Pairs**: every pair of seen library effects that can be hidden together
   (tests/truth.py ``pairs()``), at their test sizes: both named (or their confounded groups),
   verdict ``explained``.
 
@@ -175,7 +175,7 @@ def power(reps: int, n_post: int, n_loads: int, log=print, effects=None) -> dict
     until it is.  Both smallest sizes are reported."""
     out = {}
     with tempfile.TemporaryDirectory() as work:
-        for name in effects or tr.LIBRARY:
+        for name in effects or [n for n, h in tr.LIBRARY.items() if h.seen]:
             h = tr.LIBRARY[name]
             lam0 = noncentrality(*_case(name, h.size, n_post, n_loads, 30_000))
             p = 4.0 if name == "geometric_nonlinearity" else 2.0

@@ -14,6 +14,16 @@ effect stands for a confounded group that holds it ("A or B: this data
 cannot tell them apart"; e.g. foot torsion, leg torsion and the U-joint
 springs act in nearly the same directions of every leg).  No other effect
 may be named.
+
+Every effect of the registry (``vjm.discrepancy.effects.REGISTRY``) has a
+true machine here (``truth.LIBRARY``) or is listed in ``NOT_COVERED`` with
+the reason; the 3-PRPaR bar's effects are in test_diagnose_truth_prpar.py.
+Whether the true machine shows at all is decided on the truth itself
+(``truth.signature_chi2``: the noise-free gap between true and given
+deflections once the given model's calibration is refit), never from the
+diagnosis' own observability code: seen, the effect must be named with
+verdict ``explained``; not seen, the diagnosis must say so
+(``unobservable``), name nothing and conclude ``no_discrepancy``.
 """
 import json
 
@@ -24,6 +34,7 @@ from typer.testing import CliRunner
 
 import vjm
 from vjm.cli import app
+from vjm.discrepancy.effects import REGISTRY
 
 ALPHA = 0.01
 NOMINAL = tr.NOMINAL
@@ -37,7 +48,18 @@ PAIRS = [
     ("gravity", "geometric_nonlinearity"),
     ("foot_torsion", "actuator_travel_stiffness"),
     ("passive_joint_compliance", "actuator_travel_stiffness"),
+    ("leg_axial", "clearance"),  # a link mode the calibration nearly takes, next to an odd term
 ]
+#: pairs the diagnosis gets wrong on this data (seed 202), both effects in the library and the true
+#: machine far from the model given: strict xfail, so that a fix shows
+WRONG_PAIRS = {
+    ("foot_bending_coupling", "leg_extension_torsion"):
+        "verdict unexplained (chi2_red 1.27, p 3e-13): only foot_extension_torsion named, the foot's "
+        "c26/c35 coupling never enters",
+    ("passive_joint_compliance", "foot_extension_torsion"):
+        "names foot_torsion, leg_extension_torsion and foot_bending_y (explained, chi2_red 1.02): "
+        "one effect too many, and the joint springs stand for no named effect's group",
+}
 
 
 @pytest.fixture(scope="module")
@@ -68,24 +90,73 @@ def diagnose(tmp_path, model: dict, data: tr.Measurements, *args, cli: bool = Fa
 
 def _describe(rep):
     return (f"verdict {rep['verdict']}, named {rep['named_effects']}, confounded {rep['confounded']}, "
-            f"lack_of_fit {rep['lack_of_fit']}")
+            f"unobservable {sorted(rep['unobservable'])}, lack_of_fit {rep['lack_of_fit']}")
 
 
-@pytest.mark.parametrize("name", sorted(tr.LIBRARY))
-def test_each_library_effect_is_named(tmp_path, rows, name):
+#: noise-free chi-square (1 um / 10 urad, calibration refit) above which a true machine must be named:
+#: a few times the detection limit (the power ladders of docs/discrepancy.md find effects from ~100)
+CHI2_SEEN = 200.0
+#: ... and at or below which nothing can see it (less than one sigma of evidence)
+CHI2_UNSEEN = 1.0
+#: registry effects without an independent true machine, and why
+NOT_COVERED: dict[str, str] = {}
+#: effects the diagnosis gets wrong on their truth: name -> what happens (strict xfail, so a fix shows)
+WRONG: dict[str, str] = {}
+
+
+def _cases(machine):
+    """Registry names for ``machine``'s test (a name without truth lands in the 3-PUU's, and fails there)."""
+    out = []
+    for name in sorted(REGISTRY):
+        h = tr.LIBRARY.get(name)
+        if (h.machine if h else "puu") != machine:
+            continue
+        marks = [pytest.mark.xfail(strict=True, reason=WRONG[name])] if name in WRONG else []
+        out.append(pytest.param(name, marks=marks))
+    return out
+
+
+def check_effect(tmp_path, name, cli=False):
+    """Hide registry effect ``name`` at its truth size, decide from the truth whether the data can
+    show it, and hold the diagnosis to that."""
+    if name in NOT_COVERED:
+        pytest.skip(f"{name}: no independent truth ({NOT_COVERED[name]})")
+    assert name in tr.LIBRARY, (f"registry effect {name!r} has no true machine in tests/truth.py LIBRARY "
+                                "(add one, or list it in NOT_COVERED with the reason)")
+    h = tr.LIBRARY[name]
     model, truth = tr.hide(name)
-    P, W = rows
+    assert REGISTRY[name].applies_to(tr.build(model), "deflection") is None  # a candidate for the model given
+    P, W = tr.acceptance_rows(name)
+    raw, chi2 = tr.signature_chi2(model, truth, P, W)
+    if h.seen:
+        assert chi2 >= CHI2_SEEN, f"{name} at {h.size} {h.unit}: chi2 {chi2:.3g} (as given {raw:.3g})"
+    else:
+        assert chi2 <= CHI2_UNSEEN, f"{name} at {h.size} {h.unit}: chi2 {chi2:.3g} (as given {raw:.3g})"
+    rep = diagnose(tmp_path, model, tr.measure(truth, P, W, seed=101), cli=cli)
+    if h.seen:
+        assert rep["verdict"] == "explained", _describe(rep)
+        assert tr.names_exactly(rep, [name]), _describe(rep)
+    else:
+        assert name in rep["unobservable"], _describe(rep)
+        assert rep["named_effects"] == [], _describe(rep)
+        assert rep["verdict"] == "no_discrepancy", _describe(rep)
+
+
+@pytest.mark.parametrize("name", _cases("puu"))
+def test_each_library_effect_is_named(tmp_path, name):
+    """Each registry effect of the 3-PUU (its foot, leg, joints, actuator, additive terms)."""
     # one case through the command line and its report.json, the others through the Python API
-    rep = diagnose(tmp_path, model, tr.measure(truth, P, W, seed=101), cli=name == "clearance")
-    assert rep["verdict"] == "explained", _describe(rep)
-    assert tr.names_exactly(rep, [name]), _describe(rep)
+    check_effect(tmp_path, name, cli=name == "clearance")
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("pair", PAIRS, ids=["+".join(p) for p in PAIRS])
+@pytest.mark.parametrize("pair", PAIRS + [pytest.param(p, marks=pytest.mark.xfail(strict=True, reason=r))
+                                          for p, r in WRONG_PAIRS.items()],
+                         ids=["+".join(p) for p in [*PAIRS, *WRONG_PAIRS]])
 def test_pairs_of_library_effects_are_named(tmp_path, rows, pair):
     model, truth = tr.hide(*pair)
     P, W = rows
+    assert tr.signature_chi2(model, truth, P, W)[1] >= CHI2_SEEN  # the pair shows, calibration refit
     rep = diagnose(tmp_path, model, tr.measure(truth, P, W, seed=202))
     assert rep["verdict"] == "explained", _describe(rep)
     assert tr.names_exactly(rep, pair), _describe(rep)

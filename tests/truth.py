@@ -1,4 +1,4 @@
-"""Independent truth for `vjm diagnose`: measurement sets of the Orthoglide 3-PUU.
+"""Independent truth for `vjm diagnose`: measurement sets of the Orthoglide 3-PUU and 3-PRPaR.
 
 Nothing here uses :mod:`vjm.discrepancy` (neither its effect library nor its
 simulator), so a diagnosis that passes on these sets finds what a richer
@@ -21,9 +21,9 @@ machine does, not what its own effect code wrote.  The true deflections are
     stress-free motion of the translational 3-PUU, so by the unit-load theorem
     the actuator forces depend on the force part of the wrench only); the
     platform moves by ``dp = J^-1 (b sign(tau))`` without rotating;
-  - ``joint_backlash``: every U joint's cross tilts by ``b`` (rad) about its
-    constrained direction, toward the moment it carries there.  Solved by
-    :mod:`vjm.nonlinear` on the true machine with stiff U-joint springs: the
+  - ``joint_backlash``: every U joint's cross (3-PRPaR: every pivot) tilts by
+    ``b`` (rad) about its constrained direction(s), toward the moment it carries
+    there.  Solved by :mod:`vjm.nonlinear` on the true machine with stiff joint springs: the
     moments are read off the springs' rotations under the load, and the slips
     are imposed as the springs' rest values (``offsets``) in a second,
     load-free equilibrium of the whole overconstrained machine;
@@ -31,6 +31,15 @@ machine does, not what its own effect code wrote.  The true deflections are
     elastic deflection at the same posture remains: friction in the joints)
     and ``contact`` (a Hertz-like contact at the tool whose deflection grows as
     ``|F|^(2/3)`` along the force: it stiffens with the load).
+
+The 3-PRPaR (``data/orthoglide/prpar.yaml``, parallelogram legs) shares the
+3-PUU's actuators, workspace and leg inverse kinematics, so the terms above
+hold for it as written; its bar's effects are richer prpar.yaml files.
+
+Every effect of the library has a true machine in :data:`LIBRARY`, and
+:func:`signature_chi2` says whether a data set can show it at all (the
+noise-free gap between true and given deflections once the model given has
+refit its own actuator and link scales).
 
 Noise: independent Gaussian on each component, ``sigma_t`` (mm) and
 ``sigma_r`` (rad), written as columns (known sigmas) or left out with every
@@ -55,6 +64,8 @@ from vjm.modelfile import model_from_dict
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PUU = os.path.join(ROOT, "data", "orthoglide", "puu.yaml")
+#: the 3-PRPaR: the 3-PUU's actuators, workspace and leg inverse kinematics, parallelogram legs
+PRPAR = os.path.join(ROOT, "data", "orthoglide", "prpar.yaml")
 #: gravity direction in world axes (unit vector), as `vjm diagnose`'s weight assumes
 GRAVITY = np.array([0.0, 0.0, -1.0])
 #: the Orthoglide's Cartesian workspace cube Q1..Q2 (seed Fig. 4c), mm
@@ -65,9 +76,9 @@ MATERIALS = {"aluminium": (70_000.0, 0.33), "steel": (210_000.0, 0.30)}  # E (MP
 
 # --- model files -----------------------------------------------------------------------------
 
-def nominal() -> dict:
-    """The mapping of ``data/orthoglide/puu.yaml`` (a fresh deep copy)."""
-    with open(PUU, encoding="utf-8") as fh:
+def nominal(path: str = PUU) -> dict:
+    """The mapping of ``data/orthoglide/puu.yaml`` (or of ``path``; a fresh deep copy)."""
+    with open(path, encoding="utf-8") as fh:
         return yaml.safe_load(fh)
 
 
@@ -247,18 +258,20 @@ def backlash_twist(truth: Truth, P, W) -> np.ndarray:
     return slip_twist(P, e, truth.L)
 
 
-#: U-joint springs stiff enough that the joints are ideal to ~1e-8 (a steel leg's torsion: ~4e-7 rad/(N mm))
+#: joint springs stiff enough that the joints are ideal to ~1e-8 (a steel leg's torsion: ~4e-7 rad/(N mm))
 JOINT_STIFF = 1e13  # N mm/rad
-U_JOINTS = ("u1", "u2")
 
 
 def joint_slip_twist(truth: Truth, P, W) -> np.ndarray:
-    """(n, 6) platform twist of the U joints' clearance (zero slip where a joint carries no moment)."""
+    """(n, 6) platform twist of the passive joints' clearance (the 3-PUU's U joints, the 3-PRPaR's
+    pivots), zero slip where a joint carries no moment."""
     m = build(variant(truth.model, joints={"passive_stiffness": JOINT_STIFF}))
+    ideal = {s.name for ch in build(variant(truth.model, joints={"passive_stiffness": None})).chains for s in ch.springs}
+    joints = sorted({s.name for ch in m.chains for s in ch.springs} - ideal)
     P = np.asarray(P, dtype=float)
     W = np.array(np.broadcast_to(np.asarray(W, dtype=float), (len(P), 6)))
     _, info = nonlinear.deflection_map(m, P, W, return_info=True)
-    rot = {j: np.stack([info["springs"][c][j][:, 0] for c in range(len(info["springs"]))], axis=1) for j in U_JOINTS}
+    rot = {j: np.stack([info["springs"][c][j][:, 0] for c in range(len(info["springs"]))], axis=1) for j in joints}
     tol = 1e-9 * max(max(np.abs(r).max() for r in rot.values()), 1e-300)
     slip = {j: (truth.joint_backlash * np.where(np.abs(r) > tol, np.sign(r), 0.0))[:, :, None] for j, r in rot.items()}
     return nonlinear.deflection_map(m, P, np.zeros_like(W), offsets=slip)
@@ -408,29 +421,61 @@ def read_rows(path) -> tuple[np.ndarray, np.ndarray]:
 
 
 # --- library effects hidden in a true machine ------------------------------------------------
-# The model file given to the diagnosis, per case: puu.yaml, or puu.yaml with a rigid foot, or
-# with a foot compliance that lacks the bending couplings c26, c35.
+# The model file given to the diagnosis, per case: puu.yaml, or puu.yaml with a rigid foot, with
+# a foot compliance that lacks the bending couplings c26, c35, or with a slender foot (10 x 20
+# section) whose bending about its z axis shows; for the parallelogram bar's effects prpar.yaml.
 NOMINAL = nominal()
+PRPAR_NOMINAL = nominal(PRPAR)
 FOOT = (50.0, 60.0, 10.0)   # puu.yaml's foot: length, width (y), height (z), aluminium
+SLENDER_FOOT = (50.0, 10.0, 20.0)
 LEG = (310.0, 30.0, 10.0)   # puu.yaml's leg
+BAR = (310.0, 30.0, 5.0)    # prpar.yaml's bar, one of the two of each parallelogram
 MODELS = {
     "puu": NOMINAL,
     "rigid_foot": variant(NOMINAL, foot={"rigid": True}),
     "uncoupled_foot": variant(NOMINAL, foot=inline(rect_beam_compliance(*FOOT, coupling=False))),
+    "slender_foot": variant(NOMINAL, foot=inline(rect_beam_compliance(*SLENDER_FOOT))),
+    "prpar": PRPAR_NOMINAL,
 }
+#: the machine each model given stands for (its nominal mapping is the true machine's start)
+MACHINE = {"prpar": "prpar"}
+BASES = {"puu": NOMINAL, "prpar": PRPAR_NOMINAL}
+#: the acceptance design of each machine (:func:`design` arguments).  The 3-PRPaR's: 12 postures
+#: (its compliance costs ~10 x the 3-PUU's) and moments up to 20 N m (a 200 mm torque arm at
+#: 100 N), so that its bar's torsion, which the parallelogram carries mostly by axial bar
+#: forces, shows at all.
+DESIGNS = {"puu": {"n_postures": 24, "n_loads": 12, "seed": 11},
+           "prpar": {"n_postures": 12, "n_loads": 12, "seed": 12, "moment": 20_000.0}}
 
 
 def _foot(s):      # a real foot: a bracket 40 x 16, 90 long (not the leg's proportions), s x as compliant
     return {"foot": inline(s * rect_beam_compliance(90.0, 40.0, 16.0))}, {}
 
 
-def _coupling(s):  # the foot's c26, c35 at s x their beam value
-    C = rect_beam_compliance(*FOOT)
-    C[1, 5] *= s
-    C[5, 1] *= s
-    C[2, 4] *= s
-    C[4, 2] *= s
-    return {"foot": inline(C)}, {}
+def _coupling(key, dims):
+    """``key``'s c26, c35 at s x their beam value (the beam's other terms kept)."""
+    def make(s):
+        C = rect_beam_compliance(*dims)
+        C[1, 5] *= s
+        C[5, 1] *= s
+        C[2, 4] *= s
+        C[4, 2] *= s
+        return {key: inline(C)}, {}
+    return make
+
+
+def _soft(key, dims, mode):
+    """``key``'s section rigidity of ``mode`` divided by 1 + s: that mode (1 + s) x as compliant, shear kept."""
+    return lambda s: ({key: inline(rect_beam_compliance(*dims, soft={mode: 1.0 + s}))}, {})
+
+
+def _extension_torsion(key, dims):
+    """``key``'s beam with an extension-torsion coupling ``c14 = c41 = s sqrt(c11 c44)`` (a pretwisted link)."""
+    def make(s):
+        C = rect_beam_compliance(*dims)
+        C[0, 3] = C[3, 0] = s * np.sqrt(C[0, 0] * C[3, 3])
+        return {key: inline(C)}, {}
+    return make
 
 
 def _slope(s):     # actuator compliance c(q) = c0 (1 + s q), s per mm, q_ref = 0 (the isotropic posture)
@@ -440,21 +485,30 @@ def _slope(s):     # actuator compliance c(q) = c0 (1 + s q), s per mm, q_ref = 
 
 @dataclass(frozen=True)
 class Hidden:
-    """A library effect as a true machine shows it: ``make(size) -> (model-file changes, Truth terms)``."""
+    """A library effect as a true machine shows it: ``make(size) -> (model-file changes, Truth terms)``.
+
+    ``seen``: whether, at ``size`` on its machine's acceptance design (:data:`DESIGNS`), the true
+    machine differs from the model given by more than the noise can hide, once the model given
+    has refit its calibration (:func:`signature_chi2`); the tests check this claim on the truth
+    before they hold the diagnosis to it.
+    """
 
     model: str       # key of MODELS: the model file given to the diagnosis
     size: float      # the size used by the acceptance tests
     unit: str
     make: object
+    seen: bool = True
+
+    @property
+    def machine(self) -> str:
+        return MACHINE.get(self.model, "puu")
 
 
 LIBRARY = {
     "foot_compliance": Hidden("rigid_foot", 1.0, "x bracket 40x16x90 alu", _foot),
-    "foot_bending_coupling": Hidden("uncoupled_foot", 1.0, "x beam c26, c35", _coupling),
-    "foot_torsion": Hidden("puu", 0.3, "extra x foot torsion compliance",
-                           lambda s: ({"foot": inline(rect_beam_compliance(*FOOT, soft={"torsion": 1 + s}))}, {})),
-    "leg_torsion": Hidden("puu", 0.05, "extra x leg torsion compliance",
-                          lambda s: ({"leg": inline(rect_beam_compliance(*LEG, soft={"torsion": 1 + s}))}, {})),
+    "foot_bending_coupling": Hidden("uncoupled_foot", 1.0, "x beam c26, c35", _coupling("foot", FOOT)),
+    "foot_torsion": Hidden("puu", 0.3, "extra x foot torsion compliance", _soft("foot", FOOT, "torsion")),
+    "leg_torsion": Hidden("puu", 0.05, "extra x leg torsion compliance", _soft("leg", LEG, "torsion")),
     "passive_joint_compliance": Hidden("puu", 1e-8, "rad/(N mm)",
                                        lambda s: ({"joints": {"passive_stiffness": 1.0 / s}}, {})),
     "actuator_travel_stiffness": Hidden("puu", 2e-3, "1/mm", _slope),
@@ -463,6 +517,30 @@ LIBRARY = {
     "gravity": Hidden("puu", 3.0, "N", lambda s: ({}, {"weight": s})),
     "geometric_nonlinearity": Hidden("puu", 1.0, "x (100 N, 5000 N mm) loads",
                                      lambda s: ({}, {"nonlinear": True})),
+    # one deformation mode of a link, its section rigidity divided by 1 + size; couplings written in
+    # the beam's compliance.  Not seen: the foot's axial compliance is in series with the actuator
+    # along the same axis at every posture (the calibration's actuator scale takes it whole); the
+    # leg's bending about y and its c26, c35 carry no load between the two U joints.
+    "foot_axial": Hidden("puu", 19.0, "extra x foot axial compliance", _soft("foot", FOOT, "axial"), seen=False),
+    "foot_bending_y": Hidden("puu", 0.7, "extra x foot bending-y compliance", _soft("foot", FOOT, "bending_y")),
+    "foot_bending_z": Hidden("slender_foot", 1.5, "extra x foot bending-z compliance",
+                             _soft("foot", SLENDER_FOOT, "bending_z")),
+    "foot_extension_torsion": Hidden("puu", 0.5, "c14 / sqrt(c11 c44)", _extension_torsion("foot", FOOT)),
+    "leg_axial": Hidden("puu", 16.0, "extra x leg axial compliance", _soft("leg", LEG, "axial")),
+    "leg_bending_y": Hidden("puu", 19.0, "extra x leg bending-y compliance", _soft("leg", LEG, "bending_y"),
+                            seen=False),
+    "leg_bending_z": Hidden("puu", 0.7, "extra x leg bending-z compliance", _soft("leg", LEG, "bending_z")),
+    "leg_bending_coupling": Hidden("puu", 0.0, "x beam c26, c35", _coupling("leg", LEG), seen=False),
+    "leg_extension_torsion": Hidden("puu", 0.035, "c14 / sqrt(c11 c44)", _extension_torsion("leg", LEG)),
+    # the 3-PRPaR's parallelogram bar (both bars of every leg); bending about y (the pivots' axis)
+    # is released by the pivots
+    "bar_axial": Hidden("prpar", 1.0, "extra x bar axial compliance", _soft("leg", BAR, "axial")),
+    "bar_bending_y": Hidden("prpar", 19.0, "extra x bar bending-y compliance", _soft("leg", BAR, "bending_y"),
+                            seen=False),
+    "bar_bending_z": Hidden("prpar", 0.15, "extra x bar bending-z compliance", _soft("leg", BAR, "bending_z")),
+    "bar_torsion": Hidden("prpar", 1.0, "extra x bar torsion compliance", _soft("leg", BAR, "torsion")),
+    "bar_bending_coupling": Hidden("prpar", 0.97, "x beam c26, c35", _coupling("leg", BAR)),
+    "bar_extension_torsion": Hidden("prpar", 0.6, "c14 / sqrt(c11 c44)", _extension_torsion("leg", BAR)),
 }
 
 
@@ -470,15 +548,16 @@ def hide(*effects) -> tuple[dict, Truth]:
     """(model mapping given to the diagnosis, true machine) with library effects hidden.
 
     ``effects``: names of :data:`LIBRARY` or ``(name, size)`` pairs.  The model given is
-    puu.yaml unless one effect needs another (a rigid foot, a foot without couplings); two
-    effects that need different models given, or that both change the same part of the
-    true model file (e.g. two foot effects), are refused.
+    puu.yaml unless one effect needs another (a rigid foot, a foot without couplings, a
+    slender foot, prpar.yaml); two effects that need different models given, or that both
+    change the same part of the true model file (e.g. two foot effects), are refused.
     """
     items = [(e, LIBRARY[e].size) if isinstance(e, str) else e for e in effects]
     keys = {LIBRARY[n].model for n, _ in items} - {"puu"}
     if len(keys) > 1:
         raise ValueError(f"effects {[n for n, _ in items]} need different model files ({sorted(keys)})")
-    true_model, kw, changed = dict(NOMINAL), {}, set()
+    key = keys.pop() if keys else "puu"
+    true_model, kw, changed = dict(BASES[MACHINE.get(key, "puu")]), {}, set()
     for n, s in items:
         changes, terms = LIBRARY[n].make(s)
         if changed & (set(changes) | set(terms)):
@@ -486,13 +565,13 @@ def hide(*effects) -> tuple[dict, Truth]:
         changed |= set(changes) | set(terms)
         true_model.update(changes)
         kw.update(terms)
-    return MODELS[keys.pop() if keys else "puu"], Truth(variant(true_model), **kw)
+    return MODELS[key], Truth(variant(true_model), **kw)
 
 
 def pairs() -> list[tuple[str, str]]:
-    """Every pair of LIBRARY effects that can be hidden together."""
+    """Every pair of seen LIBRARY effects that can be hidden together."""
     out = []
-    names = list(LIBRARY)
+    names = [n for n, h in LIBRARY.items() if h.seen]
     for i, a in enumerate(names):
         for b in names[i + 1:]:
             try:
@@ -501,6 +580,46 @@ def pairs() -> list[tuple[str, str]]:
                 continue
             out.append((a, b))
     return out
+
+
+def acceptance_rows(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(P, W) of the acceptance design of the machine effect ``name`` is hidden in."""
+    return design(**DESIGNS[LIBRARY[name].machine])
+
+
+# --- what the data can see of a true machine ---------------------------------------------------
+
+def calibrated(given: dict, actuator_scale: float, link_scale: float) -> dict:
+    """``given`` with its nominal parameters changed as the diagnosis' calibration changes them:
+    actuator stiffness x ``actuator_scale``; foot and leg compliances x ``link_scale`` in extension
+    and bending (terms with torsion x its root, torsion kept), written out on vjm's 6x6 matrices."""
+    m = build(given)
+    d = np.where(np.arange(6) == 3, 1.0, np.sqrt(link_scale))
+    links = {k: inline(getattr(m, k).compliance * np.outer(d, d))
+             for k in ("foot", "leg") if getattr(m, k).compliance is not None}
+    act = {**given["actuator"], "stiffness": given["actuator"]["stiffness"] * actuator_scale}
+    return variant(given, actuator=act, **links)
+
+
+def signature_chi2(given: dict, truth: Truth, P, W, sigma_t: float = 1e-3,
+                   sigma_r: float = 1e-5) -> tuple[float, float]:
+    """Chi-square of the noise-free gap between the true machine's deflections and the model
+    given's (sum of (gap / sigma)^2 over the rows): as given, and after the model given's
+    actuator and link scales are refit to the true deflections (least squares, the two scales
+    free; what no calibration can reach).  It is the non-centrality the effect adds: far above
+    the noise (hundreds) it must be named, below 1 nothing can see it."""
+    from scipy.optimize import least_squares
+
+    P, W = np.asarray(P, dtype=float), np.asarray(W, dtype=float)
+    t = deflections(truth, P, W)
+    w = np.array([1 / sigma_t] * 3 + [1 / sigma_r] * 3)
+
+    def gap(x):
+        return ((t - elastic(Truth(calibrated(given, *np.exp(x))), P, W)) * w).ravel()
+
+    raw = float(np.sum(gap(np.zeros(2)) ** 2))
+    fit = least_squares(gap, np.zeros(2), x_scale=0.1, xtol=1e-12, ftol=1e-12)
+    return raw, float(np.sum(fit.fun ** 2))
 
 
 # --- reading a diagnosis report (report.json keys) --------------------------------------------
