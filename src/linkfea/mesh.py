@@ -393,9 +393,7 @@ def _mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, si
     whose edges are smooth (fillets), so the lost area scales with the edge size there: each
     step shrinks the border size by the ratio the gate needs (with a margin), by a factor 2 to 4.
     """
-    faces = link.base_faces + link.tip_faces
-    # Only a smooth border loses a strip: refining the sharp ones too would cost tets for nothing.
-    edges = smooth_border_edges(link.body, faces) or [e for f in faces for e in f.Edges()]
+    edges: list = []
     edge_h = None
     for step in range(REFINE_STEPS + 1):
         m = _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, say, edges, edge_h)
@@ -405,6 +403,10 @@ def _mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, si
         if area_gate is None or worst <= area_gate:
             return m
         if step < REFINE_STEPS:
+            if not edges:
+                faces = link.base_faces + link.tip_faces
+                # Only a smooth border loses a strip: refining the sharp ones too costs tets for nothing.
+                edges = smooth_border_edges(link.body, faces) or [e for f in faces for e in f.Edges()]
             edge_h = (edge_h or H) * min(0.5, max(0.25, 0.6 * area_gate / worst))
             say(f"interface area off by {100 * worst:.2g}%: refining the interface borders to {edge_h:.3g} mm")
     check_interface_areas(link.name, m.quality, (link.base, link.tip), area_gate)
