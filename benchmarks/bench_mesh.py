@@ -7,6 +7,8 @@
    process (imports done), (b) as a cold CLI process with its imports itemized (``--only foot``).
    Its converged reference: Richardson over meshes refined along the concave edges, and the
    default's error per diagonal entry (``--only convergence``, a few minutes).
+   The foot with machining radii (``fillet``, ``--only fillet``, about ten minutes): its default
+   mesh, a refinement sequence and Richardson, and cheaper meshes against that reference.
 3. A tube bar (cad/bar.py, section=tube) in block mode, end to end.
 
 Usage::
@@ -157,6 +159,50 @@ def foot_convergence():
               f"{np.array2string(e, precision=2)}")
 
 
+def foot_fillet(r: float = 2.5):
+    """The foot with its concave edges rounded (radius ``r``): no singular edge, so the compliance
+    converges fast.  gmsh's curvature rule (SEGMENTS_PER_CIRCLE elements per turn) sets the size on
+    the fillets, the edge length H elsewhere: the sequence scales both together, (2H, 8), (sqrt2 H,
+    8 sqrt2), (H, 16) = the default mesh, and Richardson over it gives the reference.  Then meshes
+    that resolve the fillets more coarsely (fewer elements per turn at the default H)."""
+    import linkfea.mesh_gmsh as G
+    from linkfea.cad import build_link
+    from linkfea.convergence import richardson
+    from linkfea.mesh import default_mesh_size
+    from linkfea.pipeline import compute
+
+    print(f"\n## foot with fillet = {r:g} mm: refinement sequence, Richardson, cheaper meshes")
+    params = {"fillet": r}
+    H = default_mesh_size(build_link("orthoglide_foot", params=params, with_block=False))
+    saved = G.SEGMENTS_PER_CIRCLE
+    rows = []
+
+    def run(k, n):
+        G.SEGMENTS_PER_CIRCLE = n
+        t0 = time.perf_counter()
+        res = compute("orthoglide_foot", params=params, mesh_size=k * H)
+        t = time.perf_counter() - t0
+        print(f"edge {k * H:.3g} mm, {n:.3g} per turn: {res.solution.n_dofs} DOF, compute() {t:.1f} s "
+              f"({_stages(res.timing)}); diagonal {np.array2string(np.diag(res.matrix), precision=6)}", flush=True)
+        return res.solution.n_dofs, np.diag(res.matrix)
+
+    try:
+        for k in (2.0, 2 ** 0.5, 1.0):
+            rows.append((k, *run(k, saved / k)))
+        rich = richardson([k for k, _, _ in rows], [c for _, _, c in rows])
+        ref = rich.extrapolated
+        print(f"observed orders {np.array2string(rich.order, precision=2)}{'; ' + rich.note if rich.note else ''}")
+        print(f"reference: {np.array2string(ref, precision=6)}")
+        for k, n_dof, c in rows:
+            print(f"  edge {k * H:.3g} mm ({n_dof} DOF) vs reference: {np.array2string(100 * (c / ref - 1), precision=2)} %")
+        for n in (4.0, 6.0, 8.0):
+            n_dof, c = run(1.0, n)
+            print(f"  edge {H:.3g} mm, {n:g} per turn ({n_dof} DOF) vs reference: "
+                  f"{np.array2string(100 * (c / ref - 1), precision=2)} %")
+    finally:
+        G.SEGMENTS_PER_CIRCLE = saved
+
+
 def tube_block():
     from linkfea.pipeline import compute
 
@@ -171,7 +217,7 @@ def tube_block():
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip-pytetwild", action="store_true")
-    ap.add_argument("--only", choices=["meshing", "foot", "convergence", "tube"], help="run one part")
+    ap.add_argument("--only", choices=["meshing", "foot", "convergence", "fillet", "tube"], help="run one part")
     args = ap.parse_args(argv)
     import gmsh
     import pytetwild
@@ -194,6 +240,8 @@ def main(argv=None):
         foot_end_to_end()
     if args.only in (None, "convergence"):
         foot_convergence()
+    if args.only in (None, "fillet"):
+        foot_fillet()
     if args.only in (None, "tube"):
         tube_block()
     print(f"\nload average at the end {os.getloadavg()[0]:.1f}")

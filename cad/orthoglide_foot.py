@@ -5,6 +5,10 @@ pocketed arm with a cross rib, and a cylindrical boss at the far end whose
 end face (x = length) carries the leg's joint.  The reference block is a
 disc fused on that end face.  Not a beam: the flange, the open pocket and the
 boss all shear and warp.  Lengths in mm.
+
+``fillet`` is the machining radius (the end mill's) on every concave edge: the pocket's floor
+and corners and the arm's junctions with the flange and the boss.  0 gives sharp re-entrant
+edges, an idealisation whose stress is singular there.
 """
 import cadquery as cq
 
@@ -24,13 +28,15 @@ PARAMS = {
     "boss_diameter": 36.0,    # mm
     "boss_length": 20.0,      # mm, along x
     "block_length": 10.0,     # mm, reference block along x
+    "fillet": 0.0,            # mm, machining radius on the concave edges (0: sharp)
     "material": "aluminium",
 }
 
 
 def build(**params) -> Link:
     """Build the foot; see ``PARAMS``."""
-    p = resolve_params(PARAMS, params, positive=[k for k, v in PARAMS.items() if isinstance(v, float)])
+    p = resolve_params(PARAMS, params, positive=[k for k, v in PARAMS.items() if isinstance(v, float) and k != "fillet"],
+                       nonnegative=["fillet"])
     L, tf, lb = p["length"], p["flange_thickness"], p["boss_length"]
     x_arm = L - lb
     if x_arm <= tf + 2 * p["wall"] + p["rib"]:
@@ -52,8 +58,24 @@ def build(**params) -> Link:
                   .translate((a, 0, p["arm_height"] / 2 - h + 1e-9)))
         body = body.cut(pocket)
     body = body.val()
+    if p["fillet"] > 0:
+        body = _fillet_concave(body, p["fillet"])
     block = cq.Workplane("YZ").workplane(offset=L).circle(p["boss_diameter"] / 2).extrude(p["block_length"]).val()
     return Link(name="orthoglide_foot", body=body, block=block,
                 base=Plane((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)), tip=Plane((L, 0.0, 0.0), (1.0, 0.0, 0.0)),
                 frame=Frame.from_x((L, 0.0, 0.0), (1.0, 0.0, 0.0)), params=p, material=p["material"],
                 source=__file__)
+
+
+def _fillet_concave(body, r: float):
+    """Round every concave edge of ``body`` with radius ``r`` (one OCC fillet operation)."""
+    from linkfea.mesh_gmsh import concave_edges
+
+    try:
+        out = body.fillet(r, concave_edges(body))
+    except Exception:  # OCC raises StdFail_NotDone without a useful message
+        out = None
+    if out is None or not out.isValid():
+        raise LinkFeaError(f"fillet {r:g} mm: OpenCASCADE cannot round the foot's concave edges with this radius; "
+                           "try a slightly different one")
+    return out

@@ -50,6 +50,25 @@ def test_foot_is_not_a_beam():
     assert link.body.Volume() < arm
 
 
+def test_foot_fillet_rounds_every_concave_edge():
+    """``fillet`` (the machining radius) leaves no concave edge, and adds (1 - pi/4) r^2 per mm of
+    the sharp foot's concave edges (all 90 degree corners; the ends where fillets meet add O(r^3),
+    within 5% here); 0 is the sharp foot, a negative radius one error line."""
+    from linkfea.mesh_gmsh import concave_edges
+
+    sharp = build_link("orthoglide_foot", with_block=False)
+    assert build_link("orthoglide_foot", {"fillet": 0}, with_block=False).body.Volume() == sharp.body.Volume()
+    edges = concave_edges(sharp.body)
+    r = 2.5
+    rounded = build_link("orthoglide_foot", {"fillet": r}, with_block=False)
+    assert rounded.body.isValid() and len(rounded.body.Solids()) == 1 and concave_edges(rounded.body) == []
+    added = (1 - math.pi / 4) * r ** 2 * sum(e.Length() for e in edges)
+    assert rounded.body.Volume() - sharp.body.Volume() == pytest.approx(added, rel=0.05)
+    with pytest.raises(LinkFeaError, match="fillet") as exc:
+        build_link("orthoglide_foot", {"fillet": -1})
+    assert "\n" not in str(exc.value)
+
+
 def test_parallelogram_pin_pitch():
     """Frame origin at the tip pin centre, 310 mm from the base pin centre (the base bore's centroid)."""
     link = build_link("parallelogram_bar")

@@ -352,6 +352,39 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
 REFINE_STEPS = 4
 """pytetwild: at most this many refinements of the interface borders to pass the area gate."""
 
+SMOOTH_COS = 0.95
+"""An interface face's edge is smooth (a fillet's tangent border) when the normals of its two
+faces at the edge's middle are within acos(0.95) = 18 degrees of each other."""
+
+
+def smooth_border_edges(solid, faces) -> list:
+    """The edges of ``faces`` where ``solid`` continues smoothly into another face (a fillet).
+
+    fTetWild keeps its surface within the envelope of the input, so across a sharp edge it
+    cannot cut the corner by more than about the envelope; across a tangent edge it can, and the
+    interface face loses a strip there.  An edge shared by two of ``faces`` is no border.
+    """
+    import cadquery as cq
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    amap = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(solid.wrapped, TopAbs_EDGE, TopAbs_FACE, amap)
+    own = {f.hashCode() for f in faces}
+    out = []
+    for i in range(1, amap.Extent() + 1):
+        adj = list({cq.Face(f).hashCode(): cq.Face(f) for f in amap.FindFromIndex(i)}.values())
+        mine = [f for f in adj if f.hashCode() in own]
+        other = [f for f in adj if f.hashCode() not in own]
+        if len(mine) != 1 or len(other) != 1:
+            continue
+        edge = cq.Edge(amap.FindKey(i))
+        p = edge.positionAt(0.5)
+        if mine[0].normalAt(p).dot(other[0].normalAt(p)) >= SMOOTH_COS:
+            out.append(edge)
+    return out
+
 
 def _mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, say, area_gate) -> LinkMesh:
     """fTetWild, then, while an interface misses the area gate, a finer sizing field along its borders.
@@ -360,7 +393,7 @@ def _mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, si
     whose edges are smooth (fillets), so the lost area scales with the edge size there: each
     step shrinks the border size by the ratio the gate needs (with a margin), by a factor 2 to 4.
     """
-    edges = [e for f in link.base_faces + link.tip_faces for e in f.Edges()]
+    edges: list = []
     edge_h = None
     for step in range(REFINE_STEPS + 1):
         m = _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, say, edges, edge_h)
@@ -370,6 +403,10 @@ def _mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, si
         if area_gate is None or worst <= area_gate:
             return m
         if step < REFINE_STEPS:
+            if not edges:
+                faces = link.base_faces + link.tip_faces
+                # Only a smooth border loses a strip: refining the sharp ones too costs tets for nothing.
+                edges = smooth_border_edges(link.body, faces) or [e for f in faces for e in f.Edges()]
             edge_h = (edge_h or H) * min(0.5, max(0.25, 0.6 * area_gate / worst))
             say(f"interface area off by {100 * worst:.2g}%: refining the interface borders to {edge_h:.3g} mm")
     check_interface_areas(link.name, m.quality, (link.base, link.tip), area_gate)
