@@ -536,6 +536,12 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
     * a named effect A and a candidate B of its selection round whose fit is
       not worse by a (1 - alpha) chi-square(1) margin and whose partial
       correlation with A is >= NEAR_COLLINEAR: "A or B";
+    * a candidate B not named whose signature lies in the span of the named
+      effects' (multiple correlation >= COLLINEAR, calibration projected out)
+      and that could carry at least HIDDEN_SHARE of what they explain along
+      it within the margin (:func:`observe.hiding_share`): grouped with the
+      named effect(s) that imitate it, even where the swap test separated
+      them (B cannot replace A, but may be present besides it);
     * a candidate whose signature the calibration reproduces (correlation
       >= MIMIC) is noted with the calibration change that imitates it, and
       grouped with "calibration" when it was not named and the calibration is
@@ -544,7 +550,9 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
 
     A pair that the selection did separate (a named effect whose rival fitted
     worse by more than the chi-square(1) margin in its round, or could not
-    fit) is never grouped, however collinear the linearised signatures.
+    fit) is not grouped by the first rule, however collinear the linearised
+    signatures; a rival that could not fit at all is not grouped by the
+    third either.
     """
     names = [n for n, ts in sens.items() if ts.observable and cand_rep.get(n, {}).get("p_value") is not None]
     Q = observe._orth(cal_cols)
