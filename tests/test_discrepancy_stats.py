@@ -6,7 +6,16 @@ hidden term, (iii) name nothing on clean data at the advertised rate.
 """
 import numpy as np
 
-from vjm.discrepancy.fit.select import Param, Problem, Term, compare, fit_terms, forward_select, grouped_folds
+from vjm.discrepancy.fit.select import (
+    Param,
+    Problem,
+    Term,
+    backward_eliminate,
+    compare,
+    fit_terms,
+    forward_select,
+    grouped_folds,
+)
 
 X = np.linspace(-1.0, 1.0, 120)
 GROUPS = np.repeat(np.arange(30), 4)
@@ -92,3 +101,42 @@ def test_grouped_folds_keep_groups_whole():
         tot += f
         assert not (set(GROUPS[f]) & set(GROUPS[~f]))
     assert np.all(tot == 1)
+
+
+def _columns_problem(y, cols, sigma):
+    """Whitened residuals of y against base (x) plus one term per named column."""
+    terms = {"base": Term("base", (Param("a", 1.0, scale=1.0, null=0.0),))}
+    terms.update({n: Term(n, (Param("c", 0.0, scale=1.0),)) for n in cols})
+
+    def res(names, th):
+        f = th[0] * X + sum(th[i] * cols[n] for i, n in enumerate(names) if i > 0)
+        return (y - f) / sigma
+
+    return Problem(res, terms, GROUPS, True, ("base",))
+
+
+def test_backward_step_drops_a_term_the_later_ones_made_redundant():
+    """y = 2x + 3 a + 2 b with a, b, d orthogonal (equal norms) and orthogonal to x, and a
+    candidate c = ((a + b)/sqrt 2 + 0.3 d)/|.|: c alone explains most of y (3.39^2 against 3^2
+    for a), so forward selection takes c, then a (with c in, a leaves 0.61 of b's 2^2, b leaves
+    1.37 of a's 3^2), then b; with a and b in, c is not needed (y lies in span(x, a, b)), and the
+    backward step drops it: the final model is a, b."""
+    rng = np.random.default_rng(6)
+    Q, _ = np.linalg.qr(np.column_stack([X, rng.standard_normal((X.size, 3))]))
+    a, b, d = (Q[:, k] * np.sqrt(X.size) * 0.1 for k in (1, 2, 3))  # RMS 0.1: 4 sigma per point
+    c = (a + b) / np.sqrt(2) + 0.3 * d
+    c /= np.sqrt(1.09)
+    y = 2.0 * X + 3.0 * a + 2.0 * b + SIGMA * rng.standard_normal(X.size)
+    prob = _columns_problem(y, {"a": a, "b": b, "c": c}, SIGMA)
+    sel = forward_select(prob, ["a", "b", "c"], folds=3)
+    assert sel.selected == ("c", "a", "b")
+    out = backward_eliminate(prob, sel)
+    assert out.selected == ("a", "b") and set(out.dropped) == {"c"}
+    assert out.round_of("a") == 1 and out.round_of("b") == 2
+    dchi2, dbic, p = out.dropped["c"]
+    assert p > 0.01 and dbic < 0
+    vals = out.final.values(prob)
+    assert abs(vals["a"]["c"]["value"] - 3.0) < 3 * vals["a"]["c"]["se"]
+    assert abs(vals["b"]["c"]["value"] - 2.0) < 3 * vals["b"]["c"]["se"]
+    # nothing to drop: the same selection is returned
+    assert backward_eliminate(prob, out) is out

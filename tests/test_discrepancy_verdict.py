@@ -331,3 +331,94 @@ def test_calibration_factor_inseparable_on_the_data_is_held_at_nominal():
     assert any("link_scale held" in f for f in rep["flags"])
     act = rep["calibration"]["actuator_scale"]
     assert abs(act["value"] - 0.8) <= 3 * act["se"], act
+
+
+# ---------------------------------------------------------------- an effect hidden inside a named one
+
+def test_hiding_share_closed_form():
+    """e1, e2, e3 orthonormal; the model holds span(e1, e2) and explains s = 40 e1 + 30 e2; a term
+    along u = cos t e1 + sin t e3 has canonical correlation cos t with the model, and the model can
+    stand in for r u at a chi-square cost (r sin t)^2, so the term carries z / sin t unseen, out of
+    |<s, u>| = 40 cos t: share z / (40 sin t cos t)."""
+    rng = np.random.default_rng(3)
+    E, _ = np.linalg.qr(rng.standard_normal((60, 3)))
+    e1, e2, e3 = E.T
+    z = 2.5758293035489
+    for t in (0.01, 0.05, 0.3):
+        B = 7.0 * (np.cos(t) * e1 + np.sin(t) * e3)
+        R, share = observe.hiding_share(B[:, None], np.column_stack([e1 + e2, e1 - e2]), 40 * e1 + 30 * e2, z)
+        assert R == pytest.approx(np.cos(t), abs=1e-12)
+        assert share == pytest.approx(z / (40 * np.sin(t) * np.cos(t)), rel=1e-9)
+    # a second column of B that the model cannot imitate changes nothing: the closest direction counts
+    B2 = np.column_stack([np.cos(0.05) * e1 + np.sin(0.05) * e3, rng.standard_normal(60)])
+    B2[:, 1] -= E @ (E.T @ B2[:, 1])
+    R2, share2 = observe.hiding_share(B2, np.column_stack([e1, e2]), 40 * e1 + 30 * e2, z)
+    assert R2 == pytest.approx(np.cos(0.05), abs=1e-9)
+    assert share2 == pytest.approx(z / (40 * np.sin(0.05) * np.cos(0.05)), rel=1e-6)
+
+
+def _hidden_problem(sigma, b, seed=1):
+    """y = calibration (offset 1) + A (2 parameters: u + v) + B (b (u + 0.02 w)) + noise sigma, u, v, w
+    orthogonal to each other and to the offset, norm sqrt(m) = K sigma.  B's signature lies in A's
+    span up to 0.02 w: canonical correlation 1/sqrt(1 + 0.02^2) = 0.9998."""
+    m = 240
+    rng = np.random.default_rng(seed)
+    Q, _ = np.linalg.qr(np.column_stack([np.ones(m), rng.standard_normal((m, 4))]))
+    one, u, v, w, o = (np.sqrt(m) * Q[:, k] for k in range(5))
+    cols = {"A": (u, v), "B": (u + 0.02 * w,), "C": (o,)}
+    y = 1.0 * one + u + v + b * cols["B"][0] + sigma * rng.standard_normal(m)
+    terms = {"calibration": Term("calibration", (Param("offset", 1.0, lower=0.0, upper=10.0, scale=1.0, null=1.0),))}
+    for n, cs in cols.items():
+        terms[n] = Term(n, tuple(Param(f"p{k}", 0.0, lower=-10.0, upper=10.0, scale=0.1) for k in range(len(cs))))
+
+    def res(names, th):
+        f, i = th[0] * one, 1
+        for n in names[1:]:
+            for c in cols[n]:
+                f, i = f + th[i] * c, i + 1
+        return (y - f) / sigma
+
+    return Problem(res, terms, np.arange(m) // 4, True, ("calibration",))
+
+
+def _select_and_group(prob, names, alpha=0.01):
+    from vjm.discrepancy.diagnose import _confounding, _rival_check
+    from vjm.discrepancy.fit.select import backward_eliminate, forward_select
+
+    base = fit_terms(prob, ("calibration",))
+    cal_cols = observe.calibration_columns(prob, base.theta, "calibration")
+    sens = {n: observe.term_sensitivity(prob, base.theta, "calibration", n) for n in names}
+    sel = forward_select(prob, names, alpha=alpha, extra_tests=1)
+    sel, rivals = _rival_check(prob, sel, names, sens, cal_cols, alpha)
+    sel = backward_eliminate(prob, sel)
+    first = sel.rounds[0]
+    cand_rep = {n: {"p_value": first[n]["p_value"], "params": first[n]["fit"].values(prob)[n]} for n in names}
+    return sel, _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals)
+
+
+def test_effect_hidden_inside_a_named_one_is_grouped_with_it():
+    """A (two parameters) and B hidden, B's signature inside A's span up to 0.02 w.  A absorbs B
+    (fits (1 + b) u + v) and B cannot replace A (v), so the swap test separates them; whether part of
+    A's u is B, the data can tell only when B's 0.02 w part shows.  Along u' = (u + 0.02 w)/|.| the
+    model can stand in for r u' at a chi-square cost (0.02 r)^2 / (1 + 0.02^2), so B can carry
+    z sqrt(1 + 0.02^2) / 0.02 unseen out of A's (1 + b) K / sqrt(1 + 0.02^2) along it (K = sqrt(240) / sigma):
+
+    * sigma 0.1, b = 0.5: B's w part is 1.5 sigma in all (not significant): A named, B grouped with it,
+      share z (1 + 0.02^2) / (0.02 x 1.5 K) = 0.55;
+    * sigma 0.1, b = 0 (B absent): the same design cannot exclude it: share 0.83, grouped;
+    * sigma 0.001, b = 0: it could carry only 0.8 % of A: no group;
+    * sigma 0.001, b = 0.5: its w part is 155 sigma: named besides A."""
+    z = 2.5758293035489
+    for sigma, b in ((0.1, 0.5), (0.1, 0.0)):
+        sel, conf = _select_and_group(_hidden_problem(sigma, b), ["A", "B", "C"])
+        assert sel.selected == ("A",)
+        assert any({"A", "B"} <= set(g) for g in conf["groups"]), conf
+        d = next(d for d in conf["details"] if d["names"] == ["A", "B"])
+        assert d["correlation"] == pytest.approx(1 / np.sqrt(1 + 0.02**2), abs=1e-6)
+        assert d["share"] == pytest.approx(z * (1 + 0.02**2) / (0.02 * (1 + b) * np.sqrt(240) / sigma), rel=0.05)
+        assert not any("C" in g for g in conf["groups"])
+    sel, conf = _select_and_group(_hidden_problem(0.001, 0.0), ["A", "B", "C"])
+    assert sel.selected == ("A",)
+    assert not any("B" in g for g in conf["groups"]), conf
+    sel, conf = _select_and_group(_hidden_problem(0.001, 0.5), ["A", "B", "C"])
+    assert set(sel.selected) == {"A", "B"}

@@ -17,7 +17,7 @@ from . import effects as fx
 from . import modelops as mo
 from . import observe
 from .data import StiffnessObs, read_csv, write_design
-from .fit.select import Z95, Term, clipped, fit_terms, forward_select, lack_of_fit
+from .fit.select import Z95, Term, backward_eliminate, clipped, fit_terms, forward_select, lack_of_fit
 from .locate import localize
 from .predict import (
     CALIBRATION,
@@ -259,6 +259,9 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
 
     sel = forward_select(prob, tested, alpha=alpha, max_effects=max_effects, folds=folds, log=log, extra_tests=1)
     sel, rivals = _rival_check(prob, sel, tested, sens, cal_cols, alpha)
+    # a named effect that another one (added or swapped in later) made redundant is dropped
+    sel = backward_eliminate(prob, sel)
+    rivals = {a: v for a, v in rivals.items() if a in sel.selected}
     base, final = sel.baseline, sel.final
 
     # lack of fit of the final model; its level shares alpha with the selection (Bonferroni)
@@ -331,12 +334,19 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
                         "params": vals[nm], "named": nm in sel.selected, "observable": True,
                         "converged": bool(d["converged"]), "at_bound": list(d["clipped"]),
                         "threshold": d["threshold"]}
-    for i, nm in enumerate(sel.selected):
+    for nm in sel.selected:
+        i = sel.round_of(nm)
         d = sel.rounds[i][nm]
         cand_rep[nm]["selected_at_round"] = i + 1
         cand_rep[nm]["round_delta_bic"] = d["delta_bic"]
         cand_rep[nm]["round_p_value"] = d["p_value"]
         cand_rep[nm]["final_params"] = final.values(prob)[nm]
+    dropped = {}
+    for nm, (dchi2, dbic, p) in sel.dropped.items():
+        cand_rep[nm]["dropped"] = {"delta_chi2": dchi2, "delta_bic": dbic, "p_value": p}
+        dropped[nm] = (f"{nm} was selected, then dropped: with {', '.join(sel.selected) or 'the calibration'} in "
+                       f"the model it is no longer needed (removing it raises chi-square by {dchi2:.1f}, p = {p:.2g}, "
+                       f"BIC change {dbic:+.1f})")
     for nm, why in {**skipped, **unobservable}.items():
         cand_rep[nm] = {"description": fx.get(nm).description, "skipped": why, "delta_bic": None,
                         "p_value": None, "cv_error": None, "params": {}, "named": False,
@@ -390,6 +400,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         "confounded": conf["groups"],
         "confounding": conf["details"],
         "unobservable": unobservable,
+        "dropped": dropped,
         "flags": flags,
         "n_tested": len(tested),
     }
@@ -423,6 +434,10 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
 COLLINEAR = 0.99
 #: ... and, for a named effect, the lower correlation at which an alternative that fits almost as well joins it
 NEAR_COLLINEAR = 0.9
+#: an effect not named whose signature lies in the named ones' (COLLINEAR) joins their group when it
+#: could carry at least this fraction of what they explain along it without the fit getting worse
+#: by the chi-square(1) (1 - alpha) quantile
+HIDDEN_SHARE = 0.1
 #: the calibration "mimics" a candidate when its columns reproduce the candidate's with this correlation
 MIMIC = 0.95
 #: calibration factors outside this range are implausibly far from the nominal values
@@ -503,6 +518,15 @@ def _rival_check(prob, sel, tested, sens, cal_cols, alpha):
     return sel, rivals
 
 
+def _named_signal(prob, final, named, Q):
+    """What the named effects explain: the whitened residuals with them at their null values minus
+    the final ones (the other terms at their final values), the calibration's span ``Q`` projected out."""
+    th = [np.array([p.null for p in prob.terms[nm].params]) if nm in named else final.term_theta(prob, nm)
+          for nm in final.names]
+    s = prob.residuals(final.names, np.concatenate(th)) - prob.residuals(final.names, final.theta)
+    return observe.project_out(s[:, None], Q)[:, 0]
+
+
 def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
     """Groups of candidates this data cannot tell apart, and candidates the calibration can mimic.
 
@@ -512,6 +536,12 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
     * a named effect A and a candidate B of its selection round whose fit is
       not worse by a (1 - alpha) chi-square(1) margin and whose partial
       correlation with A is >= NEAR_COLLINEAR: "A or B";
+    * a candidate B not named whose signature lies in the span of the named
+      effects' (multiple correlation >= COLLINEAR, calibration projected out)
+      and that could carry at least HIDDEN_SHARE of what they explain along
+      it within the margin (:func:`observe.hiding_share`): grouped with the
+      named effect(s) that imitate it, even where the swap test separated
+      them (B cannot replace A, but may be present besides it);
     * a candidate whose signature the calibration reproduces (correlation
       >= MIMIC) is noted with the calibration change that imitates it, and
       grouped with "calibration" when it was not named and the calibration is
@@ -520,7 +550,9 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
 
     A pair that the selection did separate (a named effect whose rival fitted
     worse by more than the chi-square(1) margin in its round, or could not
-    fit) is never grouped, however collinear the linearised signatures.
+    fit) is not grouped by the first rule, however collinear the linearised
+    signatures; a rival that could not fit at all is not grouped by the
+    third either.
     """
     names = [n for n, ts in sens.items() if ts.observable and cand_rep.get(n, {}).get("p_value") is not None]
     Q = observe._orth(cal_cols)
@@ -539,15 +571,25 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
             return 0.0
         return observe.canonical_correlation(resid[a], resid[b])
 
+    def span_corr(b, among):
+        """Multiple (canonical) correlation of b's signature with the joint span of ``among``'s."""
+        among = [a for a in among if np.linalg.norm(resid[a]) > 1e-6 * raw[a]]
+        if not among or np.linalg.norm(resid[b]) <= 1e-6 * raw[b]:
+            return 0.0
+        return observe.canonical_correlation(resid[b], np.hstack([resid[a] for a in among]))
+
     # pairs the data did separate: a named effect whose rival fitted worse, in its round, by more
     # than a (1 - alpha) chi-square(1) margin (or could not fit at all)
     margin = float(stats.chi2.ppf(1.0 - alpha, 1))
-    separated = set()
+    separated, unfit = set(), set()  # unfit: the rival could not fit at all in the named effect's place
     for a, checked in (rivals or {}).items():
         for b, d, _ in checked:
             if d >= margin:
                 separated.add(frozenset((a, b)))
-    for r, a in enumerate(sel.selected):  # rivals not re-checked: the selection round's evidence
+            if not np.isfinite(d):
+                unfit.add(frozenset((a, b)))
+    for a in sel.selected:  # rivals not re-checked: the selection round's evidence
+        r = sel.round_of(a)
         info = sel.rounds[r] if r < len(sel.rounds) else {}
         if a not in info:
             continue
@@ -556,6 +598,8 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
             if b != a and not done and (d["fit"].chi2 - info[a]["fit"].chi2 >= margin or not d["converged"]
                                         or d["clipped"]):
                 separated.add(frozenset((a, b)))
+            if b != a and not done and (not d["converged"] or d["clipped"]):
+                unfit.add(frozenset((a, b)))
     pair_c = {}
     for i, a in enumerate(names):
         for b in names[i + 1:]:
@@ -590,6 +634,39 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
                 out.append([a] + alt)
             else:
                 grp.extend(b for b in alt if b not in grp)
+
+    # an effect not named can hide *inside* the named ones: a named effect with several parameters
+    # imitates it with one of them, or two named effects do it together.  The swap test above
+    # only shows whether it can replace a named effect entirely, not whether it can be present
+    # besides it: it joins the group when the data cannot exclude that it carries a tenth or
+    # more of what the named effects explain along its signature
+    named = [a for a in sel.selected if a in resid]
+    sig = _named_signal(prob, sel.final, named, Q) if named else None
+    z = float(np.sqrt(margin))
+    for b in names:
+        if b in sel.selected or not named or np.linalg.norm(resid[b]) <= 1e-6 * raw[b]:
+            continue
+        R, share = observe.hiding_share(resid[b], np.hstack([resid[a] for a in named]), sig, z)
+        if R < COLLINEAR or share < HIDDEN_SHARE:
+            continue
+        # the named effects it cannot do without (or, when any subset imitates it, the closest one)
+        carriers = [a for a in named if span_corr(b, [x for x in named if x != a]) < COLLINEAR]
+        for a in carriers or [max(named, key=lambda a: corr(a, b))]:
+            grp = next((g for g in out if a in g), None)
+            # a linearised imitation the fit itself could not reach (out of range, no convergence)
+            if (grp is not None and b in grp) or frozenset((a, b)) in unfit:
+                continue
+            if grp is None:
+                out.append([a, b])
+            else:
+                grp.append(b)
+            with_ = f" with {', '.join(x for x in named if x != a)}" if len(named) > 1 else ""
+            part = "all" if share >= 1.0 else f"{100 * share:.0f} %"
+            details.append({"names": [a, b], "correlation": R, "share": share,
+                            "why": f"{a} or {b}: this data cannot tell them apart (the signature of {b} lies in that "
+                                   f"of {a}{with_}, multiple correlation {R:.4f} once the calibration is projected "
+                                   f"out: {b} could carry {part} of what the named effects explain along it, "
+                                   f"unseen)"})
 
     cal_params = prob.terms["calibration"].params
     cal_fit = sel.final.term_theta(prob, "calibration")
@@ -658,6 +735,8 @@ def summary(rep) -> str:
         c = rep["candidates"][nm]
         ps = ", ".join(f"{k} = {v['value']:.4g} +- {Z95 * v['se']:.2g} {v['unit']}" for k, v in c["final_params"].items())
         parts.append(f"{nm}: {ps} (round dBIC {c['round_delta_bic']:.1f}, p = {c['round_p_value']:.2g}).")
+    for why in rep.get("dropped", {}).values():
+        parts.append(why + ".")
     for d in rep.get("confounding", []):
         parts.append(d["why"] + ".")
     if rep["verdict"] == "unexplained":

@@ -176,3 +176,28 @@ def partial_correlation(A, B, C) -> float:
     if np.linalg.norm(Ar) <= 1e-6 * np.linalg.norm(A) or np.linalg.norm(Br) <= 1e-6 * np.linalg.norm(B):
         return 0.0
     return canonical_correlation(Ar, Br)
+
+
+def hiding_share(B, N, s, z) -> tuple[float, float]:
+    """How much of a fitted signal a term B could carry unseen inside the span of others.
+
+    B : (m, kb) columns of the term (calibration projected out); N : (m, kn) columns of the
+    terms in the model; s : (m,) what those terms explain at their fitted values; z : the
+    root of the chi-square(1) quantile of the test level.  Along B's direction closest to
+    span(N) (unit vector u, first canonical direction), the model can replace ``t u`` by
+    terms of N at a chi-square cost ``t^2 |u_perp|^2`` (u_perp: u with span(N) projected
+    out), so B can carry up to ``t = z / |u_perp|`` unseen.  Returns (R, share): R the
+    canonical correlation of span(B) with span(N), share that amount over ``|<s, u>|``,
+    the part of the fitted signal along u (inf when there is none).
+    """
+    qb, qn = _orth(B), _orth(N)
+    if qb.shape[1] == 0 or qn.shape[1] == 0:
+        return 0.0, 0.0
+    U, sv, _ = np.linalg.svd(qb.T @ qn)
+    u = qb @ U[:, 0]
+    perp = float(np.linalg.norm(u - qn @ (qn.T @ u)))
+    a = abs(float(s @ u))
+    R = float(min(sv[0], 1.0))
+    if a == 0.0:
+        return R, float("inf")
+    return R, float(z / max(perp, 1e-300) / a)

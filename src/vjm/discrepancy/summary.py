@@ -81,7 +81,8 @@ class Summary:
                      "at bound" if c.get("at_bound") else "")
             cand.append([nm, _f(c.get("delta_bic"), "{:.1f}"), _f(c.get("p_value"), "{:.2g}"),
                          _f(c.get("threshold"), "{:.2g}"), state])
-        notes = [[d["why"]] for d in r.get("confounding", [])] + [[f] for f in r.get("flags", [])]
+        notes = [[w] for w in r.get("dropped", {}).values()] + [[d["why"]] for d in r.get("confounding", [])]
+        notes += [[f] for f in r.get("flags", [])]
         if r["verdict"] == "unexplained":
             notes.append([f"remaining gap: {r['localization_after']['summary']}"])
         if r.get("suggest"):

@@ -26,6 +26,7 @@ known sigmas, ``RSS/(n-k)`` otherwise); intervals are ``theta +- 1.96 se``.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -269,6 +270,16 @@ class Selection:
     rounds: list  # per round: dict name -> {delta_bic, p_value, cv_error, fit, eligible}
     cv_baseline: float
     alpha: float
+    #: round (0-based) in which each selected term entered; empty = ``range(len(selected))``
+    entered: tuple = ()
+    #: terms selected and later removed by :func:`backward_eliminate`: name -> (chi-square and BIC
+    #: change on removing it from the final model, p-value of that removal)
+    dropped: dict = field(default_factory=dict)
+
+    def round_of(self, name: str) -> int:
+        """Index into ``rounds`` of the round in which ``name`` was selected."""
+        entered = self.entered or tuple(range(len(self.selected)))
+        return entered[self.selected.index(name)]
 
 
 def clipped(problem: Problem, fr: FitResult, name: str) -> list:
@@ -371,3 +382,36 @@ def forward_select(problem: Problem, candidates, alpha: float = 0.01, max_effect
         cv_cur = info[best]["cv_error"]
         remaining.remove(best)
     return Selection(base, cur, tuple(selected), rounds, cv_base, alpha)
+
+
+def backward_eliminate(problem: Problem, sel: Selection) -> Selection:
+    """Remove selected terms that the final model no longer needs (the backward step of stepwise selection).
+
+    Forward selection adds a term because it is the best single addition at
+    that round; a term added later can take over what it explained (terms
+    with nearly collinear signatures).  Each selected term is tested against
+    the final model without it, at the level it had to pass to enter
+    (its round's ``threshold``): a term whose removal is not significant, or
+    whose removal lowers the BIC, is dropped, the weakest first, and the
+    model refitted; repeated until every remaining term is needed.
+    """
+    selected, entered = list(sel.selected), list(sel.entered or range(len(sel.selected)))
+    final, dropped = sel.final, dict(sel.dropped)
+    while selected:
+        worst = None
+        for a, r in zip(selected, entered):
+            small = fit_terms(problem, tuple(x for x in final.names if x != a), warm=final)
+            dbic, p = compare(problem, small, final)
+            thr = sel.rounds[r][a]["threshold"] if a in sel.rounds[r] else sel.alpha
+            if small.success and (p >= thr or dbic >= 0) and (worst is None or p > worst[1]):
+                worst = (a, p, dbic, small)
+        if worst is None:
+            break
+        a, p, dbic, small = worst
+        k = selected.index(a)
+        del selected[k], entered[k]
+        dropped[a] = (float(small.chi2 - final.chi2), float(-dbic), float(p))
+        final = small
+    if len(selected) == len(sel.selected):
+        return sel
+    return dataclasses.replace(sel, final=final, selected=tuple(selected), entered=tuple(entered), dropped=dropped)
