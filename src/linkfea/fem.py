@@ -145,6 +145,30 @@ def interface_nodes(p2: P2Mesh, mesh, mode: str):
     return clamped, ref_nodes
 
 
+def _check_connected(cells, n_nodes: int, clamped, ref_nodes) -> None:
+    """SolverError unless every node is tied to the clamp through the elements (and the rigid
+    reference, which ties the tip nodes together).
+
+    A part that is not makes the stiffness matrix singular.  Left to the factorization, that
+    shows only where round-off leaves an exact zero pivot: SuperLU may instead return finite
+    values, so the graph decides, not the solver.
+    """
+    from scipy.sparse.csgraph import connected_components
+
+    cells = np.asarray(cells)
+    ground, ref = n_nodes, n_nodes + 1
+    ref_nodes = np.asarray(ref_nodes, dtype=int)
+    rows = np.concatenate([np.repeat(cells[:, 0], cells.shape[1]), np.full(len(clamped), ground),
+                           np.full(len(ref_nodes), ref)])
+    cols = np.concatenate([cells.ravel(), np.asarray(clamped, dtype=int), ref_nodes])
+    G = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_nodes + 2, n_nodes + 2))
+    _, label = connected_components(G, directed=False)
+    loose = np.flatnonzero(label[:n_nodes] != label[ground])
+    if loose.size:
+        raise SolverError(f"the stiffness matrix is singular: {loose.size} of {n_nodes} mesh nodes are not "
+                          "connected to the clamp (a part of the link is not connected to the clamp?)")
+
+
 def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float = 1000.0,
                solver: Optional[Callable] = None, progress: Optional[Callable[[str], None]] = None,
                assembler: str = "kernel") -> FeaSolution:
@@ -189,6 +213,7 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     t0 = time.perf_counter()
     p2 = link_p2(mesh)
     clamped, ref_nodes = interface_nodes(p2, mesh, mode)
+    _check_connected(p2.cells, len(p2.points), clamped, ref_nodes if mode == "rigid" else ())
     lam0, mu0 = lame(material)
     scale = np.where(block, block_ratio, 1.0) if mode == "block" else None
     U = ASSEMBLERS[assembler](p2, lam0, mu0, scale)
