@@ -60,7 +60,7 @@ WRONG_PAIRS = {
         "names foot_torsion, leg_extension_torsion and foot_bending_y (explained, chi2_red 1.02): foot_torsion "
         "wins round 1 over the joint springs by 1.6 in BIC, and foot_bending_y (round 3) patches what it "
         "leaves of the springs' signature; on this noise those three fit the data better than the true pair "
-        "(chi2 1750 against 1759) and win on BIC by 2 with one parameter more, so no BIC rule names the pair",
+        "(chi2 1750.0 against 1759.5) and win on BIC by 2.0 with one parameter more, so no BIC rule names the pair",
 }
 
 
