@@ -135,7 +135,9 @@ class LinkBendingCoupling(Effect):
 
     def param_specs(self, model, ctx=None):
         k0 = mo.bending_coupling(model, self.key)
-        return (Param("kappa", start=k0, lower=-1.1, upper=1.1, scale=0.1, null=k0,
+        # the whole positive-definite range: a tighter bound clips estimates a link can have
+        lo, hi = mo.bending_coupling_limits(model, self.key)
+        return (Param("kappa", start=k0, lower=min(lo, k0), upper=max(hi, k0), scale=0.1, null=k0,
                       unit="x beam-consistent coupling (eq. 14 = 1)"),)
 
     def applies_to(self, model, data_kind):
@@ -154,7 +156,8 @@ class LinkExtensionTorsion(Effect):
 
     def param_specs(self, model, ctx=None):
         k0 = mo.extension_torsion(model, self.key)
-        return (Param("kappa", start=k0, lower=-0.9, upper=0.9, scale=0.1, null=k0, unit="1"),)
+        lo, hi = mo.extension_torsion_limits(model, self.key)
+        return (Param("kappa", start=k0, lower=min(lo, k0), upper=max(hi, k0), scale=0.1, null=k0, unit="1"),)
 
     def applies_to(self, model, data_kind):
         return _link_applies(model, self.key, self.label) or super().applies_to(model, data_kind)
