@@ -130,7 +130,7 @@ def _rest_coordinates(ch, name, theta0, B, rigid, n):
         raise VjmError(f"offsets[{name!r}] of chain {ch.name!r} must have shape ({n}, {k}) or ({k},), "
                        f"got {np.shape(theta0)}") from None
     xi = np.linalg.solve(B, th[:, :, None])[:, :, 0]
-    if np.any(rigid & (np.abs(xi) > 0)) and np.any(np.abs(xi[rigid]) > 1e-12 * np.abs(xi).max()):
+    if np.any(np.abs(xi[rigid]) > 1e-12 * np.abs(xi).max(initial=0.0)):
         raise VjmError(f"offsets[{name!r}] of chain {ch.name!r} deforms a direction in which the spring is rigid")
     return np.where(rigid, 0.0, xi)
 
