@@ -285,3 +285,7 @@ def test_report_reading_accepts_groups_and_nothing_else():
     assert not tr.names_exactly(rep, ["foot_torsion", "gravity"])  # leg_torsion does not stand for it
     assert not tr.names_exactly(rep, ["gravity"])  # one effect too many named
     assert not tr.names_exactly({"named_effects": ["gravity"], "confounded": []}, ["gravity", "clearance"])
+    # an explanation the report offers besides the named one (within Occam's window) counts as well
+    alt = {**rep, "alternatives": [{"named_effects": ["foot_torsion", "gravity"], "delta_bic": 1.0}]}
+    assert tr.names_exactly(alt, ["foot_torsion", "gravity"])
+    assert not tr.names_exactly(alt, ["foot_torsion"])

@@ -624,16 +624,26 @@ def signature_chi2(given: dict, truth: Truth, P, W, sigma_t: float = 1e-3,
 
 # --- reading a diagnosis report (report.json keys) --------------------------------------------
 
-def accounts_for(rep: dict, name: str) -> bool:
+def accounts_for(rep: dict, name: str, named=None) -> bool:
     """``name`` is named, or a named effect stands for a confounded group that holds it
-    (the report's way of saying "A or B: this data cannot tell them apart")."""
-    named = rep["named_effects"]
+    (the report's way of saying "A or B: this data cannot tell them apart").  ``named``: the
+    set of effects of one explanation (default: the report's named effects)."""
+    named = rep["named_effects"] if named is None else named
     return name in named or any(name in g and any(n in g for n in named) for g in rep["confounded"])
 
 
+def explanations(rep: dict) -> list:
+    """The sets of effects the report offers: the named one, then the other explanations the data
+    do not exclude (``alternatives``: BIC within Occam's window of the named set's)."""
+    return [list(rep["named_effects"])] + [list(a["named_effects"]) for a in rep.get("alternatives", [])]
+
+
 def names_exactly(rep: dict, hidden) -> bool:
-    """The named effects account for every hidden one, and each named effect is a hidden one
-    (or in a confounded group with one): nothing else is claimed."""
-    named = rep["named_effects"]
-    own = [any(n == h or any(n in g and h in g for g in rep["confounded"]) for h in hidden) for n in named]
-    return len(named) == len(hidden) and all(own) and all(accounts_for(rep, h) for h in hidden)
+    """One explanation of the report (the named effects, or an alternative the report says the data
+    support as well) accounts for every hidden effect, and each of its effects is a hidden one (or in
+    a confounded group with one): nothing else is claimed."""
+    def exact(named):
+        own = [any(n == h or any(n in g and h in g for g in rep["confounded"]) for h in hidden) for n in named]
+        return len(named) == len(hidden) and all(own) and all(accounts_for(rep, h, named) for h in hidden)
+
+    return any(exact(named) for named in explanations(rep))

@@ -17,7 +17,17 @@ from . import effects as fx
 from . import modelops as mo
 from . import observe
 from .data import StiffnessObs, read_csv, write_design
-from .fit.select import Z95, Term, backward_eliminate, clipped, fit_terms, forward_select, lack_of_fit
+from .fit.select import (
+    OCCAM_WINDOW,
+    Z95,
+    Term,
+    backward_eliminate,
+    clipped,
+    fit_terms,
+    forward_select,
+    lack_of_fit,
+    swap_alternatives,
+)
 from .locate import localize
 from .predict import (
     CALIBRATION,
@@ -30,7 +40,7 @@ from .predict import (
     unique_postures,
 )
 from .report import plot_before_after, plot_residuals, write_report_dir
-from .summary import verdict_line
+from .summary import alternative_lines, verdict_line
 
 DEFAULT_ALPHA = 0.01
 
@@ -261,6 +271,11 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     sel, rivals = _rival_check(prob, sel, tested, sens, cal_cols, alpha)
     # a named effect that another one (added or swapped in later) made redundant is dropped
     sel = backward_eliminate(prob, sel)
+    # other explanations within Occam's window: each named effect swapped for its rivals, then
+    # pruned (a swap can make another named effect unnecessary); one with a lower BIC is named
+    swaps = {a: [b for b, d, _ in rivals.get(a, []) if np.isfinite(d)] for a in sel.selected}
+    explanations = swap_alternatives(prob, sel, swaps)
+    sel = explanations[0]
     rivals = {a: v for a, v in rivals.items() if a in sel.selected}
     base, final = sel.baseline, sel.final
 
@@ -398,6 +413,9 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         "verdict": verdict,
         "lack_of_fit": lof,
         "confounded": conf["groups"],
+        "alternatives": [{"named_effects": list(x.selected), "delta_bic": float(x.final.bic - final.bic),
+                          "chi2_red": float(x.final.chi2 / s2 / max(x.final.dof, 1))} for x in explanations[1:]],
+        "alternatives_window": OCCAM_WINDOW,
         "confounding": conf["details"],
         "unobservable": unobservable,
         "dropped": dropped,
@@ -739,6 +757,7 @@ def summary(rep) -> str:
         parts.append(why + ".")
     for d in rep.get("confounding", []):
         parts.append(d["why"] + ".")
+    parts += [a + "." for a in alternative_lines(rep)]
     if rep["verdict"] == "unexplained":
         parts.append(f"Where the remaining gap is: {rep['localization_after']['summary']}.")
     for f in rep.get("flags", []):

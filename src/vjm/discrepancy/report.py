@@ -80,7 +80,7 @@ def _fmt(v, f="{:.4g}"):
 
 def render_html(rep: dict, figures) -> str:
     """The HTML report: one-line verdict and the before/after picture first, then the evidence."""
-    from .summary import Summary, verdict_line
+    from .summary import Summary, alternative_lines, verdict_line
 
     named = rep["named_effects"]
     cand_rows = []
@@ -101,7 +101,8 @@ def render_html(rep: dict, figures) -> str:
     rest = [f for f in figures if f not in first]
     top = "".join(f'<figure><img src="{html.escape(f)}" alt="before and after"></figure>' for f in first)
     figs = "".join(f'<figure><img src="{html.escape(f)}" alt="{html.escape(f)}"></figure>' for f in rest)
-    conf = "".join(f"<li>{html.escape(d['why'])}</li>" for d in rep.get("confounding", []))
+    conf = "".join(f"<li>{html.escape(d)}</li>" for d in [d["why"] for d in rep.get("confounding", [])]
+                   + alternative_lines(rep))
     flags = "".join(f"<li>{html.escape(f)}</li>" for f in rep.get("flags", []))
     unobs = "".join(f"<li><code>{html.escape(k)}</code>: {html.escape(v)}</li>" for k, v in rep.get("unobservable", {}).items())
     gap = ""

@@ -20,6 +20,13 @@ def _named_words(rep) -> list:
     return out
 
 
+def alternative_lines(rep) -> list:
+    """One sentence per other explanation the data do not exclude (Occam's window on BIC)."""
+    return [f"Also supported by this data: {' + '.join(a['named_effects']) or 'no effect'} (BIC {a['delta_bic']:+.1f} "
+            f"against the named set, within {rep.get('alternatives_window', 6.0):.1f}: posterior odds of at least "
+            f"1:20; reduced chi2 {a['chi2_red']:.3f})" for a in rep.get("alternatives", [])]
+
+
 def verdict_line(rep) -> str:
     """One sentence: the verdict, the named effects (or groups) and the lack of fit."""
     lof = rep["lack_of_fit"]
@@ -82,6 +89,7 @@ class Summary:
             cand.append([nm, _f(c.get("delta_bic"), "{:.1f}"), _f(c.get("p_value"), "{:.2g}"),
                          _f(c.get("threshold"), "{:.2g}"), state])
         notes = [[w] for w in r.get("dropped", {}).values()] + [[d["why"]] for d in r.get("confounding", [])]
+        notes += [[a] for a in alternative_lines(r)]
         notes += [[f] for f in r.get("flags", [])]
         if r["verdict"] == "unexplained":
             notes.append([f"remaining gap: {r['localization_after']['summary']}"])

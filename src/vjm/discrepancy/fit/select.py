@@ -384,6 +384,37 @@ def forward_select(problem: Problem, candidates, alpha: float = 0.01, max_effect
     return Selection(base, cur, tuple(selected), rounds, cv_base, alpha)
 
 
+def _prune(problem: Problem, final: FitResult, levels: dict) -> tuple[FitResult, dict]:
+    """Drop, weakest first, the terms of ``levels`` (name -> level) that ``final`` no longer needs.
+
+    A term is not needed when removing it is not significant at its level, or lowers the BIC;
+    the model is refitted after each removal.  Returns the pruned fit and
+    ``{name: (chi-square change, BIC change, p-value) of its removal}``.
+    """
+    levels, dropped = dict(levels), {}
+    while levels:
+        worst = None
+        for a, thr in levels.items():
+            small = fit_terms(problem, tuple(x for x in final.names if x != a), warm=final)
+            dbic, p = compare(problem, small, final)
+            if small.success and (p >= thr or dbic >= 0) and (worst is None or p > worst[1]):
+                worst = (a, p, dbic, small)
+        if worst is None:
+            break
+        a, p, dbic, small = worst
+        del levels[a]
+        dropped[a] = (float(small.chi2 - final.chi2), float(-dbic), float(p))
+        final = small
+    return final, dropped
+
+
+def _levels(sel: Selection) -> dict:
+    """name -> the level each selected term had to pass to enter (its round's threshold)."""
+    entered = sel.entered or tuple(range(len(sel.selected)))
+    return {a: (sel.rounds[r][a]["threshold"] if r < len(sel.rounds) and a in sel.rounds[r] else sel.alpha)
+            for a, r in zip(sel.selected, entered)}
+
+
 def backward_eliminate(problem: Problem, sel: Selection) -> Selection:
     """Remove selected terms that the final model no longer needs (the backward step of stepwise selection).
 
@@ -395,23 +426,52 @@ def backward_eliminate(problem: Problem, sel: Selection) -> Selection:
     whose removal lowers the BIC, is dropped, the weakest first, and the
     model refitted; repeated until every remaining term is needed.
     """
-    selected, entered = list(sel.selected), list(sel.entered or range(len(sel.selected)))
-    final, dropped = sel.final, dict(sel.dropped)
-    while selected:
-        worst = None
-        for a, r in zip(selected, entered):
-            small = fit_terms(problem, tuple(x for x in final.names if x != a), warm=final)
-            dbic, p = compare(problem, small, final)
-            thr = sel.rounds[r][a]["threshold"] if a in sel.rounds[r] else sel.alpha
-            if small.success and (p >= thr or dbic >= 0) and (worst is None or p > worst[1]):
-                worst = (a, p, dbic, small)
-        if worst is None:
-            break
-        a, p, dbic, small = worst
-        k = selected.index(a)
-        del selected[k], entered[k]
-        dropped[a] = (float(small.chi2 - final.chi2), float(-dbic), float(p))
-        final = small
-    if len(selected) == len(sel.selected):
+    final, dropped = _prune(problem, sel.final, _levels(sel))
+    if not dropped:
         return sel
-    return dataclasses.replace(sel, final=final, selected=tuple(selected), entered=tuple(entered), dropped=dropped)
+    entered = sel.entered or tuple(range(len(sel.selected)))
+    keep = [(a, r) for a, r in zip(sel.selected, entered) if a not in dropped]
+    return dataclasses.replace(sel, final=final, selected=tuple(a for a, _ in keep),
+                               entered=tuple(r for _, r in keep), dropped={**sel.dropped, **dropped})
+
+
+#: Occam's window (Madigan and Raftery 1994): a set of terms whose BIC exceeds the best one's by at
+#: most 2 ln 20 has posterior odds of at least 1:20 against it (the BIC approximation of the
+#: Bayes factor), so the data do not exclude it
+OCCAM_WINDOW = float(2.0 * np.log(20.0))
+
+
+def swap_alternatives(problem: Problem, sel: Selection, swaps: dict, window: float = OCCAM_WINDOW) -> list:
+    """Other sets of terms that explain the data about as well as the selected one.
+
+    Selection is greedy: a term that wins its round by a hair can pull in a
+    later term that only patches what it fits less well than the runner-up
+    would have.  Each selected term ``a`` is swapped for each term of
+    ``swaps[a]`` (its rivals: terms with nearly collinear signatures), the
+    model refitted and then pruned as in :func:`backward_eliminate` (a swap
+    can make another selected term unnecessary).  Returns the selections
+    reached, ``sel`` included, whose BIC is within ``window`` of the lowest
+    among them, lowest BIC first; fits that did not converge or ended
+    clipped on a bound are left out.
+    """
+    levels = _levels(sel)
+    entered = dict(zip(sel.selected, sel.entered or range(len(sel.selected))))
+    found = {frozenset(sel.selected): sel}
+    for a in sel.selected:
+        for b in swaps.get(a, ()):
+            if b in sel.final.names or b not in problem.terms:
+                continue
+            fr = fit_terms(problem, tuple(b if x == a else x for x in sel.final.names), warm=sel.final)
+            if not fr.success:
+                continue
+            lv = {(b if x == a else x): v for x, v in levels.items()}
+            fr, dropped = _prune(problem, fr, lv)
+            names = tuple(x for x in fr.names if x not in problem.baseline)
+            if frozenset(names) in found or any(clipped(problem, fr, x) for x in names):
+                continue
+            ent = {**entered, b: entered[a]}
+            found[frozenset(names)] = dataclasses.replace(
+                sel, final=fr, selected=names, entered=tuple(ent[x] for x in names),
+                dropped={**sel.dropped, **dropped})
+    out = sorted(found.values(), key=lambda s: s.final.bic)
+    return [s for s in out if s.final.bic - out[0].final.bic <= window]
