@@ -289,3 +289,10 @@ def test_report_reading_accepts_groups_and_nothing_else():
     alt = {**rep, "alternatives": [{"named_effects": ["foot_torsion", "gravity"], "delta_bic": 1.0}]}
     assert tr.names_exactly(alt, ["foot_torsion", "gravity"])
     assert not tr.names_exactly(alt, ["foot_torsion"])
+    # at group level one named effect may stand for a group holding both hidden ones, no more
+    grp = {"named_effects": ["leg_torsion"], "confounded": [["passive_joint_compliance", "leg_torsion"]]}
+    assert not tr.names_exactly(grp, ["passive_joint_compliance", "leg_torsion"])
+    assert tr.names_at_group_level(grp, ["passive_joint_compliance", "leg_torsion"])
+    assert not tr.names_at_group_level(grp, ["passive_joint_compliance", "gravity"])
+    assert not tr.names_at_group_level(rep, ["leg_torsion"])  # gravity named besides
+    assert not tr.names_at_group_level({"named_effects": [], "confounded": []}, ["gravity"])

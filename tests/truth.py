@@ -647,3 +647,15 @@ def names_exactly(rep: dict, hidden) -> bool:
         return len(named) == len(hidden) and all(own) and all(accounts_for(rep, h, named) for h in hidden)
 
     return any(exact(named) for named in explanations(rep))
+
+
+def names_at_group_level(rep: dict, hidden) -> bool:
+    """As :func:`names_exactly`, but one named effect may stand for a confounded group that holds
+    two hidden ones ("leg_extension_torsion or foot_extension_torsion: this data cannot tell them
+    apart"): every hidden effect accounted for, every named one hidden or grouped with a hidden
+    one, and no more effects named than were hidden."""
+    def level(named):
+        own = all(n in hidden or any(n in g and h in g for g in rep["confounded"] for h in hidden) for n in named)
+        return 0 < len(named) <= len(hidden) and own and all(accounts_for(rep, h, named) for h in hidden)
+
+    return any(level(named) for named in explanations(rep))

@@ -557,9 +557,10 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
     * a candidate B not named whose signature lies in the span of the named
       effects' (multiple correlation >= COLLINEAR, calibration projected out)
       and that could carry at least HIDDEN_SHARE of what they explain along
-      it within the margin (:func:`observe.hiding_share`): grouped with the
-      named effect(s) that imitate it, even where the swap test separated
-      them (B cannot replace A, but may be present besides it);
+      it within the margin and within its own parameter range
+      (:func:`observe.hiding_share`): grouped with the named effect(s) that
+      imitate it, even where the swap test separated them (B cannot replace
+      A, but may be present besides it);
     * a candidate whose signature the calibration reproduces (correlation
       >= MIMIC) is noted with the calibration change that imitates it, and
       grouped with "calibration" when it was not named and the calibration is
@@ -569,8 +570,9 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
     A pair that the selection did separate (a named effect whose rival fitted
     worse by more than the chi-square(1) margin in its round, or could not
     fit) is not grouped by the first rule, however collinear the linearised
-    signatures; a rival that could not fit at all is not grouped by the
-    third either.
+    signatures; a rival with several parameters that could not fit at all
+    is not grouped by the third either (a one-parameter rival on its bound
+    only ran out of range).
     """
     names = [n for n, ts in sens.items() if ts.observable and cand_rep.get(n, {}).get("p_value") is not None]
     Q = observe._orth(cal_cols)
@@ -664,15 +666,19 @@ def _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals=None):
     for b in names:
         if b in sel.selected or not named or np.linalg.norm(resid[b]) <= 1e-6 * raw[b]:
             continue
-        R, share = observe.hiding_share(resid[b], np.hstack([resid[a] for a in named]), sig, z)
+        specs = prob.terms[b].params  # the observable (fitted) parameters: the columns of resid[b]
+        R, share = observe.hiding_share(resid[b], np.hstack([resid[a] for a in named]), sig, z,
+                                        [observe.reach(p) for p in specs])
         if R < COLLINEAR or share < HIDDEN_SHARE:
             continue
         # the named effects it cannot do without (or, when any subset imitates it, the closest one)
         carriers = [a for a in named if span_corr(b, [x for x in named if x != a]) < COLLINEAR]
         for a in carriers or [max(named, key=lambda a: corr(a, b))]:
             grp = next((g for g in out if a in g), None)
-            # a linearised imitation the fit itself could not reach (out of range, no convergence)
-            if (grp is not None and b in grp) or frozenset((a, b)) in unfit:
+            # a linearised imitation the fit itself could not reach (out of range, no convergence):
+            # with one parameter (its size) b only needed more than its range to replace a, which
+            # the share's range cap accounts for; with several, a bound can mean its shape does not fit
+            if (grp is not None and b in grp) or (frozenset((a, b)) in unfit and len(specs) > 1):
                 continue
             if grp is None:
                 out.append([a, b])

@@ -178,7 +178,12 @@ def partial_correlation(A, B, C) -> float:
     return canonical_correlation(Ar, Br)
 
 
-def hiding_share(B, N, s, z) -> tuple[float, float]:
+def reach(p) -> float:
+    """How far a parameter can move from its null, in units of its :func:`span`."""
+    return float(min(max(p.upper - p.null, p.null - p.lower), 100.0 * p.scale) / span(p))
+
+
+def hiding_share(B, N, s, z, reaches=None) -> tuple[float, float]:
     """How much of a fitted signal a term B could carry unseen inside the span of others.
 
     B : (m, kb) columns of the term (calibration projected out); N : (m, kn) columns of the
@@ -188,7 +193,11 @@ def hiding_share(B, N, s, z) -> tuple[float, float]:
     terms of N at a chi-square cost ``t^2 |u_perp|^2`` (u_perp: u with span(N) projected
     out), so B can carry up to ``t = z / |u_perp|`` unseen.  Returns (R, share): R the
     canonical correlation of span(B) with span(N), share that amount over ``|<s, u>|``,
-    the part of the fitted signal along u (inf when there is none).
+    the part of the fitted signal along u (inf when there is none).  With ``reaches`` (per
+    column of B: how far its parameter can move from the null, in units of the step B's
+    column is scaled to), the amount is also capped at what B can put along u within its
+    range, ``sum_j |<B_j, u>| reach_j`` (linearised): a term that would need more than its
+    range cannot carry it.
     """
     qb, qn = _orth(B), _orth(N)
     if qb.shape[1] == 0 or qn.shape[1] == 0:
@@ -200,4 +209,7 @@ def hiding_share(B, N, s, z) -> tuple[float, float]:
     R = float(min(sv[0], 1.0))
     if a == 0.0:
         return R, float("inf")
-    return R, float(z / max(perp, 1e-300) / a)
+    t = z / max(perp, 1e-300)
+    if reaches is not None:
+        t = min(t, float(np.sum(np.abs(B.T @ u) * np.asarray(reaches, float))))
+    return R, float(t / a)
