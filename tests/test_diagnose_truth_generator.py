@@ -278,6 +278,22 @@ def test_hidden_library_effects_show_above_noise(name):
     assert len(tr.pairs()) == 144
 
 
+def test_what_one_effect_shows_besides_the_other():
+    """``on_top_chi2`` against ``signature_chi2``: with the other effect at size 0 (no other), an
+    effect shows besides it exactly what it shows alone, and the empty one shows nothing; two
+    extension-torsion couplings of the 3-PUU, foot and leg, are one signature (each ~0 besides the
+    other), the joint springs and the foot's coupling are not."""
+    P, W = tr.design(8, 6, seed=3)
+    given, truth = tr.hide("gravity")
+    alone = tr.signature_chi2(given, truth, P, W)[1]
+    got = tr.on_top_chi2(["gravity", ("clearance", 0.0)], P, W)
+    assert got["gravity"] == pytest.approx(alone, rel=1e-4) and alone > 100
+    assert got["clearance"] < 1e-6 * alone
+    ext = tr.on_top_chi2(["foot_extension_torsion", "leg_extension_torsion"], P, W)
+    springs = tr.on_top_chi2(["passive_joint_compliance", "foot_extension_torsion"], P, W)
+    assert max(ext.values()) < 1.0 and min(springs.values()) > 30.0
+
+
 def test_report_reading_accepts_groups_and_nothing_else():
     rep = {"named_effects": ["leg_torsion", "gravity"], "confounded": [["passive_joint_compliance", "leg_torsion"]]}
     assert tr.names_exactly(rep, ["passive_joint_compliance", "gravity"])  # "leg torsion or joint springs"

@@ -622,6 +622,32 @@ def signature_chi2(given: dict, truth: Truth, P, W, sigma_t: float = 1e-3,
     return raw, float(np.sum(fit.fun ** 2))
 
 
+def on_top_chi2(pair, P, W, sigma_t: float = 1e-3, sigma_r: float = 1e-5) -> dict:
+    """For each effect of a hidden ``pair`` (names or ``(name, size)``, as :func:`hide`): the chi-square of the noise-free gap between the true
+    machine (both hidden at their sizes) and the model given with only the *other* effect, at the
+    size and with the actuator and link scales that fit the truth best (least squares on the
+    other's size, in this module's own terms, and the two scales).  What that effect shows besides
+    the other: ~0 when the other alone, at another size, is the pair (collinear signatures)."""
+    import dataclasses
+
+    from scipy.optimize import least_squares
+
+    P, W = np.asarray(P, dtype=float), np.asarray(W, dtype=float)
+    t = deflections(hide(*pair)[1], P, W)
+    w = np.array([1 / sigma_t] * 3 + [1 / sigma_r] * 3)
+    items = [(e, LIBRARY[e].size) if isinstance(e, str) else e for e in pair]
+    out = {}
+    for (h, _), (other, s0) in ((items[0], items[1]), (items[1], items[0])):
+        def gap(x, other=other, s0=s0):
+            tro = hide((other, s0 * (1.0 + x[2])))[1]
+            tt = dataclasses.replace(tro, model=calibrated(tro.model, *np.exp(x[:2])))
+            return ((t - deflections(tt, P, W)) * w).ravel()
+
+        fit = least_squares(gap, np.zeros(3), x_scale=0.1, xtol=1e-10, ftol=1e-10)
+        out[h] = float(np.sum(fit.fun ** 2))
+    return out
+
+
 # --- reading a diagnosis report (report.json keys) --------------------------------------------
 
 def accounts_for(rep: dict, name: str, named=None) -> bool:
