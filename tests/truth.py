@@ -452,6 +452,11 @@ def _foot(s):      # a real foot: a bracket 40 x 16, 90 long (not the leg's prop
     return {"foot": inline(s * rect_beam_compliance(90.0, 40.0, 16.0))}, {}
 
 
+def _foot_shape(x):  # "a foot is missing": a bracket of unknown section rigidities and length
+    soft = dict(zip(("axial", "bending_y", "bending_z", "torsion"), np.exp(x[:4])))
+    return {"foot": inline(rect_beam_compliance(90.0 * np.exp(x[4]), 40.0, 16.0, soft=soft))}
+
+
 def _coupling(key, dims):
     """``key``'s c26, c35 at s x their beam value (the beam's other terms kept)."""
     def make(s):
@@ -498,6 +503,10 @@ class Hidden:
     unit: str
     make: object
     seen: bool = True
+    #: the effect with all the freedom a user's question leaves it (:func:`on_top_chi2`):
+    #: ``shape(x) -> model-file changes`` over ``len(shape_start)`` log-parameters; None: its size
+    shape: object = None
+    shape_start: tuple = ()
 
     @property
     def machine(self) -> str:
@@ -505,7 +514,8 @@ class Hidden:
 
 
 LIBRARY = {
-    "foot_compliance": Hidden("rigid_foot", 1.0, "x bracket 40x16x90 alu", _foot),
+    "foot_compliance": Hidden("rigid_foot", 1.0, "x bracket 40x16x90 alu", _foot, shape=_foot_shape,
+                              shape_start=(0.0,) * 5),
     "foot_bending_coupling": Hidden("uncoupled_foot", 1.0, "x beam c26, c35", _coupling("foot", FOOT)),
     "foot_torsion": Hidden("puu", 0.3, "extra x foot torsion compliance", _soft("foot", FOOT, "torsion")),
     "leg_torsion": Hidden("puu", 0.05, "extra x leg torsion compliance", _soft("leg", LEG, "torsion")),
@@ -623,11 +633,12 @@ def signature_chi2(given: dict, truth: Truth, P, W, sigma_t: float = 1e-3,
 
 
 def on_top_chi2(pair, P, W, sigma_t: float = 1e-3, sigma_r: float = 1e-5) -> dict:
-    """For each effect of a hidden ``pair`` (names or ``(name, size)``, as :func:`hide`): the chi-square of the noise-free gap between the true
-    machine (both hidden at their sizes) and the model given with only the *other* effect, at the
-    size and with the actuator and link scales that fit the truth best (least squares on the
-    other's size, in this module's own terms, and the two scales).  What that effect shows besides
-    the other: ~0 when the other alone, at another size, is the pair (collinear signatures)."""
+    """For each effect of a hidden ``pair`` (names or ``(name, size)``, as :func:`hide`): the chi-square
+    of the noise-free gap between the true machine (both hidden at their sizes) and the model
+    given with only the *other* effect, at the size (or, with a ``shape``, the shape) and with the
+    actuator and link scales that fit the truth best (least squares, in this module's own terms).
+    What that effect shows besides the other: ~0 when the other alone, at another size or shape,
+    is the pair (collinear signatures; a foot of other proportions that takes a leg's bending)."""
     import dataclasses
 
     from scipy.optimize import least_squares
@@ -638,12 +649,18 @@ def on_top_chi2(pair, P, W, sigma_t: float = 1e-3, sigma_r: float = 1e-5) -> dic
     items = [(e, LIBRARY[e].size) if isinstance(e, str) else e for e in pair]
     out = {}
     for (h, _), (other, s0) in ((items[0], items[1]), (items[1], items[0])):
-        def gap(x, other=other, s0=s0):
-            tro = hide((other, s0 * (1.0 + x[2])))[1]
+        hd = LIBRARY[other]
+
+        def gap(x, other=other, s0=s0, hd=hd):
+            if hd.shape is None:
+                tro = hide((other, s0 * (1.0 + x[2])))[1]
+            else:
+                tro = Truth(variant(BASES[hd.machine], **hd.shape(x[2:])))
             tt = dataclasses.replace(tro, model=calibrated(tro.model, *np.exp(x[:2])))
             return ((t - deflections(tt, P, W)) * w).ravel()
 
-        fit = least_squares(gap, np.zeros(3), x_scale=0.1, xtol=1e-10, ftol=1e-10)
+        x0 = np.zeros(3) if hd.shape is None else np.r_[0.0, 0.0, hd.shape_start]
+        fit = least_squares(gap, x0, x_scale=0.1, xtol=1e-10, ftol=1e-10)
         out[h] = float(np.sum(fit.fun ** 2))
     return out
 
