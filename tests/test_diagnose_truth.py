@@ -173,6 +173,10 @@ def test_pairs_of_library_effects_are_named(tmp_path, rows, pair):
     rep = diagnose(tmp_path, model, tr.measure(truth, P, W, seed=202))
     assert rep["verdict"] == "explained", _describe(rep)
     assert tr.names_exactly(rep, pair), _describe(rep)
+    # other explanations: within Occam's window of the named set, each said in the summary
+    for alt in rep["alternatives"]:
+        assert 0.0 <= alt["delta_bic"] <= rep["alternatives_window"], _describe(rep)
+        assert f"Also supported by this data: {' + '.join(alt['named_effects'])} (BIC" in rep["summary"]
 
 
 @pytest.mark.slow
