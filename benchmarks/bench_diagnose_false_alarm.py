@@ -55,6 +55,8 @@ ALPHA = 0.01
 START_CHI2 = 100.0
 #: ... and takes at most this many steps
 MAX_STEPS = 4
+#: ... and at most this many doublings from the start to find the size named alone
+UP_STEPS = 5
 
 
 def clopper_pearson(k: int, n: int, conf: float = 0.95) -> tuple[float, float]:
@@ -171,7 +173,7 @@ def power(reps: int, n_post: int, n_loads: int, log=print, effects=None) -> dict
     test size, chi-square grows as size^2; as size^4 for the load scale of the nonlinearity), then
     halved (the chi-square quartered) while at least 80 % of the sets detect it at group level (named,
     or a named effect standing for a confounded group that holds it: tests/truth.py ``names_exactly``);
-    then, if it was never named *alone* in 80 % of the sets, doubled from the start up to 3 times
+    then, if it was never named *alone* in 80 % of the sets, doubled from the start up to UP_STEPS times
     until it is.  Both smallest sizes are reported."""
     out = {}
     with tempfile.TemporaryDirectory() as work:
@@ -194,7 +196,7 @@ def power(reps: int, n_post: int, n_loads: int, log=print, effects=None) -> dict
             while len(rows) <= MAX_STEPS and run(size)["detected_as_group"] >= 0.8 * reps:
                 size *= step
             size = s0
-            for _ in range(3):
+            for _ in range(UP_STEPS):
                 if _smallest(rows, "detected", reps) and _smallest(rows, "detected_as_group", reps):
                     break
                 size /= step
