@@ -51,6 +51,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(
 import truth as tr
 
 ALPHA = 0.01
+#: noise-free chi-square at or below which nothing can see an effect (tests/test_diagnose_truth.py)
+CHI2_UNSEEN = 1.0
 #: the power ladder starts where an effect's signature adds this chi-square to the model given ...
 START_CHI2 = 100.0
 #: ... and takes at most this many steps
@@ -224,11 +226,22 @@ def pair_runs(reps: int, n_post: int, n_loads: int, log=print, only=None) -> dic
                        "alternatives": res["alternatives"]}
                 ok = res["verdict"] == "explained" and tr.names_exactly(rep, (a, b))
                 grp = res["verdict"] == "explained" and tr.names_at_group_level(rep, (a, b))
-                runs.append({"ok": bool(ok), "group": bool(grp), "verdict": res["verdict"], "named": res["named"],
-                             "confounded": res["confounded"], "lack_of_fit": res["lack_of_fit"]})
+                absorbed = None
+                if not grp:
+                    # decided on the truth, as the acceptance test does: one effect shows nothing
+                    # besides the other, and the one that shows (either, if each is the other) is named
+                    besides = tr.on_top_chi2((a, b), P, W)
+                    shows = [h for h in (a, b) if besides[h] > CHI2_UNSEEN]
+                    absorbed = bool(len(shows) < 2 and res["verdict"] == "explained"
+                                    and any(tr.names_exactly(rep, [h]) for h in shows or (a, b)))
+                runs.append({"ok": bool(ok), "group": bool(grp), "absorbed": absorbed, "verdict": res["verdict"],
+                             "named": res["named"], "confounded": res["confounded"],
+                             "alternatives": [x["named_effects"] for x in res["alternatives"]],
+                             "lack_of_fit": res["lack_of_fit"]})
             out[f"{a}+{b}"] = runs
             log(f"  {a} + {b}: {sum(x['ok'] for x in runs)}/{reps} named both, "
-                f"{sum(x['group'] for x in runs)}/{reps} at group level " + "; ".join(
+                f"{sum(x['group'] for x in runs)}/{reps} at group level, "
+                f"{sum(bool(x['absorbed']) for x in runs)}/{reps} one absorbed " + "; ".join(
                     f"{x['verdict']} {x['named']} {x['confounded']}" for x in runs if not x["ok"]), flush=True)
     return out
 
@@ -260,16 +273,19 @@ def markdown(fa: dict | None, pw: dict | None, meta: str, pr: dict | None = None
     if pr:
         good = sum(x["ok"] for runs in pr.values() for x in runs)
         grp = sum(x.get("group", x["ok"]) for runs in pr.values() for x in runs)
+        absorbed = sum(bool(x.get("absorbed")) for runs in pr.values() for x in runs)
         total = sum(len(runs) for runs in pr.values())
         lines += ["", f"Pairs of library effects at their test sizes: {good}/{total} sets named both (each named "
                       f"effect hidden or standing for a group that holds a hidden one: names_exactly), {grp}/{total} "
                       "at group level (every hidden effect named or in a group with a named one, nothing else "
-                      "claimed), verdict explained.  Not named both:", ""]
+                      f"claimed), verdict explained; of the others, {absorbed} where one effect shows nothing "
+                      "besides the other (truth.on_top_chi2) and the one that shows is named.  Not named both:", ""]
         for k, runs in pr.items():
             for x in runs:
                 if not x["ok"]:
                     lof = x.get("lack_of_fit") or {}
-                    level = "at group level" if x.get("group") else "missed"
+                    level = ("at group level" if x.get("group") else
+                             "one absorbed by the other, the one that shows named" if x.get("absorbed") else "missed")
                     lines.append(f"* {k} ({level}): verdict {x['verdict']}, named {x['named']}, confounded "
                                  f"{x.get('confounded')}, chi2_red after {lof.get('chi2_red', float('nan')):.3f}")
     return "\n".join(lines)
