@@ -26,6 +26,7 @@ from .fit.select import (
     fit_terms,
     forward_select,
     lack_of_fit,
+    screen_pairs,
     swap_alternatives,
 )
 from .locate import localize
@@ -271,10 +272,19 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     sel, rivals = _rival_check(prob, sel, tested, sens, cal_cols, alpha)
     # a named effect that another one (added or swapped in later) made redundant is dropped
     sel = backward_eliminate(prob, sel)
-    # other explanations within Occam's window: each named effect swapped for its rivals, then
-    # pruned (a swap can make another named effect unnecessary); one with a lower BIC is named
+    # other explanations within Occam's window: each named effect swapped for its rivals, and the
+    # pairs of candidates that a linearised screen ranks first (two effects that partly cancel are
+    # each weak alone), then pruned; one with a lower BIC is named.  Clean data (nothing named)
+    # are not searched: the selection's family-wise level stands
     swaps = {a: [b for b, d, _ in rivals.get(a, []) if np.isfinite(d)] for a in sel.selected}
-    explanations = swap_alternatives(prob, sel, swaps)
+    tries: list = []
+    if sel.selected:
+        first = sel.rounds[0]
+        r0 = observe.project_out(prob.residuals(sel.baseline.names, sel.baseline.theta)[:, None], cal_q)[:, 0]
+        cols = {c: observe.project_out(sens[c].Jfree, cal_q) for c in tested
+                if c in first and first[c]["converged"] and not first[c]["clipped"]}
+        tries = screen_pairs(r0, cols, PAIR_SCREEN)
+    explanations = swap_alternatives(prob, sel, swaps, tries=tries)
     sel = explanations[0]
     rivals = {a: v for a, v in rivals.items() if a in sel.selected}
     base, final = sel.baseline, sel.final
@@ -448,6 +458,8 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     return Diagnosis(rep, upd, U, per_before, per_after, nxt)
 
 
+#: pairs of candidates fitted after the selection, the first of a linearised screen (fit/select.py screen_pairs)
+PAIR_SCREEN = 5
 #: canonical correlation (calibration projected out) above which two candidates are reported as one group
 COLLINEAR = 0.99
 #: ... and, for a named effect, the lower correlation at which an alternative that fits almost as well joins it

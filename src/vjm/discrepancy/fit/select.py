@@ -441,37 +441,69 @@ def backward_eliminate(problem: Problem, sel: Selection) -> Selection:
 OCCAM_WINDOW = float(2.0 * np.log(20.0))
 
 
-def swap_alternatives(problem: Problem, sel: Selection, swaps: dict, window: float = OCCAM_WINDOW) -> list:
+def screen_pairs(r: np.ndarray, columns: dict, top: int) -> list:
+    """The ``top`` pairs of terms whose columns together remove most of ``r`` (linearised).
+
+    ``columns``: name -> (m, k) sensitivity of each term's parameters.  A pair's
+    linearised chi-square reduction is that of the least-squares projection of
+    ``r`` onto the two terms' columns (bounds ignored): a cheap screen before
+    nonlinear fits, since fitting every pair costs as much as the rest of a
+    diagnosis.  Returns ``[(a, b), ...]``, the largest reduction first.
+    """
+    names = [n for n, c in columns.items() if c.shape[1]]
+    rr = float(r @ r)
+    scored = []
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            M = np.hstack([columns[a], columns[b]])
+            x, *_ = np.linalg.lstsq(M, r, rcond=None)
+            e = r - M @ x
+            scored.append((rr - float(e @ e), a, b))
+    scored.sort(key=lambda t: -t[0])
+    return [(a, b) for _, a, b in scored[:top]]
+
+
+def swap_alternatives(problem: Problem, sel: Selection, swaps: dict, window: float = OCCAM_WINDOW,
+                      tries=()) -> list:
     """Other sets of terms that explain the data about as well as the selected one.
 
     Selection is greedy: a term that wins its round by a hair can pull in a
     later term that only patches what it fits less well than the runner-up
-    would have.  Each selected term ``a`` is swapped for each term of
-    ``swaps[a]`` (its rivals: terms with nearly collinear signatures), the
-    model refitted and then pruned as in :func:`backward_eliminate` (a swap
-    can make another selected term unnecessary).  Returns the selections
-    reached, ``sel`` included, whose BIC is within ``window`` of the lowest
-    among them, lowest BIC first; fits that did not converge or ended
-    clipped on a bound are left out.
+    would have, and two terms whose signatures partly cancel are each weak
+    alone, so neither is chosen first.  Each selected term ``a`` is swapped
+    for each term of ``swaps[a]`` (its rivals: terms with nearly collinear
+    signatures), and each set of ``tries`` (e.g. pairs from
+    :func:`screen_pairs`) is fitted on the baseline; every model is then
+    pruned as in :func:`backward_eliminate` (each term must stay significant
+    at the level it had, or for a tried term at its first round's level).
+    Returns the selections reached, ``sel`` included, whose BIC is within
+    ``window`` of the lowest among them, lowest BIC first; fits that did not
+    converge or ended clipped on a bound are left out.
     """
     levels = _levels(sel)
     entered = dict(zip(sel.selected, sel.entered or range(len(sel.selected))))
+    first = sel.rounds[0] if sel.rounds else {}
     found = {frozenset(sel.selected): sel}
-    for a in sel.selected:
-        for b in swaps.get(a, ()):
-            if b in sel.final.names or b not in problem.terms:
-                continue
-            fr = fit_terms(problem, tuple(b if x == a else x for x in sel.final.names), warm=sel.final)
-            if not fr.success:
-                continue
-            lv = {(b if x == a else x): v for x, v in levels.items()}
-            fr, dropped = _prune(problem, fr, lv)
-            names = tuple(x for x in fr.names if x not in problem.baseline)
-            if frozenset(names) in found or any(clipped(problem, fr, x) for x in names):
-                continue
-            ent = {**entered, b: entered[a]}
-            found[frozenset(names)] = dataclasses.replace(
-                sel, final=fr, selected=names, entered=tuple(ent[x] for x in names),
-                dropped={**sel.dropped, **dropped})
+    jobs = [(tuple(b if x == a else x for x in sel.final.names), sel.final,
+             {(b if x == a else x): v for x, v in levels.items()}, {**entered, b: entered[a]})
+            for a in sel.selected for b in swaps.get(a, ())
+            if b not in sel.final.names and b in problem.terms]
+    for t in tries:
+        t = tuple(t)
+        if frozenset(t) in found or any(x not in first for x in t):
+            continue
+        jobs.append((tuple(problem.baseline) + t, first[t[0]]["fit"], {x: first[x]["threshold"] for x in t},
+                     {**entered, **{x: 0 for x in t if x not in entered}}))
+    for names, warm, lv, ent in jobs:
+        fr = fit_terms(problem, names, warm=warm)
+        if not fr.success:
+            continue
+        fr, dropped = _prune(problem, fr, lv)
+        kept = tuple(x for x in fr.names if x not in problem.baseline)
+        if not kept or frozenset(kept) in found or any(clipped(problem, fr, x) for x in kept):
+            continue
+        found[frozenset(kept)] = dataclasses.replace(
+            sel, final=fr, selected=kept, entered=tuple(ent[x] for x in kept),
+            dropped={**sel.dropped, **{x: d for x, d in dropped.items() if x in sel.selected}})
     out = sorted(found.values(), key=lambda s: s.final.bic)
     return [s for s in out if s.final.bic - out[0].final.bic <= window]
