@@ -15,6 +15,7 @@ from vjm.discrepancy.fit.select import (
     fit_terms,
     forward_select,
     grouped_folds,
+    screen_pairs,
     swap_alternatives,
 )
 
@@ -168,3 +169,30 @@ def test_swap_finds_the_simpler_explanation_greedy_selection_missed():
     assert alts[0].round_of("a") == sel.round_of("c")  # a stands where c entered
     # nothing to swap: the selection alone
     assert swap_alternatives(prob, sel, {}) == [sel]
+
+
+def test_pair_that_partly_cancels_is_found_by_the_screen():
+    """y = 2x + 6 (p + q) with p = u + 0.2 v and q = -u + 0.2 w (u, v, w, e orthogonal, equal norms,
+    orthogonal to x): each of p, q alone explains almost nothing of y = 1.2 (v + w), while a decoy
+    d = ((v + w)/sqrt 2 + 0.3 e)/|.| explains 1/1.09 of it, so forward selection names d and stops
+    (neither p nor q helps d on its own).  The linearised screen ranks the pair (p, q) first (it
+    removes all of y), its fit is named instead (BIC lower by ~100: d leaves 9 % of y's chi-square
+    of ~1400), and d is out of Occam's window."""
+    rng = np.random.default_rng(9)
+    Q, _ = np.linalg.qr(np.column_stack([X, rng.standard_normal((X.size, 4))]))
+    u, v, w, e = (Q[:, k] * np.sqrt(X.size) * 0.1 for k in (1, 2, 3, 4))
+    p, q = u + 0.2 * v, -u + 0.2 * w
+    d = ((v + w) / np.sqrt(2) + 0.3 * e) / np.sqrt(1.09)
+    y = 2.0 * X + 6.0 * (p + q) + SIGMA * rng.standard_normal(X.size)
+    prob = _columns_problem(y, {"p": p, "q": q, "d": d}, SIGMA)
+    sel = backward_eliminate(prob, forward_select(prob, ["p", "q", "d"], folds=3))
+    assert sel.selected == ("d",)
+    r0 = prob.residuals(sel.baseline.names, sel.baseline.theta)
+    cols = {n: -c[:, None] / SIGMA for n, c in (("p", p), ("q", q), ("d", d))}
+    tries = screen_pairs(r0, cols, 1)
+    assert [set(t) for t in tries] == [{"p", "q"}]
+    alts = swap_alternatives(prob, sel, {}, tries=tries)
+    assert len(alts) == 1 and set(alts[0].selected) == {"p", "q"}
+    assert sel.final.bic - alts[0].final.bic > 50.0
+    vals = alts[0].final.values(prob)
+    assert abs(vals["p"]["c"]["value"] - 6.0) < 3 * vals["p"]["c"]["se"]
