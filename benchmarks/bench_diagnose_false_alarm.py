@@ -233,7 +233,7 @@ def pair_runs(reps: int, n_post: int, n_loads: int, log=print, only=None) -> dic
                        "alternatives": res["alternatives"]}
                 ok = res["verdict"] == "explained" and tr.names_exactly(rep, (a, b))
                 grp = res["verdict"] == "explained" and tr.names_at_group_level(rep, (a, b))
-                absorbed = None
+                absorbed, besides = None, None
                 if not grp:
                     # decided on the truth, as the acceptance test does: one effect shows nothing
                     # besides the other, and the one that shows (either, if each is the other) is named
@@ -241,7 +241,8 @@ def pair_runs(reps: int, n_post: int, n_loads: int, log=print, only=None) -> dic
                     shows = [h for h in (a, b) if besides[h] > CHI2_UNSEEN]
                     absorbed = bool(len(shows) < 2 and res["verdict"] == "explained"
                                     and any(tr.names_exactly(rep, [h]) for h in shows or (a, b)))
-                runs.append({"ok": bool(ok), "group": bool(grp), "absorbed": absorbed, "chi2": chi2, "verdict": res["verdict"],
+                runs.append({"ok": bool(ok), "group": bool(grp), "absorbed": absorbed, "chi2": chi2, "besides": besides,
+                             "verdict": res["verdict"],
                              "named": res["named"], "confounded": res["confounded"],
                              "alternatives": [x["named_effects"] for x in res["alternatives"]],
                              "lack_of_fit": res["lack_of_fit"]})
@@ -293,6 +294,8 @@ def markdown(fa: dict | None, pw: dict | None, meta: str, pr: dict | None = None
                     lof = x.get("lack_of_fit") or {}
                     level = ("at group level" if x.get("group") else
                              "one absorbed by the other, the one that shows named" if x.get("absorbed") else "missed")
+                    bs = x.get("besides")
+                    level += "" if not bs else "; each besides the other: " + ", ".join(f"{h} {v:.3g}" for h, v in bs.items())
                     lines.append(f"* {k} ({level}; pair chi2 {x.get('chi2', float('nan')):.0f}): verdict "
                                  f"{x['verdict']}, named {x['named']}, alternatives {x.get('alternatives')}, confounded "
                                  f"{x.get('confounded')}, chi2_red after {lof.get('chi2_red', float('nan')):.3f}")

@@ -567,7 +567,12 @@ def hide(*effects) -> tuple[dict, Truth]:
     if len(keys) > 1:
         raise ValueError(f"effects {[n for n, _ in items]} need different model files ({sorted(keys)})")
     key = keys.pop() if keys else "puu"
-    true_model, kw, changed = dict(BASES[MACHINE.get(key, "puu")]), {}, set()
+    return MODELS[key], true_machine(items, MACHINE.get(key, "puu"))
+
+
+def true_machine(items, machine: str = "puu") -> Truth:
+    """The true ``machine`` ("puu" or "prpar") with the effects ``items`` ((name, size) pairs) hidden."""
+    true_model, kw, changed = dict(BASES[machine]), {}, set()
     for n, s in items:
         changes, terms = LIBRARY[n].make(s)
         if changed & (set(changes) | set(terms)):
@@ -575,7 +580,7 @@ def hide(*effects) -> tuple[dict, Truth]:
         changed |= set(changes) | set(terms)
         true_model.update(changes)
         kw.update(terms)
-    return MODELS[key], Truth(variant(true_model), **kw)
+    return Truth(variant(true_model), **kw)
 
 
 def pairs() -> list[tuple[str, str]]:
@@ -647,17 +652,24 @@ def on_top_chi2(pair, P, W, sigma_t: float = 1e-3, sigma_r: float = 1e-5) -> dic
     t = deflections(hide(*pair)[1], P, W)
     w = np.array([1 / sigma_t] * 3 + [1 / sigma_r] * 3)
     items = [(e, LIBRARY[e].size) if isinstance(e, str) else e for e in pair]
+    # the pair's machine: each effect alone is hidden in the same machine as the pair
+    machine = next((LIBRARY[n].machine for n, _ in items if LIBRARY[n].machine != "puu"), "puu")
     out = {}
     for (h, _), (other, s0) in ((items[0], items[1]), (items[1], items[0])):
         hd = LIBRARY[other]
 
         def gap(x, other=other, s0=s0, hd=hd):
-            if hd.shape is None:
-                tro = hide((other, s0 * (1.0 + x[2])))[1]
-            else:
-                tro = Truth(variant(BASES[hd.machine], **hd.shape(x[2:])))
-            tt = dataclasses.replace(tro, model=calibrated(tro.model, *np.exp(x[:2])))
-            return ((t - deflections(tt, P, W)) * w).ravel()
+            try:
+                if hd.shape is None:
+                    tro = true_machine([(other, s0 * (1.0 + x[2]))], machine)
+                else:
+                    tro = Truth(variant(BASES[machine], **hd.shape(x[2:])))
+                tt = dataclasses.replace(tro, model=calibrated(tro.model, *np.exp(x[:2])))
+                return ((t - deflections(tt, P, W)) * w).ravel()
+            except vjm.VjmError:
+                # a size past what the part can be (a compliance no longer positive definite): a
+                # large gap, so that the trust region steps back
+                return np.full(t.size, 1e6)
 
         x0 = np.zeros(3) if hd.shape is None else np.r_[0.0, 0.0, hd.shape_start]
         fit = least_squares(gap, x0, x_scale=0.1, xtol=1e-10, ftol=1e-10)
