@@ -57,6 +57,9 @@ class Effect:
     params: tuple = ()
     # which data kinds the effect can explain: "deflection" and/or "stiffness"
     data_kinds: tuple = ("deflection", "stiffness")
+    #: an additive effect whose ``extra`` also takes ``model=, key=``: the model being fitted
+    #: (calibration and model-changing effects applied) and a key identifying it for caching
+    needs_model: bool = False
 
     def param_specs(self, model, ctx=None) -> tuple:
         """Parameters, possibly depending on the baseline model (e.g. its current value as null)
@@ -293,8 +296,11 @@ class PassiveClearance(Effect):
             return "the model's passive joints have no constrained directions to slip in"
         return super().applies_to(model, data_kind)
 
-    def extra(self, ctx, theta, C):
-        return theta[0] * ctx.passive_clearance_unit()
+    #: the slips follow the moments of the model being fitted (its load paths), not the nominal one's
+    needs_model = True
+
+    def extra(self, ctx, theta, C, model=None, key=None):
+        return theta[0] * ctx.passive_clearance_unit(model, key)
 
 
 @register

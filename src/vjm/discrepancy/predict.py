@@ -71,15 +71,23 @@ class Context:
             self._cache["clear"] = _slip_toward(mo.actuator_influence(self.model, self.P)[self.idx], self.W)
         return self._cache["clear"]
 
-    def passive_clearance_unit(self) -> np.ndarray:
+    def passive_clearance_unit(self, model=None, key=None) -> np.ndarray:
         """(n, 6) twist of a unit slip (1 rad) in every passive-joint spring, each toward its moment.
 
         As :meth:`clearance_unit`, with the moments ``tau_s = a_s . w`` the passive joints carry
         about their constrained directions (:func:`~vjm.discrepancy.modelops.joint_spring_influence`).
+        ``model``: the model being fitted (calibration and model-changing effects applied), whose
+        load paths set the moments (a link's coupling changes how the load reaches the joints);
+        ``key`` identifies it in the cache.  Default: the nominal model.
         """
-        if "pclear" not in self._cache:
-            self._cache["pclear"] = _slip_toward(mo.joint_spring_influence(self.model, self.P)[self.idx], self.W)
-        return self._cache["pclear"]
+        if model is None:
+            model, key = self.model, "nominal"
+        k = ("pclear", key)
+        if k not in self._cache:
+            if len(self._cache) > 64:
+                self._cache = {n: v for n, v in self._cache.items() if not (isinstance(n, tuple) and n[0] == "pclear")}
+            self._cache[k] = _slip_toward(mo.joint_spring_influence(model, self.P)[self.idx], self.W)
+        return self._cache[k]
 
     def nonlinear_delta(self) -> np.ndarray:
         """(n, 6) nonlinear-equilibrium deflection minus the linear ``C w`` of the nominal model."""
@@ -141,9 +149,9 @@ class Predictor:
                 model = fx.REGISTRY[nm].apply(model, th)
         return model, blocks
 
-    def compliance(self, names, theta):
-        """Compliance at the unique postures, cached on the model-changing parameters only
-        (finite differences on additive parameters then cost no stiffness map)."""
+    def _compliance(self, names, theta):
+        """(compliance at the unique postures, blocks, model, key): cached on the model-changing
+        parameters only (finite differences on additive parameters then cost no stiffness map)."""
         model, blocks = self.build_model(names, theta)
         key = tuple((nm, th.tobytes()) for nm, th in blocks
                     if nm == CALIBRATION or fx.REGISTRY[nm].kind == "model")
@@ -153,16 +161,23 @@ class Predictor:
             if len(self._cache) > 64:
                 self._cache.clear()
             self._cache[key] = C
+        return C, blocks, model, key
+
+    def compliance(self, names, theta):
+        """Compliance at the unique postures and the parameter blocks (see :meth:`_compliance`)."""
+        C, blocks, _, _ = self._compliance(names, theta)
         return C, blocks
 
     def twists(self, names, theta) -> np.ndarray:
         """(n, 6) predicted twists of all measurements."""
-        Cu, blocks = self.compliance(names, theta)
+        Cu, blocks, model, key = self._compliance(names, theta)
         C = Cu[self.ctx.idx]
         t = np.einsum("nij,nj->ni", C, self.ctx.W)
         for nm, th in blocks:
-            if nm != CALIBRATION and fx.REGISTRY[nm].kind == "additive":
-                t = t + fx.REGISTRY[nm].extra(self.ctx, th, C)
+            eff = fx.REGISTRY[nm] if nm != CALIBRATION else None
+            if eff is not None and eff.kind == "additive":
+                t = t + (eff.extra(self.ctx, th, C, model=model, key=key) if eff.needs_model
+                         else eff.extra(self.ctx, th, C))
         return t
 
     def kvalues(self, names, theta) -> np.ndarray:
