@@ -693,15 +693,19 @@ def explanations(rep: dict) -> list:
     return [list(rep["named_effects"])] + [list(a["named_effects"]) for a in rep.get("alternatives", [])]
 
 
+def _claims_only(rep: dict, named, hidden, at_most: bool) -> bool:
+    """``named`` accounts for every hidden effect, each of its effects is a hidden one (or in a
+    confounded group with one), and it names as many effects as were hidden (``at_most``: no more)."""
+    n_ok = 0 < len(named) <= len(hidden) if at_most else len(named) == len(hidden)
+    own = all(n in hidden or any(n in g and h in g for g in rep["confounded"] for h in hidden) for n in named)
+    return n_ok and own and all(accounts_for(rep, h, named) for h in hidden)
+
+
 def names_exactly(rep: dict, hidden) -> bool:
     """One explanation of the report (the named effects, or an alternative the report says the data
     support as well) accounts for every hidden effect, and each of its effects is a hidden one (or in
     a confounded group with one): nothing else is claimed."""
-    def exact(named):
-        own = [any(n == h or any(n in g and h in g for g in rep["confounded"]) for h in hidden) for n in named]
-        return len(named) == len(hidden) and all(own) and all(accounts_for(rep, h, named) for h in hidden)
-
-    return any(exact(named) for named in explanations(rep))
+    return any(_claims_only(rep, named, hidden, False) for named in explanations(rep))
 
 
 def names_at_group_level(rep: dict, hidden) -> bool:
@@ -709,8 +713,4 @@ def names_at_group_level(rep: dict, hidden) -> bool:
     two hidden ones ("leg_extension_torsion or foot_extension_torsion: this data cannot tell them
     apart"): every hidden effect accounted for, every named one hidden or grouped with a hidden
     one, and no more effects named than were hidden."""
-    def level(named):
-        own = all(n in hidden or any(n in g and h in g for g in rep["confounded"] for h in hidden) for n in named)
-        return 0 < len(named) <= len(hidden) and own and all(accounts_for(rep, h, named) for h in hidden)
-
-    return any(level(named) for named in explanations(rep))
+    return any(_claims_only(rep, named, hidden, True) for named in explanations(rep))

@@ -149,7 +149,7 @@ class Predictor:
                 model = fx.REGISTRY[nm].apply(model, th)
         return model, blocks
 
-    def _compliance(self, names, theta):
+    def compliance(self, names, theta):
         """(compliance at the unique postures, blocks, model, key): cached on the model-changing
         parameters only (finite differences on additive parameters then cost no stiffness map)."""
         model, blocks = self.build_model(names, theta)
@@ -163,14 +163,9 @@ class Predictor:
             self._cache[key] = C
         return C, blocks, model, key
 
-    def compliance(self, names, theta):
-        """Compliance at the unique postures and the parameter blocks (see :meth:`_compliance`)."""
-        C, blocks, _, _ = self._compliance(names, theta)
-        return C, blocks
-
     def twists(self, names, theta) -> np.ndarray:
         """(n, 6) predicted twists of all measurements."""
-        Cu, blocks, model, key = self._compliance(names, theta)
+        Cu, blocks, model, key = self.compliance(names, theta)
         C = Cu[self.ctx.idx]
         t = np.einsum("nij,nj->ni", C, self.ctx.W)
         for nm, th in blocks:
