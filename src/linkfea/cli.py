@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import sys
+import warnings
 from pathlib import Path
 from typing import List, Optional
 
@@ -10,7 +11,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .errors import LinkFeaError
+from .errors import LinkFeaError, LinkFeaWarning
 from .io import TWIST, WRENCH
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
@@ -21,6 +22,18 @@ err_console = Console(stderr=True)
 @app.callback()
 def _root():
     """linkfea: a link's CAD to its 6x6 compliance matrix."""
+    warnings.showwarning = _show_warning
+
+
+_python_show_warning = warnings.showwarning
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """linkfea's own warnings as one ``warning: ...`` line (no source line); others as Python shows them."""
+    if issubclass(category, LinkFeaWarning):
+        print(f"warning: {message}".replace("\n", " "), file=sys.stderr)
+    else:
+        _python_show_warning(message, category, filename, lineno, file, line)
 
 
 def matrix_table(M: np.ndarray, title: str, rows, cols) -> Table:

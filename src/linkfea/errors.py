@@ -25,3 +25,8 @@ class SolverError(LinkFeaError, RuntimeError):
     CLIs catching ``LinkFeaError`` keep reporting it as one line.  To tell it
     from bad input, catch ``RuntimeError`` (or ``SolverError``) first.
     """
+
+
+class LinkFeaWarning(UserWarning):
+    """Something the user should know that did not stop the run (e.g. a damaged mesh cache entry
+    that was meshed again).  The CLI prints it as one ``warning: ...`` line."""
