@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import sys
-import warnings
 from pathlib import Path
 from typing import List, Optional
 
@@ -11,7 +10,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .errors import LinkFeaError, LinkFeaWarning
+from .errors import LinkFeaError, LinkFeaWarning, warnings_as_lines
 from .io import TWIST, WRENCH
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
@@ -22,18 +21,7 @@ err_console = Console(stderr=True)
 @app.callback()
 def _root():
     """linkfea: a link's CAD to its 6x6 compliance matrix."""
-    warnings.showwarning = _show_warning
-
-
-_python_show_warning = warnings.showwarning
-
-
-def _show_warning(message, category, filename, lineno, file=None, line=None):
-    """linkfea's own warnings as one ``warning: ...`` line (no source line); others as Python shows them."""
-    if issubclass(category, LinkFeaWarning):
-        print(f"warning: {message}".replace("\n", " "), file=sys.stderr)
-    else:
-        _python_show_warning(message, category, filename, lineno, file, line)
+    warnings_as_lines(LinkFeaWarning)
 
 
 def matrix_table(M: np.ndarray, title: str, rows, cols) -> Table:
@@ -124,6 +112,8 @@ def show(res, console: Console) -> None:
                   + (f"{ee:.2e}" if ee is not None else "not computed (use --convergence)")
                   + f"; solver {res.solver.get('factorizer')}")
     console.print("timing (s): " + ", ".join(f"{k} {v:.2f}" for k, v in res.timing.items()))
+    if res.source_sha256:
+        console.print(f"source: {res.source} (sha256 {res.source_sha256[:16]}...)")
 
 
 @app.command("compare")
@@ -210,6 +200,7 @@ def sweep_cmd(
         print(f"{rep.n_designs} designs: {len(rep.skipped)} already done, {len(rep.computed)} computed, "
               f"{len(rep.failed)} failed, {len(rep.unfinished)} unfinished; {n_ok} ok in the table "
               f"({rep.seconds:.1f} s); wrote {out}/sweep.parquet, sweep.csv, sweep.png, results/", file=sys.stderr)
+        print(f"source: {sw.spec} (sha256 {sw.source_sha[:16]}...)", file=sys.stderr)
     if rep.interrupted:
         raise typer.Exit(code=130)
     if rep.unfinished:
