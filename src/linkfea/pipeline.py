@@ -8,7 +8,6 @@ from typing import Callable
 
 from .errors import LinkFeaError
 from .materials import get_material
-from .resources import file_sha256
 from .result import LinkResult
 
 __all__ = ["LinkResult", "compute"]
@@ -88,6 +87,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     from .cad import build_link
     from .fem import ASSEMBLERS, MODES
     from .mesh import DEFAULT_EPSILON, default_mesh_size
+    from .resources import file_sha256
 
     epsilon = DEFAULT_EPSILON if epsilon is None else float(epsilon)
 

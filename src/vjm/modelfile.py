@@ -44,7 +44,6 @@ from .model import Actuator, Joints, Link, Model, validate_compliance
 from .models import ARCHITECTURES
 from .models.described import NAME as DESCRIBED
 from .resources import data_file
-from .yamldata import read_yaml
 
 TOP_KEYS = ("architecture", "name", "geometry", "actuator", "foot", "leg", "joints", "effects")
 #: keys of a machine description (vjm.description), besides TOP_KEYS
@@ -230,6 +229,8 @@ def load_model(path, foot=None, leg=None) -> Model:
     path = os.fspath(data_file(path))
     if not os.path.isfile(path):
         raise VjmError(f"model file not found: {path}")
+    from .yamldata import read_yaml
+
     d = read_yaml(path, "model file")  # plain data: a YAML tag that builds objects is refused
     if isinstance(d, dict):
         d = dict(d)
