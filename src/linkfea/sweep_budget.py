@@ -32,6 +32,9 @@ NOMINAL_SECONDS = 10.0
 """Seconds per design before any has run: ``linkfea compute bar`` at its default mesh takes 13 s
 on this 2-core machine under load, 9 s of it the CAD import a worker pays once."""
 
+UNCOUNTABLE = 10 ** 18
+"""Design counts from here on are not worth spelling out (a product of such counts stays exact)."""
+
 ANNOUNCE_SECONDS = 60.0
 """A run expected to take longer than this says so before it starts."""
 
@@ -74,6 +77,11 @@ class SweepSize:
 
     def check(self) -> None:
         """Refuse a sweep whose bookkeeping cannot fit in memory, with one line naming the figures."""
+        if self.n_designs >= UNCOUNTABLE:
+            fit = self.memory_limit / self.memory * self.n_designs
+            raise LinkFeaError(f"more than {UNCOUNTABLE:.0e} designs are too "
+                               f"many: the limit is the memory for about {fit:,.0f} designs (half the memory "
+                               "available now); use fewer values, a coarser step or --sample N")
         if self.memory > self.memory_limit:
             raise LinkFeaError(
                 f"{self.n_designs:,} designs are too many: the sweep needs about {human_bytes(self.memory)} of "
@@ -91,11 +99,11 @@ def sweep_size(n_designs: int, source_bytes: int, limit: float | None = None) ->
 def range_count(lo: float, hi: float, step: float) -> int:
     """Values ``lo, lo+step, ... <= hi`` (with a 1e-9 step tolerance), counted without listing them.
 
-    A ratio too large for a float (``1:2:1e-320``) counts as 10**18: far beyond any limit.
+    A ratio too large for a float (``1:2:1e-320``) or above 10**18 counts as :data:`UNCOUNTABLE`.
     """
     q = (hi - lo) / step
-    if not math.isfinite(q) or q > 1e18:
-        return 10 ** 18
+    if not math.isfinite(q) or q > UNCOUNTABLE:
+        return UNCOUNTABLE
     return int(math.floor(q + 1e-9)) + 1
 
 
