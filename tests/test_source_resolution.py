@@ -95,7 +95,7 @@ def test_vjm_bare_name_prefers_a_local_model_and_warns(tmp_path, monkeypatch):
     bundled = data_dir() / "orthoglide" / "puu.yaml"
     monkeypatch.chdir(tmp_path)
     assert data_file("puu").resolve() == bundled.resolve()  # no local file: the bundled one
-    (tmp_path / "puu.yaml").write_text(bundled.read_text())
+    (tmp_path / "puu.yaml").write_text(bundled.read_text().replace("stiffness: 3816.1", "stiffness: 1908.0"))
     with pytest.warns(VjmWarning, match=r"puu: using .*puu\.yaml from this folder, not the bundled orthoglide/puu"):
         assert data_file("puu").resolve() == (tmp_path / "puu.yaml").resolve()
 
@@ -122,3 +122,16 @@ def test_vjm_stiffness_records_the_model_file(tmp_path):
     assert doc2["model_file"]["path"] == str(bundled.resolve()) and "warning" not in err2
     # the halved actuator stiffness shows in the result: the local file is the one that was used
     assert doc["k_tran_mm_per_N"] > doc2["k_tran_mm_per_N"]
+
+
+def test_a_local_copy_of_the_bundled_file_needs_no_warning(tmp_path, monkeypatch):
+    import warnings
+
+    (tmp_path / "cad").mkdir()
+    (tmp_path / "cad" / "bar.py").write_bytes(BUNDLED_BAR.read_bytes())
+    (tmp_path / "puu.yaml").write_bytes((data_dir() / "orthoglide" / "puu.yaml").read_bytes())
+    monkeypatch.chdir(tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert find_script("bar") == (tmp_path / "cad" / "bar.py").resolve()
+        assert data_file("puu").resolve() == (tmp_path / "puu.yaml").resolve()

@@ -59,7 +59,7 @@ def find_script(spec) -> Path:
     2. a bare name (``bar`` or ``bar.py``, no folder): a **local file wins**: ``./bar.py`` or
        ``./cad/bar.py`` in the current folder (both, with different content: an error naming
        them), else the bundled ``bar.py`` (:func:`cad_dir`).  A local file that takes precedence
-       over a bundled script of the same name gets a :class:`~linkfea.errors.LinkFeaWarning`
+       over a different bundled script of the same name gets a :class:`~linkfea.errors.LinkFeaWarning`
        naming both, since the same command gives another link elsewhere;
     3. ``cad/NAME.py`` that does not exist here: the bundled script (the README's paths work
        from any folder);
@@ -83,7 +83,7 @@ def find_script(spec) -> Path:
                                "give the path of the one to use")
         bundled = bundled_dir / f"{name}.py"
         if local:
-            if bundled.is_file() and not _same(local[0], bundled):
+            if bundled.is_file() and not _same(local[0], bundled) and local[0].read_bytes() != bundled.read_bytes():
                 warnings.warn(f"{spec}: using {local[0]} from this folder, not the bundled script {bundled} "
                               "(a local file takes precedence over a bundled name)", LinkFeaWarning, stacklevel=2)
             return local[0].resolve()

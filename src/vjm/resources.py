@@ -30,7 +30,7 @@ def data_file(path, suffixes=(".yaml", ".csv")) -> Path:
 
     A bare name (no folder, no suffix) is first looked up in the current folder with one of
     ``suffixes``, in their order: a **local file wins** over a bundled one of the same name
-    (with a :class:`~vjm.errors.VjmWarning` naming both when both exist).
+    (with a :class:`~vjm.errors.VjmWarning` naming both when both exist and differ).
     A relative path that does not exist is looked up in :func:`data_dir`, as given
     (``orthoglide/puu.yaml``), without a leading ``data/`` (``data/orthoglide/puu.yaml``), or
     as a bare name with one of ``suffixes`` (``puu`` -> ``orthoglide/puu.yaml``).  A name that
@@ -44,7 +44,7 @@ def data_file(path, suffixes=(".yaml", ".csv")) -> Path:
     if len(p.parts) == 1 and not p.suffix:
         local = [q for q in (Path(p.name + s) for s in suffixes) if q.is_file()]
         if local:  # a local file wins over a bundled one of the same name
-            bundled = _bundled_hits(root, [local[0].name])
+            bundled = [b for b in _bundled_hits(root, [local[0].name]) if b.read_bytes() != local[0].read_bytes()]
             if bundled:
                 warnings.warn(f"{path!s}: using {local[0].resolve()} from this folder, not the bundled "
                               f"{bundled[0].relative_to(root)} (a local file takes precedence over a bundled name)",
