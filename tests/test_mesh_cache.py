@@ -1,8 +1,9 @@
 """The pytetwild mesh cache: one mesh per key under concurrent runs, stale locks, damaged entries.
 
 pytetwild is not deterministic: three runs that each mesh give three different meshes (and
-compliances that differ in the 4th digit).  So identical results of three concurrent cold-cache
-runs show that only one of them meshed.
+compliances that differ in the 4th digit; at --mesh-size 8 three unlocked runs gave 707, 843
+and 695 tets).  So identical results of three concurrent cold-cache runs show that only one of
+them meshed.
 """
 import json
 import os
@@ -17,7 +18,7 @@ import pytest
 
 from linkfea.meshcache import DamagedEntry, cached_mesh, key_lock, read_entry, write_entry
 
-COMPUTE = ["compute", "bar", "--mesher", "pytetwild", "--mesh-size", "10", "--no-picture", "-q"]
+COMPUTE = ["compute", "bar", "--mesher", "pytetwild", "--mesh-size", "8", "--no-picture", "-q"]
 
 
 def _start(args, env, cwd):
