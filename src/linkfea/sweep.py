@@ -38,7 +38,7 @@ import numpy as np
 from .atomic import atomic_path, plain, write_text
 from .errors import LinkFeaError
 from .io import TWIST, WRENCH
-from .sweep_budget import DesignProgress, announcement, check_memory_limit, range_count, sweep_size
+from .sweep_budget import DesignProgress, announcement, check_memory_limit, median_seconds, range_count, sweep_size
 
 KEY_VERSION = "linkfea.sweep/1"
 RESULT_SCHEMA_FAILED = "linkfea.sweep-failure/1"
@@ -405,18 +405,6 @@ def pending(sweep: Sweep, out, retry_failed: bool = False) -> list[Design]:
     return todo
 
 
-def _seconds_per_design(out, keys, at_most: int = 50) -> float | None:
-    """Median seconds of (at most ``at_most``) designs already run in ``out`` (None if there are none)."""
-    t: list[float] = []
-    for k in keys:
-        d = read_design_result(out, k)
-        if d is not None and isinstance(d["sweep"].get("seconds"), (int, float)):
-            t.append(float(d["sweep"]["seconds"]))
-            if len(t) >= at_most:
-                break
-    return float(np.median(t)) if t else None
-
-
 def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, workers: int | None = None,
               memory_limit="auto", retry_failed: bool = False, cache_dir=None, plot: Sequence[str] | None = None,
               progress: bool = False, on_result: Callable[[dict], None] | None = None) -> SweepReport:
@@ -466,7 +454,7 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
                     except (OSError, TimeoutError) as exc:
                         raise LinkFeaError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
             _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_result,
-                     _seconds_per_design(out, rep.skipped + [d.key for d in todo]))
+                     median_seconds(read_design_result(out, k) for k in rep.skipped + [d.key for d in todo]))
     except KeyboardInterrupt:
         rep.interrupted = True
     finally:

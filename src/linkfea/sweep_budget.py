@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import os
+import statistics
 from dataclasses import dataclass
 
 from .errors import LinkFeaError
@@ -111,6 +112,17 @@ def expected_seconds(n: int, workers: int, per_design: float | None) -> float:
     """Wall time of ``n`` designs on ``workers``: whole rounds of ``per_design`` seconds."""
     w = max(int(workers), 1)
     return math.ceil(n / w) * (NOMINAL_SECONDS if per_design is None else per_design)
+
+
+def median_seconds(docs, at_most: int = 50) -> float | None:
+    """Median ``sweep.seconds`` of (at most ``at_most``) stored design documents; None skipped, None if none."""
+    t: list[float] = []
+    for d in docs:
+        if d is not None and isinstance(d["sweep"].get("seconds"), (int, float)):
+            t.append(float(d["sweep"]["seconds"]))
+            if len(t) >= at_most:
+                break
+    return float(statistics.median(t)) if t else None
 
 
 def announcement(n: int, workers: int, per_design: float | None) -> str | None:
