@@ -20,7 +20,7 @@ from .errors import LinkFeaError
 from .frames import Frame
 from .materials import get_material
 from .params import parse_param_args, resolve_params  # noqa: F401  (re-exported)
-from .resources import cad_dir
+from .resources import cad_dir, find_script
 from .selectors import (  # noqa: F401  (re-exported)
     DEFAULT_TOL,
     Box,
@@ -83,15 +83,9 @@ class Link:
 
 
 def resolve_script(spec: str | Path) -> Path:
-    """A cad/ script path, or a bare name like ``bar`` looked up in :data:`CAD_DIR`."""
-    p = Path(spec)
-    if p.suffix == ".py" and p.is_file():
-        return p.resolve()
-    for cand in (CAD_DIR / f"{p.name}.py", CAD_DIR / p.name, Path.cwd() / "cad" / f"{p.name}.py"):
-        if cand.is_file():
-            return cand.resolve()
-    known = ", ".join(sorted(q.stem for q in CAD_DIR.glob("*.py"))) if CAD_DIR.is_dir() else "none"
-    raise LinkFeaError(f"no link script or STEP file {str(spec)!r}; bundled scripts: {known}")
+    """A cad/ script path, or a bare name like ``bar`` (a local ``./bar.py`` or ``./cad/bar.py`` wins
+    over the bundled one): see :func:`linkfea.resources.find_script`."""
+    return find_script(spec)
 
 
 def load_script(path: str | Path):

@@ -10,7 +10,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .errors import LinkFeaError
+from .errors import LinkFeaError, LinkFeaWarning, warnings_as_lines
 from .io import TWIST, WRENCH
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
@@ -21,6 +21,7 @@ err_console = Console(stderr=True)
 @app.callback()
 def _root():
     """linkfea: a link's CAD to its 6x6 compliance matrix."""
+    warnings_as_lines(LinkFeaWarning)
 
 
 def matrix_table(M: np.ndarray, title: str, rows, cols) -> Table:
@@ -111,6 +112,8 @@ def show(res, console: Console) -> None:
                   + (f"{ee:.2e}" if ee is not None else "not computed (use --convergence)")
                   + f"; solver {res.solver.get('factorizer')}")
     console.print("timing (s): " + ", ".join(f"{k} {v:.2f}" for k, v in res.timing.items()))
+    if res.source_sha256:
+        console.print(f"source: {res.source} (sha256 {res.source_sha256[:16]}...)")
 
 
 @app.command("compare")
@@ -197,6 +200,7 @@ def sweep_cmd(
         print(f"{rep.n_designs} designs: {len(rep.skipped)} already done, {len(rep.computed)} computed, "
               f"{len(rep.failed)} failed, {len(rep.unfinished)} unfinished; {n_ok} ok in the table "
               f"({rep.seconds:.1f} s); wrote {out}/sweep.parquet, sweep.csv, sweep.png, results/", file=sys.stderr)
+        print(f"source: {sw.spec} (sha256 {sw.source_sha[:16]}...)", file=sys.stderr)
     if rep.interrupted:
         raise typer.Exit(code=130)
     if rep.unfinished:

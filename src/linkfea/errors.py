@@ -25,3 +25,26 @@ class SolverError(LinkFeaError, RuntimeError):
     CLIs catching ``LinkFeaError`` keep reporting it as one line.  To tell it
     from bad input, catch ``RuntimeError`` (or ``SolverError``) first.
     """
+
+
+class LinkFeaWarning(UserWarning):
+    """Something the user should know that did not stop the run (e.g. a damaged mesh cache entry
+    that was meshed again).  The CLI prints it as one ``warning: ...`` line."""
+
+
+def warnings_as_lines(*categories: type) -> None:
+    """Show warnings of ``categories`` as one ``warning: ...`` line on stderr (no source line), others
+    as Python does.  The command lines call it at start."""
+    import sys
+    import warnings
+
+    python_show = getattr(warnings.showwarning, "python_show", warnings.showwarning)
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, categories):
+            print("warning: " + " ".join(str(message).split()), file=sys.stderr)
+        else:
+            python_show(message, category, filename, lineno, file, line)
+
+    show.python_show = python_show  # type: ignore[attr-defined]
+    warnings.showwarning = show

@@ -22,7 +22,9 @@ silently drops much of the clamp.
 pytetwild is not deterministic from run to run, so the raw mesh (points, tets)
 is cached under ``.cache/meshes/`` (or ``$LINKFEA_CACHE_DIR``) keyed by the
 SHA-256 of the input surfaces, the meshing parameters and
-:data:`MESH_VERSION`; a repeated run reuses it bit for bit.
+:data:`MESH_VERSION`; a repeated run reuses it bit for bit, concurrent runs of one key
+share one mesh (the first meshes, the others wait and read) and a damaged entry is
+meshed again (:mod:`linkfea.meshcache`).
 """
 from __future__ import annotations
 
@@ -36,9 +38,9 @@ from typing import Callable
 
 import numpy as np
 
-from .atomic import atomic_path
 from .errors import LinkFeaError, SolverError
 from .frames import Frame
+from .meshcache import cached_mesh
 
 MESH_VERSION = "linkfea-mesh-2"
 """Bumped whenever the meshing code changes the cached arrays."""
@@ -445,13 +447,8 @@ def _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing,
     h.update(repr((MESH_VERSION, getattr(pytetwild, "__version__", "?"), float(H), float(epsilon),
                    len(parts), bg is not None)).encode())
     key = h.hexdigest()
-    cdir = Path(cache_dir) if cache_dir is not None else cache_dir_default()
-    cfile = cdir / f"{key}.npz"
-    if use_cache and cfile.is_file():
-        say("mesh from cache")
-        with np.load(cfile) as z:
-            points, tets = z["points"], z["tets"]
-    else:
+
+    def make():
         say(f"meshing with fTetWild (edge {H:.3g} mm{', refined near small curved faces' if bg is not None else ''})")
         try:
             kw = {} if bg is None else dict(bg_vertices=bg[0], bg_tets=bg[1], bg_values=bg[2])
@@ -460,9 +457,12 @@ def _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing,
                                                         epsilon=epsilon, quiet=True, **kw)
         except Exception as exc:  # the extension raises RuntimeError on hopeless input
             raise SolverError(f"{link.name}: fTetWild failed: {exc}") from None
-        points, tets = _clean(np.asarray(points, dtype=float), np.asarray(tets, dtype=np.int64))
-        if use_cache:
-            _save_npz(cfile, points=points, tets=tets)
+        return _clean(np.asarray(points, dtype=float), np.asarray(tets, dtype=np.int64))
+
+    if use_cache:
+        points, tets = cached_mesh(Path(cache_dir) if cache_dir is not None else cache_dir_default(), key, make, say)
+    else:
+        points, tets = make()
     if len(tets) == 0:
         raise LinkFeaError(f"{link.name}: the mesher produced no tetrahedra (mesh size {H:g} mm too large?)")
     say("tagging interfaces")
@@ -513,12 +513,6 @@ def _scratch_cwd():
             yield
         finally:
             os.chdir(old)
-
-
-def _save_npz(path: Path, **arrays) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.savez(fh, **arrays)
 
 
 def select_facets(points: np.ndarray, tris: np.ndarray, faces, tol: float, ttol: float) -> np.ndarray:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 from typing import Callable
 
 from .errors import LinkFeaError
@@ -29,6 +30,18 @@ def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, m
     timing = {"mesh": t_mesh, **{k: float(sol.timing.get(k, 0.0)) for k in ("assemble", "factor", "solve")},
               "fit": t_fit}
     return mesh, sol, comp, timing
+
+
+def _source_file(spec) -> Path:
+    """The absolute path of the file ``spec`` names: a STEP or surface file, or a script (bare names
+    resolved by :func:`linkfea.resources.find_script`)."""
+    from .cad import is_step, resolve_script
+    from .surface import is_surface
+
+    if is_step(spec) or is_surface(spec):
+        p = Path(str(spec))
+        return p.resolve() if p.is_file() else p  # a missing file is reported by its loader
+    return resolve_script(spec)
 
 
 def compute(spec, params: dict | None = None, mesh_size: float | None = None, mode: str = "rigid",
@@ -74,6 +87,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     from .cad import build_link
     from .fem import ASSEMBLERS, MODES
     from .mesh import DEFAULT_EPSILON, default_mesh_size
+    from .resources import file_sha256
 
     epsilon = DEFAULT_EPSILON if epsilon is None else float(epsilon)
 
@@ -97,7 +111,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     t_all = time.perf_counter()
     say("cad")
     t0 = time.perf_counter()
-    link = build_link(spec, params, material=material, base=base, tip=tip, with_block=(mode == "block"))
+    source = _source_file(spec)  # before the CAD: a script is run from exactly this file
+    link = build_link(source, params, material=material, base=base, tip=tip, with_block=(mode == "block"))
     mat = get_material(link.material)
     t_cad = time.perf_counter() - t0
     H = float(mesh_size) if mesh_size is not None else default_mesh_size(link)
@@ -133,7 +148,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
                  "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)" + (
                      ", curved boundary edges" if getattr(mesh, "curved_edges", None) is not None else ""),
                  "quality": dict(mesh.quality), "cache_key": mesh.cache_key}
-    return LinkResult(value=comp.compliance, name=link.name, source=str(link.source), params=dict(link.params),
+    return LinkResult(value=comp.compliance, name=link.name, source=str(source), source_sha256=file_sha256(source),
+                      params=dict(link.params),
                       material=mat, mode=mode, block_ratio=float(block_ratio) if mode == "block" else None,
                       mesh_info=mesh_info, diagnostics=diagnostics, solver=dict(sol.solver), timing=timing,
                       versions=versions(), volume=float(link.body.Volume()), link=link, mesh=mesh, solution=sol,

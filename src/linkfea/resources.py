@@ -30,3 +30,64 @@ def shipped_dir(package: str, inside: str, checkout: str) -> Path:
 def cad_dir() -> Path:
     """Folder of the bundled link scripts (``bar``, ``orthoglide_foot``, ``parallelogram_bar``)."""
     return shipped_dir("linkfea", "_cad", "cad")
+
+
+def file_sha256(path) -> str:
+    """SHA-256 of a file's bytes (hex), recorded beside the file's path in results."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _same(a: Path, b: Path) -> bool:
+    try:
+        return a.samefile(b)
+    except OSError:
+        return False
+
+
+def find_script(spec) -> Path:
+    """The link script ``spec`` names, absolute.
+
+    The rule, from first to last:
+
+    1. an existing file: that file (``cad/bar.py``, ``/home/me/arm.py``);
+    2. a bare name (``bar`` or ``bar.py``, no folder): a **local file wins**: ``./bar.py`` or
+       ``./cad/bar.py`` in the current folder (both, with different content: an error naming
+       them), else the bundled ``bar.py`` (:func:`cad_dir`).  A local file that takes precedence
+       over a different bundled script of the same name gets a :class:`~linkfea.errors.LinkFeaWarning`
+       naming both, since the same command gives another link elsewhere;
+    3. ``cad/NAME.py`` that does not exist here: the bundled script (the README's paths work
+       from any folder);
+    4. anything else: a LinkFeaError listing the bundled scripts.
+    """
+    import warnings
+
+    from .errors import LinkFeaError, LinkFeaWarning
+
+    p = Path(str(spec))
+    if p.is_file():
+        return p.resolve()
+    bundled_dir = cad_dir()
+    if len(p.parts) == 2 and p.parts[0] == "cad" and (bundled_dir / p.name).is_file():
+        return (bundled_dir / p.name).resolve()  # the README's cad/bar.py, run from another folder
+    if len(p.parts) == 1 and p.suffix in ("", ".py"):
+        name = p.stem if p.suffix else p.name
+        local = [q for q in (Path.cwd() / f"{name}.py", Path.cwd() / "cad" / f"{name}.py") if q.is_file()]
+        if len(local) == 2 and not local[0].read_bytes() == local[1].read_bytes():
+            raise LinkFeaError(f"{spec}: two different local scripts ./{name}.py and ./cad/{name}.py; "
+                               "give the path of the one to use")
+        bundled = bundled_dir / f"{name}.py"
+        if local:
+            if bundled.is_file() and not _same(local[0], bundled) and local[0].read_bytes() != bundled.read_bytes():
+                warnings.warn(f"{spec}: using {local[0]} from this folder, not the bundled script {bundled} "
+                              "(a local file takes precedence over a bundled name)", LinkFeaWarning, stacklevel=2)
+            return local[0].resolve()
+        if bundled.is_file():
+            return bundled.resolve()
+    known = ", ".join(sorted(q.stem for q in bundled_dir.glob("*.py"))) if bundled_dir.is_dir() else "none"
+    raise LinkFeaError(f"no link script or STEP file {str(spec)!r}; bundled scripts: {known}")

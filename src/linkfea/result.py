@@ -53,6 +53,9 @@ class LinkResult:
     volume : float or None
         CAD volume of the link body in mm^3 (the reference block is no part of the link);
         with the material's density it gives :attr:`mass` in kg.
+    source_sha256 : str
+        SHA-256 of the script, STEP or surface file that was used ('' if unknown); ``source`` is
+        its absolute path.
     link, mesh, solution, fit
         The CAD :class:`~linkfea.cad.Link`, the :class:`~linkfea.mesh.LinkMesh`, the
         :class:`~linkfea.fem.FeaSolution` and the :class:`~linkfea.fit.FittedCompliance`;
@@ -74,6 +77,7 @@ class LinkResult:
     timing: dict = field(default_factory=dict)
     versions: dict = field(default_factory=dict)
     volume: Optional[float] = None
+    source_sha256: str = ""
     link: Any = field(default=None, repr=False)
     mesh: Any = field(default=None, repr=False)
     solution: Any = field(default=None, repr=False)
@@ -123,6 +127,7 @@ class LinkResult:
             "schema": SCHEMA,
             "name": self.name,
             "source": str(self.source),
+            "source_sha256": self.source_sha256 or None,
             "params": dict(self.params),
             "material": {"name": self.material.name, "E": self.material.E, "nu": self.material.nu,
                          "density": self.material.density},
@@ -252,7 +257,8 @@ def load(path) -> LinkResult:
             mesh_info=dict(doc.get("mesh") or {}), diagnostics=dict(doc.get("diagnostics") or {}),
             solver=dict(doc.get("solver") or {}), timing=dict(doc.get("timing") or {}),
             versions=dict(doc.get("versions") or {}), path=path,
-            volume=None if doc.get("volume_mm3") is None else float(doc["volume_mm3"]))
+            volume=None if doc.get("volume_mm3") is None else float(doc["volume_mm3"]),
+            source_sha256=str(doc.get("source_sha256") or ""))
     except (KeyError, TypeError, ValueError) as exc:
         raise LinkFeaError(f"{path}: not a complete linkfea result ({exc!r})") from None
 

@@ -26,6 +26,7 @@ import json
 import math
 import os
 import socket
+import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -37,6 +38,7 @@ import numpy as np
 from .atomic import atomic_path, plain, write_text
 from .errors import LinkFeaError
 from .io import TWIST, WRENCH
+from .sweep_budget import DesignProgress, announcement, check_memory_limit, median_seconds, range_count, sweep_size
 
 KEY_VERSION = "linkfea.sweep/1"
 RESULT_SCHEMA_FAILED = "linkfea.sweep-failure/1"
@@ -77,10 +79,15 @@ class ParamSpec:
     def grid_values(self) -> tuple:
         if not self.is_range:
             return self.values
+        return tuple(_tidy(self.lo + k * self.step) for k in range(self.grid_count()))
+
+    def grid_count(self) -> int:
+        """Number of grid values, counted without listing them."""
+        if not self.is_range:
+            return len(self.values)
         if self.step is None:
             raise LinkFeaError(f"--param {self.name}: a grid needs a step, lo:hi:step (or use --sample)")
-        n = int(math.floor((self.hi - self.lo) / self.step + 1e-9)) + 1
-        return tuple(_tidy(self.lo + k * self.step) for k in range(n))
+        return range_count(self.lo, self.hi, self.step)
 
     def sample(self, u: np.ndarray) -> list:
         """Values at the unit-interval coordinates ``u`` of a Latin hypercube."""
@@ -211,7 +218,8 @@ def make_sweep(spec, params: Sequence[str], options: dict | None = None, sample:
     sample, seed : a Latin hypercube of ``sample`` designs (scipy.stats.qmc) instead of the grid
     """
     src = resolve_source(spec)
-    sha = hashlib.sha256(src.read_bytes()).hexdigest()
+    src_bytes = src.read_bytes()
+    sha = hashlib.sha256(src_bytes).hexdigest()
     given = {k: v for k, v in (options or {}).items() if v is not None}
     bad = set(given) - set(OPTION_NAMES)
     if bad:
@@ -230,6 +238,7 @@ def make_sweep(spec, params: Sequence[str], options: dict | None = None, sample:
             raise LinkFeaError(f"--sample must be a whole number >= 1, got {sample}")
         if not specs:
             raise LinkFeaError("--sample needs at least one --param to sample")
+        sweep_size(sample, len(src_bytes)).check()
         from scipy.stats import qmc
 
         u = qmc.LatinHypercube(d=len(specs), rng=seed).random(sample)
@@ -237,6 +246,7 @@ def make_sweep(spec, params: Sequence[str], options: dict | None = None, sample:
         rows = [tuple(c[i] for c in cols) for i in range(sample)]
         sampling = {"method": "latin-hypercube", "n": sample, "seed": seed}
     else:
+        sweep_size(math.prod(s.grid_count() for s in specs), len(src_bytes)).check()  # before listing them
         rows = list(itertools.product(*(s.grid_values() for s in specs)))
         sampling = {"method": "grid"}
     designs, seen = [], set()
@@ -416,6 +426,8 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
     from .mesh import cache_dir_default
 
     t_start = time.perf_counter()
+    if client is None and scheduler is None:
+        check_memory_limit(memory_limit)
     out = Path(out)
     rep = SweepReport(n_designs=len(sweep.designs))
     todo = pending(sweep, out, retry_failed)
@@ -441,7 +453,8 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
                         own_client = client = Client(scheduler, timeout="20s")
                     except (OSError, TimeoutError) as exc:
                         raise LinkFeaError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
-            _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_result)
+            _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_result,
+                     median_seconds(read_design_result(out, k) for k in rep.skipped + [d.key for d in todo]))
     except KeyboardInterrupt:
         rep.interrupted = True
     finally:
@@ -456,7 +469,7 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
     return rep
 
 
-def _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_result):
+def _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_result, per_design=None):
     from distributed import as_completed
 
     futures = []
@@ -466,7 +479,11 @@ def _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_resul
                 "cache_dir": cache}
         # pure=False: a rerun must run; the name makes the dashboard readable
         futures.append(client.submit(run_design, task, key=f"design-{d.key}", pure=False))
-    bar = _progress(len(futures)) if progress else None
+    if progress:
+        say = announcement(len(todo), len(client.scheduler_info().get("workers", {})) or 1, per_design)
+        if say:
+            print(say, file=sys.stderr)
+    bar = DesignProgress(len(futures)) if progress else None
     try:
         for fut in as_completed(futures):
             if fut.status != "finished":  # cancelled (restart) or lost worker: not the design's fault
@@ -490,34 +507,6 @@ def _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_resul
         if bar:
             bar.stop()
         client.cancel([f for f in futures if not f.done()])
-
-
-class _progress:
-    """A rich progress bar on stderr: designs done, failed, elapsed and remaining time."""
-
-    def __init__(self, total: int):
-        from rich.console import Console
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        self.nfail = 0
-        self.p = Progress(TextColumn("designs"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[f]}"),
-                          TimeElapsedColumn(), TimeRemainingColumn(), console=Console(stderr=True))
-        self.t = self.p.add_task("sweep", total=total, f="")
-        self.p.start()
-
-    def advance(self, ok: bool = True):
-        self.nfail += not ok
-        self.p.update(self.t, advance=1, f=f"{self.nfail} failed" if self.nfail else "")
-
-    def stop(self):
-        self.p.stop()
 
 
 # --------------------------------------------------------------------------- table and plot

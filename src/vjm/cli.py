@@ -18,6 +18,16 @@ from .errors import VjmError, one_line, user_errors
 app = typer.Typer(add_completion=False, help="Virtual-joint-method stiffness of parallel machines.")
 
 
+@app.callback()
+def _root():
+    """Virtual-joint-method stiffness of parallel machines."""
+    from linkfea.errors import LinkFeaWarning, warnings_as_lines
+
+    from .errors import VjmWarning
+
+    warnings_as_lines(VjmWarning, LinkFeaWarning)
+
+
 def _fail(exc: Exception):
     typer.echo(f"error: {one_line(exc)}", err=True)
     raise typer.Exit(2)
@@ -58,7 +68,12 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
     except user_errors() as exc:
         _fail(exc)
     if as_json:
-        typer.echo(json.dumps(r.to_dict(), indent=1))
+        from linkfea.resources import file_sha256
+
+        doc = r.to_dict()
+        if m.path:  # which model file was used (a bare name may find a local or a bundled one)
+            doc["model_file"] = {"path": str(m.path), "sha256": file_sha256(m.path)}
+        typer.echo(json.dumps(doc, indent=1))
         return
     np.set_printoptions(precision=4, linewidth=120)
     typer.echo(f"{m.architecture if m.description is None else m.name} at ({at}) mm  "

@@ -106,6 +106,24 @@ class Description:
 
 # ------------------------------------------------------------------ expressions
 
+MAX_EXPRESSION = 1000
+"""Longest expression read, in characters (a parser fed a megabyte of nesting exhausts the stack)."""
+
+
+def _refused(node: ast.AST) -> str:
+    """What a node that is no arithmetic is, for the message."""
+    if isinstance(node, ast.Call):
+        f = node.func
+        name = f.id if isinstance(f, ast.Name) else f.attr if isinstance(f, ast.Attribute) else None
+        if name in _FUNCS:
+            return f"calling {name}() with keyword arguments"
+        return f"calling {name}()" if name else "a call"
+    if isinstance(node, ast.Attribute):
+        return f"attribute access .{node.attr}"
+    return {ast.Subscript: "indexing", ast.Lambda: "a lambda", ast.Constant: "a constant that is no number",
+            ast.JoinedStr: "a formatted string", ast.IfExp: "a conditional"}.get(type(node), type(node).__name__)
+
+
 def evaluate(expr: str, geometry: dict, where: str) -> float:
     """Value of an arithmetic expression on geometry names (VjmError naming ``where``)."""
     names = {"pi": math.pi, "deg": math.pi / 180.0, **{k: v for k, v in geometry.items()
@@ -132,12 +150,19 @@ def evaluate(expr: str, geometry: dict, where: str) -> float:
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FUNCS \
                 and not node.keywords:
             return float(_FUNCS[node.func.id](*[ev(a) for a in node.args]))
-        raise VjmError(f"{where}: {expr!r} is not an arithmetic expression of numbers and geometry names")
+        raise VjmError(f"{where}: {expr!r} is not an arithmetic expression of numbers and geometry names "
+                       f"({_refused(node)} is not allowed: expressions are data, never code; functions: "
+                       f"{', '.join(_FUNCS)})")
 
+    text = str(expr).strip()
+    if len(text) > MAX_EXPRESSION:
+        raise VjmError(f"{where}: an expression of {len(text)} characters is too long (limit {MAX_EXPRESSION})")
     try:
-        v = ev(ast.parse(str(expr).strip(), mode="eval"))
+        v = ev(ast.parse(text, mode="eval"))
     except SyntaxError:
         raise VjmError(f"{where}: cannot read {expr!r} as an expression") from None
+    except (RecursionError, MemoryError):
+        raise VjmError(f"{where}: the expression is nested too deeply to read") from None
     except (ValueError, TypeError, OverflowError) as exc:
         raise VjmError(f"{where}: {expr!r}: {exc}") from None
     if not math.isfinite(v):

@@ -27,6 +27,11 @@ class EquilibriumError(VjmError, RuntimeError):
     """
 
 
+class VjmWarning(UserWarning):
+    """Something the user should know that did not stop the run (e.g. a local model file taking
+    precedence over a bundled one of the same name).  The CLI prints it as one ``warning: ...`` line."""
+
+
 def user_errors():
     """The exceptions a CLI reports as one line: ours, linkfea's (link results, file output), OS errors."""
     from linkfea.errors import LinkFeaError

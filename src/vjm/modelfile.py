@@ -229,11 +229,9 @@ def load_model(path, foot=None, leg=None) -> Model:
     path = os.fspath(data_file(path))
     if not os.path.isfile(path):
         raise VjmError(f"model file not found: {path}")
-    try:
-        with open(path, encoding="utf-8") as fh:
-            d = yaml.safe_load(fh)
-    except (OSError, yaml.YAMLError) as exc:
-        raise VjmError(f"cannot read model file {path}: {exc}") from None
+    from .yamldata import read_yaml
+
+    d = read_yaml(path, "model file")  # plain data: a YAML tag that builds objects is refused
     if isinstance(d, dict):
         d = dict(d)
         if foot is not None:
