@@ -12,7 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from ..errors import VjmError
+from linkfea.checks import Bounds, integer, number
+
+from ..errors import ArgumentError, VjmError
 from . import effects as fx
 from . import modelops as mo
 from . import observe
@@ -44,6 +46,18 @@ from .report import plot_before_after, plot_residuals, write_report_dir
 from .summary import alternative_lines, verdict_line
 
 DEFAULT_ALPHA = 0.01
+#: valid ranges of diagnose's numeric arguments: a level of 0 or 1 makes every test pass or fail
+ALPHA = Bounds(0, 1, lo_open=True, hi_open=True)
+FOLDS = Bounds(2)
+MAX_EFFECTS = Bounds(1)
+SUGGEST = Bounds(0)
+
+
+def check_arguments(alpha=DEFAULT_ALPHA, folds=5, max_effects=3, suggest=0):
+    """The numeric arguments of :func:`diagnose`, checked (type, finiteness, range): ArgumentError naming one."""
+    return (number(alpha, "alpha", ALPHA, ArgumentError), integer(folds, "folds", FOLDS, ArgumentError),
+            integer(max_effects, "max_effects", MAX_EFFECTS, ArgumentError),
+            integer(suggest, "suggest", SUGGEST, ArgumentError))
 
 
 @dataclass(frozen=True)
@@ -169,6 +183,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     suggest : number of (posture, load) rows to suggest measuring next (0: none).
     forces_only : suggest force loads only (a rig that cannot apply torques).
     """
+    alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
     kind = "stiffness" if isinstance(data, StiffnessObs) else "deflection"
     if kind == "stiffness":
         data = _rows_for_architecture(data, model)
@@ -806,6 +821,7 @@ def write_diagnosis(dg: Diagnosis, out_dir) -> None:
 
 def run(model_path, data_path, out_dir, **kw) -> Diagnosis:
     """Load, diagnose and write: the body of ``vjm diagnose``."""
+    check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")})
     model = mo.load_model(model_path)
     data = read_csv(data_path)
     dg = diagnose(model, data, model_name=os.path.basename(str(model_path)), **kw)
