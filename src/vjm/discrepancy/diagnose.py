@@ -124,8 +124,9 @@ def _check_reachable(model, data):
                     raise VjmError("no finite inverse kinematics")
             except VjmError as exc:
                 row = int(data.rows[k]) if data.rows is not None else k + 2
-                raise VjmError(f"{os.path.basename(data.source)}: row {row}, columns 'x,y,z': posture "
-                               f"({data.P[k, 0]:g}, {data.P[k, 1]:g}, {data.P[k, 2]:g}) mm is unreachable: {exc}") from None
+                why = str(exc) if "unreachable" in str(exc) else (  # the kinematics' message names the pose
+                    f"posture ({data.P[k, 0]:g}, {data.P[k, 1]:g}, {data.P[k, 2]:g}) mm is unreachable: {exc}")
+                raise VjmError(f"{os.path.basename(data.source)}: row {row}, columns 'x,y,z': {why}") from None
         raise VjmError(f"{os.path.basename(data.source)}: a posture is unreachable")
     return U, idx, q
 
