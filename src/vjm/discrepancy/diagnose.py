@@ -32,6 +32,7 @@ from .fit.select import (
     swap_alternatives,
 )
 from .locate import localize
+from .plausible import check_units, workspace_flags
 from .predict import (
     CALIBRATION,
     Context,
@@ -189,6 +190,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     if kind == "stiffness":
         data = _rows_for_architecture(data, model)
     U, idx, q = _check_reachable(model, data)
+    check_units(model, data, U, idx)  # a unit error is refused before any fit (nothing written)
     W = data.W if kind == "deflection" else np.zeros((data.n, 6))
     ctx = Context(model, U, idx, W)
     cands, skipped = _candidates(model, kind, effects)
@@ -399,7 +401,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
             cand_rep[nm]["fixed"] = {specs[i].name: float(specs[i].start) for i in ts.fixed}
 
     conf = _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals)
-    flags = _flags(prob, sel, final, cand_rep)
+    flags = _flags(prob, sel, final, cand_rep) + workspace_flags(model, data)
     for k, v in cal_held.items():
         flags.append(f"calibration {k} held at {v:g}: on this data it cannot be told apart from "
                      f"{', '.join(p.name for p in prob.terms[CALIBRATION].params)}")
