@@ -29,7 +29,8 @@ class Case:
     issue: str      # where the case comes from (issue.item)
     command: str    # "linkfea ..." or "vjm ...", with {puu}-style placeholders
     expect: str     # a fragment of the error line
-    files: dict = field(default_factory=dict)  # name -> text written before the run
+    files: dict = field(default_factory=dict)  # name -> text written before the run ("encoding": its codec)
+    note: str = ""  # what the files hold, for the table (default: their first lines)
 
     @property
     def argv(self) -> list[str]:
@@ -183,33 +184,36 @@ CASES = [
          {"m.csv": "\n".join([HDR, ROWS[0], "500,0,0,100,0,0,0,0,0,0.02,0,0,,,", ROWS[1]]) + "\n"}),
     # 18.4: model files and link results
     Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.gravty: unknown effect 'gravty' (did you mean 'gravity'?)",
-         {"m.yaml": _model(effects={"gravty": {"weight": 10.0}})}),
+         {"m.yaml": _model(effects={"gravty": {"weight": 10.0}})}, "puu.yaml with effects: {gravty: {weight: 10}}"),
     Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.gravity.weight must be in [0, 100000] N, got -10",
-         {"m.yaml": _model(effects={"gravity": {"weight": -10.0}})}),
+         {"m.yaml": _model(effects={"gravity": {"weight": -10.0}})}, "puu.yaml with effects: {gravity: {weight: -10}}"),
     Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.clearance.backlash must be in [0, 1] mm, got 50",
-         {"m.yaml": _model(effects={"clearance": {"backlash": 50.0}})}),
+         {"m.yaml": _model(effects={"clearance": {"backlash": 50.0}})}, "puu.yaml with effects: {clearance: {backlash: 50}}"),
     Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.clearance: unknown parameter 'gap' of clearance",
-         {"m.yaml": _model(effects={"clearance": {"gap": 0.01}})}),
+         {"m.yaml": _model(effects={"clearance": {"gap": 0.01}})}, "puu.yaml with effects: {clearance: {gap: 0.01}}"),
     Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.passive_clearance: missing backlash",
-         {"m.yaml": _model(effects={"passive_clearance": {}})}),
+         {"m.yaml": _model(effects={"passive_clearance": {}})}, "puu.yaml with effects: {passive_clearance: {}}"),
     Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.leg_axial: leg_axial changes the model itself",
-         {"m.yaml": _model(effects={"leg_axial": {"factor": 2.0}})}),
+         {"m.yaml": _model(effects={"leg_axial": {"factor": 2.0}})}, "puu.yaml with effects: {leg_axial: {factor: 2}}"),
     Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "geometry.Lenght: unknown key for orthoglide-3PUU; its geometry is L, r (mm)",
-         {"m.yaml": _model(geometry={"L": 310.0, "r": 50.0, "Lenght": 300.0})}),
+         {"m.yaml": _model(geometry={"L": 310.0, "r": 50.0, "Lenght": 300.0})}, "puu.yaml with geometry: {L: 310, r: 50, Lenght: 300}"),
     Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "geometry.d: unknown key for orthoglide-3PUU",
-         {"m.yaml": _model(geometry={"L": 310.0, "r": 50.0, "d": 80.0})}),
+         {"m.yaml": _model(geometry={"L": 310.0, "r": 50.0, "d": 80.0})}, "puu.yaml with geometry: {L: 310, r: 50, d: 80}"),
     Case("18.4", "vjm stiffness {puu} --at 0,0,0 --leg leg.json", "not a linkfea result, missing schema",
-         {"leg.json": _result(schema=None)}),
+         {"leg.json": _result(schema=None)}, "a link result without schema"),
     Case("18.4", "vjm stiffness {puu} --at 0,0,0 --leg leg.json", "schema 'linkfea.result/9' is not",
-         {"leg.json": _result(schema="linkfea.result/9")}),
+         {"leg.json": _result(schema="linkfea.result/9")}, "a link result of schema linkfea.result/9"),
     Case("18.4", "vjm stiffness {puu} --at 0,0,0 --leg leg.json", "stiffness contradicts the compliance",
          {"leg.json": _result(stiffness=[[2 / c if i == j else 0.0 for j in range(6)]
-                                         for i, c in enumerate(C_DIAG)])}),
+                                         for i, c in enumerate(C_DIAG)])},
+         "a link result whose stiffness is twice the inverse of its compliance"),
     # 18.9: messages
     Case("18.9", "vjm stiffness m.yaml --at 0,0,0", "'9**9**9' is too large: its value is beyond the largest",
-         {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "Tx(9**9**9), Tz(q0) actuated")}),
+         {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "Tx(9**9**9), Tz(q0) actuated")},
+         "linear_delta.yaml, first element Tx(9**9**9)"),
     Case("18.9", "vjm stiffness m.yaml --at 0,0,0", "element 1 'Tx(1, 2)': '1, 2' is not an arithmetic expression",
-         {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "'Tx(1, 2)', Tz(q0) actuated")}),
+         {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "'Tx(1, 2)', Tz(q0) actuated")},
+         "linear_delta.yaml, first element Tx(1, 2)"),
     Case("18.9", "vjm stiffness {puu} --at 500,0,0", "pose (500, 0, 0) mm is unreachable"),
 ]
 
