@@ -207,7 +207,11 @@ def check_effects(effects) -> dict:
     if not isinstance(effects, dict):
         raise VjmError("effects must be a mapping name -> parameters")
     out = {}
+    additive = [k for k, e in fx.REGISTRY.items() if e.kind == "additive"]
     for name, vals in effects.items():
+        if name not in fx.REGISTRY:
+            raise VjmError(f"effects.{name}: unknown effect{did_you_mean(str(name), fx.REGISTRY)}; the effects "
+                           f"written here: {', '.join(additive)}")
         eff = fx.get(name, f"effects.{name}")
         if eff.kind != "additive":
             raise VjmError(f"effects.{name}: {name} changes the model itself; it is written as the model's own "
