@@ -109,6 +109,17 @@ def _result(**changes) -> str:
     return json.dumps({k: v for k, v in doc.items() if v is not None})
 
 
+#: a machine description whose chains leave the platform no motion (mobility 0)
+LOCKED = """name: three sliders
+geometry: {a: 10.0}
+actuator: {stiffness: 1000.0}
+platform: {dof: 3, seed: [0, 0, 0], workspace: [[-10, -10, -10], [10, 10, 10]]}
+chains:
+  - {name: cx, transforms: [Tx(q0) actuated]}
+  - {name: cy, transforms: [Ty(q0) actuated]}
+  - {name: cz, transforms: [Tz(q0) actuated]}
+"""
+
 # ------------------------------------------------------------------ the cases
 D = "vjm diagnose {puu} m.csv --out rep"
 S = "vjm simulate {puu} --out s.csv"
@@ -183,7 +194,7 @@ CASES = [
     Case("18.9", D, "row 3, columns 'x,y,z': pose (500, 0, 0) mm is unreachable: the y leg",
          {"m.csv": "\n".join([HDR, ROWS[0], "500,0,0,100,0,0,0,0,0,0.02,0,0,,,", ROWS[1]]) + "\n"}),
     # 18.4: model files and link results
-    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.gravty: unknown effect 'gravty' (did you mean 'gravity'?)",
+    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.gravty: unknown effect (did you mean 'gravity'?); the effects written here: gravity,",
          {"m.yaml": _model(effects={"gravty": {"weight": 10.0}})}, "puu.yaml with effects: {gravty: {weight: 10}}"),
     Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.gravity.weight must be in [0, 100000] N, got -10",
          {"m.yaml": _model(effects={"gravity": {"weight": -10.0}})}, "puu.yaml with effects: {gravity: {weight: -10}}"),
@@ -215,6 +226,12 @@ CASES = [
          {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "'Tx(1, 2)', Tz(q0) actuated")},
          "linear_delta.yaml, first element Tx(1, 2)"),
     Case("18.9", "vjm stiffness {puu} --at 500,0,0", "pose (500, 0, 0) mm is unreachable"),
+    Case("18.9", "vjm stiffness m.yaml --at 0,0,0", "move in 0 independent directions at the seed posture "
+         "(0, 0, 0, 0, 0, 0); check the chains (a platform has 3 or 6 dof)", {"m.yaml": LOCKED},
+         "a description whose three chains lock the platform (one slider each along x, y, z)"),
+    # link script parameters (checked before: listed for the table)
+    Case("18.2", "linkfea compute bar -p length=nan", "parameter 'length' must be a finite number, got nan"),
+    Case("18.2", "linkfea compute bar -p length=-5", "parameter 'length' must be > 0 mm, got -5"),
 ]
 
 
