@@ -61,7 +61,7 @@ def _rows(scale_t=1.0, scale_r=1.0, rotations=False) -> list[str]:
     loads = [100.0 * e for e in np.eye(6)[:3]] + ([1e4 * e for e in np.eye(6)[3:]] if rotations else [])
     out = []
     for w in loads:
-        t = C @ w
+        t = np.round(C @ w, 12) + 0.0  # no round-off dust (6e-18) in the table
         rot = ",".join(f"{scale_r * v:.6g}" for v in t[3:]) if rotations else ",,"
         out.append("0,0,0," + ",".join(f"{v:g}" for v in w) + "," + ",".join(f"{scale_t * v:.6g}" for v in t[:3])
                    + "," + rot)
