@@ -32,7 +32,7 @@ from .fit.select import (
     swap_alternatives,
 )
 from .locate import localize
-from .plausible import check_units, workspace_flags
+from .plausible import usable_data, workspace_flags
 from .predict import (
     CALIBRATION,
     Context,
@@ -41,7 +41,6 @@ from .predict import (
     calibration_term,
     deflection_problem,
     stiffness_problem,
-    unique_postures,
 )
 from .report import plot_before_after, plot_residuals, write_report_dir
 from .summary import alternative_lines, verdict_line
@@ -110,43 +109,6 @@ class Diagnosis:
         return f"<Diagnosis {self.verdict}: named {self.named or 'nothing'}>"
 
 
-def _check_reachable(model, data):
-    """Unique postures, index; raises naming the first unreachable row."""
-    U, idx = unique_postures(data.P)
-    try:
-        q = mo.actuator_coords(model, U)
-    except VjmError:
-        q = None
-    if q is None or not np.all(np.isfinite(q)):
-        for k in range(data.n):
-            try:
-                qq = mo.actuator_coords(model, data.P[k:k + 1])
-                if not np.all(np.isfinite(qq)):
-                    raise VjmError("no finite inverse kinematics")
-            except VjmError as exc:
-                row = int(data.rows[k]) if data.rows is not None else k + 2
-                why = str(exc) if "unreachable" in str(exc) else (  # the kinematics' message names the pose
-                    f"posture ({data.P[k, 0]:g}, {data.P[k, 1]:g}, {data.P[k, 2]:g}) mm is unreachable: {exc}")
-                raise VjmError(f"{os.path.basename(data.source)}: row {row}, columns 'x,y,z': {why}") from None
-        raise VjmError(f"{os.path.basename(data.source)}: a posture is unreachable")
-    return U, idx, q
-
-
-def _rows_for_architecture(data: StiffnessObs, model) -> StiffnessObs:
-    """Keep the rows of a stiffness table whose ``architecture`` column names the model's (if any)."""
-    arch = data.extra.get("architecture")
-    if arch is None:
-        return data
-    keep = np.array([a.strip() == model.architecture for a in arch])
-    if not keep.any():
-        raise VjmError(f"{os.path.basename(data.source)}: column 'architecture': no row for "
-                       f"{model.architecture} (found {', '.join(sorted(set(arch)))})")
-    ex = {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.extra.items()}
-    return StiffnessObs(data.P[keep], data.quantity[keep], data.value[keep],
-                        None if data.sigma_rel is None else data.sigma_rel[keep],
-                        None if data.rows is None else data.rows[keep], data.source, ex)
-
-
 def _candidates(model, data_kind, names=None):
     names = list(fx.REGISTRY) if names is None else list(names)
     cands, skipped = [], {}
@@ -187,10 +149,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     """
     alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
     kind = "stiffness" if isinstance(data, StiffnessObs) else "deflection"
-    if kind == "stiffness":
-        data = _rows_for_architecture(data, model)
-    U, idx, q = _check_reachable(model, data)
-    check_units(model, data, U, idx)  # a unit error is refused before any fit (nothing written)
+    data, U, idx, q = usable_data(model, data)  # the model's rows, reachable, in plausible units
     W = data.W if kind == "deflection" else np.zeros((data.n, 6))
     ctx = Context(model, U, idx, W)
     cands, skipped = _candidates(model, kind, effects)

@@ -1,4 +1,4 @@
-"""Checks of a data set against its model before any fit: units and workspace.
+"""Checks of a data set against its model before any fit: reachable postures, units, workspace.
 
 * **Units.**  The least-squares scale ``s`` of the nominal model's predictions
   that fits the measured deflections (or the median ratio of observed to
@@ -21,9 +21,59 @@ import numpy as np
 from ..errors import VjmError
 from . import modelops as mo
 from .data import StiffnessObs
+from .predict import unique_postures
 
 #: a measured/predicted scale beyond this factor (or below its inverse) is taken for a units error
 UNITS_FACTOR = 10.0
+
+
+def usable_data(model, data):
+    """``(data, U, idx, q)``: the rows for the model's architecture (stiffness tables), every posture
+    reachable (``U`` unique postures, ``idx`` each row's, ``q`` actuator coordinates), in plausible units."""
+    if isinstance(data, StiffnessObs):
+        data = rows_for_architecture(data, model)
+    U, idx, q = check_reachable(model, data)
+    check_units(model, data, U, idx)
+    return data, U, idx, q
+
+
+def check_reachable(model, data):
+    """Unique postures, index; raises naming the first unreachable row."""
+    U, idx = unique_postures(data.P)
+    try:
+        q = mo.actuator_coords(model, U)
+    except VjmError:
+        q = None
+    if q is None or not np.all(np.isfinite(q)):
+        for k in range(data.n):
+            try:
+                qq = mo.actuator_coords(model, data.P[k:k + 1])
+                if not np.all(np.isfinite(qq)):
+                    raise VjmError("no finite inverse kinematics")
+            except VjmError as exc:
+                row = int(data.rows[k]) if data.rows is not None else k + 2
+                why = str(exc) if "unreachable" in str(exc) else (  # the kinematics' message names the pose
+                    f"posture ({data.P[k, 0]:g}, {data.P[k, 1]:g}, {data.P[k, 2]:g}) mm is unreachable: {exc}")
+                raise VjmError(f"{os.path.basename(data.source)}: row {row}, columns 'x,y,z': {why}") from None
+        raise VjmError(f"{os.path.basename(data.source)}: a posture is unreachable")
+    return U, idx, q
+
+
+def rows_for_architecture(data: StiffnessObs, model) -> StiffnessObs:
+    """Keep the rows of a stiffness table whose ``architecture`` column names the model's (if any)."""
+    arch = data.extra.get("architecture")
+    if arch is None:
+        return data
+    keep = np.array([a.strip() == model.architecture for a in arch])
+    if not keep.any():
+        raise VjmError(f"{os.path.basename(data.source)}: column 'architecture': no row for "
+                       f"{model.architecture} (found {', '.join(sorted(set(arch)))})")
+    ex = {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.extra.items()}
+    return StiffnessObs(data.P[keep], data.quantity[keep], data.value[keep],
+                        None if data.sigma_rel is None else data.sigma_rel[keep],
+                        None if data.rows is None else data.rows[keep], data.source, ex)
+
+
 
 
 def _scale(T, T0):
