@@ -173,6 +173,10 @@ CASES = [
          "--workers must be a whole number >= 1, got 0"),
     Case("18.2", "linkfea sweep bar -p length=100,120 --mesh-size -1 --out sw", "--mesh-size must be > 0 mm, got -1"),
     Case("18.2", "linkfea sweep bar -p length=100,120 --envelope 1 --out sw", "--envelope must be in (0, 0.1), got 1"),
+    Case("18.2", "linkfea sweep bar -p length=100,120 --memory-limit abc --out sw",
+         "--memory-limit must be auto or a size > 0 such as 4GB, got 'abc'"),
+    Case("18.2", "linkfea sweep bar -p length=100,120 --memory-limit -4GB --out sw",
+         "--memory-limit must be auto or a size > 0 such as 4GB, got '-4GB'"),
     Case("18.2", "linkfea compute bar --mesh-sise 3", "No such option: --mesh-sise"),
     # 18.3: measurement files
     Case("18.3", D, "column 'temperature': unknown column; known columns: x, y, z,",

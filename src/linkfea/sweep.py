@@ -338,6 +338,20 @@ LEAN_CLUSTER_CONFIG = {
 }
 
 
+def check_memory_limit(value) -> None:
+    """``auto``, a size such as ``4GB`` or a number of bytes > 0 (checked before the cluster starts)."""
+    if value == "auto":
+        return
+    from dask.utils import parse_bytes
+
+    try:
+        n = parse_bytes(value) if isinstance(value, str) else checks.integer(value, "memory_limit")
+    except (ValueError, checks.ArgumentError):
+        n = None
+    if n is None or n <= 0:
+        raise checks.ArgumentError("memory_limit", f"must be auto or a size > 0 such as 4GB, got {value!r}")
+
+
 def local_cluster(n_workers: int | None = None, memory_limit="auto"):
     """A LocalCluster of single-threaded worker processes (default one per core).
 
@@ -419,6 +433,7 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
     from .mesh import cache_dir_default
 
     workers = checks.optional_integer(workers, "workers", checks.Bounds(1))
+    check_memory_limit(memory_limit)
     t_start = time.perf_counter()
     out = Path(out)
     rep = SweepReport(n_designs=len(sweep.designs))
