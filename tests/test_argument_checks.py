@@ -137,3 +137,20 @@ def test_reachable_posture_outside_the_workspace_box_is_a_warning():
     (flag,) = workspace_flags(PUU, d)
     assert flag.startswith(f"m.csv: row 3: posture ({lo[0] - 10:g}, 0, 0) mm is outside the model's workspace box")
     assert workspace_flags(PUU, Deflections(P[:1], d.W[:1], d.T[:1])) == []
+
+
+def test_diagnosis_warns_of_a_posture_outside_the_workspace_box(tmp_path):
+    """End to end: the warning is in the report's flags and in the printed summary."""
+    from vjm.discrepancy import modelops as mo
+    from vjm.discrepancy.diagnose import diagnose
+
+    lo, _ = mo.workspace_box(PUU)
+    rng = np.random.default_rng(7)
+    P = np.repeat(np.array([[0.0, 0.0, 0.0], [20.0, -10.0, 5.0], [lo[0] - 10.0, 0.0, 0.0]]), 3, axis=0)
+    W = np.tile(100.0 * np.eye(6)[:3], (3, 1))
+    T = np.full((len(P), 6), np.nan)
+    T[:, :3] = np.einsum("nij,nj->ni", mo.compliance_map(PUU, P)[:, :3], W) + 1e-4 * rng.standard_normal((9, 3))
+    d = Deflections(P, W, T, np.full(9, 1e-4), None, np.arange(2, 11), "m.csv")
+    rep = diagnose(PUU, d).report
+    assert any("row 8 and 2 more: posture" in f and "outside the model's workspace box" in f for f in rep["flags"])
+    assert "outside the model's workspace box" in rep["summary"]
