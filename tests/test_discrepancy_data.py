@@ -75,3 +75,56 @@ def test_stiffness_observations(tmp_path):
     bad = _write(tmp_path, "x,y,z,quantity,value\n0,0,0,k_foo,1\n", "b.csv")
     with pytest.raises(VjmError, match=r"row 2, column 'quantity'"):
         read_csv(bad)
+
+
+# ---------------------------------------------------------------- files from instruments and spreadsheets
+PLAIN = HDR + ",sigma_t\n0,0,0,100,0,0,0,0,0,0.0281,-1.5e-4,0,,,,0.001\n10,-20,5,0,-50,0,0,0,1000,0,-0.0142,2e-5,,,,0.001\n"
+
+
+@pytest.mark.parametrize("variant", [
+    "\ufeff" + PLAIN,                                                    # UTF-8 byte-order mark (Excel's CSV UTF-8)
+    PLAIN.replace(",", ";"),                                             # ; separators, decimal points
+    PLAIN.replace(",", ";").replace(".", ","),                           # ; separators, decimal commas
+    PLAIN.replace(",", "\t").replace(".", ","),                          # tab separators, decimal commas
+    PLAIN.split("\n", 1)[0].upper().replace("SIGMA_T", "Sigma_T") + "\n" + PLAIN.split("\n", 1)[1],  # upper case
+    " " + PLAIN.split("\n", 1)[0].replace(",", " , ") + " \n" + PLAIN.split("\n", 1)[1].replace(",", ", "),
+])
+def test_spreadsheet_dialects_read_as_the_plain_file(tmp_path, variant):
+    ref = read_csv(_write(tmp_path, PLAIN, "plain.csv"))
+    got = read_csv(_write(tmp_path, variant))
+    for a in ("P", "W", "T", "sigma_t"):
+        np.testing.assert_array_equal(getattr(got, a), getattr(ref, a))
+    assert got.T[0, 0] == 0.0281 and got.T[1, 2] == 2e-5
+
+
+def test_unknown_columns_refused_unless_meta(tmp_path):
+    """A misspelt sigma would silently switch to sigmas estimated from the residuals: refused, naming the
+    closest known name; a meta_ column is carried along as text."""
+    with pytest.raises(VjmError, match=r"column 'sigmat': unknown column \(did you mean 'sigma_t'\?\)"):
+        read_csv(_write(tmp_path, PLAIN.replace("sigma_t", "sigmat")))
+    with pytest.raises(VjmError, match=r"column 'temperature': unknown column.*name it meta_temperature"):
+        read_csv(_write(tmp_path, PLAIN.replace("sigma_t", "temperature")))
+    d = read_csv(_write(tmp_path, PLAIN.replace("sigma_t", "META_temperature")))
+    assert d.sigma_t is None and d.meta == {"meta_temperature": ["0.001", "0.001"]}
+
+
+def test_exact_duplicates_refused_genuine_repeats_kept(tmp_path):
+    row = "0,0,0,100,0,0,0,0,0,0.0281,0,0,,,"
+    with pytest.raises(VjmError, match=r"row 4: repeats row 2 exactly"):
+        read_csv(_write(tmp_path, "\n".join([HDR, row, row.replace("100", "50"), row]) + "\n"))
+    # same posture and load, another reading: a genuine repeat, kept
+    d = read_csv(_write(tmp_path, "\n".join([HDR, row, row.replace("0.0281", "0.0279")]) + "\n"))
+    assert d.n == 2 and d.T[0, 0] != d.T[1, 0]
+    # repeats that read the same are told apart by a meta_ column
+    d = read_csv(_write(tmp_path, "\n".join([HDR + ",meta_run", row + ",1", row + ",2"]) + "\n"))
+    assert d.n == 2 and d.meta["meta_run"] == ["1", "2"]
+
+
+def test_encodings_named(tmp_path):
+    p = tmp_path / "u16.csv"
+    p.write_bytes(PLAIN.encode("utf-16"))
+    with pytest.raises(VjmError, match="UTF-16"):
+        read_csv(p)
+    p.write_bytes(("# mesure à 20 °C\n" + PLAIN).encode("latin-1"))
+    with pytest.raises(VjmError, match=r"row 1: byte 0xe0 is not UTF-8"):
+        read_csv(p)

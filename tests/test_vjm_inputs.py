@@ -51,7 +51,7 @@ def test_linkfea_json_same_as_inline(tmp_path, puu):
     """Issue 4 test 7: a leg read from a `linkfea compute` JSON gives the same K as the same
     matrix inline (bit-identical input, so 1e-14 relative)."""
     C = puu.leg.compliance
-    res = {"compliance": C.tolist(), "frame": {"origin": [0, 0, 0], "x_axis": [1, 0, 0], "y_axis": [0, 1, 0],
+    res = {"schema": "linkfea.result/1", "compliance": C.tolist(), "frame": {"origin": [0, 0, 0], "x_axis": [1, 0, 0], "y_axis": [0, 1, 0],
                                                "z_axis": [0, 0, 1]}, "units": {"compliance": "mm/N, rad/(N mm)"}}
     (tmp_path / "leg.json").write_text(json.dumps(res))
     d = _base()
@@ -134,10 +134,10 @@ def test_passive_joint_stiffness_adds_series_compliance(puu):
 
 
 def test_effects_round_trip_and_replace(tmp_path, puu):
-    """Extensions (c)(d)(e): effects kept verbatim and written back; save/load round-trips;
+    """Extensions (c)(d)(e): effects (checked against the effect library) written back; save/load round-trips;
     a rigid foot is accepted; replace() gives a validated modified model."""
     d = _base()
-    d["effects"] = {"clearance": {"gap": 0.01, "chains": ["x", "y"]}}
+    d["effects"] = {"clearance": {"backlash": 0.01}, "gravity": {"weight": 12.5}}
     d["joints"] = {"passive_stiffness": 5e6}
     m = vjm.load_model(_write(tmp_path, d))
     assert m.effects == d["effects"]

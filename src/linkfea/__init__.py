@@ -10,10 +10,12 @@
 # the functions that need them, so ``import linkfea`` (and ``vjm``) stays fast.
 # ``compare`` is both a module and the function: importing the function here, after the
 # module, makes ``linkfea.compare`` the function for good.
+from . import checks
 from .compare import Comparison, compare
 from .compliance import Compliance
 from .errors import LinkFeaError, SolverError
 from .pipeline import compute
 from .result import LinkResult, load
 
-__all__ = ["Comparison", "Compliance", "LinkFeaError", "LinkResult", "SolverError", "compare", "compute", "load"]
+__all__ = ["Comparison", "Compliance", "LinkFeaError", "LinkResult", "SolverError", "checks", "compare", "compute",
+           "load"]

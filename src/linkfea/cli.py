@@ -16,6 +16,8 @@ from .io import TWIST, WRENCH
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Link compliance by finite elements: CAD -> P2 tets -> 6x6 compliance at the link's frame.")
 err_console = Console(stderr=True)
+#: Python arguments whose CLI flag is not their name with dashes
+FLAGS = {"epsilon": "--envelope"}
 
 
 @app.callback()
@@ -34,8 +36,10 @@ def matrix_table(M: np.ndarray, title: str, rows, cols) -> Table:
     return t
 
 
-def _fail(msg: str) -> None:
-    print(f"error: {msg}".replace("\n", " "), file=sys.stderr)
+def _fail(msg) -> None:
+    from .checks import cli_message
+
+    print(f"error: {cli_message(msg, FLAGS)}", file=sys.stderr)
     raise typer.Exit(code=2)
 
 
@@ -85,7 +89,7 @@ def compute(
     except LinkFeaError as exc:
         for p in written:
             p.unlink(missing_ok=True)
-        _fail(str(exc))
+        _fail(exc)
     except BaseException:
         for p in written:
             p.unlink(missing_ok=True)
@@ -140,7 +144,7 @@ def compare_cmd(
             rec = run(spec, beams, params=params, mesh_size=mesh_size, mode=mode, out=out, material=material,
                       base=base, tip=tip, progress=lambda msg: status.update(f"[bold]{msg}")).record
     except LinkFeaError as exc:
-        _fail(str(exc))
+        _fail(exc)
     if not quiet:
         t = Table(title=f"{rec['link']}: max principal compliance error vs FEA, % (translation / rotation)")
         for c in ("N", "Euler-Bernoulli", "Timoshenko", "max angle (deg)"):
@@ -189,12 +193,10 @@ def sweep_cmd(
                                                 material=material, base=base, tip=tip, envelope=envelope,
                                                 convergence=convergence or None, mesher=mesher),
                         sample=sample, seed=seed)
-        if workers is not None and workers < 1:
-            raise LinkFeaError(f"--workers must be >= 1, got {workers}")
         rep = run_sweep(sw, out, scheduler=scheduler, workers=workers, memory_limit=memory_limit,
                         retry_failed=retry_failed, plot=plot.split(",") if plot else None, progress=not quiet)
     except LinkFeaError as exc:
-        _fail(str(exc))
+        _fail(exc)
     if not quiet or rep.interrupted:
         n_ok = sum(r["status"] == "ok" for r in rep.rows)
         print(f"{rep.n_designs} designs: {len(rep.skipped)} already done, {len(rep.computed)} computed, "
@@ -210,12 +212,10 @@ def sweep_cmd(
 
 
 def main(argv=None) -> int:
-    """Console entry point (``linkfea``)."""
-    try:
-        app(args=argv, standalone_mode=True)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
+    """Console entry point (``linkfea``): the exit status; a usage error is one ``error:`` line."""
+    from .clirun import run
+
+    return run(app, argv, "linkfea")
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .beammodel import BeamModel, beam_frame, beam_model, link_beam_model, link_extent
+from .checks import ArgumentError, integer
 from .errors import LinkFeaError
 from .materials import get_material
 from .metrics import CLUSTER_TOL, compare_compliance, entry_errors, principal_errors
@@ -136,21 +137,19 @@ class Comparison:
 
 # --------------------------------------------------------------------------- the comparison
 def parse_beams(text) -> tuple:
-    """``"1,2,4,8"`` (or a sequence) -> (1, 2, 4, 8); every N a positive integer."""
+    """``"1,2,4,8"`` (or a sequence) -> (1, 2, 4, 8); every N a whole number > 0."""
     items = [t.strip() for t in text.split(",")] if isinstance(text, str) else list(text)
     out = []
     for t in items:
         try:
-            v = int(t)
-            if isinstance(t, float) and v != t:
-                raise ValueError
-        except (TypeError, ValueError):
-            raise LinkFeaError(f"--beams: {t!r} is not an integer") from None
+            v = integer(int(t) if isinstance(t, str) else t, "beams")
+        except (ValueError, ArgumentError):
+            raise ArgumentError("beams", f"{t!r} is not an integer; give whole numbers > 0, e.g. 1,2,4,8") from None
         if v <= 0:
-            raise LinkFeaError(f"--beams: the number of beams must be > 0, got {v}")
+            raise ArgumentError("beams", f"must be > 0 (numbers of beams), got {v}")
         out.append(v)
     if not out:
-        raise LinkFeaError("--beams: give at least one number of beams, e.g. 1,2,4,8")
+        raise ArgumentError("beams", "must give at least one number of beams, e.g. 1,2,4,8")
     return tuple(sorted(set(out)))
 
 

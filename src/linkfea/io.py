@@ -62,6 +62,24 @@ def write_result(path, res) -> Path:
     return write_json_atomic(path, result_dict(res))
 
 
+#: largest |C K - I| of a result's compliance C and stiffness K (both written at full precision)
+INVERSE_TOL = 1e-6
+
+
+def check_stiffness(K, C: np.ndarray, where: str) -> None:
+    """A stored stiffness ``K`` must be the inverse of the compliance ``C`` it is stored with."""
+    try:
+        K = np.asarray(K, dtype=float)
+    except (TypeError, ValueError):
+        raise LinkFeaError(f"{where} is not a 6x6 matrix of numbers") from None
+    if K.shape != (6, 6) or not np.all(np.isfinite(K)):
+        raise LinkFeaError(f"{where} is not a finite 6x6 matrix")
+    err = float(np.max(np.abs(C @ K - np.eye(6))))
+    if not err <= INVERSE_TOL:
+        raise LinkFeaError(f"{where} contradicts the compliance: |C K - I| = {err:.2g} (> {INVERSE_TOL:g}); "
+                           f"the file was edited or damaged")
+
+
 def read_result(path) -> dict:
     """Read and validate a link result JSON.
 
@@ -71,8 +89,9 @@ def read_result(path) -> dict:
     Raises
     ------
     LinkFeaError
-        Missing file or keys, a compliance that is not a finite, symmetric,
-        positive-definite 6x6 matrix.
+        Missing file or keys (``schema`` included), a compliance that is not a
+        finite, symmetric, positive-definite 6x6 matrix, a stored stiffness
+        that is not its inverse.
     """
     path = Path(path)
     try:
@@ -83,11 +102,16 @@ def read_result(path) -> dict:
         raise LinkFeaError(f"cannot read link result {str(path)!r}: {exc}") from None
     if not isinstance(doc, dict):
         raise LinkFeaError(f"{path}: not a linkfea result (expected a JSON object)")
-    missing = [k for k in ("compliance", "frame", "units") if k not in doc]
+    missing = [k for k in ("schema", "compliance", "frame", "units") if k not in doc]
     if missing:
         raise LinkFeaError(f"{path}: not a linkfea result, missing {', '.join(missing)}")
+    if doc["schema"] != SCHEMA:
+        raise LinkFeaError(f"{path}: schema {doc['schema']!r} is not {SCHEMA!r} (not a result of this linkfea)")
     C = check(doc["compliance"], f"{path}: compliance")
     doc["compliance"] = C
-    doc["stiffness"] = np.linalg.inv(C)
+    K = np.linalg.inv(C)
+    if "stiffness" in doc:
+        check_stiffness(doc["stiffness"], C, f"{path}: stiffness")
+    doc["stiffness"] = K
     doc["frame_obj"] = Frame.from_dict(doc["frame"])
     return doc

@@ -6,11 +6,17 @@ import time
 from pathlib import Path
 from typing import Callable
 
+from . import checks
 from .errors import LinkFeaError
 from .materials import get_material
 from .result import LinkResult
 
 __all__ = ["LinkResult", "compute"]
+
+#: valid ranges of the numeric arguments of :func:`compute` (also ``linkfea sweep``'s options)
+MESH_SIZE = checks.Bounds(0, lo_open=True, unit="mm")
+BLOCK_RATIO = checks.Bounds(1, lo_open=True)
+ENVELOPE = checks.Bounds(0, 0.1, lo_open=True, hi_open=True)
 
 
 def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh", assembler="kernel"):
@@ -89,16 +95,15 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     from .mesh import DEFAULT_EPSILON, default_mesh_size
     from .resources import file_sha256
 
-    epsilon = DEFAULT_EPSILON if epsilon is None else float(epsilon)
+    mesh_size = checks.optional_number(mesh_size, "mesh_size", MESH_SIZE)
+    block_ratio = checks.number(block_ratio, "block_ratio", BLOCK_RATIO)
+    epsilon = DEFAULT_EPSILON if epsilon is None else checks.number(epsilon, "epsilon", ENVELOPE)
 
     say = progress or (lambda msg: None)
     if mode not in MODES:
         raise LinkFeaError(f"unknown mode {mode!r}; use rigid or block")
     if assembler not in ASSEMBLERS:
         raise LinkFeaError(f"unknown assembler {assembler!r}; use kernel or skfem")
-    if mode == "block" and not (isinstance(block_ratio, (int, float)) and math.isfinite(block_ratio)
-                                and block_ratio > 1):
-        raise LinkFeaError(f"block ratio must be a number > 1, got {block_ratio}")
     from .mesh import MESHERS
     from .surface import is_surface
 
@@ -106,8 +111,6 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         mesher = "pytetwild" if is_surface(spec) else "gmsh"
     if mesher not in MESHERS:
         raise LinkFeaError(f"unknown mesher {mesher!r}; use gmsh or pytetwild")
-    if mesh_size is not None and not (math.isfinite(mesh_size) and mesh_size > 0):
-        raise LinkFeaError(f"mesh size must be a positive number of mm, got {mesh_size}")
     t_all = time.perf_counter()
     say("cad")
     t0 = time.perf_counter()

@@ -35,9 +35,11 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from . import checks
 from .atomic import atomic_path, plain, write_text
 from .errors import LinkFeaError
 from .io import TWIST, WRENCH
+from .pipeline import BLOCK_RATIO, ENVELOPE, MESH_SIZE
 from .sweep_budget import DesignProgress, announcement, check_memory_limit, median_seconds, range_count, sweep_size
 
 KEY_VERSION = "linkfea.sweep/1"
@@ -224,6 +226,10 @@ def make_sweep(spec, params: Sequence[str], options: dict | None = None, sample:
     bad = set(given) - set(OPTION_NAMES)
     if bad:
         raise LinkFeaError(f"unknown compute options {sorted(bad)}")
+    seed = checks.optional_integer(seed, "seed", checks.NON_NEGATIVE)
+    for k, bounds in (("mesh_size", MESH_SIZE), ("block_ratio", BLOCK_RATIO), ("envelope", ENVELOPE)):
+        if k in given:  # checked here, not on the workers after the cluster started
+            given[k] = checks.number(given[k], k, bounds)
     # the key holds the effective options: a default left out (or changed in a later version) is spelled out
     options = {**pipeline_defaults(), **given}
     if options.get("mode", "rigid") != "block":
@@ -234,8 +240,7 @@ def make_sweep(spec, params: Sequence[str], options: dict | None = None, sample:
         raise LinkFeaError(f"--param given twice for {sorted({n for n in names if names.count(n) > 1})}")
     _check_names(src, names)
     if sample is not None:
-        if not (isinstance(sample, int) and sample >= 1):
-            raise LinkFeaError(f"--sample must be a whole number >= 1, got {sample}")
+        sample = checks.integer(sample, "sample", checks.Bounds(1))
         if not specs:
             raise LinkFeaError("--sample needs at least one --param to sample")
         sweep_size(sample, len(src_bytes)).check()
@@ -355,9 +360,7 @@ def local_cluster(n_workers: int | None = None, memory_limit="auto"):
     from distributed import LocalCluster
 
     os.environ["PYTHONPATH"] = worker_env()["PYTHONPATH"]  # spawned workers inherit it
-    n = int(n_workers or os.cpu_count() or 1)
-    if n < 1:
-        raise LinkFeaError(f"--workers must be >= 1, got {n_workers}")
+    n = checks.integer(n_workers or os.cpu_count() or 1, "workers", checks.Bounds(1))
     # the workers and the scheduler share the machine's cores: with one worker per core, every CPU
     # second the cluster spends on its own bookkeeping is taken from a design.  A design is seconds
     # of work, so the 10 ms stack sampler of each worker and the 20-100 ms ticks and monitors are
@@ -425,9 +428,9 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
     """
     from .mesh import cache_dir_default
 
+    workers = checks.optional_integer(workers, "workers", checks.Bounds(1))
+    check_memory_limit(memory_limit)
     t_start = time.perf_counter()
-    if client is None and scheduler is None:
-        check_memory_limit(memory_limit)
     out = Path(out)
     rep = SweepReport(n_designs=len(sweep.designs))
     todo = pending(sweep, out, retry_failed)

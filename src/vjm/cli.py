@@ -44,6 +44,8 @@ def _point(text: str, option: str = "--at", sizes=(3, 6)) -> np.ndarray:
         p = np.array([float(v) for v in text.split(",")])
     except ValueError:
         raise VjmError(f"{option} expects numbers x,y,z[,rx,ry,rz] (mm, rad), got {text!r}") from None
+    if not np.all(np.isfinite(p)):
+        raise VjmError(f"{option} expects finite numbers x,y,z[,rx,ry,rz] (mm, rad), got {text!r}")
     if p.shape[0] not in sizes:
         raise VjmError(f"{option} expects {' or '.join(map(str, sizes))} numbers "
                        f"({'x,y,z' if 3 in sizes else ''}{'[,rx,ry,rz]' if 6 in sizes else 'rx,ry,rz'}), "
@@ -97,11 +99,12 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
     from .maps import compute_map, workspace_grid
 
     try:
+        rot = _point(orientation, "--orientation", (3,))
         m = _load(model, foot, leg)
         axes, G, fixed = workspace_grid(m, grid, slice_)
         P = G.reshape(-1, 3)
         if m.dof == 6:  # a 6-dof platform's map is a slice at a fixed orientation
-            P = np.hstack([P, np.broadcast_to(_point(orientation, "--orientation", (3,)), (len(P), 3))])
+            P = np.hstack([P, np.broadcast_to(rot, (len(P), 3))])
         smap = compute_map(m, P, axes, fixed, where=f"{grid}-point grid{' at ' + slice_ if slice_ else ''}")
         smap.save(out)
     except user_errors() as exc:
@@ -163,9 +166,12 @@ def _register_extensions():
 _register_extensions()
 
 
-def main():
-    sys.exit(app())
+def main(argv=None) -> int:
+    """Console entry point (``vjm``): the exit status; a usage error is one ``error:`` line."""
+    from linkfea.clirun import run
+
+    return run(app, argv, "vjm")
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -163,8 +163,13 @@ def evaluate(expr: str, geometry: dict, where: str) -> float:
         raise VjmError(f"{where}: cannot read {expr!r} as an expression") from None
     except (RecursionError, MemoryError):
         raise VjmError(f"{where}: the expression is nested too deeply to read") from None
-    except (ValueError, TypeError, OverflowError) as exc:
-        raise VjmError(f"{where}: {expr!r}: {exc}") from None
+    except VjmError:  # a ValueError already naming ``where``: not to be wrapped a second time
+        raise
+    except OverflowError:
+        raise VjmError(f"{where}: {expr!r} is too large: its value is beyond the largest floating-point "
+                       f"number (about 1.8e308)") from None
+    except (ValueError, TypeError) as exc:
+        raise VjmError(f"{where}: {expr!r} cannot be evaluated ({exc})") from None
     if not math.isfinite(v):
         raise VjmError(f"{where}: {expr!r} is not finite")
     return v

@@ -7,6 +7,7 @@
 >>> issubclass(VjmError, ValueError), issubclass(EquilibriumError, RuntimeError)
 (True, True)
 """
+from linkfea.checks import ArgumentError as _ArgumentError
 
 
 class VjmError(ValueError):
@@ -32,6 +33,11 @@ class VjmWarning(UserWarning):
     precedence over a bundled one of the same name).  The CLI prints it as one ``warning: ...`` line."""
 
 
+class ArgumentError(VjmError, _ArgumentError):
+    """A numeric argument of the wrong type or outside its range (see :mod:`linkfea.checks`):
+    both a :class:`VjmError` and linkfea's ``ArgumentError``, so a CLI can name the flag."""
+
+
 def user_errors():
     """The exceptions a CLI reports as one line: ours, linkfea's (link results, file output), OS errors."""
     from linkfea.errors import LinkFeaError
@@ -40,5 +46,8 @@ def user_errors():
 
 
 def one_line(exc: BaseException) -> str:
-    """The message of ``exc`` on one line (YAML and CSV parsers put newlines in theirs)."""
-    return " ".join(str(exc).split())
+    """The message of ``exc`` on one line (YAML and CSV parsers put newlines in theirs); a bad numeric
+    argument is named by its CLI flag (``--noise-t``), not its Python name."""
+    from linkfea.checks import cli_message
+
+    return cli_message(exc)

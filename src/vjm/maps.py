@@ -26,8 +26,12 @@ from typing import Optional
 import numpy as np
 
 from linkfea.atomic import atomic_path
+from linkfea.checks import Bounds, integer
 
-from .errors import VjmError
+from .errors import ArgumentError, VjmError
+
+#: points per axis of a workspace grid (``vjm map --grid``, ``vjm sweep --grid``)
+GRID = Bounds(2)
 
 #: the two maps: (name, unit)
 MAPS = (("k_tran", "mm/N"), ("k_rot", "rad/(N mm)"))
@@ -73,9 +77,14 @@ def parse_slice(text: str) -> tuple[int, float]:
     """``"z=0"`` -> ``(2, 0.0)``: the fixed axis index and its value in mm."""
     try:
         name, val = text.split("=")
-        return "xyz".index(name.strip()), float(val)
+        k, v = "xyz".index(name.strip()), float(val)
     except ValueError:
-        raise VjmError(f"--slice expects axis=value, e.g. z=0, got {text!r}") from None
+        raise ArgumentError("slice", f"expects axis=value (x, y or z = a finite number of mm), e.g. z=0, "
+                                     f"got {text!r}") from None
+    if not np.isfinite(v):
+        raise ArgumentError("slice", f"expects axis=value (x, y or z = a finite number of mm), e.g. z=0, "
+                                     f"got {text!r}")
+    return k, v
 
 
 def workspace_grid(model, n: int, slice_: Optional[str] = None):
@@ -83,8 +92,7 @@ def workspace_grid(model, n: int, slice_: Optional[str] = None):
 
     The grid spans the architecture's workspace box; ``slice_`` (``"z=0"``) fixes one axis.
     """
-    if n < 2:
-        raise VjmError("--grid must be >= 2")
+    n = integer(n, "grid", GRID, ArgumentError)
     lo, hi = (np.array(v, dtype=float) for v in model.arch.workspace)
     axes = [np.linspace(lo[k], hi[k], n) for k in range(3)]
     fixed = None

@@ -12,7 +12,8 @@ Format (units N, mm, rad; compliances in mm/N, rad/(N mm), order Fx Fy Fz Mx My 
     foot: <link>                      # spring frames: see vjm.models.orthoglide / delta
     leg: <link>
     joints: {passive_stiffness: null} # optional, N mm/rad: elastic passive joints
-    effects: {}                       # optional, kept verbatim (discrepancy workflow)
+    effects: {}                       # optional: fitted additive effects of the discrepancy workflow,
+                                      # e.g. {gravity: {weight: 12.0}}, checked against its effect library
 
 ``<link>`` is exactly one of::
 
@@ -37,6 +38,7 @@ import numpy as np
 import yaml
 
 from linkfea.atomic import plain, write_text
+from linkfea.checks import did_you_mean
 
 from .description import parse_description
 from .errors import VjmError
@@ -163,6 +165,11 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
     geo = d["geometry"]
     if not isinstance(geo, dict):
         raise VjmError("geometry must be a mapping of lengths in mm")
+    keys = ARCHITECTURES[arch].geometry_keys
+    for k in geo:
+        if k not in keys:
+            raise VjmError(f"geometry.{k}: unknown key for {arch}{did_you_mean(str(k), keys)}; "
+                           f"its geometry is {', '.join(keys)} (mm)")
     geo = {k: _num(v, f"geometry.{k}") for k, v in geo.items()}
     act = d["actuator"]
     if not isinstance(act, dict) or "stiffness" not in act:
@@ -189,10 +196,31 @@ def _common(d: dict):
         raise VjmError("joints must be a mapping with only 'passive_stiffness' (N mm/rad)")
     ps = joints.get("passive_stiffness")
     jo = Joints(None if ps is None else _num(ps, "joints.passive_stiffness"))
-    effects = d.get("effects") or {}
+    return actuator, jo, check_effects(d.get("effects") or {})
+
+
+def check_effects(effects) -> dict:
+    """The ``effects:`` mapping, checked against the effect library (vjm.discrepancy.effects): each entry
+    an additive effect with its own parameters, finite and within their ranges."""
+    from .discrepancy import effects as fx
+
     if not isinstance(effects, dict):
         raise VjmError("effects must be a mapping name -> parameters")
-    return actuator, jo, effects
+    out = {}
+    additive = [k for k, e in fx.REGISTRY.items() if e.kind == "additive"]
+    for name, vals in effects.items():
+        if name not in fx.REGISTRY:
+            raise VjmError(f"effects.{name}: unknown effect{did_you_mean(str(name), fx.REGISTRY)}; the effects "
+                           f"written here: {', '.join(additive)}")
+        eff = fx.get(name, f"effects.{name}")
+        if eff.kind != "additive":
+            raise VjmError(f"effects.{name}: {name} changes the model itself; it is written as the model's own "
+                           f"parameters (links, actuator, joints), not under effects")
+        out[name] = fx.check_values(name, vals, None, f"effects.{name}")
+        missing = [p.name for p in eff.param_specs(None) if p.name not in out[name]]
+        if missing:
+            raise VjmError(f"effects.{name}: missing {', '.join(missing)}")
+    return out
 
 
 def _described_from_dict(d: dict, base_dir: str, path: str | None) -> Model:

@@ -25,8 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from linkfea.atomic import atomic_path, plain, write_text
+from linkfea.checks import integer
 
-from .errors import VjmError
+from .errors import ArgumentError, VjmError
+from .maps import GRID
 from .model import Link, Model
 
 ROLES = ("foot", "leg")
@@ -81,8 +83,7 @@ def load_designs(path, role: str = "leg") -> list[LinkDesign]:
 
 def workspace_points(model: Model, n: int) -> np.ndarray:
     """The reachable points (m, 3) of an n x n x n grid of the architecture's workspace box, mm."""
-    if not (isinstance(n, (int, np.integer)) and n >= 2):
-        raise VjmError(f"--grid must be a whole number >= 2, got {n}")
+    n = integer(n, "grid", GRID, ArgumentError)
     lo, hi = (np.asarray(v, dtype=float) for v in model.arch.workspace)
     axes = [np.linspace(lo[k], hi[k], n) for k in range(3)]
     P = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -236,6 +237,7 @@ def candidates_from_args(model: Model, foot=None, leg=None, bar=None) -> dict:
 
 def sweep(model_path, out, grid: int, foot=None, leg=None, bar=None) -> TradeOffs:
     """``vjm sweep``: load the model and the designs, evaluate all combinations, write the outputs."""
+    grid = integer(grid, "grid", GRID, ArgumentError)
     from .modelfile import load_model
 
     model = load_model(os.fspath(model_path))

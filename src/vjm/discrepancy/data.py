@@ -3,7 +3,7 @@
 Two kinds of CSV are accepted (header row required, comma separated):
 
 * **deflections** -- columns ``x,y,z,Fx,Fy,Fz,Mx,My,Mz,dx,dy,dz,rx,ry,rz``
-  and optional ``sigma_t,sigma_r``.  ``x,y,z`` is the commanded end-effector
+  and optional ``sigma_t,sigma_r`` (units: mm, N, N mm, rad).  ``x,y,z`` is the commanded end-effector
   position (mm), ``F``/``M`` the applied wrench at that point (N, N mm),
   ``dx,dy,dz`` the measured displacement (mm) from the nominal rigid unloaded
   position, ``rx,ry,rz`` the measured small rotation (rad).  Rotations (and
@@ -12,8 +12,25 @@ Two kinds of CSV are accepted (header row required, comma separated):
   rotation component; when absent they are estimated from the residuals.
 * **stiffness observations** -- columns ``x,y,z,quantity,value`` with
   ``quantity`` one of ``k_tran`` (mm/N) or ``k_rot`` (rad/(N mm)), and optional
-  ``sigma_rel`` (relative standard deviation of ``value``).  Extra columns
-  (e.g. ``architecture``) are kept as text.
+  ``sigma_rel`` (relative standard deviation of ``value``).  The text columns
+  ``architecture`` (rows for other machines are left out) and ``point`` (a label)
+  are kept.
+
+Files as instruments and spreadsheets write them are read as they are: a UTF-8
+byte-order mark, ``;`` or tab separators (then ``,`` may be the decimal mark),
+header names in any case and with surrounding spaces.  A file that is not
+UTF-8 text is refused with that reason.
+
+Every column must mean something: an unknown column (a misspelt ``sigma_t``,
+an extra ``temperature``) is refused, naming the closest known name, unless its
+name starts with ``meta_`` (metadata carried along as text, never used in the
+fit; e.g. ``meta_operator``, ``meta_temperature``).
+
+Exact duplicate rows are refused: a row pasted twice would count as two
+independent measurements and shrink every uncertainty by sqrt(2).  Genuine
+repeated measurements (same posture and load, different values) are kept and
+used as such (pure error); two repeats that happen to read exactly the same are
+told apart by a ``meta_`` column (e.g. ``meta_run``).
 
 Every error names the file row (1-based, header is row 1) and column.
 """
@@ -23,11 +40,13 @@ import csv
 import io
 import math
 import os
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from linkfea.atomic import write_text
+from linkfea.checks import did_you_mean
 
 from ..errors import VjmError
 from ..resources import data_file
@@ -61,6 +80,8 @@ class Deflections:
     sigma_r: np.ndarray | None = None
     rows: np.ndarray | None = None
     source: str = "<memory>"
+    #: ``meta_`` columns of the file, name -> list of str (carried along, not used)
+    meta: dict = field(default_factory=dict)
 
     @property
     def n(self) -> int:
@@ -122,17 +143,40 @@ def _float(text, source, row, col, required):
     return v
 
 
-def _read_table(path):
-    path = data_file(path)
+def _read_text(path) -> str:
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            text = fh.read()
+        with open(path, "rb") as fh:
+            raw = fh.read()
     except OSError as exc:
         raise VjmError(f"cannot read measurement file {path}: {exc.strerror}") from None
-    lines = [ln for ln in text.splitlines()]
+    name = os.path.basename(str(path))
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise VjmError(f"{name}: the file is UTF-16 text; save it as UTF-8 (CSV UTF-8 in a spreadsheet)")
+    try:
+        return raw.decode("utf-8-sig")  # a byte-order mark (spreadsheets write one) is not part of the header
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise VjmError(f"{name}: row {line}: byte 0x{raw[exc.start]:02x} is not UTF-8 text; save the file as "
+                       f"UTF-8 (CSV UTF-8 in a spreadsheet)") from None
+
+
+def _delimiter(text: str) -> str:
+    """The separator of the header line: ',' unless ';' or a tab splits it into more fields."""
+    for line in text.splitlines():
+        if line.strip() and not line.lstrip().startswith("#"):
+            counts = {d: line.count(d) for d in (",", ";", "\t")}
+            return max(counts, key=lambda d: (counts[d], d == ","))
+    return ","
+
+
+def _read_table(path):
+    """Rows ``(row number, fields)`` of a CSV (comments and blank lines skipped), and its separator."""
+    path = data_file(path)
+    text = _read_text(path)
+    delim = _delimiter(text)
     # keep row numbers aligned with the file: comment lines starting with '#' are skipped
     rows = []
-    reader = csv.reader(io.StringIO(text))
+    reader = csv.reader(io.StringIO(text), delimiter=delim)
     for i, rec in enumerate(reader, start=1):
         if not rec or all(not c.strip() for c in rec):
             continue
@@ -141,8 +185,37 @@ def _read_table(path):
         rows.append((i, [c.strip() for c in rec]))
     if not rows:
         raise VjmError(f"{os.path.basename(str(path))}: file is empty (expected a header row)")
-    del lines
-    return rows
+    return rows, delim
+
+
+#: a number written with a decimal comma (1,5 or -2,5e-3), in a ';' or tab separated file
+_DECIMAL_COMMA = re.compile(r"^([+-]?\d*),(\d+(?:[eE][+-]?\d+)?)$")
+#: every column name a measurement file may hold (matched whatever its case), and the metadata prefix
+KNOWN = POS + WRENCH + TWIST + SIGMA + ("quantity", "value", "sigma_rel", "architecture", "point")
+META = "meta_"
+
+
+def _header(path, hdr_row, header):
+    """Header names in their canonical case (``FX`` -> ``Fx``); ``meta_`` columns kept as written."""
+    canon = {k.lower(): k for k in KNOWN}
+    out = []
+    for h in header:
+        low = h.lower()
+        if low.startswith(META) or low.startswith(QUANTITIES):
+            out.append(META + h[len(META):] if low.startswith(META) else low)
+        else:
+            out.append(canon.get(low, h))
+    return out
+
+
+def _check_columns(path, hdr_row, header, known):
+    """Refuse a column that is neither known for this kind of file nor declared metadata (``meta_``)."""
+    unknown = [h for h in header if h not in known and not h.startswith(META)]
+    if unknown:
+        h = unknown[0]
+        near = did_you_mean(h, known)
+        raise _err(path, hdr_row, h, f"unknown column{near}; known columns: {', '.join(known)}"
+                                     + ("" if near else f"; to carry it along unused, name it {META}{h}"))
 
 
 def read_csv(path) -> Deflections | StiffnessObs:
@@ -153,22 +226,29 @@ def read_csv(path) -> Deflections | StiffnessObs:
     VjmError
         Naming the row and column of the first problem found.
     """
-    rows = _read_table(path)
+    rows, delim = _read_table(path)
     hdr_row, header = rows[0]
+    header = _header(path, hdr_row, header)
     if len(set(header)) != len(header):
         dup = [h for h in header if header.count(h) > 1][0]
         raise _err(path, hdr_row, dup, "duplicate column name")
     body = rows[1:]
+    if delim != ",":  # a ';' or tab separated file may use ',' as its decimal mark
+        body = [(r, [_DECIMAL_COMMA.sub(r"\1.\2", c) for c in rec]) for r, rec in body]
     if "quantity" in header:
+        _check_columns(path, hdr_row, header, STIFF + ("sigma_rel", "architecture", "point"))
         return _parse_stiffness(path, header, hdr_row, body)
     wide = [h for h in header if h.startswith(QUANTITIES)]
     if wide and not any(c in header for c in WRENCH):
+        _check_columns(path, hdr_row, header, POS + tuple(wide) + ("architecture", "point"))
         return _parse_stiffness_wide(path, header, hdr_row, body, wide)
     missing = [c for c in POS + WRENCH + TWIST if c not in header]
     if missing:
         raise _err(path, hdr_row, missing[0],
                    f"missing column(s) {', '.join(missing)}; expected "
-                   f"{','.join(POS + WRENCH + TWIST)} [+ sigma_t,sigma_r] or {','.join(STIFF)}")
+                   f"{','.join(POS + WRENCH + TWIST)} [+ sigma_t,sigma_r] or {','.join(STIFF)}"
+                   + _dialect_hint(header))
+    _check_columns(path, hdr_row, header, POS + WRENCH + TWIST + SIGMA)
     if not body:
         raise _err(path, hdr_row + 1, None, "no data rows")
     col = {h: i for i, h in enumerate(header)}
@@ -181,7 +261,8 @@ def read_csv(path) -> Deflections | StiffnessObs:
     rownums = np.empty(n, dtype=int)
     for k, (r, rec) in enumerate(body):
         if len(rec) != len(header):
-            raise _err(path, r, None, f"has {len(rec)} fields, header has {len(header)} (malformed CSV)")
+            raise _err(path, r, None, f"has {len(rec)} fields, header has {len(header)} (malformed CSV"
+                                      f"{'; a decimal comma needs ; as the separator' if delim == ',' else ''})")
         rownums[k] = r
         for j, c in enumerate(POS):
             P[k, j] = _float(rec[col[c]], path, r, c, True)
@@ -202,7 +283,31 @@ def read_csv(path) -> Deflections | StiffnessObs:
     if zero.all():
         raise _err(path, int(rownums[0]), "Fx",
                    "all applied loads are zero in every row: deflections carry no stiffness information")
-    return Deflections(P, W, T, sig.get("sigma_t"), sig.get("sigma_r"), rownums, str(path))
+    meta = {h: [rec[col[h]] for _, rec in body] for h in header if h.startswith(META)}
+    _refuse_duplicates(path, rownums, [P, W, T] + list(sig.values()), meta)
+    return Deflections(P, W, T, sig.get("sigma_t"), sig.get("sigma_r"), rownums, str(path), meta)
+
+
+def _dialect_hint(header) -> str:
+    """Why no expected column was found, when the header itself shows it (a lone field holding separators)."""
+    if len(header) == 1 and any(d in header[0] for d in ";\t|"):
+        return f" (the header is one field, {header[0][:40]!r}: separate columns with , or ;)"
+    return ""
+
+
+def _refuse_duplicates(path, rows, arrays, meta) -> None:
+    """Exact duplicate rows (every column equal, blanks included) are an error naming both rows."""
+    A = np.hstack([np.asarray(a, float).reshape(len(rows), -1) for a in arrays])
+    A = np.where(np.isnan(A), np.inf, A)  # blank == blank
+    keys = {}
+    for k in range(len(rows)):
+        key = (A[k].tobytes(), tuple(v[k] for v in meta.values()))
+        if key in keys:
+            raise _err(path, int(rows[k]), None,
+                       f"repeats row {int(rows[keys[key]])} exactly (every column equal): a row pasted twice would "
+                       f"count as two measurements and shrink the uncertainties; delete it, or, for genuine repeated "
+                       f"measurements that read the same, tell them apart in a {META} column (e.g. {META}run)")
+        keys[key] = k
 
 
 def _parse_stiffness(path, header, hdr_row, body):

@@ -12,7 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from ..errors import VjmError
+from linkfea.checks import Bounds, integer, number
+
+from ..errors import ArgumentError, VjmError
 from . import effects as fx
 from . import modelops as mo
 from . import observe
@@ -30,6 +32,7 @@ from .fit.select import (
     swap_alternatives,
 )
 from .locate import localize
+from .plausible import usable_data, workspace_flags
 from .predict import (
     CALIBRATION,
     Context,
@@ -38,12 +41,23 @@ from .predict import (
     calibration_term,
     deflection_problem,
     stiffness_problem,
-    unique_postures,
 )
 from .report import plot_before_after, plot_residuals, write_report_dir
 from .summary import alternative_lines, verdict_line
 
 DEFAULT_ALPHA = 0.01
+#: valid ranges of diagnose's numeric arguments: a level of 0 or 1 makes every test pass or fail
+ALPHA = Bounds(0, 1, lo_open=True, hi_open=True)
+FOLDS = Bounds(2)
+MAX_EFFECTS = Bounds(1)
+SUGGEST = Bounds(0)
+
+
+def check_arguments(alpha=DEFAULT_ALPHA, folds=5, max_effects=3, suggest=0):
+    """The numeric arguments of :func:`diagnose`, checked (type, finiteness, range): ArgumentError naming one."""
+    return (number(alpha, "alpha", ALPHA, ArgumentError), integer(folds, "folds", FOLDS, ArgumentError),
+            integer(max_effects, "max_effects", MAX_EFFECTS, ArgumentError),
+            integer(suggest, "suggest", SUGGEST, ArgumentError))
 
 
 @dataclass(frozen=True)
@@ -95,42 +109,6 @@ class Diagnosis:
         return f"<Diagnosis {self.verdict}: named {self.named or 'nothing'}>"
 
 
-def _check_reachable(model, data):
-    """Unique postures, index; raises naming the first unreachable row."""
-    U, idx = unique_postures(data.P)
-    try:
-        q = mo.actuator_coords(model, U)
-    except VjmError:
-        q = None
-    if q is None or not np.all(np.isfinite(q)):
-        for k in range(data.n):
-            try:
-                qq = mo.actuator_coords(model, data.P[k:k + 1])
-                if not np.all(np.isfinite(qq)):
-                    raise VjmError("no finite inverse kinematics")
-            except VjmError as exc:
-                row = int(data.rows[k]) if data.rows is not None else k + 2
-                raise VjmError(f"{os.path.basename(data.source)}: row {row}, columns 'x,y,z': posture "
-                               f"({data.P[k, 0]:g}, {data.P[k, 1]:g}, {data.P[k, 2]:g}) mm is unreachable: {exc}") from None
-        raise VjmError(f"{os.path.basename(data.source)}: a posture is unreachable")
-    return U, idx, q
-
-
-def _rows_for_architecture(data: StiffnessObs, model) -> StiffnessObs:
-    """Keep the rows of a stiffness table whose ``architecture`` column names the model's (if any)."""
-    arch = data.extra.get("architecture")
-    if arch is None:
-        return data
-    keep = np.array([a.strip() == model.architecture for a in arch])
-    if not keep.any():
-        raise VjmError(f"{os.path.basename(data.source)}: column 'architecture': no row for "
-                       f"{model.architecture} (found {', '.join(sorted(set(arch)))})")
-    ex = {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.extra.items()}
-    return StiffnessObs(data.P[keep], data.quantity[keep], data.value[keep],
-                        None if data.sigma_rel is None else data.sigma_rel[keep],
-                        None if data.rows is None else data.rows[keep], data.source, ex)
-
-
 def _candidates(model, data_kind, names=None):
     names = list(fx.REGISTRY) if names is None else list(names)
     cands, skipped = [], {}
@@ -169,10 +147,9 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     suggest : number of (posture, load) rows to suggest measuring next (0: none).
     forces_only : suggest force loads only (a rig that cannot apply torques).
     """
+    alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
     kind = "stiffness" if isinstance(data, StiffnessObs) else "deflection"
-    if kind == "stiffness":
-        data = _rows_for_architecture(data, model)
-    U, idx, q = _check_reachable(model, data)
+    data, U, idx, q = usable_data(model, data)  # the model's rows, reachable, in plausible units
     W = data.W if kind == "deflection" else np.zeros((data.n, 6))
     ctx = Context(model, U, idx, W)
     cands, skipped = _candidates(model, kind, effects)
@@ -383,7 +360,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
             cand_rep[nm]["fixed"] = {specs[i].name: float(specs[i].start) for i in ts.fixed}
 
     conf = _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals)
-    flags = _flags(prob, sel, final, cand_rep)
+    flags = _flags(prob, sel, final, cand_rep) + workspace_flags(model, data)
     for k, v in cal_held.items():
         flags.append(f"calibration {k} held at {v:g}: on this data it cannot be told apart from "
                      f"{', '.join(p.name for p in prob.terms[CALIBRATION].params)}")
@@ -806,6 +783,7 @@ def write_diagnosis(dg: Diagnosis, out_dir) -> None:
 
 def run(model_path, data_path, out_dir, **kw) -> Diagnosis:
     """Load, diagnose and write: the body of ``vjm diagnose``."""
+    check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")})
     model = mo.load_model(model_path)
     data = read_csv(data_path)
     dg = diagnose(model, data, model_name=os.path.basename(str(model_path)), **kw)

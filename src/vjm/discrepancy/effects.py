@@ -341,10 +341,40 @@ class GeometricNonlinearity(Effect):
         return theta[0] * ctx.nonlinear_delta()
 
 
-def get(name: str) -> Effect:
+def get(name: str, where: str = "effect") -> Effect:
+    """The registered effect ``name``; a VjmError naming the closest known name otherwise."""
+    from linkfea.checks import did_you_mean
+
     from ..errors import VjmError
 
     try:
         return REGISTRY[name]
-    except KeyError:
-        raise VjmError(f"unknown effect '{name}'; known: {', '.join(REGISTRY)}") from None
+    except (KeyError, TypeError):
+        raise VjmError(f"{where}: unknown effect {name!r}{did_you_mean(str(name), REGISTRY)}; "
+                       f"known: {', '.join(REGISTRY)}") from None
+
+
+def check_values(name: str, values, model, where: str) -> dict:
+    """``{param: value}`` of effect ``name``, checked against its parameters: known names, finite
+    numbers within each parameter's range.  VjmError naming ``where`` (and the parameter) otherwise."""
+    from linkfea.checks import ArgumentError, Bounds, did_you_mean, number
+
+    from ..errors import VjmError
+
+    eff = get(name, where)
+    if not isinstance(values, dict):
+        raise VjmError(f"{where}: expected a mapping parameter -> value, got {values!r}")
+    specs = {p.name: p for p in eff.param_specs(model)}
+    out = {}
+    for k, v in values.items():
+        if k not in specs:
+            raise VjmError(f"{where}: unknown parameter {k!r} of {name}{did_you_mean(str(k), specs)}; "
+                           f"known: {', '.join(specs)}")
+        p = specs[k]
+        rng = Bounds(float(p.lower) if np.isfinite(p.lower) else None,
+                     float(p.upper) if np.isfinite(p.upper) else None, unit=p.unit)
+        try:
+            out[k] = number(v, f"{where}.{k}", rng)
+        except ArgumentError as exc:
+            raise VjmError(str(exc)) from None
+    return out

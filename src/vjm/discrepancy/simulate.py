@@ -24,7 +24,9 @@ import os
 
 import numpy as np
 
-from ..errors import VjmError
+from linkfea.checks import NON_NEGATIVE, Bounds, integer, number, optional_number
+
+from ..errors import ArgumentError, VjmError
 from . import effects as fx
 from . import modelops as mo
 from .data import Deflections
@@ -34,7 +36,7 @@ from .predict import Context, unique_postures
 def parse_effect(spec: str):
     """``NAME[:param=value,...]`` -> (name, {param: value})."""
     name, _, rest = spec.partition(":")
-    eff = fx.get(name.strip())
+    eff = fx.get(name.strip(), f"--effect {spec}")
     vals = {}
     for item in filter(None, (s.strip() for s in rest.split(","))):
         k, eq, v = item.partition("=")
@@ -50,10 +52,7 @@ def parse_effect(spec: str):
 def _effect_theta(model, name, vals):
     eff = fx.get(name)
     specs = eff.param_specs(model)
-    known = {p.name for p in specs}
-    bad = set(vals) - known
-    if bad:
-        raise VjmError(f"effect {name}: unknown parameter(s) {', '.join(sorted(bad))}; known: {', '.join(sorted(known))}")
+    vals = fx.check_values(name, vals, model, f"effect {name}")
     missing = [p.name for p in specs if p.name not in vals]
     # a multi-parameter effect may leave some parameters at their null (e.g. a foot that only bends)
     if missing and (len(missing) == len(specs)):
@@ -101,12 +100,12 @@ def design_poses(model, spec: str, rng) -> np.ndarray:
     lo, hi = mo.workspace_box(model)
     kind, _, arg = spec.partition(":")
     if kind == "grid":
-        n = _int(arg, spec)
+        n = _int(arg, spec, "poses")
         ax = [np.linspace(lo[i], hi[i], n) for i in range(3)]
         P = np.stack(np.meshgrid(*ax, indexing="ij"), -1).reshape(-1, 3)
         P = P[_reachable(model, P)]
     elif kind == "random":
-        n = _int(arg, spec)
+        n = _int(arg, spec, "poses")
         P = np.empty((0, 3))
         for _ in range(20):
             Q = lo + (hi - lo) * rng.random((2 * n, 3))
@@ -117,9 +116,9 @@ def design_poses(model, spec: str, rng) -> np.ndarray:
     elif os.path.isfile(spec):
         P = _read_cols(spec, ["x", "y", "z"])
     else:
-        raise VjmError(f"--poses {spec}: expected grid:N, random:N or a CSV file with columns x,y,z")
+        raise ArgumentError("poses", f"{spec}: expected grid:N, random:N or a CSV file with columns x,y,z")
     if len(P) == 0:
-        raise VjmError(f"--poses {spec}: no reachable posture")
+        raise ArgumentError("poses", f"{spec}: no reachable posture")
     return P
 
 
@@ -128,8 +127,8 @@ def design_loads(spec: str, n_poses: int, rng) -> np.ndarray:
     kind, _, arg = spec.partition(":")
     if kind == "axes":
         parts = arg.split(":")
-        F = _num(parts[0], spec)
-        M = _num(parts[1], spec) if len(parts) > 1 else 0.0
+        F = _num(parts[0], spec, "loads")
+        M = _num(parts[1], spec, "loads") if len(parts) > 1 else 0.0
         L = [s * F * np.eye(6)[i] for i in range(3) for s in (1, -1)]
         if M:
             L += [s * M * np.eye(6)[i] for i in range(3, 6) for s in (1, -1)]
@@ -137,8 +136,8 @@ def design_loads(spec: str, n_poses: int, rng) -> np.ndarray:
     if kind == "random":
         parts = arg.split(":")
         if len(parts) != 2:
-            raise VjmError(f"--loads {spec}: expected random:N:F")
-        k, F = _int(parts[0], spec), _num(parts[1], spec)
+            raise ArgumentError("loads", f"{spec}: expected random:N:F")
+        k, F = _int(parts[0], spec, "loads"), _num(parts[1], spec, "loads")
         d = rng.standard_normal((n_poses, k, 3))
         d /= np.linalg.norm(d, axis=2, keepdims=True)
         out = np.zeros((n_poses, k, 6))
@@ -147,24 +146,27 @@ def design_loads(spec: str, n_poses: int, rng) -> np.ndarray:
     if os.path.isfile(spec):
         L = _read_cols(spec, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
         return np.broadcast_to(L, (n_poses,) + L.shape).copy()
-    raise VjmError(f"--loads {spec}: expected axes:F[:M], random:N:F or a CSV file with columns Fx..Mz")
+    raise ArgumentError("loads", f"{spec}: expected axes:F[:M], random:N:F or a CSV file with columns Fx..Mz")
 
 
-def _int(s, spec):
+def _int(s, spec, arg):
     try:
         v = int(s)
     except ValueError:
-        raise VjmError(f"'{spec}': '{s}' is not an integer") from None
+        raise ArgumentError(arg, f"{spec}: {s!r} is not a whole number") from None
     if v < 1:
-        raise VjmError(f"'{spec}': count must be >= 1")
+        raise ArgumentError(arg, f"{spec}: the count must be a whole number >= 1, got {v}")
     return v
 
 
-def _num(s, spec):
+def _num(s, spec, arg):
     try:
-        return float(s)
+        v = float(s)
     except ValueError:
-        raise VjmError(f"'{spec}': '{s}' is not a number") from None
+        raise ArgumentError(arg, f"{spec}: {s!r} is not a number") from None
+    if not np.isfinite(v):
+        raise ArgumentError(arg, f"{spec}: {s!r} is not a finite number")
+    return v
 
 
 def _same_file(poses: str, loads: str) -> bool:
@@ -185,11 +187,21 @@ def true_model(model, effects):
     return model, add
 
 
+#: valid ranges of the noise sigmas (mm, rad) and the random seed
+NOISE_T = Bounds(0, unit="mm")
+NOISE_R = Bounds(0, unit="rad")
+
+
+def check_arguments(noise_t, noise_r, seed):
+    """The numeric arguments of :func:`simulate`, checked (type, finiteness, range): ArgumentError naming one."""
+    return (number(noise_t, "noise_t", NOISE_T, ArgumentError),
+            optional_number(noise_r, "noise_r", NOISE_R, ArgumentError),
+            integer(seed, "seed", NON_NEGATIVE, ArgumentError))
+
+
 def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: int) -> Deflections:
     """Noisy deflections of ``model`` with hidden ``effects`` at postures P (n,3) under wrenches W (n,6)."""
-    if not (np.isfinite(noise_t) and noise_t >= 0) or \
-            (noise_r is not None and not (np.isfinite(noise_r) and noise_r >= 0)):
-        raise VjmError(f"noise sigmas must be finite and >= 0, got --noise-t {noise_t}, --noise-r {noise_r}")
+    noise_t, noise_r, seed = check_arguments(noise_t, noise_r, seed)
     if not np.all(np.isfinite(W)):
         raise VjmError("loads must be finite numbers")
     if not np.any(W):
@@ -219,6 +231,7 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
     """Body of ``vjm simulate``: design, simulate, write the CSV atomically."""
     from .data import write_deflections
 
+    check_arguments(noise_t, noise_r, seed)
     model = mo.load_model(model_path)
     effects = [parse_effect(s) for s in effect_specs]
     rng = np.random.default_rng([seed, 1])
@@ -227,7 +240,7 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
         P = _read_cols(poses, ["x", "y", "z"])
         W = _read_cols(loads, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
         if len(P) == 0:
-            raise VjmError(f"--poses {poses}: no data rows")
+            raise ArgumentError("poses", f"{poses}: no data rows")
         bad = ~_reachable(model, P)
         if bad.any():
             raise VjmError(f"{os.path.basename(poses)}: row {int(np.argmax(bad)) + 2}, columns 'x,y,z': posture "

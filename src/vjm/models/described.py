@@ -97,7 +97,9 @@ class Described(Architecture):
         if mobility != desc.dof:
             raise VjmError(f"platform.dof is {desc.dof}, but with the actuators free the chains let the platform "
                            f"move in {mobility} independent directions at the seed posture "
-                           f"{_fmt(X0, 6)}; set platform.dof to {mobility} or check the chains")
+                           f"{_fmt(X0, 6)}; " + (f"set platform.dof to {mobility} or check the chains"
+                                                 if mobility in (3, 6) else
+                                                 "check the chains (a platform has 3 or 6 dof)"))
 
     # -- chains -----------------------------------------------------------
     def chains(self, model):

@@ -1,0 +1,290 @@
+"""The bad-input table: every bad input tried on ``linkfea`` and ``vjm``, and what it must get.
+
+One :class:`Case` per line of :data:`CASES`: the command line, the files it needs (made on the fly in an
+empty folder, the command's working directory) and a fragment of the one ``error:`` line expected.  Every
+case must exit with status 2, print exactly one ``error:`` line on stderr and no traceback, repeat no
+phrase, and leave the folder as it was.  ``tests/test_bad_inputs.py`` checks them; ``docs/tools/
+bad_inputs_table.py`` writes ``docs/bad_inputs.md`` from the same list.
+
+Placeholders in the command: ``{puu}``, ``{prpar}``, ``{delta}``, ``{linear}`` (bundled model files).
+Adding a case is one line: ``Case("18.x", "vjm ... --flag value", "fragment", {"file.csv": TEXT})``.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import shlex
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PLACES = {"puu": ROOT / "data/orthoglide/puu.yaml", "prpar": ROOT / "data/orthoglide/prpar.yaml",
+          "delta": ROOT / "data/orthoglide/delta.yaml", "linear": ROOT / "data/machines/linear_delta.yaml"}
+
+
+@dataclass(frozen=True)
+class Case:
+    issue: str      # where the case comes from (issue.item)
+    command: str    # "linkfea ..." or "vjm ...", with {puu}-style placeholders
+    expect: str     # a fragment of the error line
+    files: dict = field(default_factory=dict)  # name -> text written before the run ("encoding": its codec)
+    note: str = ""  # what the files hold, for the table (default: their first lines)
+
+    @property
+    def argv(self) -> list[str]:
+        return shlex.split(self.command.format(**{k: str(v) for k, v in PLACES.items()}))
+
+
+@dataclass(frozen=True)
+class Outcome:
+    status: int
+    stderr: str
+    stdout: str
+    changed: list  # files created, changed or removed in the folder
+
+
+# ------------------------------------------------------------------ files the cases use
+
+HDR = "x,y,z,Fx,Fy,Fz,Mx,My,Mz,dx,dy,dz,rx,ry,rz"
+
+
+def _rows(scale_t=1.0, scale_r=1.0, rotations=False) -> list[str]:
+    """Deflections of the 3-PUU at its isotropic posture under 100 N along each axis (and 10 N m about
+    each axis with ``rotations``), computed with the bundled model: measured in mm and rad, times the scales."""
+    import numpy as np
+
+    import vjm
+
+    C = vjm.load_model(PLACES["puu"]).stiffness([0.0, 0.0, 0.0]).C
+    loads = [100.0 * e for e in np.eye(6)[:3]] + ([1e4 * e for e in np.eye(6)[3:]] if rotations else [])
+    out = []
+    for w in loads:
+        t = np.round(C @ w, 12) + 0.0  # no round-off dust (6e-18) in the table
+        rot = ",".join(f"{scale_r * v:.6g}" for v in t[3:]) if rotations else ",,"
+        out.append("0,0,0," + ",".join(f"{v:g}" for v in w) + "," + ",".join(f"{scale_t * v:.6g}" for v in t[:3])
+                   + "," + rot)
+    return out
+
+
+ROWS = _rows()
+GOOD = "\n".join([HDR] + ROWS) + "\n"
+MICRONS = "\n".join([HDR] + _rows(scale_t=1000.0)) + "\n"          # translations in µm
+DEGREES = "\n".join([HDR] + _rows(rotations=True, scale_r=180 / 3.141592653589793)) + "\n"  # rotations in degrees
+
+
+def _csv(header_extra="", row_extra="", rows=ROWS):
+    return "\n".join([HDR + header_extra] + [r + row_extra for r in rows]) + "\n"
+
+
+def _model(**changes) -> str:
+    """puu.yaml with top-level keys replaced (YAML text)."""
+    import yaml
+
+    with open(PLACES["puu"], encoding="utf-8") as fh:
+        d = yaml.safe_load(fh)
+    d.update(changes)
+    return yaml.safe_dump(d, sort_keys=False)
+
+
+def _linear(old: str, new: str) -> str:
+    text = PLACES["linear"].read_text(encoding="utf-8")
+    assert old in text
+    return text.replace(old, new)
+
+
+C_DIAG = [1e-4, 1e-4, 2e-4, 1e-7, 1e-7, 2e-7]
+
+
+def _result(**changes) -> str:
+    """A linkfea result document (diagonal compliance), with keys replaced or removed (value None)."""
+    import numpy as np
+
+    doc = {"schema": "linkfea.result/1", "compliance": np.diag(C_DIAG).tolist(),
+           "stiffness": np.diag(1 / np.array(C_DIAG)).tolist(),
+           "frame": {"origin": [0, 0, 0], "x_axis": [1, 0, 0], "y_axis": [0, 1, 0], "z_axis": [0, 0, 1]},
+           "units": {"compliance": "mm/N, rad/(N mm)"}}
+    doc.update(changes)
+    return json.dumps({k: v for k, v in doc.items() if v is not None})
+
+
+#: a machine description whose chains leave the platform no motion (mobility 0)
+LOCKED = """name: three sliders
+geometry: {a: 10.0}
+actuator: {stiffness: 1000.0}
+platform: {dof: 3, seed: [0, 0, 0], workspace: [[-10, -10, -10], [10, 10, 10]]}
+chains:
+  - {name: cx, transforms: [Tx(q0) actuated]}
+  - {name: cy, transforms: [Ty(q0) actuated]}
+  - {name: cz, transforms: [Tz(q0) actuated]}
+"""
+
+# ------------------------------------------------------------------ the cases
+D = "vjm diagnose {puu} m.csv --out rep"
+S = "vjm simulate {puu} --out s.csv"
+CASES = [
+    # 18.2: numeric options, vjm
+    Case("18.2", D + " --alpha 0", "--alpha must be in (0, 1), got 0", {"m.csv": GOOD}),
+    Case("18.2", D + " --alpha -1", "--alpha must be in (0, 1), got -1", {"m.csv": GOOD}),
+    Case("18.2", D + " --alpha nan", "--alpha must be a finite number in (0, 1), got nan", {"m.csv": GOOD}),
+    Case("18.2", D + " --alpha 2", "--alpha must be in (0, 1), got 2", {"m.csv": GOOD}),
+    Case("18.2", D + " --alpha 1", "--alpha must be in (0, 1), got 1", {"m.csv": GOOD}),
+    Case("18.2", D + " --alpha abc", "Invalid value for '--alpha'", {"m.csv": GOOD}),
+    Case("18.2", D + " --suggest -1", "'--suggest'", {"m.csv": GOOD}),
+    Case("18.2", "vjm stiffness {puu} --at nan,0,0", "--at expects finite numbers"),
+    Case("18.2", "vjm stiffness {puu} --at 1e999,0,0", "--at expects finite numbers"),
+    Case("18.2", "vjm map {puu} --grid 1 --out map", "--grid must be a whole number >= 2, got 1"),
+    Case("18.2", "vjm map {puu} --grid 2.5 --out map", "Invalid value for '--grid'"),
+    Case("18.2", "vjm map {puu} --slice z=nan --out map", "--slice expects axis=value"),
+    Case("18.2", "vjm map {puu} --orientation nan,0,0 --out map", "--orientation expects finite numbers"),
+    Case("18.2", "vjm sweep {puu} --grid 1 --leg leg.json --out sw", "--grid must be a whole number >= 2, got 1"),
+    Case("18.2", S + " --noise-t -1", "--noise-t must be >= 0 mm, got -1"),
+    Case("18.2", S + " --noise-t nan", "--noise-t must be a finite number >= 0 mm, got nan"),
+    Case("18.2", S + " --noise-r -1e-6", "--noise-r must be >= 0 rad, got -1e-06"),
+    Case("18.2", S + " --seed -1", "--seed must be a whole number >= 0, got -1"),
+    Case("18.2", S + " --poses grid:0", "--poses grid:0: the count must be a whole number >= 1, got 0"),
+    Case("18.2", S + " --poses random:x", "--poses random:x: 'x' is not a whole number"),
+    Case("18.2", S + " --loads axes:inf", "--loads axes:inf: 'inf' is not a finite number"),
+    Case("18.2", S + " --loads axes:nan", "--loads axes:nan: 'nan' is not a finite number"),
+    Case("18.2", S + " --loads random:0:100", "--loads random:0:100: the count must be a whole number >= 1"),
+    Case("18.2", S + " --effect gravity:weight=-5", "effect gravity.weight must be in [0, 100000] N, got -5"),
+    Case("18.2", S + " --effect gravity:weight=nan", "effect gravity.weight must be a finite number"),
+    Case("18.2", S + " --effect gravty:weight=5", "unknown effect 'gravty' (did you mean 'gravity'?)"),
+    Case("18.2", S + " --effect clearance:gap=0.01", "unknown parameter 'gap' of clearance; known: backlash"),
+    # 18.2: numeric options, linkfea (checked before the CAD is built)
+    Case("18.2", "linkfea compute bar --mesh-size 0", "--mesh-size must be > 0 mm, got 0"),
+    Case("18.2", "linkfea compute bar --mesh-size -2", "--mesh-size must be > 0 mm, got -2"),
+    Case("18.2", "linkfea compute bar --mesh-size nan", "--mesh-size must be a finite number > 0 mm, got nan"),
+    Case("18.2", "linkfea compute bar --mesh-size inf", "--mesh-size must be a finite number > 0 mm, got inf"),
+    Case("18.2", "linkfea compute bar --mesh-size abc", "Invalid value for '--mesh-size'"),
+    Case("18.2", "linkfea compute bar --mode block --block-ratio 0.5", "--block-ratio must be > 1, got 0.5"),
+    Case("18.2", "linkfea compute bar --block-ratio nan", "--block-ratio must be a finite number > 1, got nan"),
+    Case("18.2", "linkfea compute bar --envelope 0", "--envelope must be in (0, 0.1), got 0"),
+    Case("18.2", "linkfea compute bar --envelope 0.5", "--envelope must be in (0, 0.1), got 0.5"),
+    Case("18.2", "linkfea compute bar --envelope nan", "--envelope must be a finite number in (0, 0.1), got nan"),
+    Case("18.2", "linkfea compare bar --beams 0 --out cmp", "--beams must be > 0 (numbers of beams), got 0"),
+    Case("18.2", "linkfea compare bar --beams 1.5 --out cmp", "--beams '1.5' is not an integer"),
+    Case("18.2", "linkfea compare bar --mesh-size nan --out cmp", "--mesh-size must be a finite number > 0 mm"),
+    Case("18.2", "linkfea sweep bar -p length=100,120 --sample 0 --out sw", "--sample must be a whole number >= 1"),
+    Case("18.2", "linkfea sweep bar -p length=100:120 --sample 3 --seed -1 --out sw",
+         "--seed must be a whole number >= 0, got -1"),
+    Case("18.2", "linkfea sweep bar -p length=100,120 --workers 0 --out sw",
+         "--workers must be a whole number >= 1, got 0"),
+    Case("18.2", "linkfea sweep bar -p length=100,120 --mesh-size -1 --out sw", "--mesh-size must be > 0 mm, got -1"),
+    Case("18.2", "linkfea sweep bar -p length=100,120 --envelope 1 --out sw", "--envelope must be in (0, 0.1), got 1"),
+    Case("18.2", "linkfea sweep bar -p length=100,120 --memory-limit abc --out sw",
+         "--memory-limit: cannot read 'abc'; use auto, 0 (no limit) or a size such as 4GB"),
+    Case("18.2", "linkfea sweep bar -p length=100,120 --memory-limit -4GB --out sw",
+         "--memory-limit must be auto, 0 (no limit) or a positive size such as 4GB, got '-4GB'"),
+    Case("18.2", "linkfea compute bar --mesh-sise 3", "No such option: --mesh-sise"),
+    # 18.3: measurement files
+    Case("18.3", D, "column 'temperature': unknown column; known columns: x, y, z,",
+         {"m.csv": _csv(",temperature", ",21.5")}),
+    Case("18.3", D, "column 'sigm_t': unknown column (did you mean 'sigma_t'?)",
+         {"m.csv": _csv(",sigm_t", ",0.001")}),
+    Case("18.3", D, "column 'Sigma-r': unknown column (did you mean 'sigma_r'?)",
+         {"m.csv": _csv(",Sigma-r", ",1e-6")}),
+    Case("18.3", D, "row 3: repeats row 2 exactly", {"m.csv": "\n".join([HDR, ROWS[0], ROWS[0], ROWS[1]]) + "\n"}),
+    Case("18.3", D, "the measured translations are 1e+03 x the model's", {"m.csv": MICRONS}),
+    Case("18.3", D, "check the units (mm for translations", {"m.csv": MICRONS}),
+    Case("18.3", D, "the measured rotations are", {"m.csv": DEGREES}),
+    Case("18.3", D, "the file is UTF-16 text; save it as UTF-8", {"m.csv": "\ufeff" + GOOD, "encoding": "utf-16"}),
+    Case("18.3", D, "row 1: byte 0xb0 is not UTF-8 text", {"m.csv": HDR.replace("x,", "x°,", 1) + "\n" + ROWS[0],
+                                                          "encoding": "latin-1"}),
+    Case("18.3", D, "the header is one field", {"m.csv": GOOD.replace(",", "|")}),
+    Case("18.3", D, "has 16 fields, header has 15 (malformed CSV; a decimal comma needs ; as the separator)",
+         {"m.csv": "\n".join([HDR, "0,0,0,100,0,0,0,0,0,0,028,0,0,,,"]) + "\n"}),
+    Case("18.9", D, "row 3, columns 'x,y,z': pose (500, 0, 0) mm is unreachable: the y leg",
+         {"m.csv": "\n".join([HDR, ROWS[0], "500,0,0,100,0,0,0,0,0,0.02,0,0,,,", ROWS[1]]) + "\n"}),
+    # 18.4: model files and link results
+    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.gravty: unknown effect (did you mean 'gravity'?); the effects written here: gravity,",
+         {"m.yaml": _model(effects={"gravty": {"weight": 10.0}})}, "puu.yaml with effects: {gravty: {weight: 10}}"),
+    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.gravity.weight must be in [0, 100000] N, got -10",
+         {"m.yaml": _model(effects={"gravity": {"weight": -10.0}})}, "puu.yaml with effects: {gravity: {weight: -10}}"),
+    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.clearance.backlash must be in [0, 1] mm, got 50",
+         {"m.yaml": _model(effects={"clearance": {"backlash": 50.0}})}, "puu.yaml with effects: {clearance: {backlash: 50}}"),
+    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.clearance: unknown parameter 'gap' of clearance",
+         {"m.yaml": _model(effects={"clearance": {"gap": 0.01}})}, "puu.yaml with effects: {clearance: {gap: 0.01}}"),
+    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.passive_clearance: missing backlash",
+         {"m.yaml": _model(effects={"passive_clearance": {}})}, "puu.yaml with effects: {passive_clearance: {}}"),
+    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "effects.leg_axial: leg_axial changes the model itself",
+         {"m.yaml": _model(effects={"leg_axial": {"factor": 2.0}})}, "puu.yaml with effects: {leg_axial: {factor: 2}}"),
+    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "geometry.Lenght: unknown key for orthoglide-3PUU; its geometry is L, r (mm)",
+         {"m.yaml": _model(geometry={"L": 310.0, "r": 50.0, "Lenght": 300.0})}, "puu.yaml with geometry: {L: 310, r: 50, Lenght: 300}"),
+    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "geometry.d: unknown key for orthoglide-3PUU",
+         {"m.yaml": _model(geometry={"L": 310.0, "r": 50.0, "d": 80.0})}, "puu.yaml with geometry: {L: 310, r: 50, d: 80}"),
+    Case("18.4", "vjm stiffness {puu} --at 0,0,0 --leg leg.json", "not a linkfea result, missing schema",
+         {"leg.json": _result(schema=None)}, "a link result without schema"),
+    Case("18.4", "vjm stiffness {puu} --at 0,0,0 --leg leg.json", "schema 'linkfea.result/9' is not",
+         {"leg.json": _result(schema="linkfea.result/9")}, "a link result of schema linkfea.result/9"),
+    Case("18.4", "vjm stiffness {puu} --at 0,0,0 --leg leg.json", "stiffness contradicts the compliance",
+         {"leg.json": _result(stiffness=[[2 / c if i == j else 0.0 for j in range(6)]
+                                         for i, c in enumerate(C_DIAG)])},
+         "a link result whose stiffness is twice the inverse of its compliance"),
+    # 18.9: messages
+    Case("18.9", "vjm stiffness m.yaml --at 0,0,0", "'9**9**9' is too large: its value is beyond the largest",
+         {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "Tx(9**9**9), Tz(q0) actuated")},
+         "linear_delta.yaml, first element Tx(9**9**9)"),
+    Case("18.9", "vjm stiffness m.yaml --at 0,0,0", "element 1 'Tx(1, 2)': '1, 2' is not an arithmetic expression",
+         {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "'Tx(1, 2)', Tz(q0) actuated")},
+         "linear_delta.yaml, first element Tx(1, 2)"),
+    Case("18.9", "vjm stiffness {puu} --at 500,0,0", "pose (500, 0, 0) mm is unreachable"),
+    Case("18.9", "vjm stiffness m.yaml --at 0,0,0", "move in 0 independent directions at the seed posture "
+         "(0, 0, 0, 0, 0, 0); check the chains (a platform has 3 or 6 dof)", {"m.yaml": LOCKED},
+         "a description whose three chains lock the platform (one slider each along x, y, z)"),
+    # link script parameters (checked before: listed for the table)
+    Case("18.2", "linkfea compute bar -p length=nan", "parameter 'length' must be a finite number, got nan"),
+    Case("18.2", "linkfea compute bar -p length=-5", "parameter 'length' must be > 0 mm, got -5"),
+]
+
+
+# ------------------------------------------------------------------ running a case
+
+def _snapshot(folder: Path) -> dict:
+    return {str(p.relative_to(folder)): (p.stat().st_size, p.stat().st_mtime_ns) for p in folder.rglob("*")}
+
+
+def write_files(case: Case, folder: Path) -> None:
+    enc = case.files.get("encoding", "utf-8")
+    for name, text in case.files.items():
+        if name != "encoding":
+            (folder / name).write_bytes(text.encode(enc))
+
+
+def run(case: Case, folder: Path) -> Outcome:
+    """Run ``case`` in-process in ``folder`` (made empty by the caller)."""
+    from linkfea.cli import main as linkfea_main
+    from vjm.cli import main as vjm_main
+
+    folder = Path(folder)
+    write_files(case, folder)
+    before = _snapshot(folder)
+    argv = case.argv
+    main = {"linkfea": linkfea_main, "vjm": vjm_main}[argv[0]]
+    err, out = io.StringIO(), io.StringIO()
+    cwd = os.getcwd()
+    os.chdir(folder)
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+            try:
+                status = main(argv[1:])
+            except SystemExit as exc:  # a command that exits by itself
+                status = exc.code if isinstance(exc.code, int) else 1
+    finally:
+        os.chdir(cwd)
+    after = _snapshot(folder)
+    changed = sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))
+    return Outcome(status, err.getvalue(), out.getvalue(), changed)
+
+
+def doubled_phrase(text: str, n: int = 6) -> str | None:
+    """A run of ``n`` words that occurs twice in ``text`` (a message that repeats itself), or None."""
+    words = text.split()
+    seen = set()
+    for i in range(len(words) - n + 1):
+        g = " ".join(words[i:i + n])
+        if g in seen:
+            return g
+        seen.add(g)
+    return None
