@@ -236,6 +236,20 @@ CASES = [
     # link script parameters (checked before: listed for the table)
     Case("18.2", "linkfea compute bar -p length=nan", "parameter 'length' must be a finite number, got nan"),
     Case("18.2", "linkfea compute bar -p length=-5", "parameter 'length' must be > 0 mm, got -5"),
+    # 18.7: work that cannot fit is refused before it starts
+    Case("18.7", "linkfea sweep bar --param width=1:100000:0.001 --out sw", "99,999,001 designs are too many"),
+    Case("18.7", "linkfea sweep bar --param width=10:20 --sample 1000000000000 --out sw",
+         "1,000,000,000,000 designs are too many"),
+    # 18.8: data files never run code
+    Case("18.8", "vjm stiffness m.yaml --at 0,0,0", "the YAML tag !!python/object/apply:os.system is not allowed",
+         {"m.yaml": "name: evil\nL: !!python/object/apply:os.system ['touch MARKER']\n"},
+         "a model file with a YAML tag that would run a shell command"),
+    Case("18.8", "vjm stiffness m.yaml --at 0,0,0", "calling system() is not allowed",
+         {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "\"Tx(__import__('os').system('touch MARKER'))\", Tz(q0) actuated")},
+         "linear_delta.yaml, first element Tx(__import__('os').system('touch MARKER'))"),
+    Case("18.8", "vjm stiffness m.yaml --at 0,0,0", "attribute access .__class__ is not allowed",
+         {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "Tx(R.__class__), Tz(q0) actuated")},
+         "linear_delta.yaml, first element Tx(R.__class__)"),
 ]
 
 
