@@ -116,6 +116,31 @@ def _roll_forward(folder: Path, journal: Path) -> None:
     fsync_dir(folder)
 
 
+def file_set_name(path) -> str:
+    """The name of the set anchored on main file ``path`` (a result JSON with its companions, a CSV)."""
+    return f"file-{Path(path).name}"
+
+
+def roll_forward_file(path) -> None:
+    """Complete a killed, committed write of the set anchored on ``path`` (what a reader does first)."""
+    roll_forward(Path(path).absolute().parent, file_set_name(path))
+
+
+def journal_path(folder, set_name: str) -> Path:
+    return Path(folder) / f"{JOURNAL_PREFIX}{_slug(set_name)}.json"
+
+
+def roll_forward(folder, set_name: str) -> None:
+    """Complete the committed write of set ``set_name`` in ``folder`` if a killed run left its journal
+    (what a reader does before reading; best effort)."""
+    j = journal_path(folder, set_name)
+    if j.is_file():
+        try:
+            _roll_forward(Path(folder), j)
+        except OSError:
+            pass
+
+
 def recover(folder) -> None:
     """Finish what a killed run left in ``folder``: roll its journals forward, remove its stale
     temporaries (also in the tool's sub-folders, and the report temporaries of earlier versions
@@ -277,7 +302,7 @@ class OutputSet:
             man["sets"][self.name] = {"files": self.digests(), "run": self.run,
                                       "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
             renames.append((_write_temp(self.folder / MANIFEST, man).name, MANIFEST))
-        journal = self.folder / f"{JOURNAL_PREFIX}{_slug(self.name)}.json"
+        journal = journal_path(self.folder, self.name)
         jt = _write_temp(journal, {"schema": JOURNAL_SCHEMA, "set": self.name, "run": self.run,
                                    "renames": renames, "remove": remove})
         os.replace(jt, journal)
