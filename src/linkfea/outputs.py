@@ -308,8 +308,8 @@ class OutputSet:
         os.replace(jt, journal)
         fsync_dir(self.folder)
         fault("journal-written")
-        for k, (tmp, name) in enumerate(renames):
-            os.replace(self.folder / tmp, self.folder / name)
+        for k, (tname, name) in enumerate(renames):
+            os.replace(self.folder / tname, self.folder / name)
             if k == 0:
                 fault("renamed-one")
         for name in remove:

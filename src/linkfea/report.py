@@ -115,7 +115,7 @@ def write_outputs(record: dict, out_dir, force: bool = False) -> dict:
     Everything is rendered in memory first; the folder then holds the three new files or the
     old ones, and files of other origin in it are refused (or, with ``force``, left alone).
     """
-    from .outputs import check_folder, write_set
+    from .outputs import OutputSet, check_folder
 
     check_folder(out_dir, COMPARE_FILES, force=force)
     blobs = {
@@ -123,7 +123,9 @@ def write_outputs(record: dict, out_dir, force: bool = False) -> dict:
         "compare.md": markdown_table(record).encode(),
         "compare.png": figure_png(record),
     }
-    write_set(out_dir, "linkfea compare", {n: (lambda p, b=b: Path(p).write_bytes(b)) for n, b in blobs.items()})
+    with OutputSet(out_dir, "linkfea compare") as s:
+        for name, data in blobs.items():
+            Path(s.path(name)).write_bytes(data)
     return {name: str(Path(out_dir) / name) for name in blobs}
 
 
