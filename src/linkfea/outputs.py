@@ -350,11 +350,3 @@ def _write_temp(target: Path, doc: dict) -> Path:
 
 def _slug(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "-" for c in name)
-
-
-def write_set(folder, name: str, writers: dict[str, Callable[[str], object]], manifest: bool = True) -> list[Path]:
-    """Write a set whose members are made by ``writers[name](temporary_path)``; see :class:`OutputSet`."""
-    with OutputSet(folder, name, manifest=manifest) as s:
-        for member, write in writers.items():
-            write(s.path(member))
-    return [Path(folder) / m for m in writers]

@@ -2,7 +2,7 @@
 
 :func:`diagnose` takes a model and a data set and returns a
 :class:`Diagnosis` (report dictionary + updated model + per-posture residuals);
-:func:`write_diagnosis` writes it to a directory atomically.
+:func:`write_diagnosis` writes it to a directory as one output set.
 """
 from __future__ import annotations
 
@@ -84,9 +84,9 @@ class Diagnosis:
 
         return Summary(self.report)
 
-    def save(self, out_dir) -> None:
+    def save(self, out_dir, force: bool = False) -> None:
         """Write report.json, report.html, figures, model_updated.yaml (and next_measurements.csv)."""
-        write_diagnosis(self, out_dir)
+        write_diagnosis(self, out_dir, force=force)
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()
