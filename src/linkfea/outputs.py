@@ -191,7 +191,7 @@ def check_folder(out, names: Iterable[str], force: bool = False, option: str = "
     """
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise LinkFeaError(f"{option} {out} is a file; this command writes a folder: give a folder name")
+        raise LinkFeaError(f"{option} {out} exists and is not a directory: this command writes a folder")
     check_writable(out, option)
     if not out.is_dir():
         return out
