@@ -143,8 +143,8 @@ def roll_forward(folder, set_name: str) -> None:
 
 def recover(folder) -> None:
     """Finish what a killed run left in ``folder``: roll its journals forward, remove its stale
-    temporaries (also in the tool's sub-folders, and the report temporaries of earlier versions
-    beside the folder).  Best effort: a folder that cannot be written is left as it is."""
+    temporaries (also in the tool's sub-folders).  Best effort: a folder that cannot be written
+    is left as it is."""
     folder = Path(folder)
     if not folder.is_dir():
         return
@@ -156,10 +156,17 @@ def recover(folder) -> None:
             for entry in os.listdir(d):
                 if stale_temporary(entry):
                     (d / entry).unlink(missing_ok=True)
-        for entry in os.listdir(folder.parent):
-            p = folder.parent / entry
-            if entry.startswith(LEGACY_TEMPORARIES) and p.is_dir():
-                shutil.rmtree(p, ignore_errors=True)
+    except OSError:
+        pass
+
+
+def _remove_legacy_temporaries(parent: Path) -> None:
+    """The report writer of earlier versions swapped whole folders through ``.tmp_report_*`` and
+    ``.old_report_*`` beside the report folder; a kill left them behind.  They are the tool's own."""
+    try:
+        for entry in os.listdir(parent):
+            if entry.startswith(LEGACY_TEMPORARIES) and (parent / entry).is_dir():
+                shutil.rmtree(parent / entry, ignore_errors=True)
     except OSError:
         pass
 
@@ -193,6 +200,7 @@ def check_folder(out, names: Iterable[str], force: bool = False, option: str = "
     if out.exists() and not out.is_dir():
         raise LinkFeaError(f"{option} {out} exists and is not a directory: this command writes a folder")
     check_writable(out, option)
+    _remove_legacy_temporaries(out.absolute().parent)
     if not out.is_dir():
         return out
     recover(out)
