@@ -49,6 +49,10 @@ LEGACY_TEMPORARIES = (".tmp_report_", ".old_report_")
 #: design's result written
 FAULT_POINTS = ("members-written", "journal-written", "renamed-one", "renamed-all", "design-written")
 _hits: dict[str, int] = {}
+#: what marks the files written outside a manifest (see :func:`recognised`)
+RESULT_SCHEMA_PREFIX = "linkfea.result/"
+SIMULATED_CSV_MARK = "# simulated by vjm simulate"
+RECOGNISE_MAX_BYTES = 50_000_000
 
 
 def fault(point: str) -> None:
@@ -90,11 +94,48 @@ def read_manifest(folder) -> dict:
 
 
 def owned(folder) -> set[str]:
-    """Top-level names in ``folder`` that the tools wrote (sub-folders such as ``results`` by their name)."""
+    """Top-level names in ``folder`` that the tools wrote: in its manifest (sub-folders such as
+    ``results`` by their name), or recognised by content (:func:`recognised`)."""
     names = set()
     for s in read_manifest(folder)["sets"].values():
         for n in (s.get("files") or {}):
             names.add(n.split("/", 1)[0])
+    return names | recognised(folder)
+
+
+def is_result_json(path) -> bool:
+    """Is ``path`` a link result JSON written by linkfea (schema ``linkfea.result/...``)?"""
+    try:
+        if Path(path).stat().st_size > RECOGNISE_MAX_BYTES:
+            return False
+        with open(path, encoding="utf-8") as fh:
+            doc = json.load(fh)
+    except (OSError, ValueError, UnicodeDecodeError):
+        return False
+    return isinstance(doc, dict) and str(doc.get("schema", "")).startswith(RESULT_SCHEMA_PREFIX)
+
+
+def is_simulated_csv(path) -> bool:
+    """Was ``path`` written by vjm simulate (its first line says so)?"""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return fh.readline().startswith(SIMULATED_CSV_MARK)
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
+def recognised(folder) -> set[str]:
+    """Files in ``folder`` that the tools wrote outside any manifest, known by their content: link
+    results (``linkfea compute``, ``LinkResult.save``) with the ``.vtu`` and ``.png`` of the same
+    name, and CSVs of ``vjm simulate``."""
+    folder = Path(folder)
+    names = set()
+    for e in os.listdir(folder):
+        p = folder / e
+        if e.endswith(".json") and is_result_json(p):
+            names |= {e, p.with_suffix(".vtu").name, p.with_suffix(".png").name}
+        elif e.endswith(".csv") and is_simulated_csv(p):
+            names.add(e)
     return names
 
 

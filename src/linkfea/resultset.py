@@ -14,19 +14,14 @@ import json
 from pathlib import Path
 
 from .errors import LinkFeaError
-from .outputs import OutputSet, check_file, file_set_name, sha256
+from .outputs import OutputSet, check_file, file_set_name, is_result_json, sha256
 
 SUFFIXES = {"vtu": ".vtu", "png": ".png"}
 
 
 def is_result(path) -> bool:
     """Is ``path`` a result JSON written by linkfea (schema ``linkfea.result/...``)?"""
-    try:
-        with open(path, encoding="utf-8") as fh:
-            doc = json.load(fh)
-    except (OSError, ValueError, UnicodeDecodeError):
-        return False
-    return isinstance(doc, dict) and str(doc.get("schema", "")).startswith("linkfea.result/")
+    return is_result_json(path)
 
 
 def companions(path) -> dict[str, Path]:

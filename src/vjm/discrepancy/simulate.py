@@ -215,25 +215,12 @@ def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: 
     return Deflections(np.asarray(P, float), np.asarray(W, float), T, st, sr, np.arange(2, n + 2), "<simulated>")
 
 
-#: first words of the CSV vjm simulate writes: how it recognises its own file before replacing it
-MARK = "# simulated by vjm simulate"
-
-
-def is_simulated_csv(path) -> bool:
-    """Was ``path`` written by vjm simulate (its first line says so)?"""
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return fh.readline().startswith(MARK)
-    except (OSError, UnicodeDecodeError):
-        return False
-
-
 def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_r, seed: int, out) -> Deflections:
     """Body of ``vjm simulate``: check ``out``, design, simulate, write the CSV atomically.
 
     An existing ``out`` is replaced only if vjm simulate wrote it (measured data is never overwritten).
     """
-    from linkfea.outputs import check_file
+    from linkfea.outputs import SIMULATED_CSV_MARK, check_file, is_simulated_csv
 
     from .data import write_deflections
 
@@ -259,7 +246,7 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
         W = L.reshape(-1, 6)
     data = simulate(model, effects, P, W, noise_t, noise_r, seed)
     desc = ", ".join(f"{n}:" + ",".join(f"{a}={b:g}" for a, b in v.items()) for n, v in effects) or "none"
-    write_deflections(out, data, f"{MARK[2:]} from {os.path.basename(str(model_path))}; "
+    write_deflections(out, data, f"{SIMULATED_CSV_MARK[2:]} from {os.path.basename(str(model_path))}; "
                                  f"poses {poses}; loads {loads}; noise_t {noise_t} mm; noise_r {noise_r} rad; "
                                  f"seed {seed}; hidden effects: {desc}")
     return data
