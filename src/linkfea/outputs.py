@@ -13,7 +13,7 @@ of the same name beside it; a CSV whose first line says vjm simulate wrote it).
 
 **Complete sets.**  Members are written to temporaries beside their targets
 (:func:`linkfea.atomic.temp_beside`) and flushed to disk; then a journal
-``.linkfea-journal.<set>.json`` listing the renames (and the tool's own files
+``.linkfea-journal.<set>.<run>.json`` listing the renames (and the tool's own files
 the new set no longer has) is written atomically; the renames follow and the
 journal is removed.  Killed before the journal exists: the old set is
 untouched, and the next run removes the stray temporaries.  Killed after: the
@@ -167,19 +167,19 @@ def roll_forward_file(path) -> None:
     roll_forward(Path(path).absolute().parent, file_set_name(path))
 
 
-def journal_path(folder, set_name: str) -> Path:
-    return Path(folder) / f"{JOURNAL_PREFIX}{_slug(set_name)}.json"
+def journal_path(folder, set_name: str, run: str) -> Path:
+    """The journal of one commit (named by its run, so that two runs never share one)."""
+    return Path(folder) / f"{JOURNAL_PREFIX}{_slug(set_name)}.{run}.json"
 
 
 def roll_forward(folder, set_name: str) -> None:
     """Complete the committed write of set ``set_name`` in ``folder`` if a killed run left its journal
     (what a reader does before reading; best effort)."""
-    j = journal_path(folder, set_name)
-    if j.is_file():
-        try:
+    try:
+        for j in sorted(Path(folder).glob(f"{JOURNAL_PREFIX}{_slug(set_name)}.*.json")):
             _roll_forward(Path(folder), j)
-        except OSError:
-            pass
+    except OSError:
+        pass
 
 
 def recover(folder) -> None:
@@ -351,7 +351,7 @@ class OutputSet:
             man["sets"][self.name] = {"files": self.digests(), "run": self.run,
                                       "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
             renames.append((_write_temp(self.folder / MANIFEST, man).name, MANIFEST))
-        journal = journal_path(self.folder, self.name)
+        journal = journal_path(self.folder, self.name, self.run)
         jt = _write_temp(journal, {"schema": JOURNAL_SCHEMA, "set": self.name, "run": self.run,
                                    "renames": renames, "remove": remove})
         os.replace(jt, journal)
