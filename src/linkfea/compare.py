@@ -15,7 +15,6 @@ from .beammodel import BeamModel, beam_frame, beam_model, link_beam_model, link_
 from .errors import LinkFeaError
 from .materials import get_material
 from .metrics import CLUSTER_TOL, compare_compliance, entry_errors, principal_errors
-from .outputs import check_folder
 from .report import (
     COMPARE_FILES,
     ERROR_COLUMNS,
@@ -268,6 +267,8 @@ def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid"
     """
     beams = parse_beams(beams)  # fail before the (slow) FEA
     if out is not None:
+        from .outputs import check_folder  # here: `import linkfea` stays light
+
         check_folder(out, COMPARE_FILES, force=force)
     C, link, info = fea_compliance(spec, params, mesh_size, mode, material, base, tip, progress)
     record = compare_link(link, C, beams, axis, info)
