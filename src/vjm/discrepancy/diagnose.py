@@ -807,8 +807,7 @@ def write_diagnosis(dg: Diagnosis, out_dir, force: bool = False) -> None:
 def run(model_path, data_path, out_dir, force: bool = False, **kw) -> Diagnosis:
     """Check the output folder, load, diagnose and write: the body of ``vjm diagnose``."""
     check_report_dir(out_dir, force)
-    model = mo.load_model(model_path)
-    data = read_csv(data_path)
+    model, data = mo.load_model(model_path), read_csv(data_path)
     dg = diagnose(model, data, model_name=os.path.basename(str(model_path)), **kw)
     write_diagnosis(dg, out_dir, force=force)
     return dg
