@@ -53,6 +53,11 @@ _hits: dict[str, int] = {}
 RESULT_SCHEMA_PREFIX = "linkfea.result/"
 SIMULATED_CSV_MARK = "# simulated by vjm simulate"
 RECOGNISE_MAX_BYTES = 50_000_000
+#: sweep folders of versions before the manifest, known by their table's schema: resumable as before
+LEGACY_SETS = {"sweep.json": ("linkfea.sweep-table/", ("sweep.parquet", "sweep.csv", "sweep.json", "sweep.png",
+                                                       "results")),
+               "pareto.json": ("vjm.sweep/", ("tradeoffs.parquet", "tradeoffs.csv", "pareto.csv", "pareto.json",
+                                              "pareto.png"))}
 
 
 def fault(point: str) -> None:
@@ -103,16 +108,20 @@ def owned(folder) -> set[str]:
     return names | recognised(folder)
 
 
-def is_result_json(path) -> bool:
-    """Is ``path`` a link result JSON written by linkfea (schema ``linkfea.result/...``)?"""
+def _schema(path) -> str:
     try:
         if Path(path).stat().st_size > RECOGNISE_MAX_BYTES:
-            return False
+            return ""
         with open(path, encoding="utf-8") as fh:
             doc = json.load(fh)
     except (OSError, ValueError, UnicodeDecodeError):
-        return False
-    return isinstance(doc, dict) and str(doc.get("schema", "")).startswith(RESULT_SCHEMA_PREFIX)
+        return ""
+    return str(doc.get("schema", "")) if isinstance(doc, dict) else ""
+
+
+def is_result_json(path) -> bool:
+    """Is ``path`` a link result JSON written by linkfea (schema ``linkfea.result/...``)?"""
+    return _schema(path).startswith(RESULT_SCHEMA_PREFIX)
 
 
 def is_simulated_csv(path) -> bool:
@@ -127,13 +136,16 @@ def is_simulated_csv(path) -> bool:
 def recognised(folder) -> set[str]:
     """Files in ``folder`` that the tools wrote outside any manifest, known by their content: link
     results (``linkfea compute``, ``LinkResult.save``) with the ``.vtu`` and ``.png`` of the same
-    name, and CSVs of ``vjm simulate``."""
+    name, CSVs of ``vjm simulate``, and the sweep folders of earlier versions (:data:`LEGACY_SETS`)."""
     folder = Path(folder)
     names = set()
     for e in os.listdir(folder):
         p = folder / e
-        if e.endswith(".json") and is_result_json(p):
+        schema = _schema(p) if e.endswith(".json") and p.is_file() else ""
+        if schema.startswith(RESULT_SCHEMA_PREFIX):
             names |= {e, p.with_suffix(".vtu").name, p.with_suffix(".png").name}
+        elif e in LEGACY_SETS and schema.startswith(LEGACY_SETS[e][0]):
+            names |= set(LEGACY_SETS[e][1])  # a folder written before manifests existed
         elif e.endswith(".csv") and is_simulated_csv(p):
             names.add(e)
     return names

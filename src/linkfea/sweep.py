@@ -422,16 +422,16 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
 
     t_start = time.perf_counter()
     out = check_folder(out, SWEEP_FILES, force=force)
-    try:
-        claim(out, ["results/"], "linkfea sweep results")  # owned before a kill can leave it half made
-    except OSError as exc:
-        raise LinkFeaError(f"cannot write {out}: {exc.strerror or exc}") from None
     rep = SweepReport(n_designs=len(sweep.designs))
     todo = pending(sweep, out, retry_failed)
     todo_keys = {d.key for d in todo}
     rep.skipped = [d.key for d in sweep.designs if d.key not in todo_keys]
     if plot:
         _check_entries(plot)
+    try:
+        claim(out, ["results/"], "linkfea sweep results")  # owned before a kill can leave it half made
+    except OSError as exc:
+        raise LinkFeaError(f"cannot write {out}: {exc.strerror or exc}") from None
     if cache_dir is None and scheduler is None:
         cache_dir = cache_dir_default()
     cache = None if cache_dir is None else str(Path(cache_dir).absolute())
