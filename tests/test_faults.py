@@ -95,6 +95,10 @@ def test_compute_killed_while_writing_json_vtu_png(tmp_path, env):
 
     with pytest.raises(LinkFeaError, match="r.vtu"):
         linkfea.load(out).to_pyvista()
+    # rerun without pictures: the old .vtu and .png are the tool's own and would not match the new JSON
+    rc, err = run("linkfea", ["compute", "bar", "--mesh-size", "60", "--no-picture", "--out", str(out), "-q"], env)
+    assert rc == 0, err
+    assert sorted(os.listdir(tmp_path)) == ["r.json"]
 
 
 # --------------------------------------------------------------------------- vjm diagnose
