@@ -155,9 +155,15 @@ def recognised(folder) -> set[str]:
 def _roll_forward(folder: Path, journal: Path) -> None:
     try:
         doc = json.loads(journal.read_text(encoding="utf-8"))
-        renames, remove = doc["renames"], doc["remove"]
+        renames, remove = [(str(t), str(n)) for t, n in doc["renames"]], [str(n) for n in doc["remove"]]
     except (OSError, ValueError, KeyError, TypeError):
         journal.unlink(missing_ok=True)  # written atomically, so never partial; unreadable: nothing to do
+        return
+    # names in the folder itself, temporaries of the tool: a planted journal cannot reach elsewhere
+    plain = [n for _, n in renames] + remove
+    if any(not _plain_name(n) for n in plain) or any(not t.startswith(TMP_PREFIX) or not _plain_name(t)
+                                                      for t, _ in renames):
+        journal.unlink(missing_ok=True)
         return
     for tmp, name in renames:
         if (folder / tmp).exists():
@@ -167,6 +173,10 @@ def _roll_forward(folder: Path, journal: Path) -> None:
     fsync_dir(folder)
     journal.unlink(missing_ok=True)
     fsync_dir(folder)
+
+
+def _plain_name(name: str) -> bool:
+    return bool(name) and "/" not in name and "\\" not in name and name not in (".", "..")
 
 
 def file_set_name(path) -> str:
