@@ -1,9 +1,13 @@
-"""File output shared by linkfea and vjm.
+"""File output shared by linkfea and vjm: one file at a time.
 
 Atomic writes: to a temporary name beside the target, then a rename, so a
 failed write leaves neither a partial file nor the temporary behind and a
-command that stops on an error writes nothing.  :func:`plain` turns numpy
-values into plain Python for JSON and YAML.
+command that stops on an error writes nothing.  Temporaries are named
+``.linkfea-tmp.<pid>.<random>.<name>``, so that a later run recognises the
+ones a killed process left behind (:func:`stale_temporary`) and removes them.
+Sets of files written together, ownership and the checks before any work are
+in :mod:`linkfea.outputs`.  :func:`plain` turns numpy values into plain Python
+for JSON and YAML.
 """
 from __future__ import annotations
 
@@ -15,6 +19,76 @@ from pathlib import Path
 import numpy as np
 
 from .errors import LinkFeaError
+
+#: prefix of every temporary file the tools write beside a target
+TMP_PREFIX = ".linkfea-tmp."
+
+
+def umask() -> int:
+    """The process's umask, read without changing it where the system allows."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    m = os.umask(0o022)
+    os.umask(m)
+    return m
+
+
+def temp_beside(path) -> Path:
+    """A new empty temporary file in the folder of ``path``, named after it (same suffix), with the
+    permissions a new file gets under the user's umask (mkstemp alone makes 0600)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f"{TMP_PREFIX}{os.getpid()}.", suffix=f".{path.name}")
+    os.close(fd)
+    os.chmod(tmp, 0o666 & ~umask())
+    return Path(tmp)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def stale_temporary(name: str) -> bool:
+    """Is ``name`` a temporary of this tool whose process is gone (killed before it could clean up)?"""
+    if not name.startswith(TMP_PREFIX):
+        return False
+    pid = name[len(TMP_PREFIX):].split(".", 1)[0]
+    if not pid.isdigit():
+        return True
+    return int(pid) != os.getpid() and not _alive(int(pid))
+
+
+def fsync_file(path) -> None:
+    """Flush a written file's data to disk (a rename after it then never exposes an empty file)."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def fsync_dir(path) -> None:
+    """Flush a folder's entries (renames, new and removed names) to disk."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
 
 
 @contextmanager
@@ -40,11 +114,9 @@ def atomic_path(path, suffix: str | None = None):
         if path.is_dir():
             raise IsADirectoryError(21, "is a folder", str(path))
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.",
-                                   suffix=path.suffix if suffix is None else suffix)
-        os.close(fd)
-        os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
+        tmp = str(temp_beside(path if suffix is None else path.with_suffix(suffix)))
         yield tmp
+        fsync_file(tmp)
         os.replace(tmp, path)
     except OSError as exc:
         raise LinkFeaError(f"cannot write {path}: {exc.strerror or exc}") from None

@@ -67,33 +67,21 @@ def compute(
 ):
     """Compute a link's 6x6 compliance and stiffness at its reference frame."""
     from .cad import parse_param_args
-    from .io import write_result
     from .pipeline import compute as run
+    from .resultset import check_result_out, write_result_set
 
     console = Console(stderr=True, quiet=quiet)
-    written: list[Path] = []
     try:
+        check_result_out(out, vtu=picture, png=picture)  # before any work: the FEA may take minutes
         params = parse_param_args(param)
         with console.status("starting") as status:
             res = run(spec, params=params, mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
                       material=material, base=base, tip=tip, convergence=convergence, epsilon=envelope, mesher=mesher,
                       assembler=assembler,
                       progress=lambda msg: status.update(f"[bold]{msg}"))
-        out = Path(out)
-        if picture:
-            from .post import write_png, write_vtu
-
-            written.append(write_vtu(out.with_suffix(".vtu"), res))
-            written.append(write_png(out.with_suffix(".png"), res))
-        written.append(write_result(out, res))
+        written = write_result_set(out, res, vtu=picture, png=picture)
     except LinkFeaError as exc:
-        for p in written:
-            p.unlink(missing_ok=True)
         _fail(exc)
-    except BaseException:
-        for p in written:
-            p.unlink(missing_ok=True)
-        raise
     if not quiet:
         con = Console(width=max(Console().width, 100))
         show(res, con)
@@ -131,6 +119,8 @@ def compare_cmd(
     base: Optional[str] = typer.Option(None, "--base", help="base selector (required for STEP files)"),
     tip: Optional[str] = typer.Option(None, "--tip", help="tip selector (required for STEP files)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder for compare.json, compare.md, compare.png"),
+    force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files (they are "
+                                                      "never overwritten or deleted)"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or summary"),
 ):
     """Beam or FEA? The FEA compliance against N-beam models cut from the CAD (see linkfea.compare)."""
@@ -142,7 +132,7 @@ def compare_cmd(
         params = parse_param_args(param)
         with console.status("starting") as status:
             rec = run(spec, beams, params=params, mesh_size=mesh_size, mode=mode, out=out, material=material,
-                      base=base, tip=tip, progress=lambda msg: status.update(f"[bold]{msg}")).record
+                      base=base, tip=tip, progress=lambda msg: status.update(f"[bold]{msg}"), force=force).record
     except LinkFeaError as exc:
         _fail(exc)
     if not quiet:
@@ -177,6 +167,8 @@ def sweep_cmd(
     convergence: bool = typer.Option(False, "--convergence", help="3 mesh sizes + Richardson error estimate"),
     mesher: Optional[str] = typer.Option(None, "--mesher", help="gmsh or pytetwild (default: as linkfea compute)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder: sweep.parquet, sweep.csv, sweep.png, results/"),
+    force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files (they are "
+                                                      "never overwritten or deleted)"),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of a running Dask scheduler"),
     workers: Optional[int] = typer.Option(None, "--workers", help="local worker processes (default: one per core)"),
     memory_limit: str = typer.Option("auto", "--memory-limit", help="per local worker, e.g. 4GB (auto: RAM/workers)"),
@@ -186,15 +178,18 @@ def sweep_cmd(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar or summary"),
 ):
     """Run the pipeline over a grid or sample of link parameters on Dask (resumable)."""
-    from .sweep import make_sweep, run_sweep
+    from .outputs import check_folder
+    from .sweep import SWEEP_FILES, make_sweep, run_sweep
 
     try:
+        check_folder(out, SWEEP_FILES, force=force)
         sw = make_sweep(spec, param or [], dict(mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
                                                 material=material, base=base, tip=tip, envelope=envelope,
                                                 convergence=convergence or None, mesher=mesher),
                         sample=sample, seed=seed)
         rep = run_sweep(sw, out, scheduler=scheduler, workers=workers, memory_limit=memory_limit,
-                        retry_failed=retry_failed, plot=plot.split(",") if plot else None, progress=not quiet)
+                        retry_failed=retry_failed, plot=plot.split(",") if plot else None, progress=not quiet,
+                        force=force)
     except LinkFeaError as exc:
         _fail(exc)
     if not quiet or rep.interrupted:

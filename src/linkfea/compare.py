@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import html
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -18,6 +17,7 @@ from .errors import LinkFeaError
 from .materials import get_material
 from .metrics import CLUSTER_TOL, compare_compliance, entry_errors, principal_errors
 from .report import (
+    COMPARE_FILES,
     ERROR_COLUMNS,
     LABELS,
     error_rows,
@@ -124,9 +124,10 @@ class Comparison:
             _, ax = plt.subplots(figsize=(5, 3.6))
         return plot_error_vs_n(self.record, ax)
 
-    def save(self, out_dir) -> dict:
-        """Write compare.json, compare.md and compare.png into ``out_dir``; their paths by name."""
-        return write_outputs(self.record, out_dir)
+    def save(self, out_dir, force: bool = False) -> dict:
+        """Write compare.json, compare.md and compare.png into ``out_dir`` (one set; see
+        :func:`linkfea.report.write_outputs`); their paths by name."""
+        return write_outputs(self.record, out_dir, force=force)
 
     def __repr__(self) -> str:
         return f"Comparison({self.link!r}, N = {[m['n'] for m in self.record['beams']]})\n{self.errors!r}"
@@ -232,7 +233,7 @@ def fea_info(res) -> tuple:
 
 
 def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid", out=None, axis=None,
-            material=None, base=None, tip=None, progress=None) -> Comparison:
+            material=None, base=None, tip=None, progress=None, force=False) -> Comparison:
     """FEA versus N-beam models of a link; optionally write ``out``/compare.{json,md,png}.
 
     Parameters
@@ -247,7 +248,9 @@ def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid"
         FEA target edge length, mm.
     mode : {"rigid", "block"}
     out : path, optional
-        Output folder.
+        Output folder, checked before the FEA (:func:`linkfea.outputs.check_folder`).
+    force : bool
+        Write into ``out`` even if it holds files of other origin (they are never touched).
     axis : 3-vector, optional
         Beam axis in link-frame components (default x).
     material, base, tip : str, optional
@@ -262,12 +265,14 @@ def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid"
         The comparison; its ``record`` is what compare.json holds.
     """
     beams = parse_beams(beams)  # fail before the (slow) FEA
-    if out is not None and Path(out).exists() and not Path(out).is_dir():
-        raise LinkFeaError(f"--out {str(out)!r} exists and is not a directory")
+    if out is not None:
+        from .outputs import check_folder  # here: `import linkfea` stays light
+
+        check_folder(out, COMPARE_FILES, force=force)
     C, link, info = fea_compliance(spec, params, mesh_size, mode, material, base, tip, progress)
     record = compare_link(link, C, beams, axis, info)
     if out is not None:
-        write_outputs(record, out)
+        write_outputs(record, out, force=force)
     return Comparison(record)
 
 

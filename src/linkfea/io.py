@@ -29,6 +29,7 @@ from .atomic import plain, write_text
 from .compliance import TWIST, UNITS, WRENCH, check
 from .errors import LinkFeaError
 from .frames import Frame
+from .outputs import roll_forward_file
 
 SCHEMA = "linkfea.result/1"
 __all__ = ["SCHEMA", "TWIST", "UNITS", "WRENCH", "read_result", "result_dict", "versions", "write_json_atomic",
@@ -94,6 +95,7 @@ def read_result(path) -> dict:
         that is not its inverse.
     """
     path = Path(path)
+    roll_forward_file(path)  # a write killed after its commit point is completed first
     try:
         doc = json.loads(path.read_text())
     except FileNotFoundError:

@@ -5,7 +5,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_path
 from .io import WRENCH
 from .result import PICTURE_CASE
 
@@ -28,16 +27,16 @@ def solution_grid(res):
 
 
 def write_vtu(path, res) -> Path:
-    """Write the P2 mesh with the 6 unit-load displacement fields (atomic)."""
+    """Write the P2 mesh with the 6 unit-load displacement fields to ``path`` (written as part of
+    the result's set by :mod:`linkfea.resultset`, which hands in a temporary path)."""
     path = Path(path)
-    with atomic_path(path) as tmp:
-        solution_grid(res).save(tmp)
+    solution_grid(res).save(str(path))
     return path
 
 
 def write_png(path, res, case: int = PICTURE_CASE, scale: float | None = None,
               window_size=(1200, 800)) -> Path:
-    """Off-screen picture of load case ``case`` deformed by ``scale`` (atomic).
+    """Off-screen picture of load case ``case`` deformed by ``scale``, written to ``path``.
 
     The default scale makes the largest displacement 10 % of the bounding-box
     diagonal; it is printed in the title.
@@ -45,8 +44,7 @@ def write_png(path, res, case: int = PICTURE_CASE, scale: float | None = None,
     path = Path(path)
     pl = plotter(solution_grid(res), res.name, case, scale=scale, off_screen=True, window_size=window_size)
     try:
-        with atomic_path(path) as tmp:
-            pl.screenshot(tmp)
+        pl.screenshot(str(path))
     finally:
         pl.close()
     return path

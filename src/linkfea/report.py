@@ -106,39 +106,27 @@ def error_rows(record: dict) -> list[tuple]:
     return rows
 
 
-def write_outputs(record: dict, out_dir) -> dict:
-    """Write compare.json, compare.md and compare.png into ``out_dir``, each atomically.
+COMPARE_FILES = ("compare.json", "compare.md", "compare.png")
 
-    Everything is rendered in memory first; if a write still fails, the files this
-    call created (and the folder, if it created it) are removed, so a failure
-    leaves no partial set behind.
+
+def write_outputs(record: dict, out_dir, force: bool = False) -> dict:
+    """Write compare.json, compare.md and compare.png into ``out_dir`` as one set (:mod:`linkfea.outputs`).
+
+    Everything is rendered in memory first; the folder then holds the three new files or the
+    old ones, and files of other origin in it are refused (or, with ``force``, left alone).
     """
-    from .atomic import write_bytes
+    from .outputs import OutputSet, check_folder
 
-    out_dir = Path(out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise LinkFeaError(f"--out {str(out_dir)!r} exists and is not a directory")
+    check_folder(out_dir, COMPARE_FILES, force=force)
     blobs = {
         "compare.json": json.dumps(record, indent=1, allow_nan=False).encode(),
         "compare.md": markdown_table(record).encode(),
         "compare.png": figure_png(record),
     }
-    made_dir = not out_dir.exists()
-    created = []
-    try:
+    with OutputSet(out_dir, "linkfea compare") as s:
         for name, data in blobs.items():
-            path = out_dir / name
-            new = not path.exists()
-            write_bytes(path, data)
-            if new:
-                created.append(path)
-    except BaseException:
-        for path in created:
-            path.unlink(missing_ok=True)
-        if made_dir and out_dir.is_dir() and not any(out_dir.iterdir()):
-            out_dir.rmdir()
-        raise
-    return {name: str(out_dir / name) for name in blobs}
+            Path(s.path(name)).write_bytes(data)
+    return {name: str(Path(out_dir) / name) for name in blobs}
 
 
 def library_report(names=None, beams=None, img_dir="docs/img", mesh_size=None) -> str:

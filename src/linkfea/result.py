@@ -148,16 +148,13 @@ class LinkResult:
         })
 
     def save(self, path, vtu: bool = True) -> Path:
-        """Write the result JSON to ``path`` (atomic) and, if the FEA solution is at hand and
-        ``vtu`` is true, the deformed P2 mesh beside it (``path`` with suffix ``.vtu``)."""
-        from .io import write_json_atomic
+        """Write the result JSON to ``path`` and, if the FEA solution is at hand and ``vtu`` is true,
+        the deformed P2 mesh beside it (``path`` with suffix ``.vtu``), as one set
+        (:mod:`linkfea.resultset`).  An existing file there that is not a linkfea result is refused."""
+        from .resultset import write_result_set
 
         path = Path(path)
-        if vtu and self.solution is not None:
-            from .post import write_vtu
-
-            write_vtu(path.with_suffix(".vtu"), self)
-        write_json_atomic(path, self.to_dict())
+        write_result_set(path, self, vtu=vtu, png=False)
         object.__setattr__(self, "path", path)
         return path
 
@@ -176,6 +173,9 @@ class LinkResult:
                                f"beside it ({vtu})")
         import pyvista as pv
 
+        from .resultset import check_companion
+
+        check_companion(self.path, "vtu")
         return pv.read(vtu)
 
     def plot(self, case=PICTURE_CASE, scale: float | None = None, off_screen: bool | None = None,

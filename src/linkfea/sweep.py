@@ -36,13 +36,16 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import checks
-from .atomic import atomic_path, plain, write_text
+from .atomic import plain, write_text
 from .errors import LinkFeaError
 from .io import TWIST, WRENCH
+from .outputs import OutputSet, check_folder, claim, fault
 from .pipeline import BLOCK_RATIO, ENVELOPE, MESH_SIZE
 from .sweep_budget import DesignProgress, announcement, check_memory_limit, median_seconds, range_count, sweep_size
 
 KEY_VERSION = "linkfea.sweep/1"
+#: what a sweep writes in its folder: the table set and the results/ sub-folder
+SWEEP_FILES = ("sweep.parquet", "sweep.csv", "sweep.json", "sweep.png", "results/")
 RESULT_SCHEMA_FAILED = "linkfea.sweep-failure/1"
 #: compute options that enter the design key and are passed to linkfea.pipeline.compute
 OPTION_NAMES = ("mesh_size", "mode", "block_ratio", "material", "base", "tip", "envelope", "convergence", "mesher")
@@ -410,7 +413,8 @@ def pending(sweep: Sweep, out, retry_failed: bool = False) -> list[Design]:
 
 def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, workers: int | None = None,
               memory_limit="auto", retry_failed: bool = False, cache_dir=None, plot: Sequence[str] | None = None,
-              progress: bool = False, on_result: Callable[[dict], None] | None = None) -> SweepReport:
+              progress: bool = False, on_result: Callable[[dict], None] | None = None,
+              force: bool = False) -> SweepReport:
     """Run the designs of ``sweep`` not yet in ``out/results/`` and rebuild the table.
 
     Parameters
@@ -425,19 +429,24 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
         ``.cache/meshes``, made absolute); with ``scheduler`` each worker's own.
     plot : entries ``dy_Fy`` ... for ``sweep.png`` (default the diagonal)
     on_result : called with each design's document right after it is written
+    force : write into a folder that also holds files of other origin (never touching them)
     """
     from .mesh import cache_dir_default
 
     workers = checks.optional_integer(workers, "workers", checks.Bounds(1))
     check_memory_limit(memory_limit)
     t_start = time.perf_counter()
-    out = Path(out)
+    out = check_folder(out, SWEEP_FILES, force=force)
     rep = SweepReport(n_designs=len(sweep.designs))
     todo = pending(sweep, out, retry_failed)
     todo_keys = {d.key for d in todo}
     rep.skipped = [d.key for d in sweep.designs if d.key not in todo_keys]
     if plot:
         _check_entries(plot)
+    try:
+        claim(out, ["results/"], "linkfea sweep results")  # owned before a kill can leave it half made
+    except OSError as exc:
+        raise LinkFeaError(f"cannot write {out}: {exc.strerror or exc}") from None
     if cache_dir is None and scheduler is None:
         cache_dir = cache_dir_default()
     cache = None if cache_dir is None else str(Path(cache_dir).absolute())
@@ -501,6 +510,7 @@ def _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_resul
                 continue
             key = doc["sweep"]["key"]
             write_text(result_path(out, key), json.dumps(plain(doc), indent=1) + "\n")
+            fault("design-written")
             (rep.computed if doc["sweep"]["status"] == "ok" else rep.failed).append(key)
             if bar:
                 bar.advance(ok=doc["sweep"]["status"] == "ok")
@@ -576,15 +586,13 @@ def write_table(sweep: Sweep, out, plot: Sequence[str] | None = None) -> list[di
     table = pa.table({c: _column([r.get(c) for r in rows]) for c in cols})
     table = table.replace_schema_metadata({"linkfea.sweep": json.dumps(plain(meta))})
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "failed", "not_run")}
-    with atomic_path(out / "sweep.parquet") as tmp:
-        pq.write_table(table, tmp)
-    with atomic_path(out / "sweep.csv") as tmp:
-        pacsv.write_csv(table, tmp)
-    write_text(out / "sweep.json", json.dumps(plain({**meta, "counts": counts,
-                                                     "designs": [{"index": d.index, "key": d.key, "params": d.params}
-                                                                 for d in sweep.designs]}), indent=1) + "\n")
-    with atomic_path(out / "sweep.png") as tmp:
-        plot_sweep(rows, sweep.names, plot or DIAGONAL, tmp)
+    doc = json.dumps(plain({**meta, "counts": counts, "designs": [{"index": d.index, "key": d.key, "params": d.params}
+                                                                for d in sweep.designs]}), indent=1) + "\n"
+    with OutputSet(out, "linkfea sweep") as s:  # the four files are one set: all from this run, or the old ones
+        pq.write_table(table, s.path("sweep.parquet"))
+        pacsv.write_csv(table, s.path("sweep.csv"))
+        Path(s.path("sweep.json")).write_text(doc, encoding="utf-8")
+        plot_sweep(rows, sweep.names, plot or DIAGONAL, s.path("sweep.png"))
     return rows
 
 

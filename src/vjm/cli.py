@@ -54,6 +54,8 @@ def _point(text: str, option: str = "--at", sizes=(3, 6)) -> np.ndarray:
 
 
 FOOT = typer.Option(None, "--foot", help="linkfea result JSON replacing the model's foot")
+FORCE = typer.Option(False, "--force", help="write into a folder that also holds other files (they are never "
+                                            "overwritten or deleted)")
 LEG = typer.Option(None, "--leg", help="linkfea result JSON replacing the model's leg (one bar for parallelograms)")
 
 
@@ -94,19 +96,22 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
                                             help="6-dof platforms: the fixed platform rotation vector rx,ry,rz "
                                                  "(rad) of the map"),
             out: Path = typer.Option(..., "--out", help="output directory (k_tran.png, k_rot.png, map.npz)"),
-            foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG):
+            foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG, force: bool = FORCE):
     """k_tran and k_rot over the workspace box: PNG maps and an .npz of K, k_tran, k_rot."""
-    from .maps import compute_map, workspace_grid
+    from linkfea.outputs import check_folder
+
+    from .maps import MAP_FILES, compute_map, workspace_grid
 
     try:
         rot = _point(orientation, "--orientation", (3,))
+        check_folder(out, MAP_FILES, force=force)
         m = _load(model, foot, leg)
         axes, G, fixed = workspace_grid(m, grid, slice_)
         P = G.reshape(-1, 3)
         if m.dof == 6:  # a 6-dof platform's map is a slice at a fixed orientation
             P = np.hstack([P, np.broadcast_to(rot, (len(P), 3))])
         smap = compute_map(m, P, axes, fixed, where=f"{grid}-point grid{' at ' + slice_ if slice_ else ''}")
-        smap.save(out)
+        smap.save(out, force=force)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(f"{smap.summary()}; wrote {out}/k_tran.png, k_rot.png, map.npz")
@@ -137,12 +142,13 @@ def sweep_cmd(model: Path = typer.Argument(..., help="model YAML"),
               leg: Optional[Path] = typer.Option(None, "--leg", help="`linkfea sweep` folder or result JSON"),
               bar: Optional[Path] = typer.Option(None, "--bar", help="parallelogram legs: the bar's sweep or JSON"),
               grid: int = typer.Option(9, "--grid", help="points per axis of the workspace grid"),
-              out: Path = typer.Option(..., "--out", help="output folder (tradeoffs.csv/.parquet, pareto.*)")):
+              out: Path = typer.Option(..., "--out", help="output folder (tradeoffs.csv/.parquet, pareto.*)"),
+              force: bool = FORCE):
     """Machine trade-offs: every combination of link designs, worst/mean k_tran and k_rot, mass, Pareto set."""
     from .sweep import sweep
 
     try:
-        res = sweep(model, out, grid, foot=foot, leg=leg, bar=bar)
+        res = sweep(model, out, grid, foot=foot, leg=leg, bar=bar, force=force)
     except user_errors() as exc:
         _fail(exc)
     front = sorted((r for r in res.rows if r["pareto"]), key=lambda r: r["moving_mass_kg"])

@@ -19,14 +19,13 @@ True
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
 
-from linkfea.atomic import atomic_path
 from linkfea.checks import Bounds, integer
+from linkfea.outputs import OutputSet, check_folder
 
 from .errors import ArgumentError, VjmError
 
@@ -35,6 +34,8 @@ GRID = Bounds(2)
 
 #: the two maps: (name, unit)
 MAPS = (("k_tran", "mm/N"), ("k_rot", "rad/(N mm)"))
+#: the files `vjm map` writes, one set
+MAP_FILES = ("map.npz", "k_tran.png", "k_rot.png")
 
 #: a map whose max/min exceeds this gets a log colour scale
 LOG_SPAN = 10.0
@@ -132,11 +133,12 @@ class StiffnessMap:
                 f"k_tran {np.nanmin(kt):.3g}..{np.nanmax(kt):.3g} mm/N, "
                 f"k_rot {np.nanmin(kr):.3g}..{np.nanmax(kr):.3g} rad/(N mm)")
 
-    def save(self, out) -> None:
-        """Write ``out/map.npz``, ``out/k_tran.png`` and ``out/k_rot.png``: all three or none."""
-        with atomic_path(os.path.join(out, "map.npz")) as npz, \
-                atomic_path(os.path.join(out, "k_tran.png")) as png_t, \
-                atomic_path(os.path.join(out, "k_rot.png")) as png_r:
+    def save(self, out, force: bool = False) -> None:
+        """Write ``out/map.npz``, ``out/k_tran.png`` and ``out/k_rot.png`` as one set (:mod:`linkfea.outputs`):
+        all three new, or the old ones; ``force`` writes beside files of other origin."""
+        check_folder(out, MAP_FILES, force=force)
+        with OutputSet(out, "vjm map") as s:
+            npz, png_t, png_r = (s.path(n) for n in MAP_FILES)
             np.savez_compressed(npz, points=self.points, K=self.K, k_tran=self.k_tran, k_rot=self.k_rot,
                                 reachable=self.reachable, shape=np.array(self.shape),
                                 note=np.array("K world axes at the end-effector point; k_tran mm/N, "

@@ -24,8 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from linkfea.atomic import atomic_path, plain, write_text
+from linkfea.atomic import plain
 from linkfea.checks import integer
+from linkfea.outputs import OutputSet, check_folder
 
 from .errors import ArgumentError, VjmError
 from .maps import GRID
@@ -166,14 +167,17 @@ def trade_offs(model: Model, candidates: dict, grid: int) -> TradeOffs:
     return TradeOffs(rows, mask, len(P), model.architecture)
 
 
+#: the files `vjm sweep` writes, one set
+SWEEP_FILES = ("tradeoffs.parquet", "tradeoffs.csv", "pareto.csv", "pareto.json", "pareto.png")
 UNITS = {"k_tran_*": "mm/N (largest eigenvalue of the translational 3x3 block of C)",
          "k_rot_*": "rad/(N*mm) (largest eigenvalue of the rotational block)",
          "*_mass_kg": "kg", "moving_mass_kg": "kg, the swept links of all chains (parallelogram: 2 bars per leg)",
          "max/mean": "over the reachable points of the --grid workspace grid"}
 
 
-def write_trade_offs(res: TradeOffs, out) -> list[Path]:
-    """``tradeoffs.csv``, ``tradeoffs.parquet``, ``pareto.csv``, ``pareto.json``, ``pareto.png`` under ``out``."""
+def write_trade_offs(res: TradeOffs, out, force: bool = False) -> list[Path]:
+    """``tradeoffs.csv``, ``tradeoffs.parquet``, ``pareto.csv``, ``pareto.json``, ``pareto.png`` under ``out``,
+    as one set (:mod:`linkfea.outputs`); ``force`` writes beside files of other origin."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
@@ -188,17 +192,15 @@ def write_trade_offs(res: TradeOffs, out) -> list[Path]:
 
     front = [r for r in res.rows if r["pareto"]]
     front.sort(key=lambda r: r["moving_mass_kg"])
-    paths = [out / n for n in ("tradeoffs.parquet", "tradeoffs.csv", "pareto.csv", "pareto.json", "pareto.png")]
-    with atomic_path(paths[0]) as tmp:
-        pq.write_table(table(res.rows), tmp)
-    with atomic_path(paths[1]) as tmp:
-        pacsv.write_csv(table(res.rows), tmp)
-    with atomic_path(paths[2]) as tmp:
-        pacsv.write_csv(table(front), tmp)
-    write_text(paths[3], json.dumps(plain({**meta, "pareto": front}), indent=1) + "\n")
-    with atomic_path(paths[4]) as tmp:
-        plot_pareto(res, tmp)
-    return paths
+    check_folder(out, SWEEP_FILES, force=force)
+    with OutputSet(out, "vjm sweep") as s:  # one set: all five from this run, or the old ones
+        t = [s.path(n) for n in SWEEP_FILES]
+        pq.write_table(table(res.rows), t[0])
+        pacsv.write_csv(table(res.rows), t[1])
+        pacsv.write_csv(table(front), t[2])
+        Path(t[3]).write_text(json.dumps(plain({**meta, "pareto": front}), indent=1) + "\n", encoding="utf-8")
+        plot_pareto(res, t[4])
+    return [out / n for n in SWEEP_FILES]
 
 
 def plot_pareto(res: TradeOffs, path) -> None:
@@ -235,12 +237,14 @@ def candidates_from_args(model: Model, foot=None, leg=None, bar=None) -> dict:
     return {role: load_designs(p, role) for role, p in (("foot", foot), ("leg", leg)) if p is not None}
 
 
-def sweep(model_path, out, grid: int, foot=None, leg=None, bar=None) -> TradeOffs:
-    """``vjm sweep``: load the model and the designs, evaluate all combinations, write the outputs."""
+def sweep(model_path, out, grid: int, foot=None, leg=None, bar=None, force: bool = False) -> TradeOffs:
+    """``vjm sweep``: check the output folder, load the model and the designs, evaluate all combinations,
+    write the outputs."""
     grid = integer(grid, "grid", GRID, ArgumentError)
     from .modelfile import load_model
 
+    check_folder(out, SWEEP_FILES, force=force)
     model = load_model(os.fspath(model_path))
     res = trade_offs(model, candidates_from_args(model, foot, leg, bar), grid)
-    write_trade_offs(res, out)
+    write_trade_offs(res, out, force=force)
     return res

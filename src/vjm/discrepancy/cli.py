@@ -29,6 +29,8 @@ def diagnose_cmd(
     suggest: int = typer.Option(0, "--suggest", min=0,
                                 help="write DIR/next_measurements.csv: N (posture, load) rows to measure next"),
     forces_only: bool = typer.Option(False, "--forces-only", help="suggest force loads only (no torques)"),
+    force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files (they are "
+                                                      "never overwritten or deleted)"),
 ):
     """Name the physical effect missing from MODEL that the measurements in DATA reveal."""
     from .diagnose import run
@@ -36,7 +38,7 @@ def diagnose_cmd(
     try:
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
                  log=(lambda s: typer.echo(s, err=True)) if verbose else None,
-                 suggest=suggest, forces_only=forces_only)
+                 suggest=suggest, forces_only=forces_only, force=force)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(dg.report["summary"])

@@ -2,7 +2,7 @@
 
 :func:`diagnose` takes a model and a data set and returns a
 :class:`Diagnosis` (report dictionary + updated model + per-posture residuals);
-:func:`write_diagnosis` writes it to a directory atomically.
+:func:`write_diagnosis` writes it to a directory as one output set.
 """
 from __future__ import annotations
 
@@ -42,7 +42,7 @@ from .predict import (
     deflection_problem,
     stiffness_problem,
 )
-from .report import plot_before_after, plot_residuals, write_report_dir
+from .report import check_report_dir, plot_before_after, plot_residuals, write_report_dir
 from .summary import alternative_lines, verdict_line
 
 DEFAULT_ALPHA = 0.01
@@ -98,9 +98,9 @@ class Diagnosis:
 
         return Summary(self.report)
 
-    def save(self, out_dir) -> None:
+    def save(self, out_dir, force: bool = False) -> None:
         """Write report.json, report.html, figures, model_updated.yaml (and next_measurements.csv)."""
-        write_diagnosis(self, out_dir)
+        write_diagnosis(self, out_dir, force=force)
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()
@@ -767,25 +767,25 @@ def summary(rep) -> str:
             f"{rep['chi2_after']:.3g}. Gap before naming: {rep['localization']['summary']}.")
 
 
-def write_diagnosis(dg: Diagnosis, out_dir) -> None:
-    """Write report.json, report.html, residuals PNG and model_updated.yaml atomically."""
-    def figs(d):
-        plot_before_after(os.path.join(d, "before_after.png"), dg.rms_pose_before, dg.rms_pose_after, dg.verdict)
-        plot_residuals(os.path.join(d, "residuals_per_posture.png"), dg.P, dg.rms_pose_before, dg.rms_pose_after,
+def write_diagnosis(dg: Diagnosis, out_dir, force: bool = False) -> None:
+    """Write report.json, report.html, the PNGs and model_updated.yaml as one set (see write_report_dir)."""
+    def figs(path_of):
+        plot_before_after(path_of("before_after.png"), dg.rms_pose_before, dg.rms_pose_after, dg.verdict)
+        plot_residuals(path_of("residuals_per_posture.png"), dg.P, dg.rms_pose_before, dg.rms_pose_after,
                        "residual per posture: before vs after")
         if dg.next_measurements is not None:
-            write_design(os.path.join(d, "next_measurements.csv"), dg.next_measurements,
+            write_design(path_of("next_measurements.csv"), dg.next_measurements,
                          "next measurements suggested by vjm diagnose: " + dg.report["suggest"]["criterion"])
         return ["before_after.png", "residuals_per_posture.png"]
 
-    write_report_dir(out_dir, dg.report, lambda p: mo.save_model(dg.model, p), figs)
+    write_report_dir(out_dir, dg.report, lambda p: mo.save_model(dg.model, p), figs, force=force)
 
 
-def run(model_path, data_path, out_dir, **kw) -> Diagnosis:
-    """Load, diagnose and write: the body of ``vjm diagnose``."""
+def run(model_path, data_path, out_dir, force: bool = False, **kw) -> Diagnosis:
+    """Check the arguments and the output folder, load, diagnose and write: the body of ``vjm diagnose``."""
     check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")})
-    model = mo.load_model(model_path)
-    data = read_csv(data_path)
+    check_report_dir(out_dir, force)
+    model, data = mo.load_model(model_path), read_csv(data_path)
     dg = diagnose(model, data, model_name=os.path.basename(str(model_path)), **kw)
-    write_diagnosis(dg, out_dir)
+    write_diagnosis(dg, out_dir, force=force)
     return dg

@@ -1,19 +1,24 @@
 """Report of a diagnosis: report.json, report.html, PNG figures, model file.
 
-Everything is written into a fresh temporary directory next to the target and
-renamed into place at the end, so a failure leaves nothing partial behind.
+The files are one output set (:mod:`linkfea.outputs`): written to temporaries
+in the target folder and committed together, so the folder holds the complete
+old report or the complete new one, never a mix; files of other origin in the
+folder are never touched.
 """
 from __future__ import annotations
 
 import html
 import json
-import os
-import shutil
-import tempfile
 
 import numpy as np
 
 from linkfea.atomic import plain
+from linkfea.outputs import OutputSet, check_folder
+
+#: the files a report folder may hold (next_measurements.csv with --suggest)
+REPORT_FILES = ("report.json", "report.html", "before_after.png", "residuals_per_posture.png",
+                "model_updated.yaml", "next_measurements.csv")
+SET_NAME = "vjm diagnose"
 
 
 def plot_residuals(path, P, rms_before, rms_after, title):
@@ -153,32 +158,24 @@ that pass the test. Significance level alpha = {rep['alpha']} shared by Bonferro
 </body></html>"""
 
 
-def write_report_dir(out_dir, rep: dict, model_writer, figure_writer) -> None:
-    """Write ``report.json``, ``report.html``, figures and the model file into ``out_dir``.
+def check_report_dir(out_dir, force: bool = False) -> None:
+    """Refuse, before any work, a report folder that will not do (see :func:`linkfea.outputs.check_folder`)."""
+    check_folder(out_dir, REPORT_FILES, force=force)
 
-    ``model_writer(path)`` writes model_updated.yaml; ``figure_writer(dir)``
-    writes PNGs and returns their file names.  Files are produced in a
-    temporary sibling directory; an existing ``out_dir`` is replaced only once
-    everything succeeded.
+
+def write_report_dir(out_dir, rep: dict, model_writer, figure_writer, force: bool = False) -> None:
+    """Write ``report.json``, ``report.html``, figures and the model file into ``out_dir`` as one set.
+
+    ``model_writer(path)`` writes model_updated.yaml; ``figure_writer(path_of)`` writes PNGs
+    (and the suggested measurements) to ``path_of(name)`` and returns the figures' names.
+    A rerun replaces the report's own files and removes those of the previous report
+    that this one does not have; other files are left alone.
     """
-    out_dir = os.path.abspath(os.fspath(out_dir))
-    parent = os.path.dirname(out_dir)
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".tmp_report_", dir=parent)
-    try:
-        model_writer(os.path.join(tmp, "model_updated.yaml"))
-        figures = figure_writer(tmp)
-        with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as fh:
+    check_folder(out_dir, REPORT_FILES, force=force)
+    with OutputSet(out_dir, SET_NAME) as s:
+        model_writer(s.path("model_updated.yaml"))
+        figures = figure_writer(s.path)
+        with open(s.path("report.json"), "w", encoding="utf-8") as fh:
             json.dump(plain(rep), fh, indent=2)
-        with open(os.path.join(tmp, "report.html"), "w", encoding="utf-8") as fh:
+        with open(s.path("report.html"), "w", encoding="utf-8") as fh:
             fh.write(render_html(plain(rep), figures))
-        if os.path.isdir(out_dir):
-            old = tempfile.mkdtemp(prefix=".old_report_", dir=parent)
-            os.replace(out_dir, os.path.join(old, "d"))
-            os.replace(tmp, out_dir)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise

@@ -228,10 +228,16 @@ def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: 
 
 
 def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_r, seed: int, out) -> Deflections:
-    """Body of ``vjm simulate``: design, simulate, write the CSV atomically."""
+    """Body of ``vjm simulate``: check ``out``, design, simulate, write the CSV atomically.
+
+    An existing ``out`` is replaced only if vjm simulate wrote it (measured data is never overwritten).
+    """
+    from linkfea.outputs import SIMULATED_CSV_MARK, check_file, is_simulated_csv
+
     from .data import write_deflections
 
     check_arguments(noise_t, noise_r, seed)
+    check_file(out, is_simulated_csv, "a CSV written by vjm simulate")
     model = mo.load_model(model_path)
     effects = [parse_effect(s) for s in effect_specs]
     rng = np.random.default_rng([seed, 1])
@@ -253,7 +259,7 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
         W = L.reshape(-1, 6)
     data = simulate(model, effects, P, W, noise_t, noise_r, seed)
     desc = ", ".join(f"{n}:" + ",".join(f"{a}={b:g}" for a, b in v.items()) for n, v in effects) or "none"
-    write_deflections(out, data, f"simulated by vjm simulate from {os.path.basename(str(model_path))}; "
+    write_deflections(out, data, f"{SIMULATED_CSV_MARK[2:]} from {os.path.basename(str(model_path))}; "
                                  f"poses {poses}; loads {loads}; noise_t {noise_t} mm; noise_r {noise_r} rad; "
                                  f"seed {seed}; hidden effects: {desc}")
     return data

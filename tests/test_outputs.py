@@ -1,0 +1,272 @@
+"""The user's files: nothing deleted or overwritten that the tools did not write, output paths checked
+before any work, folders at the user's umask, no stray temporaries, output sets all old or all new.
+
+The SIGKILL runs of whole commands are in test_faults.py; here each rule is checked on its own, fast.
+"""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from linkfea.cli import app as linkfea_app
+from linkfea.errors import LinkFeaError
+from linkfea.outputs import MANIFEST, OutputSet, check_folder, read_manifest, recover, sha256
+from linkfea.resultset import check_companion, companion_mismatch
+from vjm.cli import app as vjm_app
+
+PUU = "data/orthoglide/puu.yaml"
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _error(r) -> str:
+    """The one `error:` line of a refused command (exit status 2)."""
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert r.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), (r.exit_code, r.output)
+    return lines[0]
+
+
+def _tree(folder: Path) -> dict:
+    """Every file under ``folder`` with its bytes (and the folders, as None)."""
+    return {str(p.relative_to(folder)): (p.read_bytes() if p.is_file() else None) for p in folder.rglob("*")}
+
+
+@pytest.fixture
+def no_work(monkeypatch):
+    """Any FEA, mesh or model loading fails the test: the output paths must be checked first."""
+    import importlib
+
+    def mod(name):  # the package re-exports functions under some module names
+        return importlib.import_module(name)
+
+    def started(*args, **kwargs):
+        raise AssertionError("work started before the output path was checked")
+
+    for name, attr in [("linkfea.pipeline", "compute"), ("linkfea.compare", "fea_compliance"),
+                       ("linkfea.sweep", "make_sweep"), ("vjm.modelfile", "load_model"),
+                       ("vjm.discrepancy.modelops", "load_model")]:
+        monkeypatch.setattr(mod(name), attr, started)
+
+
+# --------------------------------------------------------------------------- 1. data loss
+def test_diagnose_into_the_users_folder_deletes_nothing(tmp_path, no_work):
+    """`vjm diagnose puu m.csv --out .` removed m.csv and everything else: now one line naming a file
+    of the user's and --force, before any work, and every file is as it was."""
+    (tmp_path / "measurements.csv").write_text("x,y,z\n1,2,3\n")
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "a.txt").write_text("mine")
+    before = _tree(tmp_path)
+    r = CliRunner().invoke(vjm_app, ["diagnose", PUU, str(tmp_path / "measurements.csv"), "--out", str(tmp_path)])
+    line = _error(r)
+    assert ("measurements.csv" in line or "notes" in line) and "--force" in line
+    assert _tree(tmp_path) == before
+
+
+def test_force_never_overwrites_a_file_of_other_origin(tmp_path, no_work):
+    (tmp_path / "report.html").write_text("my own report")
+    r = CliRunner().invoke(vjm_app, ["diagnose", PUU, "m.csv", "--out", str(tmp_path), "--force"])
+    assert "report.html" in _error(r)
+    assert (tmp_path / "report.html").read_text() == "my own report"
+    assert sorted(os.listdir(tmp_path)) == ["report.html"]
+
+
+@pytest.mark.parametrize("cmd", [
+    ["linkfea", "compare", "bar"],
+    ["linkfea", "sweep", "bar", "--param", "width=10,20"],
+    ["vjm", "map", PUU],
+    ["vjm", "sweep", PUU, "--leg", "leg.json"],
+    ["vjm", "diagnose", PUU, "m.csv"],
+])
+def test_every_folder_command_refuses_a_folder_of_other_origin_before_work(cmd, tmp_path, no_work):
+    out = tmp_path / "d"
+    out.mkdir()
+    (out / "mine.txt").write_text("keep")
+    app = linkfea_app if cmd[0] == "linkfea" else vjm_app
+    r = CliRunner().invoke(app, [*cmd[1:], "--out", str(out)])
+    line = _error(r)
+    assert "mine.txt" in line and "--force" in line
+    assert sorted(os.listdir(out)) == ["mine.txt"] and (out / "mine.txt").read_text() == "keep"
+
+
+# --------------------------------------------------------------------------- 5. checks before work
+@pytest.mark.parametrize("case", ["existing_text", "folder", "under_a_file", "unwritable", "foreign_vtu"])
+def test_compute_out_is_checked_before_the_fea(case, tmp_path, no_work):
+    """An --out that cannot be or must not be written is refused before meshing (no_work fails any FEA)."""
+    out = {"existing_text": tmp_path / "existing_file.txt", "folder": tmp_path / "d",
+           "under_a_file": tmp_path / "f.txt" / "r.json", "unwritable": Path("/proc/linkfea-no/r.json"),
+           "foreign_vtu": tmp_path / "r.json"}[case]
+    if case == "existing_text":
+        out.write_text("not a result")
+    if case == "folder":
+        out.mkdir()
+    if case == "under_a_file":
+        (tmp_path / "f.txt").write_text("a file")
+    if case == "foreign_vtu":
+        (tmp_path / "r.vtu").write_text("someone's mesh")
+    before = _tree(tmp_path)
+    r = CliRunner().invoke(linkfea_app, ["compute", "bar", "--out", str(out)])
+    _error(r)
+    assert _tree(tmp_path) == before
+
+
+def test_simulate_never_overwrites_measured_data_but_replaces_its_own(tmp_path):
+    measured = tmp_path / "measured.csv"
+    measured.write_text("x,y,z,Fx,Fy,Fz,Mx,My,Mz,dx,dy,dz\n")
+    r = CliRunner().invoke(vjm_app, ["simulate", PUU, "--poses", "grid:2", "--out", str(measured)])
+    assert "measured.csv" in _error(r)
+    assert measured.read_text() == "x,y,z,Fx,Fy,Fz,Mx,My,Mz,dx,dy,dz\n"
+    own = tmp_path / "sim.csv"
+    for seed in ("1", "2"):
+        r = CliRunner().invoke(vjm_app, ["simulate", PUU, "--poses", "grid:2", "--seed", seed, "--out", str(own)])
+        assert r.exit_code == 0, r.output
+    assert sorted(os.listdir(tmp_path)) == ["measured.csv", "sim.csv"]
+
+
+# --------------------------------------------------------------------------- report folders
+@pytest.fixture(scope="module")
+def diagnosis():
+    import vjm
+    from vjm.discrepancy.diagnose import diagnose
+    from vjm.discrepancy.simulate import design_loads, simulate
+    from vjm.model import Link
+
+    model = vjm.load_model(PUU).replace(foot=Link.rigid())
+    rng = np.random.default_rng(0)
+    P0 = rng.uniform(-60.0, 90.0, (6, 3))
+    L = design_loads("axes:100", len(P0), rng)
+    P, W = np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6)
+    return diagnose(model, simulate(model, [], P, W, 1e-3, None, 0), effects=["gravity"])
+
+
+def test_report_folder_gets_the_users_umask_and_no_temporaries(tmp_path, diagnosis):
+    from vjm.discrepancy.diagnose import write_diagnosis
+
+    (tmp_path / ".tmp_report_abc").mkdir()  # left by a killed run of an earlier version
+    (tmp_path / ".old_report_def").mkdir()
+    old = os.umask(0o027)
+    try:
+        write_diagnosis(diagnosis, tmp_path / "rep")
+    finally:
+        os.umask(old)
+    rep = tmp_path / "rep"
+    assert rep.stat().st_mode & 0o777 == 0o750
+    assert all(p.stat().st_mode & 0o777 == 0o640 for p in rep.iterdir())
+    assert sorted(os.listdir(tmp_path)) == ["rep"]
+
+
+def test_rerun_replaces_its_own_report_and_nothing_else(tmp_path, diagnosis):
+    from vjm.discrepancy.diagnose import write_diagnosis
+
+    rep = tmp_path / "rep"
+    rep.mkdir()
+    (rep / "notes.txt").write_text("mine")
+    with pytest.raises(LinkFeaError, match="notes.txt"):
+        write_diagnosis(diagnosis, rep)
+    write_diagnosis(diagnosis, rep, force=True)
+    first = json.loads((rep / "report.json").read_text())
+    stale = rep / f".linkfea-tmp.{2**31 - 2}.x.report.json"  # a dead process's temporary
+    stale.write_text("{")
+    write_diagnosis(diagnosis, rep, force=True)
+    assert json.loads((rep / "report.json").read_text()) == first
+    assert (rep / "notes.txt").read_text() == "mine"
+    assert sorted(os.listdir(rep)) == sorted([MANIFEST, "notes.txt", "report.json", "report.html", "before_after.png",
+                                              "residuals_per_posture.png", "model_updated.yaml"])
+
+
+# --------------------------------------------------------------------------- sets
+def test_a_rerun_removes_only_its_own_files_that_it_no_longer_writes(tmp_path):
+    with OutputSet(tmp_path, "a") as s:
+        for n in ("x.txt", "y.txt"):
+            Path(s.path(n)).write_text(f"a {n}")
+    with OutputSet(tmp_path, "b") as s:
+        Path(s.path("z.txt")).write_text("b")
+    (tmp_path / "user.txt").write_text("user")
+    with OutputSet(tmp_path, "a") as s:
+        Path(s.path("x.txt")).write_text("a again")
+    assert sorted(os.listdir(tmp_path)) == [MANIFEST, "user.txt", "x.txt", "z.txt"]
+    man = read_manifest(tmp_path)["sets"]
+    assert man["a"]["files"] == {"x.txt": sha256(tmp_path / "x.txt")} and "z.txt" in man["b"]["files"]
+
+
+def test_a_failing_writer_leaves_the_old_set_and_no_temporary(tmp_path):
+    with OutputSet(tmp_path, "a") as s:
+        Path(s.path("x.txt")).write_text("old")
+    with pytest.raises(RuntimeError):
+        with OutputSet(tmp_path, "a") as s:
+            Path(s.path("x.txt")).write_text("new")
+            raise RuntimeError("the picture failed")
+    assert sorted(os.listdir(tmp_path)) == [MANIFEST, "x.txt"] and (tmp_path / "x.txt").read_text() == "old"
+
+
+WRITER = """
+import sys
+from pathlib import Path
+from linkfea.outputs import OutputSet
+with OutputSet(sys.argv[1], "t") as s:
+    for n in ("a.txt", "b.txt", "c.txt"):
+        Path(s.path(n)).write_text(sys.argv[2])
+"""
+
+
+@pytest.mark.parametrize("point,new", [("members-written", False), ("journal-written", True),
+                                       ("renamed-one", True), ("renamed-all", True)])
+def test_sigkill_at_each_point_leaves_the_old_set_or_the_new_one(point, new, tmp_path):
+    """Killed before the journal: the old set, untouched on disk; after it: the new set, complete once
+    the next run (or reader) has looked at the folder.  No temporary survives that next run."""
+    subprocess.run([sys.executable, "-c", WRITER, str(tmp_path), "old"], check=True)
+    p = subprocess.run([sys.executable, "-c", WRITER, str(tmp_path), "new"], env={**os.environ, "LINKFEA_FAULT": point})
+    assert p.returncode == -9
+    if not new:
+        assert all((tmp_path / n).read_text() == "old" for n in ("a.txt", "b.txt", "c.txt"))
+    recover(tmp_path)
+    want = "new" if new else "old"
+    assert [(tmp_path / n).read_text() for n in ("a.txt", "b.txt", "c.txt")] == [want] * 3
+    assert sorted(os.listdir(tmp_path)) == [MANIFEST, "a.txt", "b.txt", "c.txt"]
+    files = read_manifest(tmp_path)["sets"]["t"]["files"]
+    assert files == {n: sha256(tmp_path / n) for n in ("a.txt", "b.txt", "c.txt")}
+
+
+def test_check_folder_rolls_a_killed_commit_forward(tmp_path):
+    subprocess.run([sys.executable, "-c", WRITER, str(tmp_path), "old"], check=True)
+    p = subprocess.run([sys.executable, "-c", WRITER, str(tmp_path), "new"],
+                       env={**os.environ, "LINKFEA_FAULT": "renamed-one"})
+    assert p.returncode == -9
+    check_folder(tmp_path, ["a.txt"])
+    assert {(tmp_path / n).read_text() for n in ("a.txt", "b.txt", "c.txt")} == {"new"}
+
+
+def test_a_result_json_refuses_a_vtu_that_is_not_its_own(tmp_path):
+    (tmp_path / "r.vtu").write_bytes(b"mesh one")
+    doc = {"schema": "linkfea.result/1", "files": {"vtu": {"name": "r.vtu", "sha256": sha256(tmp_path / "r.vtu")}}}
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    assert companion_mismatch(tmp_path / "r.json") is None
+    (tmp_path / "r.vtu").write_bytes(b"mesh two")
+    assert "sha256" in companion_mismatch(tmp_path / "r.json")
+    with pytest.raises(LinkFeaError, match="r.vtu"):
+        check_companion(tmp_path / "r.json")
+
+
+def test_results_written_outside_a_manifest_are_recognised_as_the_tools_own(tmp_path):
+    """A folder holding `linkfea compute` and `vjm simulate` outputs takes a report without --force;
+    a JSON of another schema beside them is of other origin."""
+    (tmp_path / "foot.json").write_text(json.dumps({"schema": "linkfea.result/1"}))
+    (tmp_path / "foot.vtu").write_text("mesh")
+    (tmp_path / "foot.png").write_text("picture")
+    (tmp_path / "m.csv").write_text("# simulated by vjm simulate from puu.yaml\nx,y,z\n")
+    check_folder(tmp_path, ["report.json"])
+    (tmp_path / "other.json").write_text(json.dumps({"schema": "someone/1"}))
+    with pytest.raises(LinkFeaError, match="other.json"):
+        check_folder(tmp_path, ["report.json"])
+
+
+def test_a_sweep_folder_of_an_earlier_version_is_still_the_tools_own(tmp_path):
+    """Written before manifests existed: known by its table's schema, so a rerun resumes it."""
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "0123456789abcdef.json").write_text("{}")
+    (tmp_path / "sweep.json").write_text(json.dumps({"schema": "linkfea.sweep-table/1"}))
+    (tmp_path / "sweep.csv").write_text("index\n")
+    check_folder(tmp_path, ["sweep.csv", "results/"])
