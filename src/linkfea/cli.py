@@ -33,6 +33,18 @@ def matrix_table(M: np.ndarray, title: str, rows, cols) -> Table:
     return t
 
 
+def error_table(diagonal: np.ndarray, err: np.ndarray) -> Table:
+    """The diagonal with its estimated discretization error (linkfea.estimate)."""
+    t = Table(title=f"estimated discretization error (whole matrix {100 * float(np.max(err)):.2g}%): "
+                    "the FEA compliance is too small by about")
+    t.add_column("")
+    for tw, w in zip(TWIST, WRENCH):
+        t.add_column(f"{tw}/{w}", justify="right")
+    t.add_row("C_ii", *(f"{v: .3e}" for v in diagonal))
+    t.add_row("error", *(f"{100 * v:.2g}%" for v in err))
+    return t
+
+
 def _fail(msg: str) -> None:
     print(f"error: {msg}".replace("\n", " "), file=sys.stderr)
     raise typer.Exit(code=2)
@@ -102,12 +114,18 @@ def show(res, console: Console) -> None:
                   f"{np.round(f.origin, 4).tolist()} mm, x axis {np.round(f.axes[0], 4).tolist()}")
     console.print(matrix_table(res.compliance, "compliance C (t = C w; mm/N, rad/(N mm))", TWIST, WRENCH))
     console.print(matrix_table(res.stiffness, "stiffness K = C^-1 (N/mm, N mm/rad)", WRENCH, TWIST))
+    err = res.error_diagonal
+    if err is not None:
+        console.print(error_table(np.diag(res.compliance), err))
+    sharp = (res.diagnostics.get("sharp_edges") or {}).get("note")
+    if sharp:
+        console.print(sharp)
     d = res.diagnostics
     ee = d.get("error_estimate")
     m = res.mesh_info
     console.print(f"mesh: {m['n_nodes']} vertices, {m['n_tets']} tets, {m['n_dofs']} DOF, "
                   f"edge {m['edge_length']:.3g} mm; symmetry error {d['symmetry_error']:.2e}, "
-                  f"fit residual {d['fit_residual']:.2e}, error estimate "
+                  f"fit residual {d['fit_residual']:.2e}, Richardson estimate "
                   + (f"{ee:.2e}" if ee is not None else "not computed (use --convergence)")
                   + f"; solver {res.solver.get('factorizer')}")
     console.print("timing (s): " + ", ".join(f"{k} {v:.2f}" for k, v in res.timing.items()))

@@ -26,9 +26,38 @@ def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, m
     t0 = time.perf_counter()
     comp = compliance_from_solution(sol)
     t_fit = time.perf_counter() - t0
+    say("error estimate")
+    t0 = time.perf_counter()
+    est = _estimate(sol, comp, material, mode, block_ratio, mesh)
     timing = {"mesh": t_mesh, **{k: float(sol.timing.get(k, 0.0)) for k in ("assemble", "factor", "solve")},
-              "fit": t_fit}
-    return mesh, sol, comp, timing
+              "fit": t_fit, "estimate": time.perf_counter() - t0}
+    return mesh, sol, comp, timing, est
+
+
+def _estimate(sol, comp, material, mode, block_ratio, mesh):
+    """The recovered-stress estimate of the compliance's discretization error (linkfea.estimate)."""
+    import numpy as np
+
+    from .estimate import estimate_error
+    from .fem import lame
+
+    lam, mu = lame(material)
+    scale = np.where(np.asarray(mesh.block, dtype=bool), block_ratio, 1.0) if mode == "block" else None
+    return estimate_error(sol, np.diag(comp.matrix), lam, mu, scale)
+
+
+def sharp_edges_note(link) -> dict:
+    """The link body's sharp re-entrant (concave) edges and what they mean for the result."""
+    from .mesh_gmsh import concave_edges
+
+    try:
+        n = len(concave_edges(link.body))
+    except Exception:  # a body OpenCASCADE cannot classify (e.g. a surface mesh): say nothing rather than guess
+        return {"count": None, "note": "not checked (the body could not be classified)"}
+    if n == 0:
+        return {"count": 0, "note": "no sharp re-entrant edges"}
+    return {"count": n, "note": (f"{n} sharp re-entrant edge{'s' if n > 1 else ''}: the stress is singular there, "
+                                 "and the compliance converges slowly; a machining radius removes this")}
 
 
 def compute(spec, params: dict | None = None, mesh_size: float | None = None, mode: str = "rigid",
@@ -112,17 +141,24 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
             say(f"convergence: mesh size {h:.3g} mm")
             runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon, mesher, assembler))
         rich = richardson(sizes, [r[2].matrix for r in runs])
-        mesh, sol, comp, timing = runs[-1]
+        mesh, sol, comp, timing, est = runs[-1]
         diagnostics["error_estimate"] = float(rich.error_diagonal)
         diagnostics["observed_order"] = float(rich.order_diagonal)
         diagnostics["convergence_sizes"] = sizes
         diagnostics["error_estimate_note"] = ("Richardson estimate of the relative error of the diagonal "
                                               "(largest entry) from 3 mesh sizes" + (f"; {rich.note}" if rich.note else ""))
     else:
-        mesh, sol, comp, timing = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
-                                              assembler)
+        mesh, sol, comp, timing, est = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
+                                                   assembler)
         diagnostics["error_estimate"] = None
         diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
+    diagnostics["discretization_error"] = est.to_dict()
+    if mode == "block":
+        diagnostics["discretization_error"]["note"] += ("; block mode: the loads are nodal forces on the block, "
+                                                        "so the estimate is approximate there")
+    t0 = time.perf_counter()
+    diagnostics["sharp_edges"] = sharp_edges_note(link)
+    timing["edges"] = time.perf_counter() - t0
     diagnostics.update(symmetry_error=float(comp.symmetry_error), fit_residual=float(comp.fit_residual),
                        min_eigenvalue=float(comp.min_eigenvalue))
     timing = {"cad": t_cad, **timing, "total": time.perf_counter() - t_all}
@@ -137,4 +173,4 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
                       material=mat, mode=mode, block_ratio=float(block_ratio) if mode == "block" else None,
                       mesh_info=mesh_info, diagnostics=diagnostics, solver=dict(sol.solver), timing=timing,
                       versions=versions(), volume=float(link.body.Volume()), link=link, mesh=mesh, solution=sol,
-                      fit=comp)
+                      fit=comp, estimate=est)
