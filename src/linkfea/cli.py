@@ -68,6 +68,8 @@ def compute(
                                          "STEP) or pytetwild (fTetWild; default for STL/OBJ/PLY)"),
     assembler: str = typer.Option("kernel", "--assembler",
                                   help="stiffness assembly: kernel (fast) or skfem (scikit-fem's asm, reference)"),
+    solver: str = typer.Option("auto", "--solver", help="linear solver: direct (PARDISO), iterative (CG + "
+                               "multigrid) or auto (direct unless its estimated memory exceeds what is free)"),
     out: Path = typer.Option(Path("out/result.json"), "--out", "-o", help="result JSON; .vtu and .png go beside it"),
     picture: bool = typer.Option(True, "--picture/--no-picture", help="write the .vtu and .png beside the JSON"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or tables"),
@@ -84,7 +86,7 @@ def compute(
         with console.status("starting") as status:
             res = run(spec, params=params, mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
                       material=material, base=base, tip=tip, convergence=convergence, epsilon=envelope, mesher=mesher,
-                      assembler=assembler,
+                      assembler=assembler, solver=solver,
                       progress=lambda msg: status.update(f"[bold]{msg}"))
         out = Path(out)
         if picture:
@@ -107,6 +109,14 @@ def compute(
         con.print(f"wrote {', '.join(str(p) for p in written)}")
 
 
+def _convergence_text(solver: dict) -> str:
+    c = solver.get("convergence")
+    if not c:
+        return ""
+    return (f" ({c['levels']} multigrid levels, CG iterations {', '.join(str(i) for i in c['iterations'])}, "
+            f"largest relative residual {max(c['relative_residual']):.1e})")
+
+
 def show(res, console: Console) -> None:
     """Print the compliance and stiffness tables and the diagnostics."""
     f = res.frame
@@ -127,7 +137,7 @@ def show(res, console: Console) -> None:
                   f"edge {m['edge_length']:.3g} mm; symmetry error {d['symmetry_error']:.2e}, "
                   f"fit residual {d['fit_residual']:.2e}, Richardson estimate "
                   + (f"{ee:.2e}" if ee is not None else "not computed (use --convergence)")
-                  + f"; solver {res.solver.get('factorizer')}")
+                  + f"; solver {res.solver.get('factorizer')}" + _convergence_text(res.solver))
     console.print("timing (s): " + ", ".join(f"{k} {v:.2f}" for k, v in res.timing.items()))
 
 

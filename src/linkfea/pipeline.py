@@ -12,7 +12,8 @@ from .result import LinkResult
 __all__ = ["LinkResult", "compute"]
 
 
-def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh", assembler="kernel"):
+def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh", assembler="kernel",
+                solver="auto"):
     from .fem import solve_link
     from .fit import compliance_from_solution
     from .mesh import mesh_link
@@ -21,7 +22,10 @@ def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, m
     mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=say,
                      mesher=mesher)
     t_mesh = time.perf_counter() - t0
-    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say, assembler=assembler)
+    from .solvers import factorizer_named
+
+    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say, assembler=assembler,
+                     solver=factorizer_named(solver))
     say("fit")
     t0 = time.perf_counter()
     comp = compliance_from_solution(sol)
@@ -64,7 +68,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
             block_ratio: float = 1000.0, material: str | None = None, base=None, tip=None,
             convergence: bool = False, progress: Callable[[str], None] | None = None,
             cache_dir=None, epsilon: float | None = None, mesher: str | None = None,
-            assembler: str = "kernel") -> LinkResult:
+            assembler: str = "kernel", solver: str = "auto") -> LinkResult:
     """Compute a link's 6x6 compliance at its reference frame.
 
     Parameters
@@ -99,6 +103,11 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     assembler : {"kernel", "skfem"}
         Stiffness assembly (see :func:`linkfea.fem.solve_link`); ``skfem`` is the slower
         reference path, equal to round-off.
+    solver : {"auto", "direct", "iterative"}
+        The linear solver: PARDISO's Cholesky (``direct``), conjugate gradients with pyamg's
+        smoothed-aggregation multigrid (``iterative``, :mod:`linkfea.iterative`), or ``auto``:
+        direct unless its peak memory, estimated before the solve from the number of DOF,
+        exceeds the memory at hand.  ``result.solver`` records the choice and CG's convergence.
     """
     from .cad import build_link
     from .fem import ASSEMBLERS, MODES
@@ -111,6 +120,9 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         raise LinkFeaError(f"unknown mode {mode!r}; use rigid or block")
     if assembler not in ASSEMBLERS:
         raise LinkFeaError(f"unknown assembler {assembler!r}; use kernel or skfem")
+    from .solvers import factorizer_named
+
+    factorizer_named(solver)  # an unknown name fails here, before any work
     if mode == "block" and not (isinstance(block_ratio, (int, float)) and math.isfinite(block_ratio)
                                 and block_ratio > 1):
         raise LinkFeaError(f"block ratio must be a number > 1, got {block_ratio}")
@@ -139,7 +151,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         runs = []
         for h in sizes:
             say(f"convergence: mesh size {h:.3g} mm")
-            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon, mesher, assembler))
+            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon, mesher, assembler,
+                                    solver))
         rich = richardson(sizes, [r[2].matrix for r in runs])
         mesh, sol, comp, timing, est = runs[-1]
         diagnostics["error_estimate"] = float(rich.error_diagonal)
@@ -149,7 +162,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
                                               "(largest entry) from 3 mesh sizes" + (f"; {rich.note}" if rich.note else ""))
     else:
         mesh, sol, comp, timing, est = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
-                                                   assembler)
+                                                   assembler, solver)
         diagnostics["error_estimate"] = None
         diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
     diagnostics["discretization_error"] = est.to_dict()
