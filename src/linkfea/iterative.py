@@ -85,6 +85,7 @@ def cg_amg_factorizer(U: sp.csr_matrix, near_nullspace: Optional[np.ndarray] = N
     def solve(Bmat):
         Bmat = np.asarray(Bmat, dtype=float).reshape(n, -1)
         X = np.zeros_like(Bmat)
+        t_start = time.perf_counter()
         for k in range(Bmat.shape[1]):
             b = Bmat[:, k]
             nb = float(np.linalg.norm(b))
@@ -96,8 +97,14 @@ def cg_amg_factorizer(U: sp.csr_matrix, near_nullspace: Optional[np.ndarray] = N
 
             def step(_xk, count=count, k=k):
                 count[0] += 1
-                if progress is not None and count[0] % 25 == 0:
-                    progress(f"solve: load case {k + 1}/{Bmat.shape[1]}, CG iteration {count[0]}")
+                if progress is not None and count[0] % 10 == 0:
+                    # Time left from the cases done so far (the cases take similar iteration counts).
+                    left = ""
+                    if k:
+                        done = (k + min(count[0] / max(max(stats["iterations"]), 1), 0.95)) / Bmat.shape[1]
+                        elapsed = time.perf_counter() - t_start
+                        left = f", about {elapsed * (1.0 - done) / done:.0f} s left"
+                    progress(f"solve: load case {k + 1}/{Bmat.shape[1]}, CG iteration {count[0]}{left}")
 
             x, info = cg(A, b, rtol=rtol, atol=0.0, maxiter=MAXITER, M=M, callback=step)
             res = float(np.linalg.norm(b - A @ x) / nb)
