@@ -61,6 +61,10 @@ def compute(
     base: Optional[str] = typer.Option(None, "--base", help="base selector, e.g. plane:x=0 or box:x0,y0,z0,x1,y1,z1"),
     tip: Optional[str] = typer.Option(None, "--tip", help="tip selector, e.g. plane:x=200"),
     convergence: bool = typer.Option(False, "--convergence", help="3 mesh sizes + Richardson error estimate"),
+    tolerance: Optional[str] = typer.Option(None, "--tolerance", help="refine (gmsh, local sizes from the error "
+                                            "indicator) until every diagonal entry's estimated error is below "
+                                            "this, e.g. 1%"),
+    max_dofs: int = typer.Option(1_000_000, "--max-dofs", help="DOF budget of --tolerance"),
     envelope: Optional[float] = typer.Option(None, "--envelope",
                                              help="mesher envelope / bbox diagonal (default 1e-3; smaller = "
                                                   "closer to small curved faces, slower)"),
@@ -83,10 +87,11 @@ def compute(
     written: list[Path] = []
     try:
         params = parse_param_args(param)
+        tol = _fraction(tolerance) if tolerance is not None else None
         with console.status("starting") as status:
             res = run(spec, params=params, mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
                       material=material, base=base, tip=tip, convergence=convergence, epsilon=envelope, mesher=mesher,
-                      assembler=assembler, solver=solver,
+                      assembler=assembler, solver=solver, tolerance=tol, max_dofs=max_dofs,
                       progress=lambda msg: status.update(f"[bold]{msg}"))
         out = Path(out)
         if picture:
@@ -107,6 +112,15 @@ def compute(
         con = Console(width=max(Console().width, 100))
         show(res, con)
         con.print(f"wrote {', '.join(str(p) for p in written)}")
+
+
+def _fraction(text: str) -> float:
+    """``"1%"`` or ``"0.01"`` -> 0.01."""
+    t = text.strip()
+    try:
+        return float(t[:-1]) / 100.0 if t.endswith("%") else float(t)
+    except ValueError:
+        raise LinkFeaError(f"--tolerance must be a percentage such as 1% or a fraction such as 0.01, got {text!r}") from None
 
 
 def _convergence_text(solver: dict) -> str:
@@ -130,6 +144,10 @@ def show(res, console: Console) -> None:
     sharp = (res.diagnostics.get("sharp_edges") or {}).get("note")
     if sharp:
         console.print(sharp)
+    ref = res.diagnostics.get("refinement")
+    if ref:
+        console.print("refinement: " + ref["note"] + "; " + ", ".join(
+            f"{st['n_dofs']} DOF {100 * st['error']:.2g}%" for st in ref["steps"]) + f" ({ref['seconds']:.1f} s)")
     d = res.diagnostics
     ee = d.get("error_estimate")
     m = res.mesh_info

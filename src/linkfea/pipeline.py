@@ -11,16 +11,21 @@ from .result import LinkResult
 
 __all__ = ["LinkResult", "compute"]
 
+MAX_DOFS = 1_000_000
+"""Default DOF budget of ``--tolerance``: the refinement stops before a mesh would pass it."""
+REFINE_GROWTH = 2.5
+"""Largest DOF growth expected from one refinement step (for the budget check before meshing)."""
+
 
 def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh", assembler="kernel",
-                solver="auto"):
+                solver="auto", size_at=None):
     from .fem import solve_link
     from .fit import compliance_from_solution
     from .mesh import mesh_link
 
     t0 = time.perf_counter()
     mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=say,
-                     mesher=mesher)
+                     mesher=mesher, size_at=size_at)
     t_mesh = time.perf_counter() - t0
     from .solvers import factorizer_named
 
@@ -50,6 +55,26 @@ def _estimate(sol, comp, material, mode, block_ratio, mesh):
     return estimate_error(sol, np.diag(comp.matrix), lam, mu, scale)
 
 
+def _refine(run, tolerance, max_dofs, solve_with, say):
+    """Refine by the error indicator until every diagonal estimate is below ``tolerance`` or the
+    DOF budget would be passed; returns the last run and the record of the steps."""
+    from .refine import size_function
+
+    mesh, sol, comp, timing, est = run
+    steps = [{"n_dofs": int(sol.n_dofs), "error": float(est.matrix), "seconds": float(sum(timing.values()))}]
+    while est.matrix > tolerance and sol.n_dofs * REFINE_GROWTH <= max_dofs:
+        say(f"refining: estimated error {100 * est.matrix:.2g}% > {100 * tolerance:.2g}% at {sol.n_dofs} DOF")
+        mesh, sol, comp, timing, est = solve_with(size_function(mesh.points, mesh.tets, est.indicator))
+        steps.append({"n_dofs": int(sol.n_dofs), "error": float(est.matrix), "seconds": float(sum(timing.values()))})
+    reached = bool(est.matrix <= tolerance)
+    note = (f"estimated error {100 * est.matrix:.2g}% <= {100 * tolerance:.2g}% after {len(steps) - 1} refinements"
+            if reached else f"stopped at {100 * est.matrix:.2g}% > {100 * tolerance:.2g}%: the next mesh would pass "
+                            f"the budget of {max_dofs} DOF")
+    record = {"tolerance": float(tolerance), "reached": reached, "steps": steps, "max_dofs": int(max_dofs),
+              "seconds": float(sum(st["seconds"] for st in steps)), "note": note}
+    return mesh, sol, comp, timing, est, record
+
+
 def sharp_edges_note(link) -> dict:
     """The link body's sharp re-entrant (concave) edges and what they mean for the result."""
     from .mesh_gmsh import concave_edges
@@ -68,7 +93,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
             block_ratio: float = 1000.0, material: str | None = None, base=None, tip=None,
             convergence: bool = False, progress: Callable[[str], None] | None = None,
             cache_dir=None, epsilon: float | None = None, mesher: str | None = None,
-            assembler: str = "kernel", solver: str = "auto") -> LinkResult:
+            assembler: str = "kernel", solver: str = "auto", tolerance: float | None = None,
+            max_dofs: int = MAX_DOFS) -> LinkResult:
     """Compute a link's 6x6 compliance at its reference frame.
 
     Parameters
@@ -108,6 +134,10 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         smoothed-aggregation multigrid (``iterative``, :mod:`linkfea.iterative`), or ``auto``:
         direct unless its peak memory, estimated before the solve from the number of DOF,
         exceeds the memory at hand.  ``result.solver`` records the choice and CG's convergence.
+    tolerance : float, optional
+        Refine (gmsh, local sizes from the error indicator, :mod:`linkfea.refine`) until the
+        estimated error of every diagonal entry is below it (0.01 = 1%), or the next mesh would
+        pass ``max_dofs``; ``diagnostics["refinement"]`` says which, with each step's DOF and error.
     """
     from .cad import build_link
     from .fem import ASSEMBLERS, MODES
@@ -123,6 +153,11 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     from .solvers import factorizer_named
 
     factorizer_named(solver)  # an unknown name fails here, before any work
+    if tolerance is not None:
+        if not (isinstance(tolerance, (int, float)) and 0 < tolerance < 1):
+            raise LinkFeaError(f"tolerance must be a fraction in (0, 1) (0.01 = 1%), got {tolerance}")
+        if convergence:
+            raise LinkFeaError("--tolerance and --convergence do not go together: choose one")
     if mode == "block" and not (isinstance(block_ratio, (int, float)) and math.isfinite(block_ratio)
                                 and block_ratio > 1):
         raise LinkFeaError(f"block ratio must be a number > 1, got {block_ratio}")
@@ -133,6 +168,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         mesher = "pytetwild" if is_surface(spec) else "gmsh"
     if mesher not in MESHERS:
         raise LinkFeaError(f"unknown mesher {mesher!r}; use gmsh or pytetwild")
+    if tolerance is not None and mesher != "gmsh":
+        raise LinkFeaError("--tolerance refines with gmsh's local sizes: use --mesher gmsh")
     if mesh_size is not None and not (math.isfinite(mesh_size) and mesh_size > 0):
         raise LinkFeaError(f"mesh size must be a positive number of mm, got {mesh_size}")
     t_all = time.perf_counter()
@@ -163,6 +200,11 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     else:
         mesh, sol, comp, timing, est = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
                                                    assembler, solver)
+        if tolerance is not None:
+            mesh, sol, comp, timing, est, diagnostics["refinement"] = _refine(
+                (mesh, sol, comp, timing, est), tolerance, max_dofs,
+                lambda size_at: _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
+                                            assembler, solver, size_at), say)
         diagnostics["error_estimate"] = None
         diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
     diagnostics["discretization_error"] = est.to_dict()
