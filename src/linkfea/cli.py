@@ -35,8 +35,8 @@ def matrix_table(M: np.ndarray, title: str, rows, cols) -> Table:
 
 def error_table(diagonal: np.ndarray, err: np.ndarray) -> Table:
     """The diagonal with its estimated discretization error (linkfea.estimate)."""
-    t = Table(title=f"estimated discretization error (whole matrix {100 * float(np.max(err)):.2g}%): "
-                    "the FEA compliance is too small by about")
+    t = Table(title=f"estimated discretization error, whole matrix {100 * float(np.max(err)):.2g}% "
+                    "(C is too small by about)")
     t.add_column("")
     for tw, w in zip(TWIST, WRENCH):
         t.add_column(f"{tw}/{w}", justify="right")
