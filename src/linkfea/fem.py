@@ -255,16 +255,7 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
 
     report("factor")
     t0 = time.perf_counter()
-    try:
-        if getattr(factorizer, "wants_near_nullspace", False):
-            solve = factorizer(A, near_nullspace=_near_nullspace(p2.points, free_dofs, frame, mode), progress=report)
-        else:
-            solve = factorizer(A)
-    except SolverError:
-        raise
-    except Exception as exc:
-        raise SolverError(f"factorization of the stiffness matrix failed ({exc}); "
-                           "is the link clamped and connected?") from None
+    solve = _factor(factorizer, A, lambda: _near_nullspace(p2.points, free_dofs, frame, mode), report)
     timing["factor"] = time.perf_counter() - t0
 
     report("solve")
@@ -291,6 +282,19 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
                 "fallback_reason": getattr(solve, "fallback_reason", None),
                 **{k: getattr(solve, k) for k in ("convergence", "choice") if hasattr(solve, k)}},
     )
+
+
+def _factor(factorizer, A, near_nullspace, report):
+    """``factorizer(A)``, with the rigid-body modes for a factorizer that wants them (multigrid)."""
+    try:
+        if getattr(factorizer, "wants_near_nullspace", False):
+            return factorizer(A, near_nullspace=near_nullspace(), progress=report)
+        return factorizer(A)
+    except SolverError:
+        raise
+    except Exception as exc:
+        raise SolverError(f"factorization of the stiffness matrix failed ({exc}); "
+                          "is the link clamped and connected?") from None
 
 
 def _near_nullspace(points, free_dofs, frame: Frame, mode: str) -> np.ndarray:

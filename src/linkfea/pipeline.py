@@ -55,6 +55,29 @@ def _estimate(sol, comp, material, mode, block_ratio, mesh):
     return estimate_error(sol, np.diag(comp.matrix), lam, mu, scale)
 
 
+def _mesh_info(mesh, sol) -> dict:
+    return {"mesher": mesh.mesher, "mesher_version": mesh.mesher_version, "n_nodes": int(mesh.n_nodes),
+            "n_tets": int(mesh.n_tets), "n_dofs": int(sol.n_dofs),
+            "n_p2_nodes": int(len(sol.points)), "edge_length": float(mesh.edge_length),
+            "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)" + (
+                ", curved boundary edges" if getattr(mesh, "curved_edges", None) is not None else ""),
+            "quality": dict(mesh.quality), "cache_key": mesh.cache_key}
+
+
+def _check_solver_options(solver, tolerance, convergence, mesher) -> None:
+    """Bad ``solver`` or ``tolerance`` options fail here, before any work."""
+    from .solvers import factorizer_named
+
+    factorizer_named(solver)
+    if tolerance is not None:
+        if not (isinstance(tolerance, (int, float)) and 0 < tolerance < 1):
+            raise LinkFeaError(f"tolerance must be a fraction in (0, 1) (0.01 = 1%), got {tolerance}")
+        if convergence:
+            raise LinkFeaError("--tolerance and --convergence do not go together: choose one")
+        if mesher != "gmsh":
+            raise LinkFeaError("--tolerance refines with gmsh's local sizes: use --mesher gmsh")
+
+
 def _refine(run, tolerance, max_dofs, solve_with, say):
     """Refine by the error indicator until every diagonal estimate is below ``tolerance`` or the
     DOF budget would be passed; returns the last run and the record of the steps."""
@@ -73,6 +96,17 @@ def _refine(run, tolerance, max_dofs, solve_with, say):
     record = {"tolerance": float(tolerance), "reached": reached, "steps": steps, "max_dofs": int(max_dofs),
               "seconds": float(sum(st["seconds"] for st in steps)), "note": note}
     return mesh, sol, comp, timing, est, record
+
+
+def _error_diagnostics(diagnostics: dict, est, link, mode: str) -> float:
+    """Put the error estimate and the sharp-edge note into ``diagnostics``; the seconds the edges took."""
+    diagnostics["discretization_error"] = est.to_dict()
+    if mode == "block":
+        diagnostics["discretization_error"]["note"] += ("; block mode: the loads are nodal forces on the block, "
+                                                        "so the estimate is approximate there")
+    t0 = time.perf_counter()
+    diagnostics["sharp_edges"] = sharp_edges_note(link)
+    return time.perf_counter() - t0
 
 
 def sharp_edges_note(link) -> dict:
@@ -130,10 +164,9 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         Stiffness assembly (see :func:`linkfea.fem.solve_link`); ``skfem`` is the slower
         reference path, equal to round-off.
     solver : {"auto", "direct", "iterative"}
-        The linear solver: PARDISO's Cholesky (``direct``), conjugate gradients with pyamg's
-        smoothed-aggregation multigrid (``iterative``, :mod:`linkfea.iterative`), or ``auto``:
-        direct unless its peak memory, estimated before the solve from the number of DOF,
-        exceeds the memory at hand.  ``result.solver`` records the choice and CG's convergence.
+        PARDISO (``direct``), CG with pyamg multigrid (``iterative``, :mod:`linkfea.iterative`), or
+        ``auto``: direct unless its peak memory, estimated before the solve, exceeds the memory at
+        hand.  ``result.solver`` records the choice and CG's convergence.
     tolerance : float, optional
         Refine (gmsh, local sizes from the error indicator, :mod:`linkfea.refine`) until the
         estimated error of every diagonal entry is below it (0.01 = 1%), or the next mesh would
@@ -150,14 +183,6 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         raise LinkFeaError(f"unknown mode {mode!r}; use rigid or block")
     if assembler not in ASSEMBLERS:
         raise LinkFeaError(f"unknown assembler {assembler!r}; use kernel or skfem")
-    from .solvers import factorizer_named
-
-    factorizer_named(solver)  # an unknown name fails here, before any work
-    if tolerance is not None:
-        if not (isinstance(tolerance, (int, float)) and 0 < tolerance < 1):
-            raise LinkFeaError(f"tolerance must be a fraction in (0, 1) (0.01 = 1%), got {tolerance}")
-        if convergence:
-            raise LinkFeaError("--tolerance and --convergence do not go together: choose one")
     if mode == "block" and not (isinstance(block_ratio, (int, float)) and math.isfinite(block_ratio)
                                 and block_ratio > 1):
         raise LinkFeaError(f"block ratio must be a number > 1, got {block_ratio}")
@@ -168,8 +193,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         mesher = "pytetwild" if is_surface(spec) else "gmsh"
     if mesher not in MESHERS:
         raise LinkFeaError(f"unknown mesher {mesher!r}; use gmsh or pytetwild")
-    if tolerance is not None and mesher != "gmsh":
-        raise LinkFeaError("--tolerance refines with gmsh's local sizes: use --mesher gmsh")
+    _check_solver_options(solver, tolerance, convergence, mesher)
     if mesh_size is not None and not (math.isfinite(mesh_size) and mesh_size > 0):
         raise LinkFeaError(f"mesh size must be a positive number of mm, got {mesh_size}")
     t_all = time.perf_counter()
@@ -207,23 +231,13 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
                                             assembler, solver, size_at), say)
         diagnostics["error_estimate"] = None
         diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
-    diagnostics["discretization_error"] = est.to_dict()
-    if mode == "block":
-        diagnostics["discretization_error"]["note"] += ("; block mode: the loads are nodal forces on the block, "
-                                                        "so the estimate is approximate there")
-    t0 = time.perf_counter()
-    diagnostics["sharp_edges"] = sharp_edges_note(link)
-    timing["edges"] = time.perf_counter() - t0
+    timing["edges"] = _error_diagnostics(diagnostics, est, link, mode)
     diagnostics.update(symmetry_error=float(comp.symmetry_error), fit_residual=float(comp.fit_residual),
                        min_eigenvalue=float(comp.min_eigenvalue))
     timing = {"cad": t_cad, **timing, "total": time.perf_counter() - t_all}
     from .io import versions
 
-    mesh_info = {"mesher": mesh.mesher, "mesher_version": mesh.mesher_version, "n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets), "n_dofs": int(sol.n_dofs),
-                 "n_p2_nodes": int(len(sol.points)), "edge_length": float(mesh.edge_length),
-                 "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)" + (
-                     ", curved boundary edges" if getattr(mesh, "curved_edges", None) is not None else ""),
-                 "quality": dict(mesh.quality), "cache_key": mesh.cache_key}
+    mesh_info = _mesh_info(mesh, sol)
     return LinkResult(value=comp.compliance, name=link.name, source=str(link.source), params=dict(link.params),
                       material=mat, mode=mode, block_ratio=float(block_ratio) if mode == "block" else None,
                       mesh_info=mesh_info, diagnostics=diagnostics, solver=dict(sol.solver), timing=timing,
