@@ -110,6 +110,15 @@ def test_pipeline_reports_the_estimate_and_the_sharp_edges(tmp_path):
     assert "estimate" in res.timing
     doc = json.loads(json.dumps(res.to_dict()))
     assert doc["diagnostics"]["discretization_error"]["diagonal"] == pytest.approx(list(err))
+    assert "estimated discretization error" in res._repr_html_()
+    from rich.console import Console
+
+    from linkfea.cli import show
+
+    con = Console(record=True, width=140)
+    show(res, con)
+    text = con.export_text()
+    assert "estimated discretization error" in text and f"{100 * err[3]:.2g}%" in text
 
     class Link:
         body = (cq.Workplane("XY").box(40, 10, 10, centered=False)
