@@ -26,7 +26,7 @@ def test_iterative_and_direct_agree_on_a_small_link(steel, mode):
     conv = it.solver["convergence"]
     assert len(conv["iterations"]) == 6 and all(0 < n < 500 for n in conv["iterations"])
     # The stiff block (E x 1000) of block mode costs round-off in the recomputed residual.
-    assert max(conv["relative_residual"]) < (1e-8 if mode == "rigid" else 1e-6)
+    assert max(conv["relative_residual"]) < (1e-6 if mode == "rigid" else 1e-5)
     a, b = compliance_from_solution(direct).matrix, compliance_from_solution(it).matrix
     assert _scaled(b, a) < 1e-6
 
