@@ -36,7 +36,11 @@ def test_the_choice_follows_the_memory_estimate(steel, monkeypatch):
     assert direct_peak_bytes(871_710) == pytest.approx(12.0e9)
     assert direct_peak_bytes(2 * 871_710) == pytest.approx(12.0e9 * 2 ** (4 / 3))
     assert choose(60_000, budget=8e9) == "direct" and choose(3_000_000, budget=8e9) == "iterative"
+    assert choose(100_000, budget=1.0) == "direct"  # small links always factor: results do not depend on free memory
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
+    import linkfea.iterative as iterative
+
+    monkeypatch.setattr(iterative, "MIN_ITERATIVE_DOFS", 0)
     monkeypatch.setenv("LINKFEA_MEMORY", "1e-6")  # nothing fits: iterative
     small = solve_link(mesh, steel, solver=auto_factorizer)
     assert small.solver["choice"]["chosen"] == "iterative" and small.solver["factorizer"] == "cg+amg"

@@ -58,10 +58,18 @@ def available_bytes() -> float:
     return 8e9
 
 
+MIN_ITERATIVE_DOFS = 300_000
+"""Below this size ``auto`` always factors (about 3 GB at 300k DOF): a small link's result then does
+not depend on how much memory the machine happens to have free."""
+
+
 def choose(n_dofs: int, budget: Optional[float] = None) -> str:
-    """``"direct"`` if the direct solver's estimated peak fits the budget, else ``"iterative"``."""
+    """``"direct"`` if the direct solver's estimated peak fits the budget (or the link is smaller
+    than :data:`MIN_ITERATIVE_DOFS`), else ``"iterative"``."""
     budget = available_bytes() if budget is None else budget
-    return "direct" if direct_peak_bytes(n_dofs) <= budget else "iterative"
+    if n_dofs < MIN_ITERATIVE_DOFS or direct_peak_bytes(n_dofs) <= budget:
+        return "direct"
+    return "iterative"
 
 
 def cg_amg_factorizer(U: sp.csr_matrix, near_nullspace: Optional[np.ndarray] = None,
