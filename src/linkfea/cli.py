@@ -36,6 +36,18 @@ def matrix_table(M: np.ndarray, title: str, rows, cols) -> Table:
     return t
 
 
+def error_table(diagonal: np.ndarray, err: np.ndarray) -> Table:
+    """The diagonal with its estimated discretization error (linkfea.estimate)."""
+    t = Table(title=f"estimated discretization error, whole matrix {100 * float(np.max(err)):.2g}% "
+                    "(C is too small by about)")
+    t.add_column("")
+    for tw, w in zip(TWIST, WRENCH):
+        t.add_column(f"{tw}/{w}", justify="right")
+    t.add_row("C_ii", *(f"{v: .3e}" for v in diagonal))
+    t.add_row("error", *(f"{100 * v:.2g}%" for v in err))
+    return t
+
+
 def _fail(msg) -> None:
     from .checks import cli_message
 
@@ -54,6 +66,10 @@ def compute(
     base: Optional[str] = typer.Option(None, "--base", help="base selector, e.g. plane:x=0 or box:x0,y0,z0,x1,y1,z1"),
     tip: Optional[str] = typer.Option(None, "--tip", help="tip selector, e.g. plane:x=200"),
     convergence: bool = typer.Option(False, "--convergence", help="3 mesh sizes + Richardson error estimate"),
+    tolerance: Optional[str] = typer.Option(None, "--tolerance", help="refine (gmsh, local sizes from the error "
+                                            "indicator) until every diagonal entry's estimated error is below "
+                                            "this, e.g. 1%"),
+    max_dofs: int = typer.Option(1_000_000, "--max-dofs", help="DOF budget of --tolerance"),
     envelope: Optional[float] = typer.Option(None, "--envelope",
                                              help="mesher envelope / bbox diagonal (default 1e-3; smaller = "
                                                   "closer to small curved faces, slower)"),
@@ -61,6 +77,8 @@ def compute(
                                          "STEP) or pytetwild (fTetWild; default for STL/OBJ/PLY)"),
     assembler: str = typer.Option("kernel", "--assembler",
                                   help="stiffness assembly: kernel (fast) or skfem (scikit-fem's asm, reference)"),
+    solver: str = typer.Option("auto", "--solver", help="linear solver: direct (PARDISO), iterative (CG + "
+                               "multigrid) or auto (direct unless its estimated memory exceeds what is free)"),
     out: Path = typer.Option(Path("out/result.json"), "--out", "-o", help="result JSON; .vtu and .png go beside it"),
     picture: bool = typer.Option(True, "--picture/--no-picture", help="write the .vtu and .png beside the JSON"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or tables"),
@@ -74,10 +92,11 @@ def compute(
     try:
         check_result_out(out, vtu=picture, png=picture)  # before any work: the FEA may take minutes
         params = parse_param_args(param)
+        tol = _fraction(tolerance) if tolerance is not None else None
         with console.status("starting") as status:
             res = run(spec, params=params, mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
                       material=material, base=base, tip=tip, convergence=convergence, epsilon=envelope, mesher=mesher,
-                      assembler=assembler,
+                      assembler=assembler, solver=solver, tolerance=tol, max_dofs=max_dofs,
                       progress=lambda msg: status.update(f"[bold]{msg}"))
         written = write_result_set(out, res, vtu=picture, png=picture)
     except LinkFeaError as exc:
@@ -88,6 +107,23 @@ def compute(
         con.print(f"wrote {', '.join(str(p) for p in written)}")
 
 
+def _fraction(text: str) -> float:
+    """``"1%"`` or ``"0.01"`` -> 0.01."""
+    t = text.strip()
+    try:
+        return float(t[:-1]) / 100.0 if t.endswith("%") else float(t)
+    except ValueError:
+        raise LinkFeaError(f"--tolerance must be a percentage such as 1% or a fraction such as 0.01, got {text!r}") from None
+
+
+def _convergence_text(solver: dict) -> str:
+    c = solver.get("convergence")
+    if not c:
+        return ""
+    return (f" ({c['levels']} multigrid levels, CG iterations {', '.join(str(i) for i in c['iterations'])}, "
+            f"largest relative residual {max(c['relative_residual']):.1e})")
+
+
 def show(res, console: Console) -> None:
     """Print the compliance and stiffness tables and the diagnostics."""
     f = res.frame
@@ -95,14 +131,24 @@ def show(res, console: Console) -> None:
                   f"{np.round(f.origin, 4).tolist()} mm, x axis {np.round(f.axes[0], 4).tolist()}")
     console.print(matrix_table(res.compliance, "compliance C (t = C w; mm/N, rad/(N mm))", TWIST, WRENCH))
     console.print(matrix_table(res.stiffness, "stiffness K = C^-1 (N/mm, N mm/rad)", WRENCH, TWIST))
+    err = res.error_diagonal
+    if err is not None:
+        console.print(error_table(np.diag(res.compliance), err))
+    sharp = (res.diagnostics.get("sharp_edges") or {}).get("note")
+    if sharp:
+        console.print(sharp)
+    ref = res.diagnostics.get("refinement")
+    if ref:
+        console.print("refinement: " + ref["note"] + "; " + ", ".join(
+            f"{st['n_dofs']} DOF {100 * st['error']:.2g}%" for st in ref["steps"]) + f" ({ref['seconds']:.1f} s)")
     d = res.diagnostics
     ee = d.get("error_estimate")
     m = res.mesh_info
     console.print(f"mesh: {m['n_nodes']} vertices, {m['n_tets']} tets, {m['n_dofs']} DOF, "
                   f"edge {m['edge_length']:.3g} mm; symmetry error {d['symmetry_error']:.2e}, "
-                  f"fit residual {d['fit_residual']:.2e}, error estimate "
+                  f"fit residual {d['fit_residual']:.2e}, Richardson estimate "
                   + (f"{ee:.2e}" if ee is not None else "not computed (use --convergence)")
-                  + f"; solver {res.solver.get('factorizer')}")
+                  + f"; solver {res.solver.get('factorizer')}" + _convergence_text(res.solver))
     console.print("timing (s): " + ", ".join(f"{k} {v:.2f}" for k, v in res.timing.items()))
     if res.source_sha256:
         console.print(f"source: {res.source} (sha256 {res.source_sha256[:16]}...)")

@@ -255,11 +255,7 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
 
     report("factor")
     t0 = time.perf_counter()
-    try:
-        solve = factorizer(A)
-    except Exception as exc:
-        raise SolverError(f"factorization of the stiffness matrix failed ({exc}); "
-                           "is the link clamped and connected?") from None
+    solve = _factor(factorizer, A, lambda: _near_nullspace(p2.points, free_dofs, frame, mode), report)
     timing["factor"] = time.perf_counter() - t0
 
     report("solve")
@@ -283,5 +279,26 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
         n_vertices=p2.n_vertices, frame=frame, mode=mode, timing=timing, ref_twists=ref_twists,
         solver={"assembler": assembler,
                 "factorizer": getattr(solve, "factorizer", getattr(factorizer, "__name__", "custom")),
-                "fallback_reason": getattr(solve, "fallback_reason", None)},
+                "fallback_reason": getattr(solve, "fallback_reason", None),
+                **{k: getattr(solve, k) for k in ("convergence", "choice") if hasattr(solve, k)}},
     )
+
+
+def _factor(factorizer, A, near_nullspace, report):
+    """``factorizer(A)``, with the rigid-body modes for a factorizer that wants them (multigrid)."""
+    try:
+        if getattr(factorizer, "wants_near_nullspace", False):
+            return factorizer(A, near_nullspace=near_nullspace(), progress=report)
+        return factorizer(A)
+    except SolverError:
+        raise
+    except Exception as exc:
+        raise SolverError(f"factorization of the stiffness matrix failed ({exc}); "
+                          "is the link clamped and connected?") from None
+
+
+def _near_nullspace(points, free_dofs, frame: Frame, mode: str) -> np.ndarray:
+    """Rigid-body motions (n, 6) of the solved DOFs: the free nodes' displacements and, in rigid
+    mode, the reference twist (the same twist), for the multigrid preconditioner."""
+    R = rigid_motion_matrix(points, frame.origin, frame.axes).reshape(-1, 6)[free_dofs]
+    return np.vstack([R, np.eye(6)]) if mode == "rigid" else R

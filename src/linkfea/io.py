@@ -11,8 +11,11 @@ Schema (``"schema": "linkfea.result/1"``)::
     units        compliance / stiffness blocks, lengths, forces, stresses
     frame        Frame.to_dict(): origin, x_axis, y_axis, z_axis in CAD coordinates (mm)
     mesh         mesher, mesher_version, n_nodes, n_tets, n_dofs, edge_length, envelope, quality {...}
-    diagnostics  symmetry_error, fit_residual, min_eigenvalue, error_estimate (null unless --convergence)
-    solver       factorizer that ran (pardiso | superlu), fallback_reason (null unless PARDISO failed)
+    diagnostics  symmetry_error, fit_residual, min_eigenvalue, error_estimate (null unless --convergence),
+                 discretization_error (the recovered-stress estimate: diagonal, matrix, bound, raw_diagonal,
+                 safety_factor, method, note), sharp_edges (count, note), refinement (with --tolerance)
+    solver       factorizer that ran (pardiso | superlu | cg+amg), fallback_reason (null unless PARDISO
+                 failed), choice (with --solver auto), convergence (CG: levels, iterations, residuals)
     timing       seconds per stage: cad, mesh, assemble, factor, solve, fit, total
     versions     python and package versions
 """

@@ -300,7 +300,7 @@ def sizing_field(shapes, H: float, ttol: float, edges=(), edge_size: float | Non
 def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, epsilon: float = DEFAULT_EPSILON,
               cache_dir: str | Path | None = None, use_cache: bool = True, sizing: bool = True,
               progress: Callable[[str], None] | None = None, mesher: str = DEFAULT_MESHER,
-              area_gate: float | None = AREA_GATE) -> LinkMesh:
+              area_gate: float | None = AREA_GATE, size_at: Callable | None = None) -> LinkMesh:
     """Mesh a :class:`linkfea.cad.Link` into a :class:`LinkMesh`.
 
     Parameters
@@ -326,6 +326,9 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
     mesher : {"gmsh", "pytetwild"}
     area_gate : float or None
         Largest allowed relative interface-area error (None: report only).
+    size_at : callable, optional
+        ``size_at(x, y, z)``: a local edge length (mm) below ``mesh_size`` where the mesh must be
+        finer (gmsh only; the error-driven refinement, :mod:`linkfea.refine`).
 
     Raises
     ------
@@ -345,8 +348,10 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
 
     if mesher not in MESHERS:
         raise LinkFeaError(f"unknown mesher {mesher!r}; use gmsh or pytetwild")
+    if size_at is not None and mesher != "gmsh":
+        raise LinkFeaError("refinement by the error estimate (--tolerance) needs the gmsh mesher")
     if mesher == "gmsh":
-        return _mesh_with_gmsh(link, H, block_solid, say, area_gate)
+        return _mesh_with_gmsh(link, H, block_solid, say, area_gate, size_at)
 
     return _mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, say, area_gate)
 
@@ -471,7 +476,7 @@ def _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing,
                        key if use_cache else "", "pytetwild", getattr(pytetwild, "__version__", "?"), None)
 
 
-def _mesh_with_gmsh(link, H, block_solid, say, area_gate) -> LinkMesh:
+def _mesh_with_gmsh(link, H, block_solid, say, area_gate, size_at=None) -> LinkMesh:
     from . import mesh_gmsh
 
     diag = link.body.BoundingBox().DiagonalLength
@@ -483,7 +488,8 @@ def _mesh_with_gmsh(link, H, block_solid, say, area_gate) -> LinkMesh:
     if not tip_faces:
         raise LinkFeaError(f"{link.name}: tip selector {link.tip} finds no face")
     say(f"meshing with gmsh (edge {H:.3g} mm)")
-    g = mesh_gmsh.mesh_gmsh(link.name, link.body, block_solid, base_faces, tip_faces, H, curved=CURVED)
+    g = mesh_gmsh.mesh_gmsh(link.name, link.body, block_solid, base_faces, tip_faces, H, curved=CURVED,
+                            size_at=size_at)
     say("checking interfaces")
     m = finish_mesh(link, g.points, g.tets, g.block, g.base_facets, g.tip_facets, block_solid, H, 0.0, "",
                     "gmsh", mesh_gmsh.version(), area_gate)

@@ -44,6 +44,9 @@ MIN_SIZE_FACTOR = 0.1
 """Smallest edge length allowed by the curvature rule, as a fraction of the target size:
 a tiny fillet does not explode the element count."""
 
+REFINED_MIN_SIZE_FACTOR = 0.01
+"""Smallest edge length the error-driven refinement (``size_at``) may ask for, as a fraction of ``H``."""
+
 CORNER_SIZE_FACTOR = 1.0
 """Edge length on the concave (re-entrant) CAD edges, as a fraction of the target size."""
 
@@ -285,14 +288,17 @@ def _curved_edge_nodes(gmsh, vols: list[int], points: np.ndarray, elements):
     return pairs[first], proj[first]
 
 
-def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float, curved: bool = False) -> GmshMesh:
+def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float, curved: bool = False,
+              size_at=None) -> GmshMesh:
     """Mesh ``body`` (and ``block``, fragment-fused) at target size ``H`` mm; see the module docstring.
 
     ``base_faces`` and ``tip_faces`` are CAD faces of ``body``.  Returns
     positively oriented tets, the block flag per tet, and the triangles of the
     base and tip surfaces.  With ``curved``, the mesh gets second-order geometry on its boundary
     (:func:`_curved_edge_nodes`): ``curved_edges`` (k, 2) are the vertex pairs whose P2 node is
-    not the midpoint, ``curved_points`` (k, 3) those nodes, on the CAD faces.
+    not the midpoint, ``curved_points`` (k, 3) those nodes, on the CAD faces.  ``size_at(x, y, z)``
+    (mm), if given, caps the local size further (gmsh's size callback; down to
+    :data:`REFINED_MIN_SIZE_FACTOR` of ``H``).
     """
     import gmsh
 
@@ -338,6 +344,9 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float, curved: b
             else:
                 tip_s = match_surfaces(tip_faces, surfaces, size, f"{name}: tip")
             _size_fields(gmsh, body, body_vols, base_s + tip_s, H)
+            if size_at is not None:
+                gmsh.option.setNumber("Mesh.MeshSizeMin", REFINED_MIN_SIZE_FACTOR * H)
+                gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: min(lc, float(size_at(x, y, z))))
             try:
                 gmsh.model.mesh.generate(3)
             except Exception as exc:  # gmsh raises a bare Exception with its last error

@@ -18,24 +18,116 @@ MESH_SIZE = checks.Bounds(0, lo_open=True, unit="mm")
 BLOCK_RATIO = checks.Bounds(1, lo_open=True)
 ENVELOPE = checks.Bounds(0, 0.1, lo_open=True, hi_open=True)
 
+MAX_DOFS = 1_000_000
+"""Default DOF budget of ``--tolerance``: the refinement stops before a mesh would pass it."""
+REFINE_GROWTH = 2.5
+"""Largest DOF growth expected from one refinement step (for the budget check before meshing)."""
 
-def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh", assembler="kernel"):
+
+def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh", assembler="kernel",
+                solver="auto", size_at=None):
     from .fem import solve_link
     from .fit import compliance_from_solution
     from .mesh import mesh_link
 
     t0 = time.perf_counter()
     mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=say,
-                     mesher=mesher)
+                     mesher=mesher, size_at=size_at)
     t_mesh = time.perf_counter() - t0
-    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say, assembler=assembler)
+    from .solvers import factorizer_named
+
+    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say, assembler=assembler,
+                     solver=factorizer_named(solver))
     say("fit")
     t0 = time.perf_counter()
     comp = compliance_from_solution(sol)
     t_fit = time.perf_counter() - t0
+    say("error estimate")
+    t0 = time.perf_counter()
+    est = _estimate(sol, comp, material, mode, block_ratio, mesh)
     timing = {"mesh": t_mesh, **{k: float(sol.timing.get(k, 0.0)) for k in ("assemble", "factor", "solve")},
-              "fit": t_fit}
-    return mesh, sol, comp, timing
+              "fit": t_fit, "estimate": time.perf_counter() - t0}
+    return mesh, sol, comp, timing, est
+
+
+def _estimate(sol, comp, material, mode, block_ratio, mesh):
+    """The recovered-stress estimate of the compliance's discretization error (linkfea.estimate)."""
+    import numpy as np
+
+    from .estimate import estimate_error
+    from .fem import lame
+
+    lam, mu = lame(material)
+    scale = np.where(np.asarray(mesh.block, dtype=bool), block_ratio, 1.0) if mode == "block" else None
+    return estimate_error(sol, np.diag(comp.matrix), lam, mu, scale)
+
+
+def _mesh_info(mesh, sol) -> dict:
+    return {"mesher": mesh.mesher, "mesher_version": mesh.mesher_version, "n_nodes": int(mesh.n_nodes),
+            "n_tets": int(mesh.n_tets), "n_dofs": int(sol.n_dofs),
+            "n_p2_nodes": int(len(sol.points)), "edge_length": float(mesh.edge_length),
+            "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)" + (
+                ", curved boundary edges" if getattr(mesh, "curved_edges", None) is not None else ""),
+            "quality": dict(mesh.quality), "cache_key": mesh.cache_key}
+
+
+def _check_solver_options(solver, tolerance, convergence, mesher) -> None:
+    """Bad ``solver`` or ``tolerance`` options fail here, before any work."""
+    from .solvers import factorizer_named
+
+    factorizer_named(solver)
+    if tolerance is not None:
+        if not (isinstance(tolerance, (int, float)) and 0 < tolerance < 1):
+            raise LinkFeaError(f"tolerance must be a fraction in (0, 1) (0.01 = 1%), got {tolerance}")
+        if convergence:
+            raise LinkFeaError("--tolerance and --convergence do not go together: choose one")
+        if mesher != "gmsh":
+            raise LinkFeaError("--tolerance refines with gmsh's local sizes: use --mesher gmsh")
+
+
+def _refine(run, tolerance, max_dofs, solve_with, say):
+    """Refine by the error indicator until every diagonal estimate is below ``tolerance`` or the
+    DOF budget would be passed; returns the last run and the record of the steps."""
+    from .refine import size_function
+
+    mesh, sol, comp, timing, est = run
+    steps = [{"n_dofs": int(sol.n_dofs), "error": float(est.matrix), "seconds": float(sum(timing.values()))}]
+    while est.matrix > tolerance and sol.n_dofs * REFINE_GROWTH <= max_dofs:
+        say(f"refining: estimated error {100 * est.matrix:.2g}% > {100 * tolerance:.2g}% at {sol.n_dofs} DOF")
+        mesh, sol, comp, timing, est = solve_with(size_function(mesh.points, mesh.tets, est.indicator))
+        steps.append({"n_dofs": int(sol.n_dofs), "error": float(est.matrix), "seconds": float(sum(timing.values()))})
+    reached = bool(est.matrix <= tolerance)
+    note = (f"estimated error {100 * est.matrix:.2g}% <= {100 * tolerance:.2g}% after {len(steps) - 1} refinements"
+            if reached else f"stopped at {100 * est.matrix:.2g}% > {100 * tolerance:.2g}%: the next mesh would pass "
+                            f"the budget of {max_dofs} DOF")
+    record = {"tolerance": float(tolerance), "reached": reached, "steps": steps, "max_dofs": int(max_dofs),
+              "seconds": float(sum(st["seconds"] for st in steps)), "note": note}
+    return mesh, sol, comp, timing, est, record
+
+
+def _error_diagnostics(diagnostics: dict, est, link, mode: str) -> float:
+    """Put the error estimate and the sharp-edge note into ``diagnostics``; the seconds the edges took."""
+    diagnostics["discretization_error"] = est.to_dict()
+    if mode == "block":
+        diagnostics["discretization_error"]["note"] += ("; block mode: the loads are nodal forces on the block, "
+                                                        "so the estimate is approximate there")
+    t0 = time.perf_counter()
+    diagnostics["sharp_edges"] = sharp_edges_note(link)
+    return time.perf_counter() - t0
+
+
+def sharp_edges_note(link) -> dict:
+    """The link body's sharp re-entrant (concave) edges and what they mean for the result."""
+    from .mesh_gmsh import concave_edges
+
+    try:
+        n = len(concave_edges(link.body))
+    except Exception:  # a body OpenCASCADE cannot classify (e.g. a surface mesh): say nothing rather than guess
+        return {"count": None, "note": "not checked (the body could not be classified)"}
+    if n == 0:
+        return {"count": 0, "note": "no sharp re-entrant edges"}
+    return {"count": n, "note": (f"{n} sharp re-entrant edge{'s' if n > 1 else ''}: the stress is singular there, "
+                                 "and the compliance converges slowly; a machining radius removes this")}
 
 
 def _source_file(spec) -> Path:
@@ -54,7 +146,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
             block_ratio: float = 1000.0, material: str | None = None, base=None, tip=None,
             convergence: bool = False, progress: Callable[[str], None] | None = None,
             cache_dir=None, epsilon: float | None = None, mesher: str | None = None,
-            assembler: str = "kernel") -> LinkResult:
+            assembler: str = "kernel", solver: str = "auto", tolerance: float | None = None,
+            max_dofs: int = MAX_DOFS) -> LinkResult:
     """Compute a link's 6x6 compliance at its reference frame.
 
     Parameters
@@ -89,6 +182,14 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     assembler : {"kernel", "skfem"}
         Stiffness assembly (see :func:`linkfea.fem.solve_link`); ``skfem`` is the slower
         reference path, equal to round-off.
+    solver : {"auto", "direct", "iterative"}
+        PARDISO (``direct``), CG with pyamg multigrid (``iterative``, :mod:`linkfea.iterative`), or
+        ``auto``: direct unless its peak memory, estimated before the solve, exceeds the memory at
+        hand.  ``result.solver`` records the choice and CG's convergence.
+    tolerance : float, optional
+        Refine (gmsh, local sizes from the error indicator, :mod:`linkfea.refine`) until the
+        estimated error of every diagonal entry is below it (0.01 = 1%), or the next mesh would
+        pass ``max_dofs``; ``diagnostics["refinement"]`` says which, with each step's DOF and error.
     """
     from .cad import build_link
     from .fem import ASSEMBLERS, MODES
@@ -111,6 +212,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         mesher = "pytetwild" if is_surface(spec) else "gmsh"
     if mesher not in MESHERS:
         raise LinkFeaError(f"unknown mesher {mesher!r}; use gmsh or pytetwild")
+    _check_solver_options(solver, tolerance, convergence, mesher)
     t_all = time.perf_counter()
     say("cad")
     t0 = time.perf_counter()
@@ -128,32 +230,35 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         runs = []
         for h in sizes:
             say(f"convergence: mesh size {h:.3g} mm")
-            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon, mesher, assembler))
+            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon, mesher, assembler,
+                                    solver))
         rich = richardson(sizes, [r[2].matrix for r in runs])
-        mesh, sol, comp, timing = runs[-1]
+        mesh, sol, comp, timing, est = runs[-1]
         diagnostics["error_estimate"] = float(rich.error_diagonal)
         diagnostics["observed_order"] = float(rich.order_diagonal)
         diagnostics["convergence_sizes"] = sizes
         diagnostics["error_estimate_note"] = ("Richardson estimate of the relative error of the diagonal "
                                               "(largest entry) from 3 mesh sizes" + (f"; {rich.note}" if rich.note else ""))
     else:
-        mesh, sol, comp, timing = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
-                                              assembler)
+        mesh, sol, comp, timing, est = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
+                                                   assembler, solver)
+        if tolerance is not None:
+            mesh, sol, comp, timing, est, diagnostics["refinement"] = _refine(
+                (mesh, sol, comp, timing, est), tolerance, max_dofs,
+                lambda size_at: _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
+                                            assembler, solver, size_at), say)
         diagnostics["error_estimate"] = None
         diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
+    timing["edges"] = _error_diagnostics(diagnostics, est, link, mode)
     diagnostics.update(symmetry_error=float(comp.symmetry_error), fit_residual=float(comp.fit_residual),
                        min_eigenvalue=float(comp.min_eigenvalue))
     timing = {"cad": t_cad, **timing, "total": time.perf_counter() - t_all}
     from .io import versions
 
-    mesh_info = {"mesher": mesh.mesher, "mesher_version": mesh.mesher_version, "n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets), "n_dofs": int(sol.n_dofs),
-                 "n_p2_nodes": int(len(sol.points)), "edge_length": float(mesh.edge_length),
-                 "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)" + (
-                     ", curved boundary edges" if getattr(mesh, "curved_edges", None) is not None else ""),
-                 "quality": dict(mesh.quality), "cache_key": mesh.cache_key}
+    mesh_info = _mesh_info(mesh, sol)
     return LinkResult(value=comp.compliance, name=link.name, source=str(source), source_sha256=file_sha256(source),
                       params=dict(link.params),
                       material=mat, mode=mode, block_ratio=float(block_ratio) if mode == "block" else None,
                       mesh_info=mesh_info, diagnostics=diagnostics, solver=dict(sol.solver), timing=timing,
                       versions=versions(), volume=float(link.body.Volume()), link=link, mesh=mesh, solution=sol,
-                      fit=comp)
+                      fit=comp, estimate=est)

@@ -42,7 +42,9 @@ class LinkResult:
     mesh_info : dict
         n_nodes, n_tets, n_dofs, n_p2_nodes, edge_length, envelope, element, quality, cache_key.
     diagnostics : dict
-        symmetry_error, fit_residual, min_eigenvalue, error_estimate (None unless convergence ran), notes.
+        symmetry_error, fit_residual, min_eigenvalue, error_estimate (None unless convergence ran), notes;
+        ``discretization_error`` (always: the recovered-stress estimate per diagonal entry, see
+        :attr:`error_diagonal`) and ``sharp_edges`` (count of sharp re-entrant CAD edges and what it means).
     solver : dict
         The linear solver that ran: ``factorizer`` (pardiso or superlu) and, if PARDISO was
         wanted but failed, ``fallback_reason``.
@@ -56,9 +58,10 @@ class LinkResult:
     source_sha256 : str
         SHA-256 of the script, STEP or surface file that was used ('' if unknown); ``source`` is
         its absolute path.
-    link, mesh, solution, fit
+    link, mesh, solution, fit, estimate
         The CAD :class:`~linkfea.cad.Link`, the :class:`~linkfea.mesh.LinkMesh`, the
-        :class:`~linkfea.fem.FeaSolution` and the :class:`~linkfea.fit.FittedCompliance`;
+        :class:`~linkfea.fem.FeaSolution`, the :class:`~linkfea.fit.FittedCompliance` and the
+        :class:`~linkfea.estimate.ErrorEstimate` (with its per-element indicator);
         None for a result read by :func:`load` (the JSON keeps their summaries).
     path : Path or None
         The JSON this result was loaded from or last saved to.
@@ -82,6 +85,7 @@ class LinkResult:
     mesh: Any = field(default=None, repr=False)
     solution: Any = field(default=None, repr=False)
     fit: Any = field(default=None, repr=False)
+    estimate: Any = field(default=None, repr=False)
     path: Optional[Path] = field(default=None, compare=False)
 
     # ------------------------------------------------------------------ values
@@ -108,6 +112,14 @@ class LinkResult:
     @property
     def units(self) -> dict:
         return self.value.units
+
+    @property
+    def error_diagonal(self) -> Optional[np.ndarray]:
+        """Estimated relative discretization error of each diagonal entry (order Fx..Mz): the
+        computed compliance is too small by about this fraction (:mod:`linkfea.estimate`).
+        None for a result saved before the estimate existed."""
+        d = (self.diagnostics.get("discretization_error") or {}).get("diagonal")
+        return None if d is None else np.asarray(d, dtype=float)
 
     @property
     def mass(self) -> Optional[float]:
@@ -230,9 +242,21 @@ class LinkResult:
                 f"<br>mesh: {m.get('n_tets')} P2 tets, {m.get('n_dofs')} DOF, edge {m.get('edge_length', 0):.3g} mm; "
                 f"solver {html.escape(str(self.solver.get('factorizer')))}; symmetry error "
                 f"{d.get('symmetry_error', float('nan')):.2e}, fit residual {d.get('fit_residual', float('nan')):.2e}, "
-                f"error estimate {'not computed' if ee is None else f'{ee:.2e}'}</p>")
-        return (info + table(self.compliance, f"compliance C ({UNITS_SHORT})", TWIST, WRENCH)
+                f"Richardson estimate {'not computed' if ee is None else f'{ee:.2e}'}</p>")
+        return (info + self._error_html() + table(self.compliance, f"compliance C ({UNITS_SHORT})", TWIST, WRENCH)
                 + table(self.stiffness, "stiffness K = C^-1 (N/mm, N/rad, N, N mm/rad by block)", WRENCH, TWIST))
+
+
+    def _error_html(self) -> str:
+        err = self.error_diagonal
+        if err is None:
+            return ""
+        head = "".join(f"<th>{t}/{w}</th>" for t, w in zip(TWIST, WRENCH))
+        vals = "".join(f"<td>{100 * v:.2g}%</td>" for v in err)
+        sharp = (self.diagnostics.get("sharp_edges") or {}).get("note", "")
+        return (f"<table><caption>estimated discretization error of the diagonal (the computed compliance is too "
+                f"small by about this much; whole matrix {100 * max(err):.2g}%)</caption><tr>{head}</tr>"
+                f"<tr>{vals}</tr></table>" + (f"<p>{html.escape(sharp)}</p>" if sharp else ""))
 
 
 def load(path) -> LinkResult:

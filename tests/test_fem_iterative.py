@@ -1,0 +1,52 @@
+"""The iterative path (CG + pyamg smoothed aggregation) against the direct factorization, and the
+memory-based choice between them."""
+import numpy as np
+import pytest
+from meshes import bar_link_mesh
+
+from linkfea.errors import LinkFeaError
+from linkfea.fem import solve_link
+from linkfea.fit import compliance_from_solution
+from linkfea.iterative import cg_amg_factorizer, choose, direct_peak_bytes
+from linkfea.solvers import auto_factorizer, factorizer_named
+
+
+def _scaled(A, B):
+    d = np.sqrt(np.diag(B))
+    return float(np.max(np.abs(A - B) / np.outer(d, d)))
+
+
+@pytest.mark.parametrize("mode", ["rigid", "block"])
+def test_iterative_and_direct_agree_on_a_small_link(steel, mode):
+    """Same 6x6 to 1e-6 (relative to sqrt(C_ii C_jj)); CG's convergence is recorded per load case."""
+    mesh = bar_link_mesh(60.0, 8.0, 6.0, 10, 2, 2, block_length=6.0, nb=1)
+    direct = solve_link(mesh, steel, mode=mode)
+    it = solve_link(mesh, steel, mode=mode, solver=cg_amg_factorizer)
+    assert it.solver["factorizer"] == "cg+amg"
+    conv = it.solver["convergence"]
+    assert len(conv["iterations"]) == 6 and all(0 < n < 500 for n in conv["iterations"])
+    # The stiff block (E x 1000) of block mode costs round-off in the recomputed residual.
+    assert max(conv["relative_residual"]) < (1e-6 if mode == "rigid" else 1e-5)
+    a, b = compliance_from_solution(direct).matrix, compliance_from_solution(it).matrix
+    assert _scaled(b, a) < 1e-6
+
+
+def test_the_choice_follows_the_memory_estimate(steel, monkeypatch):
+    """``choose`` scales the measured 12 GB at 871,710 DOF as n^(4/3); ``auto`` records its choice."""
+    assert direct_peak_bytes(871_710) == pytest.approx(12.0e9)
+    assert direct_peak_bytes(2 * 871_710) == pytest.approx(12.0e9 * 2 ** (4 / 3))
+    assert choose(60_000, budget=8e9) == "direct" and choose(3_000_000, budget=8e9) == "iterative"
+    assert choose(100_000, budget=1.0) == "direct"  # small links always factor: results do not depend on free memory
+    mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
+    import linkfea.iterative as iterative
+
+    monkeypatch.setattr(iterative, "MIN_ITERATIVE_DOFS", 0)
+    monkeypatch.setenv("LINKFEA_MEMORY", "1e-6")  # nothing fits: iterative
+    small = solve_link(mesh, steel, solver=auto_factorizer)
+    assert small.solver["choice"]["chosen"] == "iterative" and small.solver["factorizer"] == "cg+amg"
+    monkeypatch.setenv("LINKFEA_MEMORY", "8")
+    big = solve_link(mesh, steel, solver=auto_factorizer)
+    assert big.solver["choice"]["chosen"] == "direct" and big.solver["factorizer"] in ("pardiso", "superlu")
+    assert _scaled(compliance_from_solution(small).matrix, compliance_from_solution(big).matrix) < 1e-6
+    with pytest.raises(LinkFeaError, match="unknown solver"):
+        factorizer_named("gauss")
