@@ -143,6 +143,9 @@ def _register_extensions():
     except ModuleNotFoundError:
         return
     register(app)
+    from .path.cli import register as register_path
+
+    register_path(app)
 
 
 _register_extensions()

@@ -1,0 +1,180 @@
+"""``vjm.path(...)``: deflection along a toolpath, its uncertainty, and the compensated toolpath.
+
+The pipeline: read the toolpath, check it against the machine (orientations on
+a 3-dof platform, reachability), the process wrench per point, the TCP's
+deflection (linear or nonlinear), the calibration's band, the compensated
+commands (nonlinear, with the model's effects), the compensated program in
+the input's own format.  Nothing is written here (see :mod:`vjm.path.output`).
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..errors import VjmError
+from . import gcode as gc
+from . import uncertainty as unc
+from .compensate import compensate as _compensate
+from .deflect import check_effects, platform_poses, tcp_deflection
+from .result import PathResult
+from .toolpath import Toolpath, csv_text
+from .toolpath import read as read_toolpath
+from .wrench import PerPoint
+
+
+def _model(model, foot=None, leg=None):
+    from .. import load_model
+
+    if isinstance(model, (str, os.PathLike)):
+        return load_model(model, foot=foot, leg=leg)
+    return model
+
+
+def check_machine(model, tp: Toolpath, tool) -> None:
+    """Refuse a toolpath the machine cannot follow: orientations on a 3-dof platform, unreachable points."""
+    if tp.has_orientation and model.dof == 3:
+        raise VjmError(f"{tp.source}: the toolpath gives orientations (rx, ry, rz) but the machine's platform "
+                       f"only translates (3 dof); drop the columns rx,ry,rz")
+    P, _ = platform_poses(model, tp.poses, tool)
+    ok = np.asarray(model.arch.reachable(model, P if model.dof == 6 else P[:, :3]), bool)
+    if not ok.all():
+        i = int(np.argmax(~ok))
+        raise VjmError(f"{tp.where(i)}: the programmed point {np.round(tp.points[i], 6).tolist()} mm is outside "
+                       f"the machine's workspace (or needs an actuator outside its limits)")
+
+
+def _tool(tool) -> np.ndarray:
+    t = np.zeros(3) if tool is None else np.asarray(tool, dtype=float)
+    if t.shape != (3,) or not np.all(np.isfinite(t)):
+        raise VjmError(f"tool must be three finite numbers dx,dy,dz (mm, platform axes), got {tool!r}")
+    return t
+
+
+def blend_after(tp: Toolpath, cmd: np.ndarray, residual_vec: np.ndarray) -> np.ndarray:
+    """(n, 6) first-order error of the written program from the programmed path at every sample.
+
+    Between two written end points the program moves along the chord (or the kept arc) through
+    the compensated end points, so a sample's command is the blend of their corrections; the
+    error there is the blend's distance from the exact command plus the residual.
+    """
+    delta = cmd[:, :3] - tp.points
+    s = tp.arc_length()
+    vi = np.flatnonzero(tp.vertex)
+    nxt = vi[np.minimum(np.searchsorted(vi, np.arange(tp.n)), len(vi) - 1)]
+    prv = vi[np.maximum(np.searchsorted(vi, np.arange(tp.n), side="right") - 1, 0)]
+    span = s[nxt] - s[prv]
+    t = np.divide(s - s[prv], span, out=np.zeros(tp.n), where=span > 0)
+    written = delta[prv] + t[:, None] * (delta[nxt] - delta[prv])
+    out = np.zeros((tp.n, 6))
+    out[:, :3] = (written - delta) + residual_vec
+    return out
+
+
+def compensated_text(tp: Toolpath, cmd: np.ndarray, linearize_arcs: bool = False) -> str:
+    """The compensated toolpath in the input's format (CSV, or the same G-code with new coordinates)."""
+    if tp.kind == "csv":
+        return csv_text(tp, cmd)
+    prog = tp.program
+    li = tp.line_index
+    vi = np.flatnonzero(tp.vertex)
+    new_end = {int(li[i]): cmd[i, :3] for i in vi}
+    mv = {m.line: m for m in gc.moves(prog)}
+    centres = {}
+    arcs = {}
+    for i, m in mv.items():
+        if m.centre is None:
+            continue
+        rows = np.flatnonzero(li == i)
+        e = rows[-1]
+        start = int(rows[0]) - 1  # the previous line's end point
+        ds = cmd[start, :3] - tp.points[start] if start >= 0 else np.zeros(3)
+        de = cmd[e, :3] - tp.points[e]
+        centres[i] = m.centre + 0.5 * (ds + de)
+        arcs[i] = cmd[rows, :3]
+    out = gc.rewrite(prog, new_end, centres)
+    if linearize_arcs and arcs:
+        out = gc.linearize(out, arcs)
+    return gc.write_text_of(out)
+
+
+def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", compensate: bool = True,
+         tolerance: float | None = None, linearize_arcs: bool = False, chord_tol: float = 1e-3,
+         step: float = 1.0, passed: str = gc.DEFAULT_PASS, uncertainty: bool = True, workers: int = 1,
+         foot=None, leg=None) -> PathResult:
+    """Deflection of the tool along a toolpath and the compensated toolpath.  ``vjm path`` as a function.
+
+    Parameters
+    ----------
+    model : a :class:`vjm.Model`, a model file (e.g. ``model_updated.yaml`` of ``vjm diagnose``) or a
+        bundled name
+    toolpath : a CSV or G-code file, or a :class:`vjm.path.toolpath.Toolpath`
+    wrench : a :mod:`vjm.path.wrench` source (``Constant``, ``Milling``, ``PerPoint``); default the
+        CSV's Fx..Mz columns
+    tool : TCP offset dx, dy, dz in platform axes, mm (default 0: the platform point)
+    method : "nonlinear" (with the model's effects) or "linear" (``C(p) w``) for the deflection;
+        the compensation is always nonlinear
+    tolerance : mm; ``result.passed`` then says whether every point is within it
+    linearize_arcs : write G2/G3 as G1 chords (within ``chord_tol``) in the compensated program
+    chord_tol, step : sampling of arcs (chord error, mm) and of straight moves (spacing, mm)
+    uncertainty : propagate the calibration covariance of the model file, if it carries one
+    workers : threads for the nonlinear equilibrium (blocks of points)
+    """
+    if tolerance is not None and not (np.isfinite(tolerance) and tolerance > 0):
+        raise VjmError(f"--tolerance must be a number > 0 (mm), got {tolerance!r}")
+    if not (np.isfinite(chord_tol) and chord_tol > 0) or not (np.isfinite(step) and step > 0):
+        raise VjmError(f"--chord-tol and --step must be numbers > 0 (mm), got {chord_tol!r}, {step!r}")
+    m = _model(model, foot, leg)
+    check_effects(m)
+    t = _tool(tool)
+    tp = toolpath if isinstance(toolpath, Toolpath) else read_toolpath(toolpath, chord_tol, step, passed)
+    check_machine(m, tp, t)
+    W = (wrench or PerPoint()).wrenches(tp)
+    notes = []
+    if method == "linear" and m.effects:
+        notes.append(f"linear deflection: the model's effects ({', '.join(m.effects)}) are left out "
+                     f"(they enter the nonlinear deflection and the compensation)")
+    d = tcp_deflection(m, tp.poses, W, t, method, workers)
+    _named_nan(tp, d)
+    band = None
+    cal = unc.read(m) if uncertainty else None
+    if cal is not None:
+        G = unc.sensitivities(m, cal, lambda mm: tcp_deflection(mm, tp.poses, W, t, method, workers))
+        band = unc.band(d, G, cal.cov)
+        notes.append(f"uncertainty from the calibration covariance of {os.path.basename(m.path or '')} "
+                     f"({', '.join(cal.names)})")
+    comp = after = text = None
+    if compensate:
+        d_nl = d if method == "nonlinear" else tcp_deflection(m, tp.poses, W, t, "nonlinear", workers)
+        _named_nan(tp, d_nl)
+        comp = _compensate(m, tp.poses, W, t, d_nl, workers, tp.where)
+        from .compensate import loaded_error
+
+        err, _ = loaded_error(m, comp.commanded, tp.poses, W, t, workers)
+        written = linearize_arcs or tp.kind == "csv"
+        after = blend_after(tp if not written else _all_vertices(tp, linearize_arcs), comp.commanded, -err)
+        text = compensated_text(tp, comp.commanded, linearize_arcs)
+    return PathResult(tp, W, d, method, tolerance, comp, band, after, tuple(notes), text)
+
+
+def _all_vertices(tp: Toolpath, linearize_arcs: bool) -> Toolpath:
+    """The toolpath whose arc samples are written end points too (arcs linearized)."""
+    from dataclasses import replace
+
+    v = tp.vertex.copy()
+    if tp.kind == "csv":
+        v[:] = True
+    elif linearize_arcs:
+        mv = {mm.line for mm in gc.moves(tp.program) if mm.centre is not None}
+        v |= np.isin(tp.line_index, list(mv))
+    return replace(tp, vertex=v)
+
+
+def _named_nan(tp: Toolpath, d) -> None:
+    from ..errors import EquilibriumError
+
+    bad = ~np.all(np.isfinite(d), axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise EquilibriumError(f"{tp.where(i)}: no equilibrium of the loaded machine (load too large for the "
+                               f"model, or past a buckling load?)")
