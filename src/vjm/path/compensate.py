@@ -5,13 +5,16 @@ Fixed-point iteration per point on the nonlinear model (with its effects):
 ``Q_{k+1} = Exp(-r(q_k)) R_p`` for the orientation, where ``d`` and ``r`` are
 the TCP's deflection and rotation under the point's wrench at command
 ``q_k``.  The deflection changes with the command only through the stiffness'
-variation over a deflection (micrometres), so the contraction factor is
-tiny and a few iterations reach round-off.  All points iterate together
-(batched equilibrium) with a per-point convergence mask; each starts from
-the programmed pose minus its own uncompensated deflection, which the
-deflection pass has already computed (a better start than the neighbour's
-solution).  On a 3-dof translational platform only the position can be
-compensated; the rotation is reported.
+variation over a deflection, so the contraction factor is tiny.  Between two
+nonlinear equilibria ``d`` is the last equilibrium's plus the change of the
+linear ``C w`` (a stiffness map costs ~1/200 of an equilibrium), and the
+equilibrium at the converged commands checks them: typically two equilibria
+per point in all (the uncompensated one and the check).  All points iterate
+together (batched) with a per-point convergence mask; each starts from its
+own uncompensated deflection, which the deflection pass has computed (a
+better start than the previous point's solution, and one that needs no
+sequential loop).  On a 3-dof translational platform only the position can
+be compensated; the rotation is reported.
 """
 from __future__ import annotations
 
@@ -22,23 +25,26 @@ import numpy as np
 from ..errors import EquilibriumError, VjmError
 from ..kinematics import rotation_matrix
 from ..transforms import rotation_vector
-from .deflect import nonlinear_tcp
+from .deflect import linear, nonlinear_tcp
 
 #: a point has converged when its loaded TCP is this fraction of its deflection from the programmed one ...
-REL_TOL = 1e-5
+REL_TOL = 1e-4
 #: ... or closer than this, mm (0.1 nm)
 ABS_TOL = 1e-7
-MAX_ITER = 20
+#: nonlinear equilibria (and fixed-point steps on the local model between two of them) allowed
+MAX_ITER = 10
 
 
 @dataclass(frozen=True)
 class Compensation:
     """Commanded TCP poses (n, 3) or (n, 6), the residual (n,) of the loaded TCP from the programmed one
-    (mm, evaluated by the last equilibrium), and the iterations used."""
+    (mm, by the last equilibrium at those very commands), and the nonlinear equilibria used."""
 
     commanded: np.ndarray
     residual: np.ndarray
     iterations: int
+    #: (n, 3) loaded TCP minus programmed point at the commands, mm
+    residual_vector: np.ndarray | None = None
 
 
 def compose(poses, rot) -> np.ndarray:
@@ -53,47 +59,69 @@ def loaded_error(model, cmd, programmed, W, tool, workers=1) -> tuple[np.ndarray
     return programmed[:, :3] - (cmd[:, :3] + t[:, :3]), t
 
 
+def _update(cmd, programmed, t, six):
+    """One fixed-point step: position ``p - d``, orientation ``Exp(-r) R_p``; returns the position step (n, 3)."""
+    step = programmed[:, :3] - t[:, :3] - cmd[:, :3]
+    cmd[:, :3] += step
+    if six:
+        cmd[:] = compose(np.hstack([cmd[:, :3], programmed[:, 3:]]), -t[:, 3:])
+    return step
+
+
 def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None) -> Compensation:
     """Commanded TCP poses for ``programmed`` (n, 3|6) under TCP wrenches W (n, 6).
 
-    ``d0`` (n, 6): the uncompensated nonlinear deflection at the programmed poses (the start);
-    ``where(i)`` names point i in messages (its file and line).
+    ``d0`` (n, 6): the nonlinear deflection at the programmed poses; ``where(i)`` names point i
+    in messages (its file and line).  Between two nonlinear equilibria the deflection is taken as
+    the last equilibrium's plus the change of the linear ``C w`` (cheap stiffness maps), whose
+    fixed point is found first; the next equilibrium then checks it.  The nonlinear remainder
+    varies over a deflection by a tiny fraction of itself, so one or two equilibria suffice.
     """
     programmed = np.asarray(programmed, dtype=float)
     six = programmed.shape[1] == 6
     n = len(programmed)
     cmd = programmed.copy()
-    cmd[:, :3] -= d0[:, :3]
-    if six:
-        cmd = compose(programmed, -d0[:, 3:])
     target = np.maximum(REL_TOL * np.linalg.norm(d0[:, :3], axis=1), ABS_TOL)
     active = np.arange(n)
+    ref_d = np.array(d0, dtype=float)
+    ref_lin = linear(model, programmed, W, tool)
     res = np.full(n, np.inf)
-    it = 0
-    for it in range(1, MAX_ITER + 1):
-        _reachable(model, cmd[active], tool, active, where)
-        err, t = loaded_error(model, cmd[active], programmed[active], W[active], tool, workers)
+    resvec = np.zeros((n, 3))
+    evals = 0
+    for evals in range(1, MAX_ITER + 1):
+        a = active
+        for _ in range(MAX_ITER):  # fixed point on the local model (linear maps only)
+            _reachable(model, cmd[a], tool, a, where)
+            t = ref_d[a] + linear(model, cmd[a], W[a], tool) - ref_lin[a]
+            c = cmd[a]
+            step = _update(c, programmed[a], t, six)
+            cmd[a] = c
+            if np.all(np.linalg.norm(step, axis=1) <= 1e-3 * target[a]):
+                break
+        _reachable(model, cmd[a], tool, a, where)
+        err, t = loaded_error(model, cmd[a], programmed[a], W[a], tool, workers)
         bad = ~np.all(np.isfinite(t), axis=1)
         if bad.any():
-            i = int(active[np.argmax(bad)])
+            i = int(a[np.argmax(bad)])
             raise EquilibriumError(f"{where(i) if where else f'point {i}'}: no equilibrium at the compensated "
                                    f"pose (load too large for the model?)")
-        res[active] = np.linalg.norm(err, axis=1)
-        done = res[active] <= target[active]
-        cmd[active, :3] += err
+        res[a] = np.linalg.norm(err, axis=1)
+        resvec[a] = -err
+        done = res[a] <= target[a]
         if six:
-            rot = _rot_error(cmd[active], programmed[active], t)
-            done &= np.linalg.norm(rot, axis=1) <= np.maximum(REL_TOL * np.linalg.norm(d0[active, 3:], axis=1),
-                                                              ABS_TOL * 1e-3)
-            cmd[active] = compose(programmed[active], -t[:, 3:])
-        active = active[~done]
+            done &= np.linalg.norm(_rot_error(cmd[a], programmed[a], t), axis=1) <= \
+                np.maximum(REL_TOL * np.linalg.norm(d0[a, 3:], axis=1), ABS_TOL * 1e-3)
+        # the points still off restart from this equilibrium
+        ref_d[a] = t
+        ref_lin[a] = linear(model, cmd[a], W[a], tool)
+        active = a[~done]
         if active.size == 0:
             break
     if active.size:
         i = int(active[0])
         raise EquilibriumError(f"{where(i) if where else f'point {i}'}: compensation did not converge in "
-                               f"{MAX_ITER} iterations (residual {res[i]:.3g} mm)")
-    return Compensation(cmd, res, it)
+                               f"{MAX_ITER} equilibria (residual {res[i]:.3g} mm)")
+    return Compensation(cmd, res, evals, resvec)
 
 
 def _rot_error(cmd, programmed, t):

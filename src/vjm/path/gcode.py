@@ -82,9 +82,9 @@ def parse_line(text: str, n: int, passed: str = DEFAULT_PASS) -> Line:
     ln = Line(n, tokens)
     gs = []
     for i, tok in enumerate(tokens):
-        if not tok or tok.isspace() or tok.startswith("(") or tok.startswith(";") or tok == "%":
+        if tok.isspace() or (tok.startswith("(") and tok.endswith(")")) or tok.startswith(";") or tok == "%":
             continue
-        if tok.startswith("(") or ")" in tok or "(" in tok:
+        if ")" in tok or "(" in tok:
             _fail(n, f"unbalanced comment near {tok!r}")
         letter = tok[0].upper()
         num = tok[1:]
@@ -284,7 +284,7 @@ def rewrite(prog: Program, new_end: dict, new_centre: dict | None = None) -> Pro
     Only the numbers of X, Y, Z (and of I, J, K where ``new_centre`` gives an arc's centre)
     change; every other token, the line order and the line endings stay.  An axis the line
     did not name keeps being omitted (its value must then be unchanged: the writer adds it
-    to the line after the last word, with a space, if compensation moved it).
+    after the line's last interpreted word, with a space, if compensation moved it).
     """
     mv = {m.line: m for m in moves(prog)}
     lines = []
@@ -303,18 +303,19 @@ def rewrite(prog: Program, new_end: dict, new_centre: dict | None = None) -> Pro
             val /= m.scale
             if a in ln.word_at:
                 j = ln.word_at[a]
-                tokens[j] = tokens[j][0] + _fmt(val, tokens[j], m.scale)
+                if abs(val - ln.words[a]) >= 0.5 * 10.0 ** -(5 if m.scale != 1.0 else 4):
+                    tokens[j] = tokens[j][0] + _fmt(val, tokens[j], m.scale)
             elif abs(end[k] - start_c[k]) / m.scale >= 0.5 * 10.0 ** -(5 if m.scale != 1.0 else 4):
                 # the line left this axis where it was; compensation moved it: name it
                 extra.append(f"{a}{_fmt(val, a + '0', m.scale)}")
         if new_centre is not None and i in new_centre and m.centre is not None:
             c = (new_centre[i] - start_c) / m.scale
             for k, a in enumerate(CENTRE):
-                if a in ln.word_at:
+                if a in ln.word_at and abs(c[k] - ln.words[a]) >= 0.5 * 10.0 ** -(5 if m.scale != 1.0 else 4):
                     j = ln.word_at[a]
                     tokens[j] = tokens[j][0] + _fmt(c[k], tokens[j], m.scale)
-        if extra:
-            at = max(ln.word_at.values()) + 1
+        if extra:  # after the line's last axis word (else its last interpreted word)
+            at = max([j for a, j in ln.word_at.items() if a in AXES] or list(ln.word_at.values())) + 1
             tokens[at:at] = [" " + e for e in extra]
         text = "".join(tokens)
         lines.append(parse_line(text, ln.number, prog.passed))

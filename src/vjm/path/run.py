@@ -71,6 +71,21 @@ def blend_after(tp: Toolpath, cmd: np.ndarray, residual_vec: np.ndarray) -> np.n
     return out
 
 
+def arc_centre(m, s, e, guess) -> np.ndarray:
+    """The centre of the compensated arc from ``s`` to ``e``: the point of their perpendicular bisector
+    (in the arc's plane) nearest ``guess``, so that both ends are on one circle; a full circle keeps ``guess``."""
+    u, v, _ = gc.PLANE_AXES[m.plane]
+    chord = (e - s)[[u, v]]
+    L = np.linalg.norm(chord)
+    if L < 1e-9:
+        return guess
+    nrm = np.array([-chord[1], chord[0]]) / L
+    mid = 0.5 * (s + e)
+    out = np.array(guess, dtype=float)
+    out[[u, v]] = mid[[u, v]] + nrm * float(nrm @ (guess - mid)[[u, v]])
+    return out
+
+
 def compensated_text(tp: Toolpath, cmd: np.ndarray, linearize_arcs: bool = False) -> str:
     """The compensated toolpath in the input's format (CSV, or the same G-code with new coordinates)."""
     if tp.kind == "csv":
@@ -90,7 +105,7 @@ def compensated_text(tp: Toolpath, cmd: np.ndarray, linearize_arcs: bool = False
         start = int(rows[0]) - 1  # the previous line's end point
         ds = cmd[start, :3] - tp.points[start] if start >= 0 else np.zeros(3)
         de = cmd[e, :3] - tp.points[e]
-        centres[i] = m.centre + 0.5 * (ds + de)
+        centres[i] = arc_centre(m, cmd[start, :3] if start >= 0 else m.start, cmd[e, :3], m.centre + 0.5 * (ds + de))
         arcs[i] = cmd[rows, :3]
     out = gc.rewrite(prog, new_end, centres)
     if linearize_arcs and arcs:
@@ -148,11 +163,7 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
         d_nl = d if method == "nonlinear" else tcp_deflection(m, tp.poses, W, t, "nonlinear", workers)
         _named_nan(tp, d_nl)
         comp = _compensate(m, tp.poses, W, t, d_nl, workers, tp.where)
-        from .compensate import loaded_error
-
-        err, _ = loaded_error(m, comp.commanded, tp.poses, W, t, workers)
-        written = linearize_arcs or tp.kind == "csv"
-        after = blend_after(tp if not written else _all_vertices(tp, linearize_arcs), comp.commanded, -err)
+        after = blend_after(_all_vertices(tp, linearize_arcs), comp.commanded, comp.residual_vector)
         text = compensated_text(tp, comp.commanded, linearize_arcs)
     return PathResult(tp, W, d, method, tolerance, comp, band, after, tuple(notes), text)
 
@@ -161,7 +172,7 @@ def _all_vertices(tp: Toolpath, linearize_arcs: bool) -> Toolpath:
     """The toolpath whose arc samples are written end points too (arcs linearized)."""
     from dataclasses import replace
 
-    v = tp.vertex.copy()
+    v = np.array(tp.vertex)
     if tp.kind == "csv":
         v[:] = True
     elif linearize_arcs:
