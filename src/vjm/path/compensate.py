@@ -91,14 +91,14 @@ def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None) -> 
     for evals in range(1, MAX_ITER + 1):
         a = active
         for _ in range(MAX_ITER):  # fixed point on the local model (linear maps only)
-            _reachable(model, cmd[a], tool, a, where)
+            _reachable(model, cmd[a], tool, a, where, programmed[a])
             t = ref_d[a] + linear(model, cmd[a], W[a], tool) - ref_lin[a]
             c = cmd[a]
             step = _update(c, programmed[a], t, six)
             cmd[a] = c
             if np.all(np.linalg.norm(step, axis=1) <= 1e-3 * target[a]):
                 break
-        _reachable(model, cmd[a], tool, a, where)
+        _reachable(model, cmd[a], tool, a, where, programmed[a])
         err, t = loaded_error(model, cmd[a], programmed[a], W[a], tool, workers)
         bad = ~np.all(np.isfinite(t), axis=1)
         if bad.any():
@@ -131,12 +131,18 @@ def _rot_error(cmd, programmed, t):
     return rotation_vector(Rp @ np.swapaxes(Rl, 1, 2))
 
 
-def _reachable(model, tcp_cmd, tool, idx, where) -> None:
-    """VjmError naming the first commanded pose the machine cannot reach (workspace, actuator limits)."""
+def _reachable(model, tcp_cmd, tool, idx, where, programmed=None) -> None:
+    """VjmError naming the first commanded pose the machine cannot reach (actuator limits, the inverse
+    kinematics), or whose platform point leaves the workspace box that its programmed one was in."""
     from .deflect import platform_poses
 
     P, _ = platform_poses(model, tcp_cmd, tool)
     ok = np.asarray(model.arch.reachable(model, P if model.dof == 6 else P[:, :3]), bool)
+    if programmed is not None:
+        lo, hi = (np.asarray(v, dtype=float) for v in model.arch.workspace)
+        P0, _ = platform_poses(model, programmed, tool)
+        inside = np.all((P0[:, :3] >= lo) & (P0[:, :3] <= hi), axis=1)
+        ok &= ~inside | np.all((P[:, :3] >= lo) & (P[:, :3] <= hi), axis=1)
     if not ok.all():
         k = int(np.argmax(~ok))
         i = int(idx[k])
