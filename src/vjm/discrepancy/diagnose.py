@@ -13,11 +13,9 @@ import numpy as np
 from scipy import stats
 
 from ..errors import VjmError
+from . import covariance, observe
 from . import effects as fx
 from . import modelops as mo
-from . import observe
-from .covariance import record as covariance_record
-from .covariance import save_model_with
 from .data import StiffnessObs, read_csv, write_design
 from .fit.select import (
     OCCAM_WINDOW,
@@ -59,8 +57,7 @@ class Diagnosis:
     rms_pose_before: np.ndarray  # normalized RMS per posture, calibrated baseline
     rms_pose_after: np.ndarray
     next_measurements: np.ndarray | None = None  # (N, 9) x, y, z, Fx..Mz
-    #: the final fit's parameters and covariance, written as ``calibration:`` in model_updated.yaml
-    covariance: dict | None = None
+    covariance: dict | None = None  # final fit's parameters and covariance: model_updated.yaml's calibration:
 
     @property
     def verdict(self) -> str:
@@ -459,7 +456,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
                           "targets": sg.targets, "criterion_before": sg.before, "criterion_after": sg.after,
                           "forces_only": bool(forces_only)}
     rep["summary"] = summary(rep)
-    return Diagnosis(rep, upd, U, per_before, per_after, nxt, covariance_record(prob, pred, final))
+    return Diagnosis(rep, upd, U, per_before, per_after, nxt, covariance.record(prob, pred, final))
 
 
 #: pairs of candidates fitted after the selection, the first of a linearised screen (fit/select.py screen_pairs)
@@ -805,7 +802,7 @@ def write_diagnosis(dg: Diagnosis, out_dir) -> None:
                          "next measurements suggested by vjm diagnose: " + dg.report["suggest"]["criterion"])
         return ["before_after.png", "residuals_per_posture.png"]
 
-    write_report_dir(out_dir, dg.report, lambda p: save_model_with(dg.model, dg.covariance, p), figs)
+    write_report_dir(out_dir, dg.report, lambda p: covariance.save_model_with(dg.model, dg.covariance, p), figs)
 
 
 def run(model_path, data_path, out_dir, **kw) -> Diagnosis:

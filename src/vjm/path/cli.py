@@ -83,7 +83,7 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
         names = write_outputs(res, out)
     except user_errors() as exc:
         typer.echo(f"error: {one_line(exc)}", err=True)
-        raise typer.Exit(2)
+        raise typer.Exit(2) from None
     typer.echo(res.summary())
     typer.echo(f"wrote {out}/" + ", ".join(names))
     if res.passed is False:

@@ -88,7 +88,8 @@ def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None) -> 
     res = np.full(n, np.inf)
     resvec = np.zeros((n, 3))
     evals = 0
-    for evals in range(1, MAX_ITER + 1):
+    while evals < MAX_ITER:
+        evals += 1
         a = active
         for _ in range(MAX_ITER):  # fixed point on the local model (linear maps only)
             _reachable(model, cmd[a], tool, a, where, programmed[a])

@@ -92,6 +92,7 @@ def compensated_text(tp: Toolpath, cmd: np.ndarray, linearize_arcs: bool = False
         return csv_text(tp, cmd)
     prog = tp.program
     li = tp.line_index
+    assert prog is not None and li is not None  # a G-code toolpath
     vi = np.flatnonzero(tp.vertex)
     new_end = {int(li[i]): cmd[i, :3] for i in vi}
     mv = {m.line: m for m in gc.moves(prog)}
@@ -175,7 +176,7 @@ def _all_vertices(tp: Toolpath, linearize_arcs: bool) -> Toolpath:
     v = np.array(tp.vertex)
     if tp.kind == "csv":
         v[:] = True
-    elif linearize_arcs:
+    elif linearize_arcs and tp.program is not None:
         mv = {mm.line for mm in gc.moves(tp.program) if mm.centre is not None}
         v |= np.isin(tp.line_index, list(mv))
     return replace(tp, vertex=v)

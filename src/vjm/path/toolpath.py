@@ -49,7 +49,7 @@ class Toolpath:
     wrench: np.ndarray | None
     source: str
     kind: str
-    program: object = None
+    program: gc.Program | None = None
     line_index: np.ndarray | None = None
     header: tuple = ()
 
