@@ -57,6 +57,9 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
              no_compensate: bool = typer.Option(False, "--no-compensate", help="skip the compensated toolpath"),
              linearize_arcs: bool = typer.Option(False, "--linearize-arcs",
                                                  help="write arcs of the compensated G-code as G1 chords"),
+             split_moves: bool = typer.Option(False, "--split-moves",
+                                              help="write feed moves of the compensated G-code as G1 pieces "
+                                                   "of --step mm"),
              chord_tol: float = typer.Option(1e-3, "--chord-tol", help="arc sampling: chord error, mm"),
              step: float = typer.Option(1.0, "--step", help="straight moves: sample spacing, mm"),
              passed: str = typer.Option("MST", "--pass-through",
@@ -79,6 +82,7 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
         src = _wrench_source(wrench, kc, fz, depth, width, diameter)
         res = path(model, toolpath, wrench=src, tool=_numbers(tool, "--tool", 3), method=method,
                    compensate=not no_compensate, tolerance=tolerance, linearize_arcs=linearize_arcs,
+                   split_moves=split_moves,
                    chord_tol=chord_tol, step=step, passed=passed, workers=workers, foot=foot, leg=leg)
         names = write_outputs(res, out)
     except user_errors() as exc:

@@ -324,10 +324,11 @@ def rewrite(prog: Program, new_end: dict, new_centre: dict | None = None) -> Pro
 
 
 def linearize(prog: Program, arcs: dict) -> Program:
-    """A copy of ``prog`` where every arc line ``i`` becomes G1 moves through ``arcs[i]`` ((k, 3) mm).
+    """A copy of ``prog`` where every move line ``i`` in ``arcs`` becomes G1 moves through ``arcs[i]``
+    ((k, 3) mm): arcs as chords, or feed moves split into pieces.
 
-    The first generated line keeps the arc line's other words and comments.  Every arc is
-    linearized, so no later line relies on a modal G2/G3.  Absolute coordinates only.
+    The first generated line keeps the line's other words and comments.  Every arc is given (the
+    callers linearize all or none), so no later line relies on a modal G2/G3.  Absolute coordinates only.
     """
     mv = {m.line: m for m in moves(prog)}
     out = []
@@ -337,10 +338,10 @@ def linearize(prog: Program, arcs: dict) -> Program:
             continue
         mvi = mv[i]
         if mvi.incremental:
-            _fail(ln.number, "arcs can be linearized in absolute mode (G90) only")
+            _fail(ln.number, "moves can be linearized or split in absolute mode (G90) only")
         drop = {j for a, j in ln.word_at.items() if a in AXES + CENTRE}
         keep = [t for j, t in enumerate(ln.tokens)
-                if j not in drop and not re.fullmatch(r"[Gg]0*[23](\.0*)?", t)]
+                if j not in drop and not re.fullmatch(r"[Gg]0*[0-3](\.0*)?", t)]
         pts = arcs[i] / mvi.scale
         for k, p in enumerate(pts):
             text = "G1 " + " ".join(f"{a}{v:.5f}" for a, v in zip(AXES, p))

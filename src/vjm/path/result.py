@@ -25,8 +25,8 @@ class PathResult:
     deflection : (n, 6) TCP deflection dx dy dz (mm) rx ry rz (rad), world axes
     method : "linear" or "nonlinear";  tolerance : mm or None
     compensation : commanded poses and residual, or None;  band : uncertainty band or None
-    after : (n, 6) TCP deflection of the compensated commands from the programmed path
-        (evaluated at the sampled points; the written program interpolates between its end points)
+    after : (n, 6) TCP error of the compensated program from the programmed path at the sampled points
+        (first order between the written end points; NaN on rapid moves)
     notes : lines for the summary (assumptions, effects used, warnings)
     """
 
@@ -55,7 +55,7 @@ class PathResult:
         e = self.error if self.after is None else _norm(self.after)
         if self.band is not None:  # what the calibration does not know adds to either
             e = e + self.band.norm
-        return bool(np.all(e <= self.tolerance))
+        return bool(np.all(e[np.isfinite(e)] <= self.tolerance))
 
     def worst(self, k: int = 5) -> list[dict]:
         """The ``k`` points of largest error: index, line, point, error (mm)."""
@@ -80,8 +80,8 @@ class PathResult:
             c = self.compensation
             lines.append(f"compensated: residual max {c.residual.max():.3g} mm ({c.iterations} iterations)")
             if self.after is not None:
-                lines.append(f"compensated program between its end points: max {np.nanmax(_norm(self.after)):.3g} mm "
-                             f"from the programmed path")
+                lines.append(f"compensated program along the cutting moves: max {np.nanmax(_norm(self.after)):.3g} "
+                             f"mm from the programmed path")
         lines += list(self.notes)
         if self.tolerance is not None:
             lines.append(f"{'PASS' if self.passed else 'FAIL'}: tolerance {self.tolerance:g} mm"

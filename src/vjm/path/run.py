@@ -52,7 +52,8 @@ def _tool(tool) -> np.ndarray:
 
 
 def blend_after(tp: Toolpath, cmd: np.ndarray, residual_vec: np.ndarray) -> np.ndarray:
-    """(n, 6) first-order error of the written program from the programmed path at every sample.
+    """(n, 6) first-order error of the written program from the programmed path at every cutting sample
+    (NaN on rapid moves).
 
     Between two written end points the program moves along the chord (or the kept arc) through
     the compensated end points, so a sample's command is the blend of their corrections; the
@@ -68,6 +69,7 @@ def blend_after(tp: Toolpath, cmd: np.ndarray, residual_vec: np.ndarray) -> np.n
     written = delta[prv] + t[:, None] * (delta[nxt] - delta[prv])
     out = np.zeros((tp.n, 6))
     out[:, :3] = (written - delta) + residual_vec
+    out[~tp.cutting] = np.nan  # rapid moves cut nothing
     return out
 
 
@@ -86,8 +88,12 @@ def arc_centre(m, s, e, guess) -> np.ndarray:
     return out
 
 
-def compensated_text(tp: Toolpath, cmd: np.ndarray, linearize_arcs: bool = False) -> str:
-    """The compensated toolpath in the input's format (CSV, or the same G-code with new coordinates)."""
+def compensated_text(tp: Toolpath, cmd: np.ndarray, linearize_arcs: bool = False, split: bool = False) -> str:
+    """The compensated toolpath in the input's format (CSV, or the same G-code with new coordinates).
+
+    ``linearize_arcs``: arcs become G1 chords through their compensated samples; ``split``: every
+    feed move (G1, G2, G3) becomes G1 pieces through its compensated samples (``step`` apart).
+    """
     if tp.kind == "csv":
         return csv_text(tp, cmd)
     prog = tp.program
@@ -95,27 +101,30 @@ def compensated_text(tp: Toolpath, cmd: np.ndarray, linearize_arcs: bool = False
     assert prog is not None and li is not None  # a G-code toolpath
     vi = np.flatnonzero(tp.vertex)
     new_end = {int(li[i]): cmd[i, :3] for i in vi}
-    mv = {m.line: m for m in gc.moves(prog)}
     centres = {}
-    arcs = {}
-    for i, m in mv.items():
+    pieces = {}
+    for i, m in {m.line: m for m in gc.moves(prog)}.items():
+        rows = np.flatnonzero(li == i)
+        if split and m.kind != 0 and not np.isnan(m.start).any():
+            pieces[i] = cmd[rows, :3]
         if m.centre is None:
             continue
-        rows = np.flatnonzero(li == i)
         e = rows[-1]
         start = int(rows[0]) - 1  # the previous line's end point
         ds = cmd[start, :3] - tp.points[start] if start >= 0 else np.zeros(3)
         de = cmd[e, :3] - tp.points[e]
         centres[i] = arc_centre(m, cmd[start, :3] if start >= 0 else m.start, cmd[e, :3], m.centre + 0.5 * (ds + de))
-        arcs[i] = cmd[rows, :3]
+        if linearize_arcs:
+            pieces[i] = cmd[rows, :3]
     out = gc.rewrite(prog, new_end, centres)
-    if linearize_arcs and arcs:
-        out = gc.linearize(out, arcs)
+    if pieces:
+        out = gc.linearize(out, pieces)
     return gc.write_text_of(out)
 
 
 def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", compensate: bool = True,
-         tolerance: float | None = None, linearize_arcs: bool = False, chord_tol: float = 1e-3,
+         tolerance: float | None = None, linearize_arcs: bool = False, split_moves: bool = False,
+         chord_tol: float = 1e-3,
          step: float = 1.0, passed: str = gc.DEFAULT_PASS, uncertainty: bool = True, workers: int = 1,
          foot=None, leg=None) -> PathResult:
     """Deflection of the tool along a toolpath and the compensated toolpath.  ``vjm path`` as a function.
@@ -132,6 +141,8 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
         the compensation is always nonlinear
     tolerance : mm; ``result.passed`` then says whether every point is within it
     linearize_arcs : write G2/G3 as G1 chords (within ``chord_tol``) in the compensated program
+    split_moves : write every feed move (G1, G2, G3) as G1 pieces of at most ``step`` mm, each end
+        compensated (the transition where the force turns then spans one piece)
     chord_tol, step : sampling of arcs (chord error, mm) and of straight moves (spacing, mm)
     uncertainty : propagate the calibration covariance of the model file, if it carries one
     workers : threads for the nonlinear equilibrium (blocks of points)
@@ -164,19 +175,25 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
         d_nl = d if method == "nonlinear" else tcp_deflection(m, tp.poses, W, t, "nonlinear", workers)
         _named_nan(tp, d_nl)
         comp = _compensate(m, tp.poses, W, t, d_nl, workers, tp.where)
-        after = blend_after(_all_vertices(tp, linearize_arcs), comp.commanded, comp.residual_vector)
-        text = compensated_text(tp, comp.commanded, linearize_arcs)
+        after = blend_after(_all_vertices(tp, linearize_arcs, split_moves), comp.commanded, comp.residual_vector)
+        text = compensated_text(tp, comp.commanded, linearize_arcs, split_moves)
+        if tp.kind == "gcode" and not split_moves:
+            notes.append("the written program is compensated at its end points; where the force turns at a "
+                         "corner, the next move starts with the previous one's correction (see the 'compensated "
+                         "program' curve): --split-moves writes feed moves in --step pieces")
     return PathResult(tp, W, d, method, tolerance, comp, band, after, tuple(notes), text)
 
 
-def _all_vertices(tp: Toolpath, linearize_arcs: bool) -> Toolpath:
-    """The toolpath whose arc samples are written end points too (arcs linearized)."""
+def _all_vertices(tp: Toolpath, linearize_arcs: bool, split: bool) -> Toolpath:
+    """The toolpath whose samples of linearized arcs or split moves are written end points too."""
     from dataclasses import replace
 
     v = np.array(tp.vertex)
-    if tp.kind == "csv":
+    if tp.kind == "csv" or tp.program is None:
         v[:] = True
-    elif linearize_arcs and tp.program is not None:
+    elif split:
+        v |= tp.cutting
+    elif linearize_arcs:
         mv = {mm.line for mm in gc.moves(tp.program) if mm.centre is not None}
         v |= np.isin(tp.line_index, list(mv))
     return replace(tp, vertex=v)

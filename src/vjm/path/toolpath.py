@@ -140,7 +140,9 @@ GCODE_SUFFIXES = (".nc", ".gcode", ".ngc", ".tap", ".cnc", ".g", ".gc", ".ncc", 
 
 def read(path, chord_tol: float = 1e-3, step: float = 1.0, passed: str = gc.DEFAULT_PASS) -> Toolpath:
     """Read a toolpath file: ``.csv`` as CSV, the usual G-code suffixes as G-code."""
-    path = os.fspath(path)
+    from ..resources import data_file
+
+    path = os.fspath(data_file(path, suffixes=(".nc", ".csv")))  # the bundled data/toolpaths/ by name too
     name = os.path.basename(path)
     if not os.path.isfile(path):
         raise VjmError(f"toolpath file not found: {path}")
