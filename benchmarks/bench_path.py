@@ -27,16 +27,16 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
-import tempfile  # noqa: E402
-import time  # noqa: E402
+import tempfile
+import time
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-import vjm  # noqa: E402
-from vjm.path import Milling  # noqa: E402
-from vjm.path.compensate import compensate  # noqa: E402
-from vjm.path.deflect import tcp_deflection  # noqa: E402
-from vjm.path.toolpath import Toolpath  # noqa: E402
+import vjm
+from vjm.path import Milling
+from vjm.path.compensate import compensate
+from vjm.path.deflect import tcp_deflection
+from vjm.path.toolpath import Toolpath
 
 PUU = "data/orthoglide/puu.yaml"
 TOOL = np.array([0.0, 0.0, -60.0])

@@ -177,6 +177,11 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
         comp = _compensate(m, tp.poses, W, t, d_nl, workers, tp.where)
         after = blend_after(_all_vertices(tp, linearize_arcs, split_moves), comp.commanded, comp.residual_vector)
         text = compensated_text(tp, comp.commanded, linearize_arcs, split_moves)
+        worse = np.flatnonzero(np.linalg.norm(after[:, :3], axis=1) > np.linalg.norm(d_nl[:, :3], axis=1))
+        if tp.kind == "gcode" and not split_moves and worse.size:
+            notes.append(f"warning: along {worse.size} of {int(tp.cutting.sum())} cutting samples (first: "
+                         f"{tp.where(int(worse[0]))}) the compensated program is farther from the path than the "
+                         f"original; --split-moves fixes that")
         if tp.kind == "gcode" and not split_moves:
             notes.append("the written program is compensated at its end points; where the force turns at a "
                          "corner, the next move starts with the previous one's correction (see the 'compensated "
