@@ -9,7 +9,7 @@ Targets (issue 22):
 
 The path: a zigzag pocket of 0.5 mm stepover at z = -1 mm over the 60 x 40 mm pocket of
 data/toolpaths/pocket.nc, sampled as needed, with the milling model (kc 700 N/mm^2, f_z 0.05 mm,
-a_p 1 mm, full 8 mm slot: 28 N against the feed) and a 60 mm tool.
+a_p 1 mm, full 8 mm slot: 35 N against the feed) and a 60 mm tool.
 
 Coverage: the model is the output of a real ``vjm diagnose`` run (calibration + a weight, its
 covariance written to model_updated.yaml); a truth machine draws its parameters from that

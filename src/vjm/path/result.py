@@ -78,7 +78,8 @@ class PathResult:
                          f"{w['error_mm']:.4g} mm")
         if self.compensation is not None:
             c = self.compensation
-            lines.append(f"compensated: residual max {c.residual.max():.3g} mm ({c.iterations} iterations)")
+            lines.append(f"compensated: residual max {c.residual.max():.3g} mm at the written points "
+                         f"({c.iterations + 1} nonlinear equilibria per point)")
             if self.after is not None:
                 lines.append(f"compensated program along the cutting moves: max {np.nanmax(_norm(self.after)):.3g} "
                              f"mm from the programmed path")
@@ -125,7 +126,8 @@ class PathResult:
             b = self.band.norm * 1e3
             ax.fill_between(s, e - b, e + b, alpha=0.25, lw=0, label=f"+-{self.band.z:.3g} sigma (calibration)")
         if self.after is not None:
-            ax.plot(s, _norm(self.after) * 1e3, lw=1.2, label="compensated program")
+            a = _norm(self.after) * 1e3
+            ax.plot(s, a, lw=1.2, label=f"compensated program (max {np.nanmax(a):.2g} um)")
         if self.tolerance is not None:
             ax.axhline(self.tolerance * 1e3, color="red", ls="--", lw=1, label="tolerance")
         ax.set_xlabel("arc length [mm]")
