@@ -275,3 +275,27 @@ def test_cli_writes_the_output_set_and_errors_are_one_line(tmp_path):
     assert not (tmp_path / "o2").exists()
     r = runner.invoke(app, ["path", PUU, str(f), "--out", str(tmp_path / "o3"), "--kc", "700"])
     assert r.exit_code == 2 and "needs all of" in r.output
+
+
+def test_split_moves_compensate_along_the_moves_and_the_kept_structure_warns(tmp_path):
+    """Where the milling force turns at a corner, a kept move starts with the previous move's correction
+    (the summary warns); split into pieces, every written point is compensated: the pieces' ends,
+    solved again, land on the programmed path."""
+    from vjm.path import gcode as gc
+
+    f = tmp_path / "corner.nc"
+    f.write_text("G21 G90\nG0 X0 Y0 Z0\nG1 X20 F500\nG1 Y20\n")
+    mill = Milling(700.0, 0.05, 1.0, 8.0)
+    kept = vjm.path(PUU, f, wrench=mill, tool=(0, 0, -40), step=5.0)
+    assert any("farther from the path than the original" in n for n in kept.notes)
+    split = vjm.path(PUU, f, wrench=mill, tool=(0, 0, -40), step=5.0, split_moves=True)
+    prog = gc.parse_text(split.compensated_text)
+    assert len(prog.lines) == 2 + 4 + 4  # two 20 mm moves in 5 mm pieces
+    ends = np.array([m.end for m in gc.moves(prog)])[1:]
+    W = split.wrench[1:]
+    prog_pts = split.toolpath.points[1:]
+    loaded = _tcp_loaded(vjm.load_model(PUU), ends, W, np.array([0, 0, -40.0]))
+    d0 = np.linalg.norm(split.deflection[1:, :3], axis=1)
+    err = np.linalg.norm(loaded - prog_pts, axis=1)
+    assert np.all(err <= 1e-3 * d0 + 1e-5)  # + the file's 5 decimals
+    assert np.nanmax(np.linalg.norm(split.after[:, :3], axis=1)) <= 1e-3 * d0.max()
