@@ -299,3 +299,18 @@ def test_split_moves_compensate_along_the_moves_and_the_kept_structure_warns(tmp
     err = np.linalg.norm(loaded - prog_pts, axis=1)
     assert np.all(err <= 1e-3 * d0 + 1e-5)  # + the file's 5 decimals
     assert np.nanmax(np.linalg.norm(split.after[:, :3], axis=1)) <= 1e-3 * d0.max()
+
+
+def test_cli_refuses_a_folder_with_files_it_did_not_write(tmp_path):
+    f = tmp_path / "p.nc"
+    f.write_text("G21 G90\nG0 X0 Y0 Z0\nG1 X5 F100\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "path.csv").write_text("mine\n")
+    r = CliRunner().invoke(app, ["path", PUU, str(f), "--out", str(out), "--wrench", "10,0,0,0,0,0"])
+    assert r.exit_code == 2 and "not written by vjm path" in r.output
+    assert (out / "path.csv").read_text() == "mine\n" and sorted(os.listdir(out)) == ["path.csv"]
+    r = CliRunner().invoke(app, ["path", PUU, str(f), "--out", str(tmp_path / "o"), "--wrench", "10,0,0,0,0,0"])
+    assert r.exit_code == 0
+    r = CliRunner().invoke(app, ["path", PUU, str(f), "--out", str(tmp_path / "o"), "--wrench", "20,0,0,0,0,0"])
+    assert r.exit_code == 0  # its own earlier output is replaced

@@ -26,20 +26,37 @@ def output_names(toolpath_name: str) -> dict:
             "compensated": f"{stem}_compensated{suffix}"}
 
 
+#: what summary.json says of its writer: a folder holding our file names without it is not ours
+WRITER = "vjm path"
+
+
 def check_out(out, toolpath_name) -> None:
-    """Refuse an output folder that is a file, or one where the compensated program would replace the input."""
+    """Refuse an output folder that is a file, one where the compensated program would replace the input,
+    or one holding files of our names that an earlier ``vjm path`` did not write."""
     out = os.path.abspath(os.fspath(out))
     if os.path.exists(out) and not os.path.isdir(out):
         raise VjmError(f"--out {out} is a file, not a folder")
-    target = os.path.join(out, output_names(toolpath_name)["compensated"])
+    names = output_names(toolpath_name)
+    target = os.path.join(out, names["compensated"])
     if os.path.exists(toolpath_name) and os.path.abspath(os.fspath(toolpath_name)) == target:
         raise VjmError(f"--out {out}: the compensated program would replace the input {toolpath_name}")
+    present = [n for n in names.values() if os.path.exists(os.path.join(out, n))]
+    if present and not _ours(os.path.join(out, names["summary"])):
+        raise VjmError(f"--out {out} holds {', '.join(present)}, not written by {WRITER}; choose another folder")
+
+
+def _ours(summary) -> bool:
+    try:
+        with open(summary, encoding="utf-8") as fh:
+            return json.load(fh).get("written_by") == WRITER
+    except (OSError, ValueError, AttributeError):
+        return False
 
 
 def summary_dict(res) -> dict:
     c = res.compensation
     return plain({
-        "toolpath": res.toolpath.source, "points": res.toolpath.n, "method": res.method,
+        "written_by": WRITER, "toolpath": res.toolpath.source, "points": res.toolpath.n, "method": res.method,
         "units": "mm, rad; TCP deflection in world axes", "max_error_mm": float(res.error.max()),
         "mean_error_mm": float(res.error.mean()), "worst": res.worst(10),
         "tolerance_mm": res.tolerance, "passed": res.passed,
@@ -53,7 +70,9 @@ def summary_dict(res) -> dict:
 
 
 def write_outputs(res, out) -> list:
-    """Write the whole output set of ``res`` into folder ``out``; returns the file names written."""
+    """Write the whole output set of ``res`` into folder ``out``; returns the file names written.
+
+    Call :func:`check_out` first (before any work): this function replaces files of its names."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -158,6 +158,9 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
     check_machine(m, tp, t)
     W = (wrench or PerPoint()).wrenches(tp)
     notes = []
+    if m.dof == 6 and not tp.has_orientation:
+        notes.append("6-dof platform, toolpath without orientations: the platform keeps a zero rotation and "
+                     "only positions are compensated")
     if method == "linear" and m.effects:
         notes.append(f"linear deflection: the model's effects ({', '.join(m.effects)}) are left out "
                      f"(they enter the nonlinear deflection and the compensation)")
