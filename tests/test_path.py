@@ -5,6 +5,7 @@ import os
 
 import numpy as np
 import pytest
+import truth as tr
 import yaml
 from typer.testing import CliRunner
 
@@ -121,20 +122,37 @@ def test_compensation_with_gravity_and_clearance_of_the_model(tmp_path):
     assert d0.min() > b  # the backlash and the weight are part of what was compensated
 
 
-def test_actuator_clearance_equals_the_unit_load_influence_of_vjm_diagnose(tmp_path):
-    """The backlash imposed inside the equilibrium (rest value of the actuator springs) moves the TCP by
-    b sum_i a_i sign(a_i . w), the unit-load twist vjm diagnose fits (another derivation)."""
-    from vjm.discrepancy.predict import Context
-
+def test_actuator_clearance_equals_the_closed_form_slip_of_the_3puu(tmp_path):
+    """The backlash imposed inside the equilibrium (rest value of the actuator springs) moves the TCP as
+    tests/truth.py's closed form does: dp = J^-1 b sign(tau), tau = J^-T F, with J = dq/dp of the
+    3-PUU's rigid inverse kinematics in closed form (no vjm chains)."""
     base = vjm.load_model(PUU)
     P = np.array([[10.0, 20.0, -5.0], [60.0, -30.0, 40.0]])
     W = np.array([[40.0, -25.0, 60.0, 0, 0, 0], [-35.0, 20.0, 10.0, 0, 0, 0]])
     b = 1e-3
     m = base.replace(effects={"clearance": {"backlash": b}})
     diff = dfl.nonlinear_tcp(m, P, W, np.zeros(3)) - dfl.nonlinear_tcp(base, P, W, np.zeros(3))
-    ref = b * Context(base, P, np.arange(2), W).clearance_unit()
+    ref = tr.backlash_twist(tr.Truth(backlash=b), P, W)
     # the slip acts on a loaded machine: the two agree to the order of its geometric nonlinearity
     np.testing.assert_allclose(diff[:, :3], ref[:, :3], rtol=2e-3, atol=1e-9)
+    assert np.abs(diff[:, 3:]).max() < 1e-4 * b  # a slip of the actuators does not turn the platform
+
+
+def test_rigid_links_closed_form_of_the_actuators(tmp_path):
+    """Rigid foot, a leg 1e9 times stiffer than puu.yaml's, ideal U joints: the 3-PUU is a translational
+    machine whose only springs are its actuators, so d = c_a J^-1 J^-T F with J = dq/dp of
+    tests/truth.py's closed-form inverse kinematics (tau = J^-T F, dq = c_a tau, dp = J^-1 dq), at random
+    points of the workspace; the leg's residual compliance is < 1e-6 of the actuators' (its bending too)."""
+    m0 = vjm.load_model(PUU)
+    m = m0.replace(foot=vjm.Link.rigid(), leg=vjm.Link.inline(m0.leg.compliance * 1e-9))
+    rng = np.random.default_rng(9)
+    P = tr.postures(10, rng)
+    W = np.hstack([rng.normal(0, 100, (10, 3)), np.zeros((10, 3))])
+    res = vjm.path(m, _csv(tmp_path, P, W), method="linear", compensate=False)
+    J = tr.actuator_jacobian(P, 310.0)
+    Ji = np.linalg.inv(J)
+    ref = np.einsum("nij,nkj,nk->ni", Ji, Ji, W[:, :3]) / m.actuator.stiffness
+    np.testing.assert_allclose(res.deflection[:, :3], ref, rtol=1e-5, atol=1e-6 * np.abs(ref).max())
 
 
 def test_hexapod_pose_path_compensates_position_and_orientation(tmp_path):
