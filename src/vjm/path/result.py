@@ -58,8 +58,14 @@ class PathResult:
         return bool(np.all(e[np.isfinite(e)] <= self.tolerance))
 
     def worst(self, k: int = 5) -> list[dict]:
-        """The ``k`` points of largest error: index, line, point, error (mm)."""
-        order = np.argsort(-self.error, kind="stable")[:k]
+        """The ``k`` points of largest error on distinct source lines: index, line, point, error (mm)."""
+        order, seen = [], set()
+        for i in np.argsort(-self.error, kind="stable"):
+            if int(self.toolpath.lines[i]) not in seen:
+                seen.add(int(self.toolpath.lines[i]))
+                order.append(i)
+                if len(order) == k:
+                    break
         return [{"index": int(i), "line": int(self.toolpath.lines[i]),
                  "x": float(self.toolpath.points[i, 0]), "y": float(self.toolpath.points[i, 1]),
                  "z": float(self.toolpath.points[i, 2]), "error_mm": float(self.error[i])} for i in order]
