@@ -332,3 +332,28 @@ def test_cli_refuses_a_folder_with_files_it_did_not_write(tmp_path):
     assert r.exit_code == 0
     r = CliRunner().invoke(app, ["path", PUU, str(f), "--out", str(tmp_path / "o"), "--wrench", "20,0,0,0,0,0"])
     assert r.exit_code == 0  # its own earlier output is replaced
+
+
+@pytest.mark.parametrize("text,words", [
+    ("x,y\n1,2\n", "line 1: columns x,y,z come all together"),
+    ("x,y,z,Fx\n1,2,3,4\n", "line 1: columns Fx,Fy,Fz,Mx,My,Mz come all together"),
+    ("x,y,z,q\n1,2,3,4\n", "line 1: unknown columns ['q']"),
+    ("# a comment\nx,y,z\n1,2,3\n1,2\n", "line 4: 2 fields, the header has 3"),
+    ("x,y,z\n1,2,3\n1,a,3\n", "line 3: a value is not a number"),
+    ("x,y,z\n1,2,nan\n", "line 2: values must be finite"),
+    ("x,y,z\n", "no data rows"),
+])
+def test_bad_csv_toolpath_is_one_line_naming_the_line(text, words):
+    with pytest.raises(VjmError) as e:
+        read_csv_text(text, "t.csv")
+    assert "\n" not in str(e.value) and str(e.value).startswith("t.csv") and words in str(e.value)
+
+
+@pytest.mark.parametrize("kw,words", [
+    ({"tolerance": -1.0}, "--tolerance"), ({"step": 0.0}, "--step"), ({"workers": 0}, "workers"),
+    ({"method": "quadratic"}, "--method"), ({"tool": (0, 0)}, "tool must be three"),
+])
+def test_bad_options_are_refused_before_any_work(tmp_path, kw, words):
+    f = _csv(tmp_path, np.zeros((1, 3)), np.zeros((1, 6)))
+    with pytest.raises(VjmError, match=words):
+        vjm.path(PUU, f, **kw)

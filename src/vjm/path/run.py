@@ -151,6 +151,10 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
         raise VjmError(f"--tolerance must be a number > 0 (mm), got {tolerance!r}")
     if not (np.isfinite(chord_tol) and chord_tol > 0) or not (np.isfinite(step) and step > 0):
         raise VjmError(f"--chord-tol and --step must be numbers > 0 (mm), got {chord_tol!r}, {step!r}")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise VjmError(f"workers must be an integer >= 1, got {workers!r}")
+    if method not in ("linear", "nonlinear"):
+        raise VjmError(f"--method must be linear or nonlinear, got {method!r}")
     m = _model(model, foot, leg)
     check_effects(m)
     t = _tool(tool)
