@@ -357,3 +357,17 @@ def test_bad_options_are_refused_before_any_work(tmp_path, kw, words):
     f = _csv(tmp_path, np.zeros((1, 3)), np.zeros((1, 6)))
     with pytest.raises(VjmError, match=words):
         vjm.path(PUU, f, **kw)
+
+
+def test_passive_clearance_against_truths_joint_slips_in_the_equilibrium(tmp_path):
+    """The passive joints' clearance that vjm path adds by its unit-load influence equals tests/truth.py's:
+    the U joints' crosses tilted toward their moments and imposed as rest values of stiff joint springs
+    in a separate, load-free nonlinear equilibrium of the whole machine."""
+    base = vjm.load_model(PUU)
+    P = np.array([[10.0, 20.0, -5.0], [60.0, -30.0, 40.0]])
+    W = np.array([[40.0, -25.0, 60.0, 0, 0, 0], [-35.0, 20.0, 10.0, 2000.0, 0, -1000.0]])
+    b = 1e-4
+    m = base.replace(effects={"passive_clearance": {"backlash": b}})
+    diff = dfl.nonlinear_tcp(m, P, W, np.zeros(3)) - dfl.nonlinear_tcp(base, P, W, np.zeros(3))
+    ref = tr.joint_slip_twist(tr.Truth(joint_backlash=b), P, W)
+    np.testing.assert_allclose(diff, ref, rtol=1e-3, atol=1e-3 * np.abs(ref).max())

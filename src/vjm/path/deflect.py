@@ -88,7 +88,7 @@ def _actuator_springs(model) -> str:
     return names.pop()
 
 
-def _nonlinear_block(model, P, Wp, lever, strict_rows):
+def _nonlinear_block(model, P, Wp):
     """Nonlinear platform twists of one block, with gravity and actuator clearance; NaN rows where
     the equilibrium was not found."""
     from ..discrepancy import modelops as mo
@@ -129,7 +129,7 @@ def nonlinear_tcp(model, tcp_poses, W_tcp, tool, workers: int = 1) -> np.ndarray
     blocks = [slice(a, min(n, a + BLOCK)) for a in range(0, n, BLOCK)]
 
     def run(sl):
-        return _nonlinear_block(model, P[sl], Wp[sl], lever[sl], None)
+        return _nonlinear_block(model, P[sl], Wp[sl])
 
     if workers > 1 and len(blocks) > 1:
         with ThreadPoolExecutor(workers) as ex:
