@@ -14,7 +14,7 @@ from .modelfile import load_model, save_model, with_links
 from .stiffness import StiffnessResult
 
 __all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "Link", "Joints", "StiffnessResult",
-           "load_model", "save_model", "with_links", "diagnose"]
+           "load_model", "save_model", "with_links", "diagnose", "path"]
 
 
 def diagnose(model, data, **options):
@@ -48,3 +48,12 @@ def diagnose(model, data, **options):
         data = read_csv(data)
     options.setdefault("model_name", name)
     return _diagnose(model, data, **options)
+
+
+def __getattr__(name):
+    # ``vjm.path(...)``: deflection along a toolpath (vjm/toolpath/), imported on first use (matplotlib)
+    if name == "path":
+        from .toolpath.run import path
+
+        return path
+    raise AttributeError(f"module 'vjm' has no attribute {name!r}")

@@ -167,6 +167,9 @@ def _register_extensions():
     except ModuleNotFoundError:
         return
     register(app)
+    from .toolpath.cli import register as register_path
+
+    register_path(app)
 
 
 _register_extensions()

@@ -47,7 +47,8 @@ from .models import ARCHITECTURES
 from .models.described import NAME as DESCRIBED
 from .resources import data_file
 
-TOP_KEYS = ("architecture", "name", "geometry", "actuator", "foot", "leg", "joints", "effects")
+#: ``calibration``: the covariance vjm diagnose writes with model_updated.yaml (read by vjm path, not by the Model)
+TOP_KEYS = ("architecture", "name", "geometry", "actuator", "foot", "leg", "joints", "effects", "calibration")
 #: keys of a machine description (vjm.description), besides TOP_KEYS
 DESCRIPTION_KEYS = ("platform", "links", "chains")
 LINK_KINDS = ("rigid", "compliance", "beam", "linkfea")

@@ -15,9 +15,9 @@ from scipy import stats
 from linkfea.checks import Bounds, integer, number
 
 from ..errors import ArgumentError, VjmError
+from . import covariance, observe
 from . import effects as fx
 from . import modelops as mo
-from . import observe
 from .data import StiffnessObs, read_csv, write_design
 from .fit.select import (
     OCCAM_WINDOW,
@@ -71,6 +71,7 @@ class Diagnosis:
     rms_pose_before: np.ndarray  # normalized RMS per posture, calibrated baseline
     rms_pose_after: np.ndarray
     next_measurements: np.ndarray | None = None  # (N, 9) x, y, z, Fx..Mz
+    covariance: dict | None = None  # final fit's parameters and covariance: model_updated.yaml's calibration:
 
     @property
     def verdict(self) -> str:
@@ -432,7 +433,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
                           "targets": sg.targets, "criterion_before": sg.before, "criterion_after": sg.after,
                           "forces_only": bool(forces_only)}
     rep["summary"] = summary(rep)
-    return Diagnosis(rep, upd, U, per_before, per_after, nxt)
+    return Diagnosis(rep, upd, U, per_before, per_after, nxt, covariance.record(prob, pred, final))
 
 
 #: pairs of candidates fitted after the selection, the first of a linearised screen (fit/select.py screen_pairs)
@@ -778,7 +779,8 @@ def write_diagnosis(dg: Diagnosis, out_dir, force: bool = False) -> None:
                          "next measurements suggested by vjm diagnose: " + dg.report["suggest"]["criterion"])
         return ["before_after.png", "residuals_per_posture.png"]
 
-    write_report_dir(out_dir, dg.report, lambda p: mo.save_model(dg.model, p), figs, force=force)
+    write_report_dir(out_dir, dg.report, lambda p: covariance.save_model_with(dg.model, dg.covariance, p), figs,
+                     force=force)
 
 
 def run(model_path, data_path, out_dir, force: bool = False, **kw) -> Diagnosis:

@@ -105,6 +105,8 @@ class FitResult:
     #: indices (into theta) of the parameters that ended on a bound of their range
     at_bound: tuple = ()
     message: str = ""
+    #: parameter covariance ``s^2 (J^T J)^-1`` (k, k); None where no fit was made
+    cov: np.ndarray | None = field(repr=False, default=None)
 
     @property
     def dof(self) -> int:
@@ -213,7 +215,7 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
     tol = 1e-4 * xs
     at = (sol.active_mask != 0) | (theta - lo <= tol) | (hi - theta <= tol)
     return FitResult(names, theta, se, chi2, n, k, problem.sigma_known, bool(sol.success), r,
-                     tuple(int(i) for i in np.flatnonzero(at)), str(sol.message))
+                     tuple(int(i) for i in np.flatnonzero(at)), str(sol.message), cov * s2)
 
 
 def compare(problem: Problem, small: FitResult, big: FitResult) -> tuple[float, float]:

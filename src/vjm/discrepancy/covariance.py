@@ -1,0 +1,46 @@
+"""The calibrated parameters' covariance, written with the updated model (``calibration:`` in model_updated.yaml).
+
+``vjm path`` reads it back to put a +- band on the deflection along a toolpath
+(:mod:`vjm.toolpath.uncertainty`).  Names are ``term.param`` (``calibration.actuator_scale``,
+``gravity.weight``), values and covariance those of the final fit (``s^2 (J^T J)^-1``, the
+parameters the data could see); ``terms`` gives every named term's full parameter values.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import yaml
+
+from linkfea.atomic import plain, write_text
+
+from . import effects as fx
+from .predict import CALIBRATION, calibration_term
+
+
+def record(prob, pred, final) -> dict | None:
+    """The ``calibration:`` mapping of a final fit, or None if its covariance is not finite."""
+    cov = getattr(final, "cov", None)
+    if cov is None or not np.all(np.isfinite(cov)) or final.k == 0:
+        return None
+    names, terms = [], {}
+    for nm in final.names:
+        names += [f"{nm}.{p.name}" for p in prob.terms[nm].params]
+        specs = calibration_term(pred.model).params if nm == CALIBRATION else \
+            fx.get(nm).param_specs(pred.model, pred.ctx)
+        full = pred.full_theta(nm, final.term_theta(prob, nm))
+        terms[nm] = {p.name: float(v) for p, v in zip(specs, full)}
+    return plain({"source": "vjm diagnose: final fit, covariance s^2 (J^T J)^-1 of the parameters it fitted",
+                  "parameters": names, "values": np.asarray(final.theta, float),
+                  "covariance": np.asarray(cov, float), "terms": terms})
+
+
+def save_model_with(model, calibration: dict | None, path) -> None:
+    """Write ``model`` as the model file does, with the ``calibration:`` block appended (atomic)."""
+    from ..modelfile import HEADER, model_to_dict
+
+    path = os.path.abspath(os.fspath(path))
+    d = model_to_dict(model, os.path.dirname(path))
+    if calibration is not None:
+        d["calibration"] = calibration
+    write_text(path, HEADER + yaml.safe_dump(d, sort_keys=False, default_flow_style=None))

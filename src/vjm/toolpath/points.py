@@ -1,0 +1,173 @@
+"""A toolpath: programmed TCP poses along a path, read from a CSV of points or from G-code.
+
+A :class:`Toolpath` holds the sampled poses (n, 3) or (n, 6) in mm and rad
+(world axes), the source line of every point (for messages and for writing
+the compensated program), whether a point is a written end point of the
+source, whether it is a cutting (feed) move, and the per-point wrench of a
+CSV if it gives one.  CSV columns: ``x,y,z[,rx,ry,rz][,Fx,Fy,Fz,Mx,My,Mz]``
+(header required; ``#`` lines are comments); a row's line number is its
+line in the file.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import VjmError
+from . import gcode as gc
+
+POSE = ("x", "y", "z")
+ROT = ("rx", "ry", "rz")
+WRENCH = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+
+
+@dataclass(frozen=True, eq=False)
+class Toolpath:
+    """Programmed TCP poses along a path.
+
+    Attributes
+    ----------
+    poses : (n, 3) points or (n, 6) x, y, z, rx, ry, rz (rotation vector), mm and rad
+    lines : (n,) source line number of each point (1-based, as an editor shows it)
+    vertex : (n,) bool, the point is one the source writes (a CSV row, a move's end point)
+    cutting : (n,) bool, the point is on a feed move (G1/G2/G3; every CSV row)
+    wrench : (n, 6) per-point wrench at the TCP from the CSV (N, N mm), or None
+    source : file name, for messages
+    kind : "csv" or "gcode"
+    program : the parsed G-code (:class:`vjm.toolpath.gcode.Program`) or None
+    line_index : (n,) index of each point's line in ``program.lines`` (G-code) or its CSV row index
+    """
+
+    poses: np.ndarray
+    lines: np.ndarray
+    vertex: np.ndarray
+    cutting: np.ndarray
+    wrench: np.ndarray | None
+    source: str
+    kind: str
+    program: gc.Program | None = None
+    line_index: np.ndarray | None = None
+    header: tuple = ()
+
+    @property
+    def n(self) -> int:
+        return int(self.poses.shape[0])
+
+    @property
+    def has_orientation(self) -> bool:
+        return self.poses.shape[1] == 6
+
+    @property
+    def points(self) -> np.ndarray:
+        return self.poses[:, :3]
+
+    def arc_length(self) -> np.ndarray:
+        """(n,) cumulative length along the points, mm."""
+        d = np.linalg.norm(np.diff(self.points, axis=0), axis=1)
+        return np.concatenate([[0.0], np.cumsum(d)])
+
+    def directions(self) -> np.ndarray:
+        """(n, 3) unit feed direction at every point: the chord to the next point (the last keeps its
+        predecessor's); zero where the path stands still."""
+        d = np.diff(self.points, axis=0)
+        d = np.vstack([d, d[-1:]]) if len(d) else np.zeros((1, 3))
+        # a point that ends a move takes the incoming direction (the chord it ends)
+        inc = np.vstack([d[:1], d[:-1]])
+        d = np.where(self.vertex[:, None] & (np.arange(self.n) > 0)[:, None], inc, d)
+        nrm = np.linalg.norm(d, axis=1, keepdims=True)
+        return np.divide(d, nrm, out=np.zeros_like(d), where=nrm > 0)
+
+    def where(self, i: int) -> str:
+        """``"<file> line N"`` of point ``i``."""
+        return f"{self.source} line {int(self.lines[i])}"
+
+
+def read_csv_text(text: str, source: str = "<csv>") -> Toolpath:
+    """A toolpath from CSV text (see the module docstring)."""
+    rows = [(k + 1, r) for k, r in enumerate(csv.reader(io.StringIO(text)))]
+    rows = [(k, r) for k, r in rows if r and not r[0].lstrip().startswith("#") and any(c.strip() for c in r)]
+    if not rows:
+        raise VjmError(f"{source}: no header line (x,y,z[,rx,ry,rz][,Fx..Mz])")
+    hline, head = rows[0]
+    head = [h.strip() for h in head]
+    known = set(POSE + ROT + WRENCH)
+    unknown = [h for h in head if h not in known]
+    if unknown:
+        raise VjmError(f"{source}: line {hline}: unknown columns {unknown}; known: x,y,z[,rx,ry,rz][,Fx..Mz]")
+    if len(set(head)) != len(head):
+        raise VjmError(f"{source}: line {hline}: a column appears twice")
+    for group, name in ((POSE, "x,y,z"), (ROT, "rx,ry,rz"), (WRENCH, "Fx,Fy,Fz,Mx,My,Mz")):
+        got = [c for c in group if c in head]
+        if (group is POSE and len(got) != 3) or (0 < len(got) < len(group)):
+            raise VjmError(f"{source}: line {hline}: columns {name} come all together "
+                           f"({'required' if group is POSE else 'or not at all'})")
+    cols = list(POSE) + (list(ROT) if "rx" in head else []) + (list(WRENCH) if "Fx" in head else [])
+    idx = [head.index(c) for c in cols]
+    data, lines = [], []
+    for k, r in rows[1:]:
+        if len(r) != len(head):
+            raise VjmError(f"{source}: line {k}: {len(r)} fields, the header has {len(head)}")
+        try:
+            vals = [float(r[i]) for i in idx]
+        except ValueError:
+            raise VjmError(f"{source}: line {k}: a value is not a number: {','.join(r)!r}") from None
+        if not np.all(np.isfinite(vals)):
+            raise VjmError(f"{source}: line {k}: values must be finite numbers")
+        data.append(vals)
+        lines.append(k)
+    if not data:
+        raise VjmError(f"{source}: no data rows after the header")
+    A = np.array(data)
+    npose = 6 if "rx" in head else 3
+    n = len(A)
+    return Toolpath(A[:, :npose], np.array(lines), np.ones(n, bool), np.ones(n, bool),
+                    A[:, npose:] if "Fx" in head else None, source, "csv", None, np.arange(n), tuple(cols))
+
+
+def from_gcode(prog: gc.Program, source: str = "<G-code>", chord_tol: float = 1e-3, step: float = 1.0) -> Toolpath:
+    """A toolpath sampled from a parsed program (see :func:`vjm.toolpath.gcode.sample`)."""
+    pts, li, kind, vertex = gc.sample(prog, chord_tol, step)
+    numbers = np.array([prog.lines[i].number for i in li])
+    return Toolpath(pts, numbers, vertex, kind != 0, None, source, "gcode", prog, li)
+
+
+GCODE_SUFFIXES = (".nc", ".gcode", ".ngc", ".tap", ".cnc", ".g", ".gc", ".ncc", ".mpf", ".txt")
+
+
+def read(path, chord_tol: float = 1e-3, step: float = 1.0, passed: str = gc.DEFAULT_PASS) -> Toolpath:
+    """Read a toolpath file: ``.csv`` as CSV, the usual G-code suffixes as G-code."""
+    from ..resources import data_file
+
+    path = os.fspath(data_file(path, suffixes=(".nc", ".csv")))  # the bundled data/toolpaths/ by name too
+    name = os.path.basename(path)
+    if not os.path.isfile(path):
+        raise VjmError(f"toolpath file not found: {path}")
+    try:
+        with open(path, encoding="utf-8", newline="") as fh:
+            text = fh.read()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise VjmError(f"cannot read toolpath {path}: {exc}") from None
+    suffix = os.path.splitext(name)[1].lower()
+    if suffix == ".csv":
+        return read_csv_text(text, name)
+    if suffix in GCODE_SUFFIXES:
+        return from_gcode(gc.parse_text(text, passed, name), name, chord_tol, step)
+    raise VjmError(f"toolpath {name}: unknown format {suffix or '(no suffix)'}; use .csv or a G-code suffix "
+                   f"({', '.join(GCODE_SUFFIXES)})")
+
+
+def csv_text(tp: Toolpath, poses: np.ndarray) -> str:
+    """The CSV of ``tp`` with its poses replaced (same columns; wrench columns kept)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(tp.header)
+    for k in range(tp.n):
+        row = [f"{v:.6f}" for v in poses[k, :3]] + [f"{v:.9f}" for v in poses[k, 3:]]
+        if tp.wrench is not None:
+            row += [f"{v:.12g}" for v in tp.wrench[k]]
+        w.writerow(row)
+    return buf.getvalue()

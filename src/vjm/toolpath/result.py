@@ -1,0 +1,170 @@
+"""The outcome of ``vjm path``: deflection along the path, worst points, pass/fail, compensation.
+
+A :class:`PathResult` is a frozen value: ``summary()`` is the text the CLI
+prints, ``table()`` the CSV along the path, ``plot_deflection(ax=)`` and
+``plot_plan(ax=)`` draw on matplotlib Axes and return them.
+"""
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass
+
+import numpy as np
+
+from .compensate import Compensation
+from .points import Toolpath
+from .uncertainty import Band
+
+
+@dataclass(frozen=True, eq=False)
+class PathResult:
+    """Deflection of the TCP along a toolpath.
+
+    toolpath : the programmed path;  wrench : (n, 6) at the TCP (N, N mm), world axes
+    deflection : (n, 6) TCP deflection dx dy dz (mm) rx ry rz (rad), world axes
+    method : "linear" or "nonlinear";  tolerance : mm or None
+    compensation : commanded poses and residual, or None;  band : uncertainty band or None
+    after : (n, 6) TCP error of the compensated program from the programmed path at the sampled points
+        (first order between the written end points; NaN on rapid moves)
+    notes : lines for the summary (assumptions, effects used, warnings)
+    """
+
+    toolpath: Toolpath
+    wrench: np.ndarray
+    deflection: np.ndarray
+    method: str
+    tolerance: float | None = None
+    compensation: Compensation | None = None
+    band: Band | None = None
+    after: np.ndarray | None = None
+    notes: tuple = ()
+    compensated_text: str | None = None
+
+    @property
+    def error(self) -> np.ndarray:
+        """(n,) magnitude of the TCP's translation from the programmed point, mm."""
+        return np.linalg.norm(self.deflection[:, :3], axis=1)
+
+    @property
+    def passed(self) -> bool | None:
+        """Every point within ``tolerance`` (None if no tolerance was given); after compensation when
+        there is one, counting the uncertainty band when there is one."""
+        if self.tolerance is None:
+            return None
+        e = self.error if self.after is None else _norm(self.after)
+        if self.band is not None:  # what the calibration does not know adds to either
+            e = e + self.band.norm
+        return bool(np.all(e[np.isfinite(e)] <= self.tolerance))
+
+    def worst(self, k: int = 5) -> list[dict]:
+        """The ``k`` points of largest error on distinct source lines: index, line, point, error (mm)."""
+        order, seen = [], set()
+        for i in np.argsort(-self.error, kind="stable"):
+            if int(self.toolpath.lines[i]) not in seen:
+                seen.add(int(self.toolpath.lines[i]))
+                order.append(i)
+                if len(order) == k:
+                    break
+        return [{"index": int(i), "line": int(self.toolpath.lines[i]),
+                 "x": float(self.toolpath.points[i, 0]), "y": float(self.toolpath.points[i, 1]),
+                 "z": float(self.toolpath.points[i, 2]), "error_mm": float(self.error[i])} for i in order]
+
+    def summary(self) -> str:
+        tp = self.toolpath
+        e = self.error
+        lines = [f"{tp.source}: {tp.n} points, {tp.arc_length()[-1]:.4g} mm of path; {self.method} deflection "
+                 f"of the TCP: max {e.max():.4g} mm, mean {e.mean():.4g} mm"]
+        if self.band is not None:
+            i = int(np.argmax(e))
+            lines.append(f"calibration uncertainty ({self.band.z:.3g} sigma): +-{self.band.norm[i]:.3g} mm at the "
+                         f"worst point, up to +-{self.band.norm.max():.3g} mm along the path")
+        for w in self.worst(3):
+            lines.append(f"  worst: line {w['line']} ({w['x']:.4g}, {w['y']:.4g}, {w['z']:.4g}) "
+                         f"{w['error_mm']:.4g} mm")
+        if self.compensation is not None:
+            c = self.compensation
+            lines.append(f"compensated: residual max {c.residual.max():.3g} mm at the written points "
+                         f"({c.iterations + 1} nonlinear equilibria per point)")
+            if self.after is not None:
+                lines.append(f"compensated program along the cutting moves: max {np.nanmax(_norm(self.after)):.3g} "
+                             f"mm from the programmed path")
+        lines += list(self.notes)
+        if self.tolerance is not None:
+            lines.append(f"{'PASS' if self.passed else 'FAIL'}: tolerance {self.tolerance:g} mm"
+                         + (" (after compensation)" if self.compensation is not None else "")
+                         + (" (with the uncertainty band)" if self.band is not None else ""))
+        return "\n".join(lines)
+
+    def table(self) -> str:
+        """CSV along the path: line, arc length, programmed point, wrench, deflection, norm [, band, after]."""
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        head = ["line", "s_mm", "x", "y", "z", "Fx", "Fy", "Fz", "Mx", "My", "Mz",
+                "dx", "dy", "dz", "rx", "ry", "rz", "error_mm"]
+        if self.band is not None:
+            head += ["band_mm"]
+        if self.after is not None:
+            head += ["error_after_mm"]
+        w.writerow(head)
+        s = self.toolpath.arc_length()
+        e = self.error
+        for i in range(self.toolpath.n):
+            row = [int(self.toolpath.lines[i]), f"{s[i]:.6g}"] + [f"{v:.6f}" for v in self.toolpath.points[i]]
+            row += [f"{v:.6g}" for v in self.wrench[i]] + [f"{v:.6e}" for v in self.deflection[i]] + [f"{e[i]:.6e}"]
+            if self.band is not None:
+                row.append(f"{self.band.norm[i]:.3e}")
+            if self.after is not None:
+                row.append(f"{_norm(self.after)[i]:.3e}")
+            w.writerow(row)
+        return buf.getvalue()
+
+    def plot_deflection(self, ax=None):
+        """Deflection magnitude against arc length (before and, if compensated, after), with the band."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 3.5))
+        s = self.toolpath.arc_length()
+        e = self.error * 1e3
+        ax.plot(s, e, lw=1.2, label=f"programmed path ({self.method})")
+        if self.band is not None:
+            b = self.band.norm * 1e3
+            ax.fill_between(s, e - b, e + b, alpha=0.25, lw=0, label=f"+-{self.band.z:.3g} sigma (calibration)")
+        if self.after is not None:
+            a = _norm(self.after) * 1e3
+            ax.plot(s, a, lw=1.2, label=f"compensated program (max {np.nanmax(a):.2g} um)")
+        if self.tolerance is not None:
+            ax.axhline(self.tolerance * 1e3, color="red", ls="--", lw=1, label="tolerance")
+        ax.set_xlabel("arc length [mm]")
+        ax.set_ylabel("TCP error [um]")
+        ax.set_title(f"{self.toolpath.source}: TCP deflection along the path")
+        ax.legend(fontsize=8, loc="best")
+        ax.grid(alpha=0.3)
+        return ax
+
+    def plot_plan(self, ax=None):
+        """The path in plan (x, y), coloured by the error magnitude (um)."""
+        import matplotlib.pyplot as plt
+        from matplotlib.collections import LineCollection
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(5.5, 4.5))
+        p = self.toolpath.points
+        seg = np.stack([p[:-1, :2], p[1:, :2]], axis=1)
+        e = self.error * 1e3
+        lc = LineCollection(seg, cmap="viridis", lw=2)
+        lc.set_array(0.5 * (e[:-1] + e[1:]))
+        ax.add_collection(lc)
+        ax.figure.colorbar(lc, ax=ax, label="TCP error [um]")
+        ax.set_xlim(p[:, 0].min() - 1, p[:, 0].max() + 1)
+        ax.set_ylim(p[:, 1].min() - 1, p[:, 1].max() + 1)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [mm]")
+        ax.set_ylabel("y [mm]")
+        ax.set_title(f"{self.toolpath.source}: error in plan")
+        return ax
+
+
+def _norm(t) -> np.ndarray:
+    return np.linalg.norm(np.asarray(t)[:, :3], axis=1)

@@ -1,0 +1,141 @@
+"""The strict G-code subset of ``vjm path``: round trip, arcs within their chord tolerance,
+one-line errors naming the line, coordinates rewritten and nothing else."""
+import numpy as np
+import pytest
+
+from vjm import VjmError
+from vjm.toolpath import gcode as gc
+
+POCKET = "data/toolpaths/pocket.nc"
+
+
+def _text():
+    with open(POCKET, encoding="utf-8", newline="") as fh:
+        return fh.read()
+
+
+def _same(a: gc.Program, b: gc.Program):
+    assert [ln.text for ln in a.lines] == [ln.text for ln in b.lines]
+    assert [ln.words for ln in a.lines] == [ln.words for ln in b.lines]
+    assert [ln.gcodes for ln in a.lines] == [ln.gcodes for ln in b.lines]
+
+
+@pytest.mark.parametrize("newline", ["\n", "\r\n"])
+def test_round_trip_parse_write_parse_is_identical(newline):
+    """parse -> write unchanged -> parse gives the same program, byte for byte (both line endings)."""
+    text = _text().replace("\n", newline)
+    p1 = gc.parse_text(text)
+    out = gc.write_text_of(p1)
+    assert out == text
+    _same(p1, gc.parse_text(out))
+
+
+def test_rewrite_with_unchanged_coordinates_keeps_every_word_and_comment():
+    """Writing the program's own end points back changes only the numbers' decimals, nothing else:
+    same words, codes, comments and line order; the sampled path is the same."""
+    prog = gc.parse_text(_text())
+    ends = {m.line: m.end for m in gc.moves(prog)}
+    out = gc.rewrite(prog, ends)
+    assert len(out.lines) == len(prog.lines)
+    for a, b in zip(prog.lines, out.lines):
+        assert a.gcodes == b.gcodes and set(a.words) == set(b.words)
+        assert [t for t in a.tokens if t.startswith("(")] == [t for t in b.tokens if t.startswith("(")]
+        for k, v in a.words.items():
+            assert b.words[k] == pytest.approx(v, abs=1e-12)
+    np.testing.assert_allclose(gc.sample(out)[0], gc.sample(prog)[0], atol=1e-12)
+
+
+def test_rewrite_moves_only_coordinates():
+    prog = gc.parse_text("G21 G90\nG1 X0 Y0 Z0 F500 (a)\nG1 X10 S100\n")
+    out = gc.rewrite(prog, {1: np.array([0.001, 0.0, 0.0]), 2: np.array([10.0, 0.0005, 0.0])})
+    text = gc.write_text_of(out)
+    # numbers whose value is unchanged keep their text; a moved axis the line left out is added
+    assert text == "G21 G90\nG1 X0.0010 Y0 Z0 F500 (a)\nG1 X10 Y0.0005 S100\n"
+
+
+@pytest.mark.parametrize("tol", [1e-2, 1e-3, 1e-4])
+@pytest.mark.parametrize("code,plane", [("G2", 17), ("G3", 17), ("G2", 18), ("G3", 19)])
+def test_arcs_within_their_chord_tolerance(tol, code, plane):
+    """Every chord of the sampled arc stays within ``tol`` of the true circle (sagitta of the chord
+    midpoint, from the centre in closed form), and the samples lie on the circle."""
+    u, v, w = gc.PLANE_AXES[plane]
+    start = np.zeros(3)
+    centre = np.zeros(3)
+    centre[u] = 20.0
+    end = np.zeros(3)
+    end[u], end[v] = 20.0, 20.0 if code == "G3" else -20.0
+    ijk = " ".join(f"{'IJK'[k]}{(centre - start)[k]:g}" for k in (u, v))
+    xyz = " ".join(f"{'XYZ'[k]}{end[k]:g}" for k in range(3))
+    prog = gc.parse_text(f"G21 G90 G{plane}\nG1 X0 Y0 Z0\n{code} {xyz} {ijk}\n")
+    pts, line, _, _ = gc.sample(prog, chord_tol=tol)
+    arc = pts[line == 2]
+    arc = np.vstack([start, arc])
+    r = np.linalg.norm((arc - centre)[:, [u, v]], axis=1)
+    np.testing.assert_allclose(r, 20.0, atol=1e-9)
+    mid = 0.5 * (arc[1:] + arc[:-1])
+    sag = 20.0 - np.linalg.norm((mid - centre)[:, [u, v]], axis=1)
+    assert sag.max() <= tol * (1 + 1e-9)
+    assert sag.max() > 0.25 * tol  # not needlessly fine
+    # a quarter circle: the sense of G2 / G3 as in the standard (counter-clockwise = G3 seen from +normal)
+    cross = np.cross(arc[1] - centre, arc[2] - centre)[w]
+    assert (cross > 0) == (code == "G3")
+
+
+def test_full_circle_and_helix():
+    prog = gc.parse_text("G90 G17\nG1 X10 Y0 Z0\nG2 X10 Y0 Z-2 I-10 J0\n")
+    pts, line, _, _ = gc.sample(prog, chord_tol=1e-3)
+    arc = pts[line == 2]
+    assert np.linalg.norm(arc[:, :2], axis=1) == pytest.approx(10.0)
+    assert arc[-1, 2] == -2.0 and np.all(np.diff(arc[:, 2]) < 0)
+    assert len(arc) > 100  # the whole turn, not an empty arc
+
+
+@pytest.mark.parametrize("text,line,words", [
+    ("G1 X0 Y0 Z0\nG1 X1 Q5\n", 2, "unknown word 'Q5'"),
+    ("G1 X0 Y0 Z0\nG2 X10 Y0 R5\n", 2, "R-format arcs"),
+    ("G1 X0 Y0 Z0\n\nG1 X1 X2\n", 3, "appears twice"),
+    ("G1 X0 Y0 Z0\nG1 X1.2.3\n", 2, "not a word"),
+    ("G1 X0 Y0 Z0\nG41 X1\n", 2, "unsupported 'G41'"),
+    ("G1 X0 Y0 Z0\nG0 G1 X1\n", 2, "two codes of one modal group"),
+    ("G1 X0 Y0\n", 1, "first move must give X, Y and Z"),
+    ("X0 Y0 Z0\n", 1, "before any motion code"),
+    ("G1 X0 Y0 Z0\nG2 X10 Y0 I3 J0\n", 2, "not on the circle"),
+    ("G1 X0 Y0 Z0\nG1 X1 (open\n", 2, "comment"),
+    ("G1 X0 Y0 Z0\nG1 X1 F0\n", 2, "feed F must be > 0"),
+    ("G1 X0 Y0 Z0\nG1 X1 I2\n", 2, "belong to arcs"),
+])
+def test_bad_gcode_is_one_line_naming_the_line(text, line, words):
+    with pytest.raises(VjmError) as e:
+        gc.sample(gc.parse_text(text))
+    msg = str(e.value)
+    assert "\n" not in msg and f"line {line}" in msg and words in msg
+
+
+def test_pass_through_words_are_kept_and_others_refused():
+    text = "G1 X0 Y0 Z0 M3 S1000 T1\nG1 X1 H2\n"
+    with pytest.raises(VjmError, match="line 2: unknown word 'H2'"):
+        gc.parse_text(text)
+    prog = gc.parse_text(text, passed="MSTH")
+    assert gc.write_text_of(prog) == text
+
+
+def test_inches_and_incremental_moves_in_mm():
+    prog = gc.parse_text("G20 G90\nG1 X1 Y0 Z0\nG91\nG1 X0.5 Y0.25\n")
+    mv = gc.moves(prog)
+    np.testing.assert_allclose(mv[-1].end, [1.5 * 25.4, 0.25 * 25.4, 0.0])
+    # rewritten in the program's own units and mode: increments between the compensated points
+    out = gc.rewrite(prog, {1: np.array([25.4, 0, 0]), 3: np.array([1.5 * 25.4 + 0.0254, 0.25 * 25.4, 0])})
+    assert gc.moves(out)[-1].end == pytest.approx([1.5 * 25.4 + 0.0254, 0.25 * 25.4, 0.0])
+    assert out.lines[3].words["X"] == pytest.approx(0.501)
+
+
+def test_linearized_arcs_are_g1_chords_through_the_given_points():
+    prog = gc.parse_text("G90 G17\nG1 X10 Y0 Z0 F100\nG3 X0 Y10 I-10 J0 (quarter)\nG1 X0 Y20\n")
+    pts, line, _, _ = gc.sample(prog, chord_tol=1e-3)
+    out = gc.linearize(prog, {2: pts[line == 2]})
+    codes = [ln.gcodes for ln in out.lines]
+    assert all(c == (1,) for c in codes[2:-1])
+    assert "(quarter)" in out.lines[2].text and "F100" not in out.lines[2].text
+    np.testing.assert_allclose(gc.sample(out)[0][-1], [0, 20, 0])
+    p2 = np.vstack([m.end for m in gc.moves(out)])[1:-1]
+    np.testing.assert_allclose(p2, pts[line == 2], atol=1e-5)
