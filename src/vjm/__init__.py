@@ -9,12 +9,22 @@
 k_tran = 0.000278 mm/N
 """
 from .errors import EquilibriumError, VjmError
-from .model import Actuator, Joints, Link, Model
+from .links import LinkSpring
+from .model import Actuator, Joints, Model
 from .modelfile import load_model, save_model, with_links
 from .stiffness import StiffnessResult
 
-__all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "Link", "Joints", "StiffnessResult",
+__all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "LinkSpring", "Joints", "StiffnessResult",
            "load_model", "save_model", "with_links", "diagnose"]
+
+
+def __getattr__(name):
+    # ``vjm.Link``: the older name of LinkSpring (it shared its name with linkfea.cad.Link)
+    if name == "Link":
+        from .links import deprecated_link
+
+        return deprecated_link()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def diagnose(model, data, **options):

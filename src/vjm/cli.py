@@ -41,6 +41,16 @@ def _point(text: str, option: str = "--at", sizes=(3, 6)) -> np.ndarray:
     return p
 
 
+def _check_grid(grid: int) -> None:
+    if grid < 2:
+        raise VjmError(f"--grid must be >= 2 (points per axis), got {grid}")
+
+
+def _progress(line: str) -> None:
+    """Progress of a long run, one line each on stderr."""
+    typer.echo(line, err=True)
+
+
 FOOT = typer.Option(None, "--foot", help="linkfea result JSON replacing the model's foot")
 LEG = typer.Option(None, "--leg", help="linkfea result JSON replacing the model's leg (one bar for parallelograms)")
 
@@ -79,15 +89,11 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
             out: Path = typer.Option(..., "--out", help="output directory (k_tran.png, k_rot.png, map.npz)"),
             foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG):
     """k_tran and k_rot over the workspace box: PNG maps and an .npz of K, k_tran, k_rot."""
-    from .maps import compute_map, workspace_grid
-
     try:
+        _check_grid(grid)
         m = _load(model, foot, leg)
-        axes, G, fixed = workspace_grid(m, grid, slice_)
-        P = G.reshape(-1, 3)
-        if m.dof == 6:  # a 6-dof platform's map is a slice at a fixed orientation
-            P = np.hstack([P, np.broadcast_to(_point(orientation, "--orientation", (3,)), (len(P), 3))])
-        smap = compute_map(m, P, axes, fixed, where=f"{grid}-point grid{' at ' + slice_ if slice_ else ''}")
+        rot = _point(orientation, "--orientation", (3,)) if m.dof == 6 else None
+        smap = m.map(grid, slice_, orientation=rot, progress=_progress)
         smap.save(out)
     except user_errors() as exc:
         _fail(exc)
@@ -124,7 +130,8 @@ def sweep_cmd(model: Path = typer.Argument(..., help="model YAML"),
     from .sweep import sweep
 
     try:
-        res = sweep(model, out, grid, foot=foot, leg=leg, bar=bar)
+        _check_grid(grid)
+        res = sweep(model, out, grid, foot=foot, leg=leg, bar=bar, progress=_progress)
     except user_errors() as exc:
         _fail(exc)
     front = sorted((r for r in res.rows if r["pareto"]), key=lambda r: r["moving_mass_kg"])

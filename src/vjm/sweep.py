@@ -27,7 +27,9 @@ import numpy as np
 from linkfea.atomic import atomic_path, plain, write_text
 
 from .errors import VjmError
-from .model import Link, Model
+from .grid import SECONDS_PER_POINT, SWEEP_BYTES, Progress, grid_plan, in_chunks, plan
+from .links import LinkSpring
+from .model import Model
 
 ROLES = ("foot", "leg")
 
@@ -80,13 +82,10 @@ def load_designs(path, role: str = "leg") -> list[LinkDesign]:
 
 
 def workspace_points(model: Model, n: int) -> np.ndarray:
-    """The reachable points (m, 3) of an n x n x n grid of the architecture's workspace box, mm."""
-    if not (isinstance(n, (int, np.integer)) and n >= 2):
-        raise VjmError(f"--grid must be a whole number >= 2, got {n}")
-    lo, hi = (np.asarray(v, dtype=float) for v in model.arch.workspace)
-    axes = [np.linspace(lo[k], hi[k], n) for k in range(3)]
-    P = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    ok = model.arch.reachable(model, P)
+    """The reachable points (m, 3) of an n x n x n grid of the model's workspace box (:meth:`Model.grid`), mm."""
+    grid_plan(n, None, "the workspace grid of a machine sweep", SWEEP_BYTES)
+    P = model.grid(n).points
+    ok = model.reachable(P)
     if not ok.any():
         raise VjmError(f"no point of the {n}-point workspace grid is reachable by {model.architecture}")
     return P[ok]
@@ -94,7 +93,7 @@ def workspace_points(model: Model, n: int) -> np.ndarray:
 
 def with_designs(model: Model, designs: dict) -> Model:
     """``model`` with its links replaced by ``designs`` (role -> LinkDesign)."""
-    return model.replace(**{role: Link(d.compliance, {"linkfea": d.source}) for role, d in designs.items()})
+    return model.replace(**{role: LinkSpring(d.compliance, {"linkfea": d.source}) for role, d in designs.items()})
 
 
 def moving_mass(model: Model, designs: dict) -> float:
@@ -142,27 +141,42 @@ class TradeOffs:
     model: str
 
 
-def trade_offs(model: Model, candidates: dict, grid: int) -> TradeOffs:
-    """Evaluate every combination of ``candidates`` (role -> list of LinkDesign) on the workspace grid."""
+def trade_offs(model: Model, candidates: dict, grid: int, progress: Progress | None = None) -> TradeOffs:
+    """Evaluate every combination of ``candidates`` (role -> list of LinkDesign) on the workspace grid.
+
+    The work (combinations x reachable points) is estimated first; a run longer than about a
+    minute says so and reports its progress through ``progress``.
+    """
     if not candidates:
-        raise VjmError("give at least one of --foot, --leg (or --bar) with link designs")
+        raise VjmError("give link designs for at least one of the roles foot, leg")
     P = workspace_points(model, grid)
     roles = [r for r in ROLES if r in candidates]
-    rows = []
-    for combo in itertools.product(*(candidates[r] for r in roles)):
-        designs = dict(zip(roles, combo))
-        row = {}
-        for role, d in designs.items():
-            row[f"{role}"] = d.label
-            row.update({f"{role}_{k}": v for k, v in d.params.items()})
-            row[f"{role}_mass_kg"] = d.mass
-        row.update(evaluate(model, designs, P))
-        row.update({f"{role}_result": d.source for role, d in designs.items()})
-        rows.append(row)
+    combos = list(itertools.product(*(candidates[r] for r in roles)))
+    plan(f"{len(combos)} combinations on {len(P)} points", len(P), SWEEP_BYTES,
+         SECONDS_PER_POINT * len(combos))
+    rows: list = []
+
+    def step(s: slice) -> None:
+        for combo in combos[s]:
+            rows.append(_row(model, dict(zip(roles, combo)), P))
+
+    in_chunks(len(combos), step, progress, "combinations", chunk=1)
     mask = pareto_mask([r["moving_mass_kg"] for r in rows], [r["k_tran_max"] for r in rows])
     for r, m in zip(rows, mask):
         r["pareto"] = bool(m)
     return TradeOffs(rows, mask, len(P), model.architecture)
+
+
+def _row(model: Model, designs: dict, P: np.ndarray) -> dict:
+    """One table row: the designs' labels, parameters and masses, and their machine's stiffness over P."""
+    row = {}
+    for role, d in designs.items():
+        row[f"{role}"] = d.label
+        row.update({f"{role}_{k}": v for k, v in d.params.items()})
+        row[f"{role}_mass_kg"] = d.mass
+    row.update(evaluate(model, designs, P))
+    row.update({f"{role}_result": d.source for role, d in designs.items()})
+    return row
 
 
 UNITS = {"k_tran_*": "mm/N (largest eigenvalue of the translational 3x3 block of C)",
@@ -234,11 +248,11 @@ def candidates_from_args(model: Model, foot=None, leg=None, bar=None) -> dict:
     return {role: load_designs(p, role) for role, p in (("foot", foot), ("leg", leg)) if p is not None}
 
 
-def sweep(model_path, out, grid: int, foot=None, leg=None, bar=None) -> TradeOffs:
+def sweep(model_path, out, grid: int, foot=None, leg=None, bar=None, progress: Progress | None = None) -> TradeOffs:
     """``vjm sweep``: load the model and the designs, evaluate all combinations, write the outputs."""
     from .modelfile import load_model
 
     model = load_model(os.fspath(model_path))
-    res = trade_offs(model, candidates_from_args(model, foot, leg, bar), grid)
+    res = trade_offs(model, candidates_from_args(model, foot, leg, bar), grid, progress)
     write_trade_offs(res, out)
     return res

@@ -25,6 +25,7 @@ import os
 import numpy as np
 
 from ..errors import VjmError
+from ..grid import SIMULATE_BYTES, plan
 from . import effects as fx
 from . import modelops as mo
 from .data import Deflections
@@ -83,71 +84,100 @@ def _read_cols(path, cols):
     return out
 
 
-def _reachable(model, P):
-    ok = np.ones(len(P), bool)
-    try:
-        q = mo.actuator_coords(model, P)
-        return np.all(np.isfinite(q), axis=1)
-    except VjmError:
-        for k in range(len(P)):
-            try:
-                ok[k] = np.all(np.isfinite(mo.actuator_coords(model, P[k:k + 1])))
-            except VjmError:
-                ok[k] = False
-    return ok
+def grid_poses(model, n: int) -> np.ndarray:
+    """The reachable points (m, 3) of an n x n x n grid of the model's workspace (:meth:`vjm.Model.grid`), mm."""
+    plan(f"a {n}-per-axis posture grid", int(n) ** 3, SIMULATE_BYTES)
+    P = model.grid(n).points
+    return P[model.reachable(P)]
 
 
-def design_poses(model, spec: str, rng) -> np.ndarray:
-    lo, hi = mo.workspace_box(model)
+def random_poses(model, n: int, rng) -> np.ndarray:
+    """n uniform random reachable points (n, 3) of the model's workspace box, mm (fewer if the box
+    is mostly out of reach: 20 draws of 2n points at most)."""
+    plan(f"{n} random postures", 2 * n, SIMULATE_BYTES)
+    ws = model.workspace
+    P = np.empty((0, 3))
+    for _ in range(20):
+        Q = ws.random(2 * n, rng)
+        P = np.vstack([P, Q[model.reachable(Q)]])
+        if len(P) >= n:
+            break
+    return P[:n]
+
+
+def design_poses(model, spec, rng=None) -> np.ndarray:
+    """Postures (n, 3), mm: ``spec`` is ``grid:N``, ``random:N``, a CSV path with columns x,y,z, or an
+    array of points (checked reachable).  ``rng`` draws the random ones."""
+    if not isinstance(spec, (str, os.PathLike)):
+        P = np.asarray(spec, dtype=float)
+        if P.ndim != 2 or P.shape[1] != 3 or not np.all(np.isfinite(P)):
+            raise VjmError(f"postures must be a finite array (n, 3) of points in mm, got shape {P.shape}")
+        bad = ~model.reachable(P)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise VjmError(f"posture {i} ({P[i, 0]:g}, {P[i, 1]:g}, {P[i, 2]:g}) mm is unreachable")
+        return P
+    spec = os.fspath(spec)
     kind, _, arg = spec.partition(":")
     if kind == "grid":
-        n = _int(arg, spec)
-        ax = [np.linspace(lo[i], hi[i], n) for i in range(3)]
-        P = np.stack(np.meshgrid(*ax, indexing="ij"), -1).reshape(-1, 3)
-        P = P[_reachable(model, P)]
+        P = grid_poses(model, _int(arg, spec))
     elif kind == "random":
-        n = _int(arg, spec)
-        P = np.empty((0, 3))
-        for _ in range(20):
-            Q = lo + (hi - lo) * rng.random((2 * n, 3))
-            P = np.vstack([P, Q[_reachable(model, Q)]])
-            if len(P) >= n:
-                break
-        P = P[:n]
+        P = random_poses(model, _int(arg, spec), np.random.default_rng() if rng is None else rng)
     elif os.path.isfile(spec):
         P = _read_cols(spec, ["x", "y", "z"])
     else:
-        raise VjmError(f"--poses {spec}: expected grid:N, random:N or a CSV file with columns x,y,z")
+        raise VjmError(f"poses {spec}: expected grid:N, random:N or a CSV file with columns x,y,z")
     if len(P) == 0:
-        raise VjmError(f"--poses {spec}: no reachable posture")
+        raise VjmError(f"poses {spec}: no reachable posture")
     return P
 
 
-def design_loads(spec: str, n_poses: int, rng) -> np.ndarray:
-    """(n_poses, k, 6) wrenches applied at each posture."""
+def axes_loads(force: float, moment: float = 0.0) -> np.ndarray:
+    """(k, 6) loads: +-force N along x, y, z, then +-moment N mm about x, y, z if moment is not 0."""
+    L = [s * force * np.eye(6)[i] for i in range(3) for s in (1, -1)]
+    if moment:
+        L += [s * moment * np.eye(6)[i] for i in range(3, 6) for s in (1, -1)]
+    return np.array(L)
+
+
+def random_loads(n_poses: int, k: int, force: float, rng) -> np.ndarray:
+    """(n_poses, k, 6) forces of magnitude ``force`` N in random directions, drawn per posture."""
+    plan(f"{k} random loads at {n_poses} postures", n_poses * k, SIMULATE_BYTES)
+    d = rng.standard_normal((n_poses, k, 3))
+    d /= np.linalg.norm(d, axis=2, keepdims=True)
+    out = np.zeros((n_poses, k, 6))
+    out[:, :, :3] = force * d
+    return out
+
+
+def design_loads(spec, n_poses: int, rng=None) -> np.ndarray:
+    """(n_poses, k, 6) wrenches applied at each posture (N, N mm): ``spec`` is ``axes:F[:M]``,
+    ``random:N:F``, a CSV path with columns Fx..Mz, or an array (k, 6) applied at every posture."""
+    if not isinstance(spec, (str, os.PathLike)):
+        L = np.asarray(spec, dtype=float)
+        if L.ndim != 2 or L.shape[1] != 6 or not np.all(np.isfinite(L)):
+            raise VjmError(f"loads must be a finite array (k, 6) of wrenches Fx..Mz (N, N mm), got shape {L.shape}")
+        return _every_posture(L, n_poses)
+    spec = os.fspath(spec)
     kind, _, arg = spec.partition(":")
     if kind == "axes":
         parts = arg.split(":")
-        F = _num(parts[0], spec)
-        M = _num(parts[1], spec) if len(parts) > 1 else 0.0
-        L = [s * F * np.eye(6)[i] for i in range(3) for s in (1, -1)]
-        if M:
-            L += [s * M * np.eye(6)[i] for i in range(3, 6) for s in (1, -1)]
-        return np.broadcast_to(np.array(L), (n_poses, len(L), 6)).copy()
+        return _every_posture(axes_loads(_num(parts[0], spec), _num(parts[1], spec) if len(parts) > 1 else 0.0),
+                              n_poses)
     if kind == "random":
         parts = arg.split(":")
         if len(parts) != 2:
-            raise VjmError(f"--loads {spec}: expected random:N:F")
-        k, F = _int(parts[0], spec), _num(parts[1], spec)
-        d = rng.standard_normal((n_poses, k, 3))
-        d /= np.linalg.norm(d, axis=2, keepdims=True)
-        out = np.zeros((n_poses, k, 6))
-        out[:, :, :3] = F * d
-        return out
+            raise VjmError(f"loads {spec}: expected random:N:F")
+        return random_loads(n_poses, _int(parts[0], spec), _num(parts[1], spec),
+                            np.random.default_rng() if rng is None else rng)
     if os.path.isfile(spec):
-        L = _read_cols(spec, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
-        return np.broadcast_to(L, (n_poses,) + L.shape).copy()
-    raise VjmError(f"--loads {spec}: expected axes:F[:M], random:N:F or a CSV file with columns Fx..Mz")
+        return _every_posture(_read_cols(spec, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]), n_poses)
+    raise VjmError(f"loads {spec}: expected axes:F[:M], random:N:F or a CSV file with columns Fx..Mz")
+
+
+def _every_posture(L: np.ndarray, n_poses: int) -> np.ndarray:
+    plan(f"{len(L)} loads at {n_poses} postures", n_poses * len(L), SIMULATE_BYTES)
+    return np.broadcast_to(L, (n_poses,) + L.shape).copy()
 
 
 def _int(s, spec):
@@ -228,7 +258,7 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
         W = _read_cols(loads, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
         if len(P) == 0:
             raise VjmError(f"--poses {poses}: no data rows")
-        bad = ~_reachable(model, P)
+        bad = ~model.reachable(P)
         if bad.any():
             raise VjmError(f"{os.path.basename(poses)}: row {int(np.argmax(bad)) + 2}, columns 'x,y,z': posture "
                            f"({P[bad][0, 0]:g}, {P[bad][0, 1]:g}, {P[bad][0, 2]:g}) mm is unreachable")
