@@ -19,19 +19,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+# the labels and units live in linkfea.conventions (shared with vjm); re-exported here
+from .conventions import TWIST, UNITS, UNITS_SHORT, WRENCH
 from .errors import LinkFeaError
 from .frames import Frame
 
-WRENCH = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
-TWIST = ["dx", "dy", "dz", "rx", "ry", "rz"]
-UNITS = {
-    "compliance": {"force->translation": "mm/N", "moment->rotation": "rad/(N*mm)",
-                   "moment->translation": "mm/(N*mm) = 1/N", "force->rotation": "rad/N"},
-    "stiffness": {"translation->force": "N/mm", "rotation->moment": "N*mm/rad",
-                  "rotation->force": "N/rad", "translation->moment": "N*mm/mm = N"},
-    "length": "mm", "force": "N", "moment": "N*mm", "stress": "MPa", "time": "s",
-}
-UNITS_SHORT = "t = C w; mm/N, rad/N, mm/(N mm), rad/(N mm) by block"
+__all__ = ["Compliance", "PD_RTOL", "SYMMETRY_RTOL", "TWIST", "UNITS", "UNITS_SHORT", "WRENCH", "check"]
 
 SYMMETRY_RTOL = 1e-6
 """Largest accepted ``|C_ij - C_ji| / sqrt(C_ii C_jj)``."""

@@ -36,7 +36,6 @@ into :attr:`vjm.Model.links`.
 """
 from __future__ import annotations
 
-import json
 import os
 
 import numpy as np

@@ -347,15 +347,11 @@ def cantilever_compliance(axial, bending_y, bending_z, torsion, length) -> np.nd
     ``c66 = 3 c22 / L^2``, ``c26 = 3 c22 / (2L)``, ``c55 = 3 c33 / L^2``,
     ``c35 = -3 c33 / (2L)`` (signs of eq. 14: Fy turns the tip by +rz).
     """
+    from linkfea.beam import eq14
+
     L = float(length)
-    C = np.zeros((6, 6))
-    C[0, 0] = axial
-    C[3, 3] = torsion
-    C[1, 1], C[5, 5] = bending_z, 3.0 * bending_z / L**2
-    C[1, 5] = C[5, 1] = 1.5 * bending_z / L
-    C[2, 2], C[4, 4] = bending_y, 3.0 * bending_y / L**2
-    C[2, 4] = C[4, 2] = -1.5 * bending_y / L
-    return C
+    # eq. 14 with unit moduli and the section values these tip compliances stand for
+    return eq14(L, 1.0, 1.0, L / axial, L**3 / (3.0 * bending_y), L**3 / (3.0 * bending_z), L / torsion)
 
 
 def with_foot_cantilever(model, axial, bending_y, bending_z, torsion, length, floor=1e-9):

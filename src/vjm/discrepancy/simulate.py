@@ -24,6 +24,8 @@ import os
 
 import numpy as np
 
+from linkfea.conventions import WRENCH
+
 from ..errors import VjmError
 from ..grid import SIMULATE_BYTES, plan
 from . import effects as fx
@@ -171,7 +173,7 @@ def design_loads(spec, n_poses: int, rng=None) -> np.ndarray:
         return random_loads(n_poses, _int(parts[0], spec), _num(parts[1], spec),
                             np.random.default_rng() if rng is None else rng)
     if os.path.isfile(spec):
-        return _every_posture(_read_cols(spec, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]), n_poses)
+        return _every_posture(_read_cols(spec, list(WRENCH)), n_poses)
     raise VjmError(f"loads {spec}: expected axes:F[:M], random:N:F or a CSV file with columns Fx..Mz")
 
 
@@ -255,7 +257,7 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
     if _same_file(poses, loads):
         # one file with x,y,z,Fx..Mz (e.g. next_measurements.csv of vjm diagnose --suggest): paired rows
         P = _read_cols(poses, ["x", "y", "z"])
-        W = _read_cols(loads, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
+        W = _read_cols(loads, list(WRENCH))
         if len(P) == 0:
             raise VjmError(f"--poses {poses}: no data rows")
         bad = ~model.reachable(P)
