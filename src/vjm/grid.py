@@ -100,9 +100,9 @@ class Workspace:
         return cls(lo, hi)
 
     def grid(self, n: int, slice: Optional[str] = None) -> Grid:
-        """An n-point-per-axis grid over the box; ``slice`` (``"z=0"``) fixes one axis."""
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
-            raise VjmError(f"a workspace grid needs a whole number >= 2 of points per axis, got {n!r}")
+        """An n-point-per-axis grid over the box (n = 1: the ``lo`` corner); ``slice`` (``"z=0"``) fixes one axis."""
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+            raise VjmError(f"a workspace grid needs a whole number >= 1 of points per axis, got {n!r}")
         fixed = parse_slice(slice) if slice else None
         axes = [np.linspace(self.lo[k], self.hi[k], int(n)) for k in range(3)]
         if fixed is not None:
@@ -183,9 +183,10 @@ def grid_plan(n: int, slice: Optional[str], what: str, bytes_per_point: float = 
 
 
 def in_chunks(n: int, step: Callable[[slice], None], progress: Optional[Progress] = None,
-              what: str = "points", chunk: int = CHUNK) -> None:
+              what: str = "points", chunk: Optional[int] = None) -> None:
     """Run ``step(slice(a, b))`` over ``0..n`` in chunks; once the first chunk shows the whole run will
     take longer than :data:`LONG_SECONDS`, say so through ``progress`` and report each later chunk."""
+    chunk = CHUNK if chunk is None else chunk
     t0 = time.perf_counter()
     loud = False
     for a in range(0, n, chunk):
