@@ -105,10 +105,10 @@ def test_old_link_name_still_works_and_warns():
         warnings.simplefilter("always")
         Link = vjm.Link
     assert Link is LinkSpring and any(issubclass(x.category, DeprecationWarning) for x in w)
-    import vjm.model
+    from vjm import model as model_module
 
     with pytest.warns(DeprecationWarning):
-        assert vjm.model.Link is LinkSpring
+        assert model_module.Link is LinkSpring
     assert "Link" not in vjm.__all__ and "LinkSpring" in vjm.__all__
 
 
