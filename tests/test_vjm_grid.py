@@ -150,3 +150,18 @@ def test_parallelogram_links_are_named_from_the_architecture():
     assert mo.link_label(vjm.load_model("data/orthoglide/prpar.yaml"), "leg") == "bar"
     assert mo.link_label(vjm.load_model(PUU), "leg") == "leg"
     assert mo.link_label(vjm.load_model("data/orthoglide/delta.yaml"), "leg") == "bar"
+
+
+def test_simulate_reports_progress_and_keeps_its_numbers(puu, monkeypatch):
+    from vjm.discrepancy.simulate import simulate
+
+    P0 = design_poses(puu, "grid:3")
+    L = design_loads("axes:100", len(P0))
+    P, W = np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6)
+    ref = simulate(puu, [], P, W, 1e-3, None, seed=2)
+    lines = []
+    monkeypatch.setattr(grid, "LONG_SECONDS", 0.0)
+    monkeypatch.setattr(grid, "CHUNK", 4)
+    got = simulate(puu, [], P, W, 1e-3, None, seed=2, progress=lines.append)
+    assert np.array_equal(got.T, ref.T, equal_nan=True)
+    assert "this will take about" in lines[0] and lines[-1].startswith("100%")

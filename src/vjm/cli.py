@@ -131,6 +131,8 @@ def sweep_cmd(model: Path = typer.Argument(..., help="model YAML"),
 
     try:
         _check_grid(grid)
+        if foot is None and leg is None and bar is None:
+            raise VjmError("give link designs with --foot, --leg or --bar (a `linkfea sweep` folder or a result JSON)")
         res = sweep(model, out, grid, foot=foot, leg=leg, bar=bar, progress=_progress)
     except user_errors() as exc:
         _fail(exc)

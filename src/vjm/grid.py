@@ -71,7 +71,9 @@ class Grid:
 
     @property
     def points(self) -> np.ndarray:
-        """The grid points (size, 3), in the order of ``np.meshgrid(*axes, indexing="ij")``."""
+        """The grid points (size, 3), in the order of ``np.meshgrid(*axes, indexing="ij")``
+        (VjmError, before any allocation, if they cannot fit in memory)."""
+        plan(f"a {'x'.join(map(str, self.shape))} grid", self.size, 72)
         return np.stack(np.meshgrid(*self.axes, indexing="ij"), axis=-1).reshape(-1, 3)
 
 

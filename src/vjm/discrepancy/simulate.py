@@ -27,7 +27,7 @@ import numpy as np
 from linkfea.conventions import WRENCH
 
 from ..errors import VjmError
-from ..grid import SIMULATE_BYTES, plan
+from ..grid import SIMULATE_BYTES, in_chunks, plan
 from . import effects as fx
 from . import modelops as mo
 from .data import Deflections
@@ -217,8 +217,14 @@ def true_model(model, effects):
     return model, add
 
 
-def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: int) -> Deflections:
-    """Noisy deflections of ``model`` with hidden ``effects`` at postures P (n,3) under wrenches W (n,6)."""
+def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: int,
+             progress=None) -> Deflections:
+    """Noisy deflections of ``model`` with hidden ``effects`` at postures P (n,3) under wrenches W (n,6).
+
+    The memory of the rows is checked first; a run longer than about a minute reports through
+    ``progress`` (a callable taking one line of text).
+    """
+    plan(f"{len(P)} simulated measurements", len(P), SIMULATE_BYTES)
     if not (np.isfinite(noise_t) and noise_t >= 0) or \
             (noise_r is not None and not (np.isfinite(noise_r) and noise_r >= 0)):
         raise VjmError(f"noise sigmas must be finite and >= 0, got --noise-t {noise_t}, --noise-r {noise_r}")
@@ -229,7 +235,13 @@ def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: 
     rng = np.random.default_rng(seed)
     mt, add = true_model(model, effects)
     U, idx = unique_postures(P)
-    C = mo.compliance_map(mt, U)[idx]
+    CU = np.empty((len(U), 6, 6))
+
+    def step(s: slice) -> None:
+        CU[s] = mo.compliance_map(mt, U[s])
+
+    in_chunks(len(U), step, progress, "postures")
+    C = CU[idx]
     t = np.einsum("nij,nj->ni", C, W)
     ctx = Context(mt, U, idx, W)
     for eff, th in add:
@@ -247,7 +259,8 @@ def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: 
     return Deflections(np.asarray(P, float), np.asarray(W, float), T, st, sr, np.arange(2, n + 2), "<simulated>")
 
 
-def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_r, seed: int, out) -> Deflections:
+def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_r, seed: int, out,
+        progress=None) -> Deflections:
     """Body of ``vjm simulate``: design, simulate, write the CSV atomically."""
     from .data import write_deflections
 
@@ -270,7 +283,7 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
         k = L.shape[1]
         P = np.repeat(P0, k, axis=0)
         W = L.reshape(-1, 6)
-    data = simulate(model, effects, P, W, noise_t, noise_r, seed)
+    data = simulate(model, effects, P, W, noise_t, noise_r, seed, progress)
     desc = ", ".join(f"{n}:" + ",".join(f"{a}={b:g}" for a, b in v.items()) for n, v in effects) or "none"
     write_deflections(out, data, f"simulated by vjm simulate from {os.path.basename(str(model_path))}; "
                                  f"poses {poses}; loads {loads}; noise_t {noise_t} mm; noise_r {noise_r} rad; "
