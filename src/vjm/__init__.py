@@ -18,6 +18,11 @@ __all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "LinkSpring", "J
            "load_model", "save_model", "with_links", "diagnose"]
 
 
+def __dir__():
+    # the public names only (submodules stay importable as vjm.maps etc.)
+    return sorted(__all__)
+
+
 def __getattr__(name):
     # ``vjm.Link``: the older name of LinkSpring (it shared its name with linkfea.cad.Link)
     if name == "Link":

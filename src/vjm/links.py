@@ -81,6 +81,19 @@ class LinkSpring:
         return cls(checked_compliance(C, "compliance"), None)
 
 
+def read_linkfea(path: str, key: str = "linkfea") -> Compliance:
+    """The Compliance (6x6, frame, units) of a ``linkfea compute`` result JSON, read by linkfea's one
+    reader (:func:`linkfea.result.read_compliance`); VjmError naming ``key`` if it is missing or bad."""
+    from linkfea.result import read_compliance
+
+    if not os.path.isfile(path):
+        raise VjmError(f"{key}: file not found: {path}")
+    try:
+        return read_compliance(path)
+    except LinkFeaError as exc:
+        raise VjmError(f"{key}: cannot read {path}: {exc}") from None
+
+
 def deprecated_link():
     """``vjm.Link`` / ``vjm.model.Link``: :class:`LinkSpring` under its older name, with a warning."""
     import warnings
@@ -116,8 +129,6 @@ def as_link(obj, key: str = "link") -> LinkSpring:
     if isinstance(obj, (str, os.PathLike)):
         text = os.fspath(obj)
         if _result_path(text):
-            from .modelfile import read_linkfea
-
             path = os.path.abspath(text)
             return LinkSpring(read_linkfea(path, key), {"linkfea": path})
         import linkfea

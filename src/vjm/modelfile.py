@@ -45,7 +45,7 @@ from linkfea.atomic import plain, write_text
 
 from .description import parse_description
 from .errors import VjmError
-from .links import LinkSpring, as_link, checked_compliance
+from .links import LinkSpring, as_link, checked_compliance, read_linkfea
 from .model import Actuator, Joints, Model, validate_compliance
 from .models import ARCHITECTURES
 from .models.described import NAME as DESCRIBED
@@ -99,19 +99,6 @@ def beam_compliance(spec: dict, key: str = "beam") -> np.ndarray:
         return lb.cantilever_compliance(length, s, E, nu, shear=bool(spec.get("shear", True)))
     except LinkFeaError as exc:
         raise VjmError(f"{key}: {exc}") from None
-
-
-def read_linkfea(path: str, key: str = "linkfea"):
-    """The Compliance (6x6, frame, units) of a ``linkfea compute`` result JSON, validated by linkfea's reader."""
-    from linkfea.errors import LinkFeaError
-    from linkfea.result import read_compliance
-
-    if not os.path.isfile(path):
-        raise VjmError(f"{key}: file not found: {path}")
-    try:
-        return read_compliance(path)
-    except LinkFeaError as exc:
-        raise VjmError(f"{key}: cannot read {path}: {exc}") from None
 
 
 def _inline(spec: dict, key: str) -> LinkSpring:

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from linkfea.atomic import write_text
-from linkfea.conventions import TWIST, WRENCH
+from linkfea.compliance import TWIST, WRENCH
 
 from ..errors import VjmError
 from ..resources import data_file

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from linkfea.conventions import WRENCH as WRENCH_NAMES
+from linkfea.compliance import WRENCH as WRENCH_NAMES
 
 
 def _rms(r2_sum, cnt):

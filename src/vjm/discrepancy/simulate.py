@@ -24,7 +24,7 @@ import os
 
 import numpy as np
 
-from linkfea.conventions import WRENCH
+from linkfea.compliance import WRENCH
 
 from ..errors import VjmError
 from ..grid import SIMULATE_BYTES, in_chunks, plan
