@@ -163,25 +163,28 @@ class Plan:
 
 
 def plan(what: str, n: int, bytes_per_item: float, seconds_per_item: float = SECONDS_PER_POINT,
-         limit: Optional[float] = None) -> Plan:
-    """The memory and time of a run over ``n`` items, or VjmError if it cannot fit in memory.
+         limit: Optional[float] = None, unit: str = "points",
+         hint: str = "use fewer points (a coarser grid or a slice)") -> Plan:
+    """The memory and time of a run over ``n`` items (``unit``), or VjmError if it cannot fit in memory.
 
-    ``limit`` defaults to :data:`MEMORY_FRACTION` of the memory available now.
+    ``limit`` defaults to :data:`MEMORY_FRACTION` of the memory available now; the error names
+    the estimate, the limit and what to do (``hint``).
     """
     p = Plan(what, int(n), float(n) * bytes_per_item, float(n) * seconds_per_item)
     lim = MEMORY_FRACTION * available_memory() if limit is None else float(limit)
     if p.memory > lim:
-        raise VjmError(f"{what} has {float(n):.3g} points and would need about {_gb(p.memory)} of memory, more "
-                       f"than the {_gb(lim)} this machine can give it; use fewer points (a coarser grid or a slice)")
+        raise VjmError(f"{what} would need about {_gb(p.memory)} of memory for {float(n):.3g} {unit}, more than "
+                       f"the {_gb(lim)} this machine can give it; {hint}")
     return p
 
 
-def grid_plan(n: int, slice: Optional[str], what: str, bytes_per_point: float = MAP_BYTES) -> Plan:
+def grid_plan(n: int, slice: Optional[str], what: str, bytes_per_point: float = MAP_BYTES,
+              hint: str = "use a coarser grid or a slice") -> Plan:
     """:func:`plan` for an n-per-axis grid (one axis fixed by ``slice``), checked before it is built."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
         raise VjmError(f"a workspace grid needs a whole number >= 2 of points per axis, got {n!r}")
     size = int(n) ** (2 if slice else 3)
-    return plan(f"{what} ({n} per axis{', ' + slice if slice else ''})", size, bytes_per_point)
+    return plan(f"{what} ({n} per axis{', ' + slice if slice else ''})", size, bytes_per_point, hint=hint)
 
 
 def in_chunks(n: int, step: Callable[[slice], None], progress: Optional[Progress] = None,

@@ -83,7 +83,7 @@ def load_designs(path, role: str = "leg") -> list[LinkDesign]:
 
 def workspace_points(model: Model, n: int) -> np.ndarray:
     """The reachable points (m, 3) of an n x n x n grid of the model's workspace box (:meth:`Model.grid`), mm."""
-    grid_plan(n, None, "the workspace grid of a machine sweep", SWEEP_BYTES)
+    grid_plan(n, None, "the workspace grid of a machine sweep", SWEEP_BYTES, hint="use a coarser grid")
     P = model.grid(n).points
     ok = model.reachable(P)
     if not ok.any():
@@ -153,7 +153,7 @@ def trade_offs(model: Model, candidates: dict, grid: int, progress: Progress | N
     roles = [r for r in ROLES if r in candidates]
     combos = list(itertools.product(*(candidates[r] for r in roles)))
     plan(f"{len(combos)} combinations on {len(P)} points", len(P), SWEEP_BYTES,
-         SECONDS_PER_POINT * len(combos))
+         SECONDS_PER_POINT * len(combos), hint="use a coarser grid")
     rows: list = []
 
     def step(s: slice) -> None:

@@ -86,9 +86,12 @@ def _read_cols(path, cols):
     return out
 
 
+FEWER = "use fewer postures or loads"
+
+
 def grid_poses(model, n: int) -> np.ndarray:
     """The reachable points (m, 3) of an n x n x n grid of the model's workspace (:meth:`vjm.Model.grid`), mm."""
-    plan(f"a {n}-per-axis posture grid", int(n) ** 3, SIMULATE_BYTES)
+    plan(f"a posture grid of {n} per axis", int(n) ** 3, SIMULATE_BYTES, unit="postures", hint=FEWER)
     P = model.grid(n).points
     return P[model.reachable(P)]
 
@@ -96,7 +99,7 @@ def grid_poses(model, n: int) -> np.ndarray:
 def random_poses(model, n: int, rng) -> np.ndarray:
     """n uniform random reachable points (n, 3) of the model's workspace box, mm (fewer if the box
     is mostly out of reach: 20 draws of 2n points at most)."""
-    plan(f"{n} random postures", 2 * n, SIMULATE_BYTES)
+    plan(f"{n} random postures", 2 * n, SIMULATE_BYTES, unit="draws", hint=FEWER)
     ws = model.workspace
     P = np.empty((0, 3))
     for _ in range(20):
@@ -144,7 +147,8 @@ def axes_loads(force: float, moment: float = 0.0) -> np.ndarray:
 
 def random_loads(n_poses: int, k: int, force: float, rng) -> np.ndarray:
     """(n_poses, k, 6) forces of magnitude ``force`` N in random directions, drawn per posture."""
-    plan(f"{k} random loads at {n_poses} postures", n_poses * k, SIMULATE_BYTES)
+    plan(f"{k} random loads at each of {n_poses} postures", n_poses * k, SIMULATE_BYTES, unit="measurements",
+         hint=FEWER)
     d = rng.standard_normal((n_poses, k, 3))
     d /= np.linalg.norm(d, axis=2, keepdims=True)
     out = np.zeros((n_poses, k, 6))
@@ -178,7 +182,8 @@ def design_loads(spec, n_poses: int, rng=None) -> np.ndarray:
 
 
 def _every_posture(L: np.ndarray, n_poses: int) -> np.ndarray:
-    plan(f"{len(L)} loads at {n_poses} postures", n_poses * len(L), SIMULATE_BYTES)
+    plan(f"{len(L)} loads at each of {n_poses} postures", n_poses * len(L), SIMULATE_BYTES, unit="measurements",
+         hint=FEWER)
     return np.broadcast_to(L, (n_poses,) + L.shape).copy()
 
 
@@ -224,7 +229,7 @@ def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: 
     The memory of the rows is checked first; a run longer than about a minute reports through
     ``progress`` (a callable taking one line of text).
     """
-    plan(f"{len(P)} simulated measurements", len(P), SIMULATE_BYTES)
+    plan("the simulated measurements", len(P), SIMULATE_BYTES, unit="measurements", hint=FEWER)
     if not (np.isfinite(noise_t) and noise_t >= 0) or \
             (noise_r is not None and not (np.isfinite(noise_r) and noise_r >= 0)):
         raise VjmError(f"noise sigmas must be finite and >= 0, got --noise-t {noise_t}, --noise-r {noise_r}")
