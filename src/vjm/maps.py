@@ -216,7 +216,9 @@ def compute_map(model, P, axes, fixed=None, where: str = "grid", progress: Optio
 def grid_map(model, n: int, slice_: Optional[str] = None, orientation=None,
              progress: Optional[Progress] = None) -> StiffnessMap:
     """:meth:`vjm.Model.map`: the stiffness over an n-per-axis workspace grid, its memory checked first."""
-    grid_plan(n, slice_, "the stiffness map", MAP_BYTES)
+    p = grid_plan(n, slice_, "the stiffness map", MAP_BYTES)
+    if p.long and progress is not None:
+        progress(f"{p.describe()}; progress follows")
     g = model.grid(n, slice_)
     P = g.points
     if model.dof == 6:  # a 6-dof platform's map is a slice at a fixed orientation

@@ -152,8 +152,10 @@ def trade_offs(model: Model, candidates: dict, grid: int, progress: Progress | N
     P = workspace_points(model, grid)
     roles = [r for r in ROLES if r in candidates]
     combos = list(itertools.product(*(candidates[r] for r in roles)))
-    plan(f"{len(combos)} combinations on {len(P)} points", len(P), SWEEP_BYTES,
-         SECONDS_PER_POINT * len(combos), hint="use a coarser grid")
+    p = plan(f"{len(combos)} combinations on {len(P)} points", len(P), SWEEP_BYTES,
+             SECONDS_PER_POINT * len(combos), hint="use a coarser grid")
+    if p.long and progress is not None:
+        progress(f"{p.describe()}; progress follows")
     rows: list = []
 
     def step(s: slice) -> None:
