@@ -30,6 +30,8 @@ LONG_SECONDS = 60.0
 MEMORY_FRACTION = 0.8
 #: points evaluated per step of a long run (progress is reported between steps)
 CHUNK = 65536
+#: seconds between two progress lines of a long run
+PROGRESS_EVERY = 10.0
 
 #: bytes a map holds per grid point: the point (24), K (288), k_tran, k_rot, the mask, the
 #: grid's own construction (meshgrid + stack, 72) and a margin for the PNG and .npz writers
@@ -192,7 +194,7 @@ def in_chunks(n: int, step: Callable[[slice], None], progress: Optional[Progress
     """Run ``step(slice(a, b))`` over ``0..n`` in chunks; once the first chunk shows the whole run will
     take longer than :data:`LONG_SECONDS`, say so through ``progress`` and report each later chunk."""
     chunk = CHUNK if chunk is None else chunk
-    t0 = time.perf_counter()
+    t0 = last = time.perf_counter()
     loud = False
     for a in range(0, n, chunk):
         b = min(n, a + chunk)
@@ -204,7 +206,8 @@ def in_chunks(n: int, step: Callable[[slice], None], progress: Optional[Progress
         if not loud and spent + left > LONG_SECONDS:
             loud = True
             progress(f"{n:,} {what}: this will take about {_duration(spent + left)}")
-        if loud:
+        if loud and t0 + spent - last >= PROGRESS_EVERY * (last > t0):
+            last = t0 + spent
             progress(f"{100 * b / n:.0f}% ({b:,} of {n:,} {what}), about {_duration(left)} left")
     if loud and progress is not None:
         progress(f"100% ({n:,} {what}) in {_duration(time.perf_counter() - t0)}")
