@@ -103,7 +103,8 @@ def test_long_runs_announce_their_time_and_report_progress(puu, monkeypatch):
     monkeypatch.setattr(grid, "LONG_SECONDS", 0.0)
     monkeypatch.setattr(grid, "CHUNK", 10)
     smap = puu.map(grid=6, slice="z=0", progress=lines.append)
-    assert lines[0].startswith("36 reachable points: this will take about")
+    assert lines[0].startswith("the stiffness map (6 per axis, z=0): 36 points, about")  # the estimate, first
+    assert lines[1].startswith("36 reachable points: this will take about")  # then the measured time
     assert any("%" in x and "left" in x for x in lines) and lines[-1].startswith("100%")
     monkeypatch.setattr(grid, "LONG_SECONDS", 60.0)
     quiet = []
