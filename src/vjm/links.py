@@ -68,10 +68,6 @@ class LinkSpring:
         """The spring frame the matrix is stated in (:class:`linkfea.frames.Frame`), or None if unknown."""
         return self.value.frame if isinstance(self.value, Compliance) else None
 
-    @property
-    def rigid_link(self) -> bool:
-        return self.value is None
-
     @classmethod
     def rigid(cls) -> "LinkSpring":
         return cls(None, {"rigid": True})
