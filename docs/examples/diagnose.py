@@ -13,13 +13,13 @@ from pathlib import Path
 import numpy as np
 
 import vjm
-from vjm.discrepancy.simulate import design_loads, design_poses, simulate
+from vjm.discrepancy.simulate import axes_loads, design_loads, design_poses, simulate
 
 OUT = Path("out/examples/diagnose")
 model = vjm.load_model("data/orthoglide/puu.yaml")
 rng = np.random.default_rng(1)
 P0 = design_poses(model, "random:12", rng)          # mm
-L = design_loads("axes:100", len(P0), rng)          # (postures, loads per posture, 6): N, N mm
+L = design_loads(axes_loads(100.0), len(P0))        # (postures, loads per posture, 6): N, N mm ("axes:100")
 P, W = np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6)
 data = simulate(model, [("gravity", {"weight": 15.0})], P, W, 1e-3, None, seed=1)
 

@@ -14,19 +14,17 @@ import numpy as np
 
 import linkfea
 import vjm
-from vjm.maps import compute_map, workspace_grid
 
 OUT = Path("out/examples/machine_map_from_fea")
 foot = linkfea.compute("orthoglide_foot", mesh_size=8.0)
-foot_json = foot.save(OUT / "foot.json", vtu=False)       # compliance, frame and units, as `linkfea compute` writes
+foot.save(OUT / "foot.json", vtu=False)                   # compliance, frame and units, as `linkfea compute` writes
 
-model = vjm.load_model("data/orthoglide/puu.yaml", foot=foot_json)
+model = vjm.load_model("data/orthoglide/puu.yaml", foot=foot)  # the result itself: the same K as foot.json gives
 beam_model = vjm.load_model("data/orthoglide/puu.yaml")  # the same machine with the file's beam foot
 print("foot from", model.foot.source)
 
 # %%
-axes, G, fixed = workspace_grid(model, 21, "z=0")
-smap = compute_map(model, G.reshape(-1, 3), axes, fixed)
+smap = model.map(grid=21, slice="z=0")
 print(smap.summary())
 smap.save(OUT / "map")                                    # map.npz, k_tran.png, k_rot.png
 
@@ -34,6 +32,6 @@ smap.save(OUT / "map")                                    # map.npz, k_tran.png,
 # How much does the FEA foot change the machine against the beam foot?
 
 # %%
-beam_map = compute_map(beam_model, smap.points, axes, fixed)
+beam_map = beam_model.map(grid=21, slice="z=0")
 ratio = smap.k_tran / beam_map.k_tran
 print(f"k_tran (FEA foot) / k_tran (beam foot): {np.nanmin(ratio):.3f} .. {np.nanmax(ratio):.3f}")

@@ -118,18 +118,28 @@ def cantilever_compliance(L: float, section: Section, E: float, nu: float, shear
         raise LinkFeaError(f"beam length and modulus must be > 0, got L={L}, E={E}")
     G = E / (2.0 * (1.0 + nu))
     s = section
-    C = np.zeros((6, 6))
-    C[0, 0] = L / (E * s.A)
-    C[1, 1] = L**3 / (3 * E * s.Iz)
-    C[2, 2] = L**3 / (3 * E * s.Iy)
-    C[3, 3] = L / (G * s.J)
-    C[4, 4] = L / (E * s.Iy)
-    C[5, 5] = L / (E * s.Iz)
-    C[1, 5] = C[5, 1] = L**2 / (2 * E * s.Iz)
-    C[2, 4] = C[4, 2] = -(L**2) / (2 * E * s.Iy)
+    C = eq14(L, E, G, s.A, s.Iy, s.Iz, s.J)
     if shear:
         C[1, 1] += L / (G * s.Asy)
         C[2, 2] += L / (G * s.Asz)
+    return C
+
+
+def eq14(L: float, E: float, G: float, A: float, Iy: float, Iz: float, J: float) -> np.ndarray:
+    """The seed's eq. 14: tip compliance (tip frame, x along the beam) of an Euler-Bernoulli
+    cantilever of length L, moduli E, G and section A, Iy, Iz, J; the one home of the formula.
+
+    Fy turns the tip by +rz (``c26 = L^2/2EIz``), Fz by -ry (``c35 = -L^2/2EIy``).
+    """
+    C = np.zeros((6, 6))
+    C[0, 0] = L / (E * A)
+    C[1, 1] = L**3 / (3 * E * Iz)
+    C[2, 2] = L**3 / (3 * E * Iy)
+    C[3, 3] = L / (G * J)
+    C[4, 4] = L / (E * Iy)
+    C[5, 5] = L / (E * Iz)
+    C[1, 5] = C[5, 1] = L**2 / (2 * E * Iz)
+    C[2, 4] = C[4, 2] = -(L**2) / (2 * E * Iy)
     return C
 
 

@@ -1,4 +1,5 @@
-"""The 6x6 compliance that linkfea hands to vjm: matrix, frame, units, and the one check.
+"""The 6x6 compliance that linkfea hands to vjm: matrix, frame, units, the one check, and the
+shared conventions (wrench and twist labels, units) both packages import from here.
 
 One validator and one tolerance policy for every place a compliance enters the programs
 (the FEA fit, a saved result JSON, a vjm model file or link):
@@ -22,8 +23,16 @@ import numpy as np
 from .errors import LinkFeaError
 from .frames import Frame
 
-WRENCH = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
-TWIST = ["dx", "dy", "dz", "rx", "ry", "rz"]
+__all__ = ["Compliance", "PD_RTOL", "SYMMETRY_RTOL", "TWIST", "UNITS", "UNITS_SHORT", "WRENCH", "check"]
+
+# The conventions linkfea and vjm share, in one place (vjm's models, measurement files and
+# results import them from here): wrench and twist order, units.  Units: N, mm, MPa, rad.
+
+#: wrench order (N, N mm)
+WRENCH = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+#: twist order (mm, rad)
+TWIST = ("dx", "dy", "dz", "rx", "ry", "rz")
+#: units of a saved compliance and stiffness, by block, and of the base quantities
 UNITS = {
     "compliance": {"force->translation": "mm/N", "moment->rotation": "rad/(N*mm)",
                    "moment->translation": "mm/(N*mm) = 1/N", "force->rotation": "rad/N"},
@@ -31,6 +40,7 @@ UNITS = {
                   "rotation->force": "N/rad", "translation->moment": "N*mm/mm = N"},
     "length": "mm", "force": "N", "moment": "N*mm", "stress": "MPa", "time": "s",
 }
+#: the same in one line, for matrices printed to a terminal
 UNITS_SHORT = "t = C w; mm/N, rad/N, mm/(N mm), rad/(N mm) by block"
 
 SYMMETRY_RTOL = 1e-6

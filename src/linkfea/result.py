@@ -259,6 +259,19 @@ class LinkResult:
                 f"<tr>{vals}</tr></table>" + (f"<p>{html.escape(sharp)}</p>" if sharp else ""))
 
 
+def compliance_of(doc: dict, path) -> Compliance:
+    """The Compliance (matrix, frame, units) of a document read by :func:`linkfea.io.read_result`."""
+    return Compliance(doc["compliance"], doc["frame_obj"], doc["units"], what=f"{path}: compliance")
+
+
+def read_compliance(path) -> Compliance:
+    """Only the Compliance of a result JSON (what vjm needs), through the one reader
+    :func:`linkfea.io.read_result`: a JSON with ``compliance``, ``frame`` and ``units`` suffices."""
+    from .io import read_result
+
+    return compliance_of(read_result(path), path)
+
+
 def load(path) -> LinkResult:
     """Read a result JSON written by :meth:`LinkResult.save` or ``linkfea compute``.
 
@@ -275,7 +288,7 @@ def load(path) -> LinkResult:
         material = Material(str(mat["name"]), float(mat["E"]), float(mat["nu"]),
                             None if density is None else float(density))
         return LinkResult(
-            value=Compliance(doc["compliance"], doc["frame_obj"], doc["units"], what=f"{path}: compliance"),
+            value=compliance_of(doc, path),
             name=str(doc["name"]), source=str(doc["source"]), params=dict(doc.get("params") or {}),
             material=material, mode=str(doc["mode"]), block_ratio=doc.get("block_ratio"),
             mesh_info=dict(doc.get("mesh") or {}), diagnostics=dict(doc.get("diagnostics") or {}),

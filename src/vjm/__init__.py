@@ -9,12 +9,32 @@
 k_tran = 0.000278 mm/N
 """
 from .errors import EquilibriumError, VjmError
-from .model import Actuator, Joints, Link, Model
+from .links import LinkSpring
+from .model import Actuator, Joints, Model
 from .modelfile import load_model, save_model, with_links
 from .stiffness import StiffnessResult
 
-__all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "Link", "Joints", "StiffnessResult",
+__all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "LinkSpring", "Joints", "StiffnessResult",
            "load_model", "save_model", "with_links", "diagnose", "path"]
+
+
+def __dir__():
+    # the public names only (submodules stay importable as vjm.maps etc.)
+    return sorted(__all__)
+
+
+def __getattr__(name):
+    # ``vjm.path(...)``: deflection along a toolpath (vjm/toolpath/), imported on first use (matplotlib)
+    if name == "path":
+        from .toolpath.run import path
+
+        return path
+    # ``vjm.Link``: the older name of LinkSpring (it shared its name with linkfea.cad.Link)
+    if name == "Link":
+        from .links import deprecated_link
+
+        return deprecated_link()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def diagnose(model, data, **options):
@@ -48,12 +68,3 @@ def diagnose(model, data, **options):
         data = read_csv(data)
     options.setdefault("model_name", name)
     return _diagnose(model, data, **options)
-
-
-def __getattr__(name):
-    # ``vjm.path(...)``: deflection along a toolpath (vjm/toolpath/), imported on first use (matplotlib)
-    if name == "path":
-        from .toolpath.run import path
-
-        return path
-    raise AttributeError(f"module 'vjm' has no attribute {name!r}")

@@ -13,7 +13,7 @@ from typing import Optional
 import numpy as np
 import typer
 
-from .errors import VjmError, one_line, user_errors
+from .errors import ArgumentError, VjmError, one_line, user_errors
 
 app = typer.Typer(add_completion=False, help="Virtual-joint-method stiffness of parallel machines.")
 
@@ -51,6 +51,11 @@ def _point(text: str, option: str = "--at", sizes=(3, 6)) -> np.ndarray:
                        f"({'x,y,z' if 3 in sizes else ''}{'[,rx,ry,rz]' if 6 in sizes else 'rx,ry,rz'}), "
                        f"got {text!r}")
     return p
+
+
+def _progress(line: str) -> None:
+    """Progress of a long run, one line each on stderr."""
+    typer.echo(line, err=True)
 
 
 FOOT = typer.Option(None, "--foot", help="linkfea result JSON replacing the model's foot")
@@ -98,19 +103,17 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
             out: Path = typer.Option(..., "--out", help="output directory (k_tran.png, k_rot.png, map.npz)"),
             foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG, force: bool = FORCE):
     """k_tran and k_rot over the workspace box: PNG maps and an .npz of K, k_tran, k_rot."""
+    from linkfea.checks import integer
     from linkfea.outputs import check_folder
 
-    from .maps import MAP_FILES, compute_map, workspace_grid
+    from .maps import GRID, MAP_FILES
 
     try:
+        grid = integer(grid, "grid", GRID, ArgumentError)
         rot = _point(orientation, "--orientation", (3,))
         check_folder(out, MAP_FILES, force=force)
         m = _load(model, foot, leg)
-        axes, G, fixed = workspace_grid(m, grid, slice_)
-        P = G.reshape(-1, 3)
-        if m.dof == 6:  # a 6-dof platform's map is a slice at a fixed orientation
-            P = np.hstack([P, np.broadcast_to(rot, (len(P), 3))])
-        smap = compute_map(m, P, axes, fixed, where=f"{grid}-point grid{' at ' + slice_ if slice_ else ''}")
+        smap = m.map(grid, slice_, orientation=rot if m.dof == 6 else None, progress=_progress)
         smap.save(out, force=force)
     except user_errors() as exc:
         _fail(exc)
@@ -148,7 +151,9 @@ def sweep_cmd(model: Path = typer.Argument(..., help="model YAML"),
     from .sweep import sweep
 
     try:
-        res = sweep(model, out, grid, foot=foot, leg=leg, bar=bar, force=force)
+        if foot is None and leg is None and bar is None:
+            raise VjmError("give link designs with --foot, --leg or --bar (a `linkfea sweep` folder or a result JSON)")
+        res = sweep(model, out, grid, foot=foot, leg=leg, bar=bar, force=force, progress=_progress)
     except user_errors() as exc:
         _fail(exc)
     front = sorted((r for r in res.rows if r["pareto"]), key=lambda r: r["moving_mass_kg"])

@@ -1,16 +1,15 @@
 """Stiffness maps over a workspace grid: k_tran and k_rot per point, saved as .npz and pictures.
 
-``workspace_grid`` lays a regular grid over the model's workspace box (optionally one
-axis fixed, ``z=0``), ``compute_map`` evaluates the batched stiffness at its reachable
-points, and :class:`StiffnessMap` carries the result with ``save`` and ``plot``.
+:meth:`vjm.Model.map` is the one call: it lays the model's workspace grid
+(:meth:`vjm.Model.grid`, optionally one axis fixed, ``z=0``), checks that the map fits in
+memory, and evaluates the batched stiffness at the reachable points (:func:`compute_map`);
+:class:`StiffnessMap` carries the result with ``save`` and ``plot``.
 k_tran is in mm/N, k_rot in rad/(N mm) (largest eigenvalues of the compliance blocks);
 K is in world axes at the end-effector point; unreachable points hold NaN.
 
 >>> import numpy as np, vjm
->>> from vjm.maps import compute_map, workspace_grid
 >>> m = vjm.load_model("puu")
->>> axes, G, fixed = workspace_grid(m, 5, "z=0")
->>> smap = compute_map(m, G.reshape(-1, 3), axes, fixed)
+>>> smap = m.map(grid=5, slice="z=0")
 >>> smap.shape, int(smap.reachable.sum())
 ((5, 5, 1), 25)
 >>> bool(np.isclose(smap.k_tran[12], m.stiffness(smap.points[12]).k_tran))  # same as one point at a time
@@ -28,6 +27,8 @@ from linkfea.checks import Bounds, integer
 from linkfea.outputs import OutputSet, check_folder
 
 from .errors import ArgumentError, VjmError
+from .grid import MAP_BYTES, Progress, grid_plan, in_chunks
+from .grid import parse_slice as parse_slice
 
 #: points per axis of a workspace grid (``vjm map --grid``, ``vjm sweep --grid``)
 GRID = Bounds(2)
@@ -74,34 +75,11 @@ def landmarks(architecture: str) -> dict:
             for r in rows if r["architecture"] == architecture}
 
 
-def parse_slice(text: str) -> tuple[int, float]:
-    """``"z=0"`` -> ``(2, 0.0)``: the fixed axis index and its value in mm."""
-    try:
-        name, val = text.split("=")
-        k, v = "xyz".index(name.strip()), float(val)
-    except ValueError:
-        raise ArgumentError("slice", f"expects axis=value (x, y or z = a finite number of mm), e.g. z=0, "
-                                     f"got {text!r}") from None
-    if not np.isfinite(v):
-        raise ArgumentError("slice", f"expects axis=value (x, y or z = a finite number of mm), e.g. z=0, "
-                                     f"got {text!r}")
-    return k, v
-
-
 def workspace_grid(model, n: int, slice_: Optional[str] = None):
-    """Axes, points ``G`` (nx, ny, nz, 3) and the fixed axis ``(k, value)`` or None of an n-point grid.
-
-    The grid spans the architecture's workspace box; ``slice_`` (``"z=0"``) fixes one axis.
-    """
-    n = integer(n, "grid", GRID, ArgumentError)
-    lo, hi = (np.array(v, dtype=float) for v in model.arch.workspace)
-    axes = [np.linspace(lo[k], hi[k], n) for k in range(3)]
-    fixed = None
-    if slice_:
-        fixed = parse_slice(slice_)
-        axes[fixed[0]] = np.array([fixed[1]])
-    G = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-    return axes, G, fixed
+    """Axes, points ``G`` (nx, ny, nz, 3) and the fixed axis ``(k, value)`` or None of an n-point grid
+    over the model's workspace (:meth:`vjm.Model.grid`, whose :class:`~vjm.grid.Grid` is the newer form)."""
+    g = model.grid(integer(n, "grid", GRID, ArgumentError), slice_)
+    return list(g.axes), g.points.reshape(g.shape + (3,)), g.fixed
 
 
 @dataclass(frozen=True)
@@ -216,18 +194,43 @@ class StiffnessMap:
         return ax
 
 
-def compute_map(model, P, axes, fixed=None, where: str = "grid") -> StiffnessMap:
+def compute_map(model, P, axes, fixed=None, where: str = "grid", progress: Optional[Progress] = None
+                ) -> StiffnessMap:
     """Stiffness at the points ``P`` (n, 3) of the grid ``axes``; NaN where the model cannot reach.
 
-    ``where`` names the grid in the error raised when no point is reachable.
+    ``where`` names the grid in the error raised when no point is reachable; a run longer
+    than about a minute reports through ``progress`` (:func:`vjm.grid.in_chunks`).
     """
     P = np.asarray(P, dtype=float)
-    ok = model.arch.reachable(model, P)
+    ok = model.reachable(P)
     if not ok.any():
         raise VjmError(f"no point of the {where} is reachable by {model.architecture}")
     kt = np.full(len(P), np.nan)
     kr = np.full(len(P), np.nan)
     K = np.full((len(P), 6, 6), np.nan)
-    r = model.stiffness_map(P[ok])
-    kt[ok], kr[ok], K[ok] = r.k_tran, r.k_rot, r.K
+    idx = np.flatnonzero(ok)
+
+    def step(s: slice) -> None:
+        i = idx[s]
+        r = model.stiffness_map(P[i])
+        kt[i], kr[i], K[i] = r.k_tran, r.k_rot, r.K
+
+    in_chunks(len(idx), step, progress, "reachable points")
     return StiffnessMap(model.architecture, list(axes), fixed, P, ok, K, kt, kr, landmarks(model.architecture))
+
+
+def grid_map(model, n: int, slice_: Optional[str] = None, orientation=None,
+             progress: Optional[Progress] = None) -> StiffnessMap:
+    """:meth:`vjm.Model.map`: the stiffness over an n-per-axis workspace grid, its memory checked first."""
+    p = grid_plan(n, slice_, "the stiffness map", MAP_BYTES)
+    if p.long and progress is not None:
+        progress(f"{p.describe()}; progress follows")
+    g = model.grid(n, slice_)
+    P = g.points
+    if model.dof == 6:  # a 6-dof platform's map is a slice at a fixed orientation
+        rot = np.zeros(3) if orientation is None else np.asarray(orientation, dtype=float)
+        if rot.shape != (3,) or not np.all(np.isfinite(rot)):
+            raise VjmError(f"orientation is a rotation vector rx, ry, rz (rad), got {orientation!r}")
+        P = np.hstack([P, np.broadcast_to(rot, (len(P), 3))])
+    where = f"{n}-point grid{' at ' + slice_ if slice_ else ''}"
+    return compute_map(model, P, g.axes, g.fixed, where=where, progress=progress)

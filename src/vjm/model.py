@@ -19,7 +19,9 @@ from linkfea.errors import LinkFeaError
 from .chain import _frame_product
 from .description import Description
 from .errors import VjmError
+from .grid import CHUNK, Grid, Workspace
 from .kinematics import Kinematics, as_poses
+from .links import LinkSpring, as_link
 from .models import ARCHITECTURES
 from .stiffness import StiffnessResult, assemble, assemble_soa, chain_stiffness, chain_stiffness_frames
 from .transforms import rotation_vector
@@ -64,25 +66,13 @@ class Actuator:
             raise VjmError(f"actuator.stiffness must be > 0, got {self.stiffness}")
 
 
-@dataclass(frozen=True, eq=False)
-class Link:
-    """A link's 6-dof spring: ``compliance`` 6x6 in the spring frame, or None if rigid.
+def __getattr__(name):
+    # ``vjm.model.Link``: the older name of LinkSpring (it shared its name with linkfea.cad.Link)
+    if name == "Link":
+        from .links import deprecated_link
 
-    ``source`` keeps what the model file said (``{"beam": ...}``,
-    ``{"linkfea": path}`` ...) so that saving writes it back; None means
-    "write the matrix inline".
-    """
-
-    compliance: np.ndarray | None
-    source: dict | None = None
-
-    @classmethod
-    def rigid(cls) -> "Link":
-        return cls(None, {"rigid": True})
-
-    @classmethod
-    def inline(cls, C) -> "Link":
-        return cls(validate_compliance(C, "compliance"), None)
+        return deprecated_link()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @dataclass(frozen=True)
@@ -98,38 +88,57 @@ class Joints:
             raise VjmError(f"joints.passive_stiffness must be a number > 0 (N mm/rad), got {k!r}")
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class Model:
     """Immutable VJM model of a parallel machine.
 
     Attributes
     ----------
     architecture : one of ``vjm.models.ARCHITECTURES``
-    geometry : dict of lengths in mm (``L``, ``r``, ``d`` ...; see the architecture)
+    geometry : dict of lengths in mm (``L``, ``r``, ``d`` ...; see the architecture); an optional
+        ``workspace: [lo, hi]`` (mm) replaces the architecture's workspace box
     actuator : Actuator
-    foot, leg : Link (spring frames: see the architecture's module)
+    links : the named links, name -> :class:`~vjm.links.LinkSpring`: ``foot`` and ``leg`` of the
+        built-in architectures (spring frames: see the architecture's module), any names of a
+        described machine.  ``model.foot`` and ``model.leg`` read ``links["foot"]``, ``links["leg"]``.
     joints : Joints
     effects : dict, kept verbatim for the discrepancy workflow
     name : free text
     path : the file this model was read from (resolves relative paths), or None
-    links : further named links of a described machine (``links:`` of a description file)
     description : the machine description (:class:`vjm.description.Description`) of
         architecture ``"description"``, else None
+
+    ``Model(architecture, geometry, actuator, foot, leg, ...)`` (the older positional form) still
+    works: ``foot`` and ``leg`` go into ``links``.  A link may be given as anything
+    :func:`vjm.links.as_link` takes (a LinkResult, a Compliance, a result path ...).
     """
 
     architecture: str
     geometry: dict
     actuator: Actuator
-    foot: Link
-    leg: Link
+    links: dict
     joints: Joints = field(default_factory=Joints)
     effects: dict = field(default_factory=dict)
     name: str = ""
     path: str | None = None
-    links: dict = field(default_factory=dict)
     description: Description | None = None
     #: kinematics of recent small pose batches (see :meth:`kinematics`); not a parameter
     _kin_cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def __init__(self, architecture, geometry, actuator, foot=None, leg=None, joints=None, effects=None,
+                 name="", path=None, links=None, description=None):
+        if links is not None and not isinstance(links, dict):
+            raise VjmError("links must be a mapping name -> vjm.LinkSpring")
+        merged = dict(links or {})
+        for key, link in (("foot", foot), ("leg", leg)):
+            if link is not None:
+                merged[key] = link
+        fields = dict(architecture=architecture, geometry=geometry, actuator=actuator, links=merged,
+                      joints=Joints() if joints is None else joints, effects={} if effects is None else effects,
+                      name=name, path=path, description=description, _kin_cache={})
+        for k, v in fields.items():
+            object.__setattr__(self, k, v)
+        self.__post_init__()
 
     def __post_init__(self):
         if self.architecture not in ARCHITECTURES:
@@ -141,31 +150,39 @@ class Model:
             v = self.geometry.get(k)
             if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not (np.isfinite(v) and v > 0):
                 raise VjmError(f"geometry.{k} must be a length > 0 in mm for {self.architecture}, got {v!r}")
-        for key in ("foot", "leg"):
-            link = getattr(self, key)
-            if not isinstance(link, Link):
-                raise VjmError(f"{key} must be a vjm.model.Link")
-            if link.compliance is not None:
-                object.__setattr__(self, key, Link(validate_compliance(link.compliance, key), link.source))
-        if not isinstance(self.links, dict):
-            raise VjmError("links must be a mapping name -> vjm.model.Link")
         links = {}
         for key, link in self.links.items():
-            if not isinstance(link, Link):
-                raise VjmError(f"links.{key} must be a vjm.model.Link")
-            links[key] = link if link.compliance is None else \
-                Link(validate_compliance(link.compliance, f"links.{key}"), link.source)
+            if not isinstance(link, LinkSpring):
+                link = as_link(link, str(key))
+            links[str(key)] = link.checked(str(key) if key in ("foot", "leg") else f"links.{key}")
+        if self.description is None:
+            missing = [k for k in ("foot", "leg") if k not in links]
+            extra = [k for k in links if k not in ("foot", "leg")]
+            if missing:
+                raise VjmError(f"{missing[0]}: missing ({self.architecture} has the links foot and leg)")
+            if extra:
+                raise VjmError(f"links.{extra[0]}: {self.architecture} has the links foot and leg only")
         object.__setattr__(self, "links", links)
         if not isinstance(self.effects, dict):
             raise VjmError("effects must be a mapping name -> parameters")
         self.arch.validate(self)
 
-    def link(self, name: str) -> Link:
-        """The link called ``name``: ``foot``, ``leg`` or one of ``links``."""
+    @property
+    def foot(self) -> LinkSpring:
+        """``links["foot"]`` (rigid if a described machine has none)."""
+        return self.links.get("foot") or LinkSpring.rigid()
+
+    @property
+    def leg(self) -> LinkSpring:
+        """``links["leg"]`` (rigid if a described machine has none)."""
+        return self.links.get("leg") or LinkSpring.rigid()
+
+    def link(self, name: str) -> LinkSpring:
+        """The link called ``name`` (``foot``, ``leg`` or a described machine's own)."""
         if name in ("foot", "leg"):
             return getattr(self, name)
         if name not in self.links:
-            raise VjmError(f"no link {name!r}; links: foot, leg{''.join(', ' + k for k in self.links)}")
+            raise VjmError(f"no link {name!r}; links: {', '.join(dict.fromkeys(['foot', 'leg', *self.links]))}")
         return self.links[name]
 
     # -- derived, computed once per model ---------------------------------
@@ -189,14 +206,62 @@ class Model:
         """Degrees of freedom of the platform: 3 (translations) or 6."""
         return self.arch.platform_dof(self)
 
+    # -- the workspace ----------------------------------------------------
+    @cached_property
+    def workspace(self) -> Workspace:
+        """The box maps, sweeps and simulated experiments cover: ``geometry.workspace`` if given,
+        else the architecture's (:class:`vjm.grid.Workspace`, corners ``lo``, ``hi`` in mm)."""
+        return Workspace.of(self)
+
+    def grid(self, n: int, slice: str | None = None) -> Grid:
+        """An n-point-per-axis grid over :attr:`workspace`; ``slice="z=0"`` fixes one axis."""
+        return self.workspace.grid(n, slice)
+
+    def reachable(self, P) -> np.ndarray:
+        """Boolean mask (n,) of the poses P (points (n, 3), or (n, 6) for a 6-dof platform) the
+        inverse kinematics accepts; the one test every grid and design uses."""
+        P = np.asarray(P, dtype=float)
+        if P.ndim == 1:
+            P = P[None]
+        out = np.empty(len(P), dtype=bool)
+        for a in range(0, len(P), CHUNK):
+            out[a:a + CHUNK] = self.arch.reachable(self, P[a:a + CHUNK])
+        return out
+
+    def map(self, grid: int = 41, slice: str | None = None, orientation=None, progress=None):
+        """The stiffness map over an n-point-per-axis workspace grid (:class:`vjm.maps.StiffnessMap`).
+
+        ``slice="z=0"`` fixes one axis; ``orientation`` (rx, ry, rz, rad) is the fixed platform
+        rotation of a 6-dof platform's map.  The memory the map needs is checked first
+        (VjmError if it cannot fit); a run longer than about a minute reports through
+        ``progress`` (a callable taking one line of text).
+        """
+        from .maps import grid_map
+
+        return grid_map(self, grid, slice, orientation=orientation, progress=progress)
+
     def replace(self, **changes) -> "Model":
-        """A copy with some fields changed (validated), like ``dataclasses.replace``.
+        """A copy with some fields or links changed (validated), like ``dataclasses.replace``.
+
+        A keyword naming a link (``foot=``, ``leg=``, or a described machine's link) replaces that
+        link, and ``links=`` replaces the links it names; a link may be a LinkSpring, a
+        :class:`linkfea.LinkResult`, a :class:`linkfea.Compliance`, a 6x6 matrix, the path of a
+        result JSON or a bundled link name (see :func:`vjm.links.as_link`).
 
         The copy shares this model's cache of recent kinematics when its
         kinematic key is unchanged (a change of springs, say), so repeated
         stiffness evaluations at the same poses redo only the spring part.
         """
-        new = dataclasses.replace(self, **changes)
+        links = dict(self.links)
+        extra = changes.pop("links", None)
+        if extra is not None:
+            if not isinstance(extra, dict):
+                raise VjmError("links must be a mapping name -> link")
+            links.update(extra)
+        for key in [k for k in changes if k in ("foot", "leg") or k in self.links]:
+            links[key] = changes.pop(key)
+        links = {k: v if isinstance(v, LinkSpring) else as_link(v, k) for k, v in links.items()}
+        new = dataclasses.replace(self, links=links, **changes)
         if new.kinematic_key == self.kinematic_key:
             object.__setattr__(new, "_kin_cache", self._kin_cache)
         return new

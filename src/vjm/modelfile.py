@@ -10,7 +10,7 @@ Format (units N, mm, rad; compliances in mm/N, rad/(N mm), order Fx Fy Fz Mx My 
       compliance_slope: 0             # optional, (mm/N)/mm: c(q) = 1/stiffness + slope (q - q_ref)
       q_ref: 0                        # optional, mm (rad)
     foot: <link>                      # spring frames: see vjm.models.orthoglide / delta
-    leg: <link>
+    leg: <link>                       # (or both under links: {foot: <link>, leg: <link>})
     joints: {passive_stiffness: null} # optional, N mm/rad: elastic passive joints
     effects: {}                       # optional: fitted additive effects of the discrepancy workflow,
                                       # e.g. {gravity: {weight: 12.0}}, checked against its effect library
@@ -19,6 +19,8 @@ Format (units N, mm, rad; compliances in mm/N, rad/(N mm), order Fx Fy Fz Mx My 
 
     {rigid: true}
     {compliance: [[...6 numbers...], ... 6 rows]}            # in the spring frame
+    {compliance: [[...]], frame: {origin: [...], x_axis: [...], y_axis: [...], z_axis: [...]}}
+           # the same, stating the frame it was computed in (as a linkfea result does)
     {beam: {section: rect, width: 40, height: 20, length: 310, material: steel, shear: true}}
            # section: rect (width along y, height along z) | circle (diameter) |
            # tube (diameter, inner_diameter); material: name, or E (MPa) and nu
@@ -27,11 +29,14 @@ Format (units N, mm, rad; compliances in mm/N, rad/(N mm), order Fx Fy Fz Mx My 
 A beam is a cantilever clamped at its base, its compliance taken in its tip
 frame (x along the beam): eq. 14 plus Timoshenko shear unless ``shear: false``.
 A linkfea result's reference frame (origin at the tip interface, x along
-the link) is taken as the spring frame.
+the link) is taken as the spring frame, and kept with the link.
+
+``foot`` and ``leg`` at the top level are short for ``links: {foot: ..., leg: ...}``;
+a machine description (``chains:``) names further links there.  Both forms load
+into :attr:`vjm.Model.links`.
 """
 from __future__ import annotations
 
-import json
 import os
 
 import numpy as np
@@ -42,15 +47,16 @@ from linkfea.checks import did_you_mean
 
 from .description import parse_description
 from .errors import VjmError
-from .model import Actuator, Joints, Link, Model, validate_compliance
+from .links import LinkSpring, as_link, checked_compliance, read_linkfea
+from .model import Actuator, Joints, Model, validate_compliance
 from .models import ARCHITECTURES
 from .models.described import NAME as DESCRIBED
 from .resources import data_file
 
 #: ``calibration``: the covariance vjm diagnose writes with model_updated.yaml (read by vjm path, not by the Model)
-TOP_KEYS = ("architecture", "name", "geometry", "actuator", "foot", "leg", "joints", "effects", "calibration")
+TOP_KEYS = ("architecture", "name", "geometry", "actuator", "foot", "leg", "links", "joints", "effects", "calibration")
 #: keys of a machine description (vjm.description), besides TOP_KEYS
-DESCRIPTION_KEYS = ("platform", "links", "chains")
+DESCRIPTION_KEYS = ("platform", "chains")
 LINK_KINDS = ("rigid", "compliance", "beam", "linkfea")
 
 
@@ -98,52 +104,57 @@ def beam_compliance(spec: dict, key: str = "beam") -> np.ndarray:
         raise VjmError(f"{key}: {exc}") from None
 
 
-def read_linkfea(path: str, key: str = "linkfea") -> np.ndarray:
-    """The 6x6 compliance of a ``linkfea compute`` result (JSON), validated."""
-    if not os.path.isfile(path):
-        raise VjmError(f"{key}: file not found: {path}")
-    C = None
-    try:
-        from linkfea import io as lio  # written alongside; optional here
-        reader = getattr(lio, "read_result", None)
-    except ImportError:
-        reader = None
-    if reader is not None:
+def _inline(spec: dict, key: str) -> LinkSpring:
+    """``{compliance: 6x6[, frame: {...}]}`` -> LinkSpring."""
+    from linkfea.errors import LinkFeaError
+    from linkfea.frames import Frame
+
+    frame = None
+    if "frame" in spec:
         try:
-            res = reader(path)
-            C = res["compliance"] if isinstance(res, dict) else getattr(res, "compliance", None)
-        except Exception as exc:  # any reader failure is a bad file for the user
-            raise VjmError(f"{key}: cannot read {path}: {exc}") from None
-    if C is None:
-        try:
-            with open(path, encoding="utf-8") as fh:
-                data = json.load(fh)
-        except (OSError, ValueError) as exc:
-            raise VjmError(f"{key}: cannot read {path} as JSON: {exc}") from None
-        if not isinstance(data, dict) or "compliance" not in data:
-            raise VjmError(f"{key}: {path} has no 'compliance' key (expected a `linkfea compute` result)")
-        C = data["compliance"]
-    return validate_compliance(C, f"{key} ({path})")
+            frame = Frame.from_dict(spec["frame"])
+        except (LinkFeaError, KeyError, TypeError, ValueError) as exc:
+            raise VjmError(f"{key}.frame must be a frame (origin, x_axis, y_axis, z_axis in mm): {exc}") from None
+    C = validate_compliance(spec["compliance"], f"{key}.compliance")
+    return LinkSpring(checked_compliance(C, f"{key}.compliance", frame), None)
 
 
-def parse_link(spec, key: str, base_dir: str) -> Link:
-    """One ``foot:`` / ``leg:`` entry -> Link (VjmError names ``key``)."""
-    if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in LINK_KINDS:
+def parse_link(spec, key: str, base_dir: str) -> LinkSpring:
+    """One ``foot:`` / ``leg:`` / ``links:`` entry -> LinkSpring (VjmError names ``key``)."""
+    inline = isinstance(spec, dict) and set(spec) == {"compliance", "frame"}
+    if not inline and (not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in LINK_KINDS):
         raise VjmError(f"{key} must be exactly one of: {{rigid: true}}, {{compliance: 6x6}}, {{beam: ...}}, "
                        f"{{linkfea: path}}; got {spec!r}")
     kind, val = next(iter(spec.items()))
     if kind == "rigid":
         if val is not True:
             raise VjmError(f"{key}.rigid must be true")
-        return Link.rigid()
-    if kind == "compliance":
-        return Link(validate_compliance(val, f"{key}.compliance"), None)
+        return LinkSpring.rigid()
+    if kind in ("compliance", "frame"):
+        return _inline(spec, key)
     if kind == "beam":
-        return Link(validate_compliance(beam_compliance(val, f"{key}.beam"), f"{key}.beam"), {"beam": dict(val)})
+        C = validate_compliance(beam_compliance(val, f"{key}.beam"), f"{key}.beam")
+        return LinkSpring(checked_compliance(C, f"{key}.beam"), {"beam": dict(val)})
     if not isinstance(val, str):
         raise VjmError(f"{key}.linkfea must be a file path")
     path = os.path.normpath(os.path.join(base_dir, val))
-    return Link(read_linkfea(path, f"{key}.linkfea"), {"linkfea": os.path.abspath(path)})
+    return LinkSpring(read_linkfea(path, f"{key}.linkfea"), {"linkfea": os.path.abspath(path)})
+
+
+def parse_links(d: dict, base_dir: str) -> dict:
+    """All links of a model file: ``links:`` and the top-level ``foot`` / ``leg`` (short for links.foot ...)."""
+    raw = d.get("links") or {}
+    if not isinstance(raw, dict):
+        raise VjmError("links must be a mapping name -> link ({rigid: true}, {compliance: ...}, {beam: ...}, "
+                       "{linkfea: path})")
+    out = {}
+    for k in ("foot", "leg"):
+        if k in d:
+            if k in raw:
+                raise VjmError(f"{k}: given twice, at the top level and under links; keep one")
+            out[k] = parse_link(d[k], k, base_dir)
+    out.update({str(k): parse_link(v, f"links.{k}", base_dir) for k, v in raw.items()})
+    return out
 
 
 def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Model:
@@ -157,8 +168,9 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
         raise VjmError(f"unknown top-level keys {sorted(extra)}; known: {list(known)}")
     if described:
         return _described_from_dict(d, base_dir, path)
+    links = parse_links(d, base_dir)
     for k in ("architecture", "geometry", "actuator", "foot", "leg"):
-        if k not in d:
+        if k not in d and k not in links:
             raise VjmError(f"{k}: missing (required keys: architecture, geometry, actuator, foot, leg)")
     arch = d["architecture"]
     if arch not in ARCHITECTURES:
@@ -179,8 +191,8 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
     if extra:
         raise VjmError(f"actuator: unknown keys {sorted(extra)}")
     actuator, jo, effects = _common(d)
-    return Model(arch, geo, actuator, parse_link(d["foot"], "foot", base_dir), parse_link(d["leg"], "leg", base_dir),
-                 jo, dict(effects), str(d.get("name", "")), path)
+    return Model(arch, geo, actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")), path=path,
+                 links=links)
 
 
 def _common(d: dict):
@@ -236,41 +248,56 @@ def _described_from_dict(d: dict, base_dir: str, path: str | None) -> Model:
     if not isinstance(geo, dict):
         raise VjmError("geometry must be a mapping of lengths in mm")
     geo = {k: _num(v, f"geometry.{k}") for k, v in geo.items()}
-    links_raw = d.get("links") or {}
-    if not isinstance(links_raw, dict):
-        raise VjmError("links must be a mapping name -> link ({rigid: true}, {compliance: ...}, {beam: ...}, "
-                       "{linkfea: path})")
-    for k in ("foot", "leg"):
-        if k in links_raw:
-            raise VjmError(f"links.{k}: give {k} at the top level, as in every model file")
-    links = {str(k): parse_link(v, f"links.{k}", base_dir) for k, v in links_raw.items()}
-    names = set(links) | {k for k in ("foot", "leg") if k in d}
-    desc = parse_description(d, geo, names)
+    links = parse_links(d, base_dir)
+    desc = parse_description(d, geo, set(links))
     actuator, jo, effects = _common(d)
-    foot = parse_link(d["foot"], "foot", base_dir) if "foot" in d else Link.rigid()
-    leg = parse_link(d["leg"], "leg", base_dir) if "leg" in d else Link.rigid()
-    return Model(DESCRIBED, geo, actuator, foot, leg, jo, dict(effects), str(d.get("name", "")), path,
-                 links=links, description=desc)
+    return Model(DESCRIBED, geo, actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")),
+                 path=path, links=links, description=desc)
 
 
-def load_model(path, foot=None, leg=None) -> Model:
-    """Read a model file; ``foot``/``leg`` (paths to linkfea results) override the file's links."""
+def _is_result_path(link) -> bool:
+    return isinstance(link, (str, os.PathLike)) and (os.fspath(link).endswith(".json") or os.path.isfile(link))
+
+
+def load_model(path, foot=None, leg=None, links: dict | None = None) -> Model:
+    """Read a model file, with some of its links replaced.
+
+    ``foot``, ``leg`` and the entries of ``links`` (name -> link) override the file's links;
+    each may be a :class:`linkfea.LinkResult`, a :class:`linkfea.Compliance`, a
+    :class:`~vjm.links.LinkSpring`, the path of a result JSON or a bundled link name
+    (see :func:`vjm.links.as_link`).  A result path replaces the file's entry before it is
+    read, so a file whose own link is unreadable still loads with it overridden.
+    """
     path = os.fspath(data_file(path))
     if not os.path.isfile(path):
         raise VjmError(f"model file not found: {path}")
     from .yamldata import read_yaml
 
     d = read_yaml(path, "model file")  # plain data: a YAML tag that builds objects is refused
+    given = {k: v for k, v in {**(links or {}), "foot": foot, "leg": leg}.items() if v is not None}
+    later = {}
     if isinstance(d, dict):
         d = dict(d)
-        if foot is not None:
-            d["foot"] = {"linkfea": os.path.abspath(foot)}
-        if leg is not None:
-            d["leg"] = {"linkfea": os.path.abspath(leg)}
-    return model_from_dict(d, os.path.dirname(os.path.abspath(path)), os.path.abspath(path))
+        raw = dict(d["links"]) if isinstance(d.get("links"), dict) else None
+        for k, link in given.items():
+            if not _is_result_path(link):
+                later[k] = link
+                continue
+            if raw is not None:
+                raw.pop(k, None)
+            entry = {"linkfea": os.path.abspath(link)}
+            if k in ("foot", "leg"):
+                d[k] = entry
+            else:
+                raw = {} if raw is None else raw
+                raw[k] = entry
+        if raw is not None:
+            d["links"] = raw
+    m = model_from_dict(d, os.path.dirname(os.path.abspath(path)), os.path.abspath(path))
+    return m.replace(links={k: as_link(v, k) for k, v in later.items()}) if later else m
 
 
-def _link_to_yaml(link: Link, out_dir: str):
+def _link_to_yaml(link: LinkSpring, out_dir: str):
     src = link.source
     if link.compliance is None:
         return {"rigid": True}
@@ -278,6 +305,8 @@ def _link_to_yaml(link: Link, out_dir: str):
         return {"linkfea": os.path.relpath(src["linkfea"], out_dir)}
     if src and "beam" in src:
         return {"beam": dict(src["beam"])}
+    if link.frame is not None:
+        return {"compliance": np.asarray(link.compliance).tolist(), "frame": link.frame.to_dict()}
     return {"compliance": np.asarray(link.compliance).tolist()}
 
 
@@ -289,14 +318,15 @@ def model_to_dict(model: Model, out_dir: str = ".") -> dict:
                "actuator": {"stiffness": float(a.stiffness), "compliance_slope": float(a.compliance_slope),
                             "q_ref": float(a.q_ref)}}
         for k in ("foot", "leg"):
-            if getattr(model, k).source != {"rigid": True} or k in model.description.links:
-                out[k] = _link_to_yaml(getattr(model, k), out_dir)
+            if k in model.links:
+                out[k] = _link_to_yaml(model.links[k], out_dir)
         out["joints"] = {"passive_stiffness": model.joints.passive_stiffness}
         out["effects"] = plain(model.effects)
         raw = model.description.raw
         out["platform"] = plain(raw["platform"])
-        if model.links:
-            out["links"] = {k: _link_to_yaml(v, out_dir) for k, v in model.links.items()}
+        others = {k: v for k, v in model.links.items() if k not in ("foot", "leg")}
+        if others:
+            out["links"] = {k: _link_to_yaml(v, out_dir) for k, v in others.items()}
         out["chains"] = plain(raw["chains"])
         return out
     return {
@@ -326,8 +356,10 @@ def save_model(model: Model, path) -> None:
     write_text(path, text)
 
 
-def with_links(model_path, out_path, foot=None, leg=None) -> Model:
-    """Write a copy of a model file whose foot/leg read the given linkfea results; returns the model."""
-    m = load_model(model_path, foot=foot, leg=leg)
+def with_links(model_path, out_path, foot=None, leg=None, links: dict | None = None) -> Model:
+    """Write a copy of a model file with some links replaced (as :func:`load_model` takes them);
+    returns the model read back from the copy.  A link computed in memory and never saved is
+    written inline, with its frame."""
+    m = load_model(model_path, foot=foot, leg=leg, links=links)
     save_model(m, out_path)
     return load_model(out_path)

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from linkfea.compliance import TWIST, WRENCH
+
 from .chain import Chain, _frame_product, _jacobian_soa
 from .linalg import (
     FAST_RTOL,
@@ -314,7 +316,7 @@ class StiffnessResult:
             "invertible": np.asarray(self.invertible).tolist(),
             "chain_rank": np.asarray(self.chain_rank).tolist(),
             "frame": "world axes, origin at the end-effector point",
-            "order": "dx dy dz rx ry rz / Fx Fy Fz Mx My Mz",
+            "order": f"{' '.join(TWIST)} / {' '.join(WRENCH)}",
             "units": {"K": "N/mm, N/rad, N mm/rad", "C": "mm/N, mm/(N mm), rad/(N mm)"},
         }
         if self.rotation is not None:

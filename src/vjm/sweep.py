@@ -29,8 +29,10 @@ from linkfea.checks import integer
 from linkfea.outputs import OutputSet, check_folder
 
 from .errors import ArgumentError, VjmError
+from .grid import SECONDS_PER_POINT, SWEEP_BYTES, Progress, grid_plan, in_chunks, plan
+from .links import LinkSpring
 from .maps import GRID
-from .model import Link, Model
+from .model import Model
 
 ROLES = ("foot", "leg")
 
@@ -83,12 +85,11 @@ def load_designs(path, role: str = "leg") -> list[LinkDesign]:
 
 
 def workspace_points(model: Model, n: int) -> np.ndarray:
-    """The reachable points (m, 3) of an n x n x n grid of the architecture's workspace box, mm."""
+    """The reachable points (m, 3) of an n x n x n grid of the model's workspace box (:meth:`Model.grid`), mm."""
     n = integer(n, "grid", GRID, ArgumentError)
-    lo, hi = (np.asarray(v, dtype=float) for v in model.arch.workspace)
-    axes = [np.linspace(lo[k], hi[k], n) for k in range(3)]
-    P = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    ok = model.arch.reachable(model, P)
+    grid_plan(n, None, "the workspace grid of a machine sweep", SWEEP_BYTES, hint="use a coarser grid")
+    P = model.grid(n).points
+    ok = model.reachable(P)
     if not ok.any():
         raise VjmError(f"no point of the {n}-point workspace grid is reachable by {model.architecture}")
     return P[ok]
@@ -96,7 +97,7 @@ def workspace_points(model: Model, n: int) -> np.ndarray:
 
 def with_designs(model: Model, designs: dict) -> Model:
     """``model`` with its links replaced by ``designs`` (role -> LinkDesign)."""
-    return model.replace(**{role: Link(d.compliance, {"linkfea": d.source}) for role, d in designs.items()})
+    return model.replace(**{role: LinkSpring(d.compliance, {"linkfea": d.source}) for role, d in designs.items()})
 
 
 def moving_mass(model: Model, designs: dict) -> float:
@@ -144,23 +145,28 @@ class TradeOffs:
     model: str
 
 
-def trade_offs(model: Model, candidates: dict, grid: int) -> TradeOffs:
-    """Evaluate every combination of ``candidates`` (role -> list of LinkDesign) on the workspace grid."""
+def trade_offs(model: Model, candidates: dict, grid: int, progress: Progress | None = None) -> TradeOffs:
+    """Evaluate every combination of ``candidates`` (role -> list of LinkDesign) on the workspace grid.
+
+    The work (combinations x reachable points) is estimated first; a run longer than about a
+    minute says so and reports its progress through ``progress``.
+    """
     if not candidates:
-        raise VjmError("give at least one of --foot, --leg (or --bar) with link designs")
+        raise VjmError("give link designs for at least one of the roles foot, leg")
     P = workspace_points(model, grid)
     roles = [r for r in ROLES if r in candidates]
-    rows = []
-    for combo in itertools.product(*(candidates[r] for r in roles)):
-        designs = dict(zip(roles, combo))
-        row = {}
-        for role, d in designs.items():
-            row[f"{role}"] = d.label
-            row.update({f"{role}_{k}": v for k, v in d.params.items()})
-            row[f"{role}_mass_kg"] = d.mass
-        row.update(evaluate(model, designs, P))
-        row.update({f"{role}_result": d.source for role, d in designs.items()})
-        rows.append(row)
+    combos = list(itertools.product(*(candidates[r] for r in roles)))
+    p = plan(f"{len(combos)} combinations on {len(P)} points", len(P), SWEEP_BYTES,
+             SECONDS_PER_POINT * len(combos), hint="use a coarser grid")
+    if p.long and progress is not None:
+        progress(f"{p.describe()}; progress follows")
+    rows: list = []
+
+    def step(s: slice) -> None:
+        for combo in combos[s]:
+            rows.append(_row(model, dict(zip(roles, combo)), P))
+
+    in_chunks(len(combos), step, progress, "combinations", chunk=1)
     mask = pareto_mask([r["moving_mass_kg"] for r in rows], [r["k_tran_max"] for r in rows])
     for r, m in zip(rows, mask):
         r["pareto"] = bool(m)
@@ -169,6 +175,18 @@ def trade_offs(model: Model, candidates: dict, grid: int) -> TradeOffs:
 
 #: the files `vjm sweep` writes, one set
 SWEEP_FILES = ("tradeoffs.parquet", "tradeoffs.csv", "pareto.csv", "pareto.json", "pareto.png")
+def _row(model: Model, designs: dict, P: np.ndarray) -> dict:
+    """One table row: the designs' labels, parameters and masses, and their machine's stiffness over P."""
+    row = {}
+    for role, d in designs.items():
+        row[f"{role}"] = d.label
+        row.update({f"{role}_{k}": v for k, v in d.params.items()})
+        row[f"{role}_mass_kg"] = d.mass
+    row.update(evaluate(model, designs, P))
+    row.update({f"{role}_result": d.source for role, d in designs.items()})
+    return row
+
+
 UNITS = {"k_tran_*": "mm/N (largest eigenvalue of the translational 3x3 block of C)",
          "k_rot_*": "rad/(N*mm) (largest eigenvalue of the rotational block)",
          "*_mass_kg": "kg", "moving_mass_kg": "kg, the swept links of all chains (parallelogram: 2 bars per leg)",
@@ -237,7 +255,8 @@ def candidates_from_args(model: Model, foot=None, leg=None, bar=None) -> dict:
     return {role: load_designs(p, role) for role, p in (("foot", foot), ("leg", leg)) if p is not None}
 
 
-def sweep(model_path, out, grid: int, foot=None, leg=None, bar=None, force: bool = False) -> TradeOffs:
+def sweep(model_path, out, grid: int, foot=None, leg=None, bar=None, force: bool = False,
+          progress: Progress | None = None) -> TradeOffs:
     """``vjm sweep``: check the output folder, load the model and the designs, evaluate all combinations,
     write the outputs."""
     grid = integer(grid, "grid", GRID, ArgumentError)
@@ -245,6 +264,6 @@ def sweep(model_path, out, grid: int, foot=None, leg=None, bar=None, force: bool
 
     check_folder(out, SWEEP_FILES, force=force)
     model = load_model(os.fspath(model_path))
-    res = trade_offs(model, candidates_from_args(model, foot, leg, bar), grid)
+    res = trade_offs(model, candidates_from_args(model, foot, leg, bar), grid, progress)
     write_trade_offs(res, out, force=force)
     return res

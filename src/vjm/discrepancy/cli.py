@@ -61,7 +61,8 @@ def simulate_cmd(
     from .simulate import run
 
     try:
-        d = run(model, effect or [], poses, loads, noise_t, noise_r, seed, out)
+        d = run(model, effect or [], poses, loads, noise_t, noise_r, seed, out,
+                progress=lambda line: typer.echo(line, err=True))
     except user_errors() as exc:
         _fail(exc)
     typer.echo(f"wrote {d.n} measurements to {out}")

@@ -47,13 +47,12 @@ import numpy as np
 
 from linkfea.atomic import write_text
 from linkfea.checks import did_you_mean
+from linkfea.compliance import TWIST, WRENCH
 
 from ..errors import VjmError
 from ..resources import data_file
 
 POS = ("x", "y", "z")
-WRENCH = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
-TWIST = ("dx", "dy", "dz", "rx", "ry", "rz")
 SIGMA = ("sigma_t", "sigma_r")
 STIFF = ("x", "y", "z", "quantity", "value")
 QUANTITIES = ("k_tran", "k_rot")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-WRENCH_NAMES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+from linkfea.compliance import WRENCH as WRENCH_NAMES
 
 
 def _rms(r2_sum, cnt):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import VjmError
+from ..links import LinkSpring
 
 # --------------------------------------------------------------- files
 
@@ -132,23 +133,17 @@ def nonlinear_delta(model, P, W) -> np.ndarray:
 
 
 def workspace_box(model):
-    """(lo, hi) corners of the design box, mm: ``geometry.workspace: [lo, hi]`` (a cube) if the
-    model file gives it, else the architecture's workspace box (Orthoglide: Q1 to Q2, seed Fig. 4c)."""
-    g = model.geometry
-    if "workspace" in g:
-        lo, hi = g["workspace"]
-        return np.full(3, float(lo)), np.full(3, float(hi))
-    lo, hi = model.arch.workspace
-    return np.asarray(lo, float), np.asarray(hi, float)
+    """(lo, hi) corners of the design box, mm: the model's workspace (:attr:`vjm.Model.workspace`:
+    ``geometry.workspace`` if given, else the architecture's box; Orthoglide: Q1 to Q2, seed Fig. 4c)."""
+    ws = model.workspace
+    return ws.lo.copy(), ws.hi.copy()
 
 
 # --------------------------------------------------------------- parameters
 
 
 def _link(C):
-    from ..model import Link
-
-    return Link(np.asarray(C, float), None)
+    return LinkSpring(np.asarray(C, float), None)
 
 
 def leg_is_flexible(model) -> bool:
@@ -190,9 +185,6 @@ def with_link_scale(model, s: float):
     return model.replace(**ch)
 
 
-#: architectures whose ``leg`` is one bar of a parallelogram (the effect names say "bar")
-PARALLELOGRAM = ("orthoglide-3PRPaR", "delta-3RRPaR")
-
 #: deformation modes of a link's 6-dof spring (frame x along the link): the compliance
 #: indices each mode owns (Fx..Mz order).  Bending about y couples Fz with My, about z Fy with Mz.
 MODES = {"axial": (0,), "bending_y": (2, 4), "bending_z": (1, 5), "torsion": (3,)}
@@ -200,7 +192,7 @@ MODES = {"axial": (0,), "bending_y": (2, 4), "bending_z": (1, 5), "torsion": (3,
 
 def link_label(model, key: str) -> str:
     """The word users read for the model's link ``key``: foot, leg, or bar (parallelogram legs)."""
-    if key == "leg" and model.architecture in PARALLELOGRAM:
+    if key == "leg" and model.arch.leg_bars == 2:  # one bar of a parallelogram leg
         return "bar"
     return key
 
@@ -355,26 +347,20 @@ def cantilever_compliance(axial, bending_y, bending_z, torsion, length) -> np.nd
     ``c66 = 3 c22 / L^2``, ``c26 = 3 c22 / (2L)``, ``c55 = 3 c33 / L^2``,
     ``c35 = -3 c33 / (2L)`` (signs of eq. 14: Fy turns the tip by +rz).
     """
+    from linkfea.beam import eq14
+
     L = float(length)
-    C = np.zeros((6, 6))
-    C[0, 0] = axial
-    C[3, 3] = torsion
-    C[1, 1], C[5, 5] = bending_z, 3.0 * bending_z / L**2
-    C[1, 5] = C[5, 1] = 1.5 * bending_z / L
-    C[2, 2], C[4, 4] = bending_y, 3.0 * bending_y / L**2
-    C[2, 4] = C[4, 2] = -1.5 * bending_y / L
-    return C
+    # eq. 14 with unit moduli and the section values these tip compliances stand for
+    return eq14(L, 1.0, 1.0, L / axial, L**3 / (3.0 * bending_y), L**3 / (3.0 * bending_z), L / torsion)
 
 
 def with_foot_cantilever(model, axial, bending_y, bending_z, torsion, length, floor=1e-9):
     """A foot that is a cantilever of free section (see :func:`cantilever_compliance`); rigid when
     every compliance is 0.  Compliances below ``floor`` x the actuator compliance (translations;
     divided by length^2 for torsion) are raised to it so the spring stays positive definite."""
-    from ..model import Link
-
     vals = np.array([axial, bending_y, bending_z, torsion], float)
     if not np.any(vals > 0):
-        return model.replace(foot=Link.rigid())
+        return model.replace(foot=LinkSpring.rigid())
     ct = floor / model.actuator.stiffness
     a, by, bz = (max(float(v), ct) for v in (axial, bending_y, bending_z))
     t = max(float(torsion), ct / float(length) ** 2)
@@ -394,10 +380,8 @@ def gravity_direction(model) -> np.ndarray:
 def with_foot_compliance_scale(model, s: float):
     """Foot compliance = ``s`` x the leg's compliance (rigid at s = 0): the shape simulate's old
     ``foot_compliance`` used; kept for model files and scripts that call it."""
-    from ..model import Link
-
     if s <= 0:
-        return model.replace(foot=Link.rigid())
+        return model.replace(foot=LinkSpring.rigid())
     if model.leg.compliance is None:
         raise VjmError("foot_compliance is shaped on the leg compliance, but the leg is rigid")
     return model.replace(foot=_link(model.leg.compliance * s))

@@ -25,8 +25,10 @@ import os
 import numpy as np
 
 from linkfea.checks import NON_NEGATIVE, Bounds, integer, number, optional_number
+from linkfea.compliance import WRENCH
 
 from ..errors import ArgumentError, VjmError
+from ..grid import SIMULATE_BYTES, in_chunks, plan
 from . import effects as fx
 from . import modelops as mo
 from .data import Deflections
@@ -82,37 +84,48 @@ def _read_cols(path, cols):
     return out
 
 
-def _reachable(model, P):
-    ok = np.ones(len(P), bool)
-    try:
-        q = mo.actuator_coords(model, P)
-        return np.all(np.isfinite(q), axis=1)
-    except VjmError:
-        for k in range(len(P)):
-            try:
-                ok[k] = np.all(np.isfinite(mo.actuator_coords(model, P[k:k + 1])))
-            except VjmError:
-                ok[k] = False
-    return ok
+FEWER = "use fewer postures or loads"
 
 
-def design_poses(model, spec: str, rng) -> np.ndarray:
-    lo, hi = mo.workspace_box(model)
+def grid_poses(model, n: int) -> np.ndarray:
+    """The reachable points (m, 3) of an n x n x n grid of the model's workspace (:meth:`vjm.Model.grid`), mm."""
+    plan(f"a posture grid of {n} per axis", int(n) ** 3, SIMULATE_BYTES, unit="postures", hint=FEWER)
+    P = model.grid(n).points
+    return P[model.reachable(P)]
+
+
+def random_poses(model, n: int, rng) -> np.ndarray:
+    """n uniform random reachable points (n, 3) of the model's workspace box, mm (fewer if the box
+    is mostly out of reach: 20 draws of 2n points at most)."""
+    plan(f"{n} random postures", 2 * n, SIMULATE_BYTES, unit="draws", hint=FEWER)
+    ws = model.workspace
+    P = np.empty((0, 3))
+    for _ in range(20):
+        Q = ws.random(2 * n, rng)
+        P = np.vstack([P, Q[model.reachable(Q)]])
+        if len(P) >= n:
+            break
+    return P[:n]
+
+
+def design_poses(model, spec, rng=None) -> np.ndarray:
+    """Postures (n, 3), mm: ``spec`` is ``grid:N``, ``random:N``, a CSV path with columns x,y,z, or an
+    array of points (checked reachable).  ``rng`` draws the random ones."""
+    if not isinstance(spec, (str, os.PathLike)):
+        P = np.asarray(spec, dtype=float)
+        if P.ndim != 2 or P.shape[1] != 3 or not np.all(np.isfinite(P)):
+            raise VjmError(f"postures must be a finite array (n, 3) of points in mm, got shape {P.shape}")
+        bad = ~model.reachable(P)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise VjmError(f"posture {i} ({P[i, 0]:g}, {P[i, 1]:g}, {P[i, 2]:g}) mm is unreachable")
+        return P
+    spec = os.fspath(spec)
     kind, _, arg = spec.partition(":")
     if kind == "grid":
-        n = _int(arg, spec, "poses")
-        ax = [np.linspace(lo[i], hi[i], n) for i in range(3)]
-        P = np.stack(np.meshgrid(*ax, indexing="ij"), -1).reshape(-1, 3)
-        P = P[_reachable(model, P)]
+        P = grid_poses(model, _int(arg, spec, "poses"))
     elif kind == "random":
-        n = _int(arg, spec, "poses")
-        P = np.empty((0, 3))
-        for _ in range(20):
-            Q = lo + (hi - lo) * rng.random((2 * n, 3))
-            P = np.vstack([P, Q[_reachable(model, Q)]])
-            if len(P) >= n:
-                break
-        P = P[:n]
+        P = random_poses(model, _int(arg, spec, "poses"), np.random.default_rng() if rng is None else rng)
     elif os.path.isfile(spec):
         P = _read_cols(spec, ["x", "y", "z"])
     else:
@@ -122,31 +135,55 @@ def design_poses(model, spec: str, rng) -> np.ndarray:
     return P
 
 
-def design_loads(spec: str, n_poses: int, rng) -> np.ndarray:
-    """(n_poses, k, 6) wrenches applied at each posture."""
+def axes_loads(force: float, moment: float = 0.0) -> np.ndarray:
+    """(k, 6) loads: +-force N along x, y, z, then +-moment N mm about x, y, z if moment is not 0."""
+    L = [s * force * np.eye(6)[i] for i in range(3) for s in (1, -1)]
+    if moment:
+        L += [s * moment * np.eye(6)[i] for i in range(3, 6) for s in (1, -1)]
+    return np.array(L)
+
+
+def random_loads(n_poses: int, k: int, force: float, rng) -> np.ndarray:
+    """(n_poses, k, 6) forces of magnitude ``force`` N in random directions, drawn per posture."""
+    plan(f"{k} random loads at each of {n_poses} postures", n_poses * k, SIMULATE_BYTES, unit="measurements",
+         hint=FEWER)
+    d = rng.standard_normal((n_poses, k, 3))
+    d /= np.linalg.norm(d, axis=2, keepdims=True)
+    out = np.zeros((n_poses, k, 6))
+    out[:, :, :3] = force * d
+    return out
+
+
+def design_loads(spec, n_poses: int, rng=None) -> np.ndarray:
+    """(n_poses, k, 6) wrenches applied at each posture (N, N mm): ``spec`` is ``axes:F[:M]``,
+    ``random:N:F``, a CSV path with columns Fx..Mz, or an array (k, 6) applied at every posture."""
+    if not isinstance(spec, (str, os.PathLike)):
+        L = np.asarray(spec, dtype=float)
+        if L.ndim != 2 or L.shape[1] != 6 or not np.all(np.isfinite(L)):
+            raise VjmError(f"loads must be a finite array (k, 6) of wrenches Fx..Mz (N, N mm), got shape {L.shape}")
+        return _every_posture(L, n_poses)
+    spec = os.fspath(spec)
     kind, _, arg = spec.partition(":")
     if kind == "axes":
         parts = arg.split(":")
         F = _num(parts[0], spec, "loads")
         M = _num(parts[1], spec, "loads") if len(parts) > 1 else 0.0
-        L = [s * F * np.eye(6)[i] for i in range(3) for s in (1, -1)]
-        if M:
-            L += [s * M * np.eye(6)[i] for i in range(3, 6) for s in (1, -1)]
-        return np.broadcast_to(np.array(L), (n_poses, len(L), 6)).copy()
+        return _every_posture(axes_loads(F, M), n_poses)
     if kind == "random":
         parts = arg.split(":")
         if len(parts) != 2:
             raise ArgumentError("loads", f"{spec}: expected random:N:F")
-        k, F = _int(parts[0], spec, "loads"), _num(parts[1], spec, "loads")
-        d = rng.standard_normal((n_poses, k, 3))
-        d /= np.linalg.norm(d, axis=2, keepdims=True)
-        out = np.zeros((n_poses, k, 6))
-        out[:, :, :3] = F * d
-        return out
+        return random_loads(n_poses, _int(parts[0], spec, "loads"), _num(parts[1], spec, "loads"),
+                            np.random.default_rng() if rng is None else rng)
     if os.path.isfile(spec):
-        L = _read_cols(spec, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
-        return np.broadcast_to(L, (n_poses,) + L.shape).copy()
+        return _every_posture(_read_cols(spec, list(WRENCH)), n_poses)
     raise ArgumentError("loads", f"{spec}: expected axes:F[:M], random:N:F or a CSV file with columns Fx..Mz")
+
+
+def _every_posture(L: np.ndarray, n_poses: int) -> np.ndarray:
+    plan(f"{len(L)} loads at each of {n_poses} postures", n_poses * len(L), SIMULATE_BYTES, unit="measurements",
+         hint=FEWER)
+    return np.broadcast_to(L, (n_poses,) + L.shape).copy()
 
 
 def _int(s, spec, arg):
@@ -199,9 +236,15 @@ def check_arguments(noise_t, noise_r, seed):
             integer(seed, "seed", NON_NEGATIVE, ArgumentError))
 
 
-def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: int) -> Deflections:
-    """Noisy deflections of ``model`` with hidden ``effects`` at postures P (n,3) under wrenches W (n,6)."""
+def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: int,
+             progress=None) -> Deflections:
+    """Noisy deflections of ``model`` with hidden ``effects`` at postures P (n,3) under wrenches W (n,6).
+
+    The arguments and the memory of the rows are checked first; a run longer than about a minute
+    reports through ``progress`` (a callable taking one line of text).
+    """
     noise_t, noise_r, seed = check_arguments(noise_t, noise_r, seed)
+    plan("the simulated measurements", len(P), SIMULATE_BYTES, unit="measurements", hint=FEWER)
     if not np.all(np.isfinite(W)):
         raise VjmError("loads must be finite numbers")
     if not np.any(W):
@@ -209,7 +252,13 @@ def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: 
     rng = np.random.default_rng(seed)
     mt, add = true_model(model, effects)
     U, idx = unique_postures(P)
-    C = mo.compliance_map(mt, U)[idx]
+    CU = np.empty((len(U), 6, 6))
+
+    def step(s: slice) -> None:
+        CU[s] = mo.compliance_map(mt, U[s])
+
+    in_chunks(len(U), step, progress, "postures")
+    C = CU[idx]
     t = np.einsum("nij,nj->ni", C, W)
     ctx = Context(mt, U, idx, W)
     for eff, th in add:
@@ -227,7 +276,8 @@ def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: 
     return Deflections(np.asarray(P, float), np.asarray(W, float), T, st, sr, np.arange(2, n + 2), "<simulated>")
 
 
-def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_r, seed: int, out) -> Deflections:
+def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_r, seed: int, out,
+        progress=None) -> Deflections:
     """Body of ``vjm simulate``: check ``out``, design, simulate, write the CSV atomically.
 
     An existing ``out`` is replaced only if vjm simulate wrote it (measured data is never overwritten).
@@ -244,10 +294,10 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
     if _same_file(poses, loads):
         # one file with x,y,z,Fx..Mz (e.g. next_measurements.csv of vjm diagnose --suggest): paired rows
         P = _read_cols(poses, ["x", "y", "z"])
-        W = _read_cols(loads, ["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
+        W = _read_cols(loads, list(WRENCH))
         if len(P) == 0:
             raise ArgumentError("poses", f"{poses}: no data rows")
-        bad = ~_reachable(model, P)
+        bad = ~model.reachable(P)
         if bad.any():
             raise VjmError(f"{os.path.basename(poses)}: row {int(np.argmax(bad)) + 2}, columns 'x,y,z': posture "
                            f"({P[bad][0, 0]:g}, {P[bad][0, 1]:g}, {P[bad][0, 2]:g}) mm is unreachable")
@@ -257,7 +307,7 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
         k = L.shape[1]
         P = np.repeat(P0, k, axis=0)
         W = L.reshape(-1, 6)
-    data = simulate(model, effects, P, W, noise_t, noise_r, seed)
+    data = simulate(model, effects, P, W, noise_t, noise_r, seed, progress)
     desc = ", ".join(f"{n}:" + ",".join(f"{a}={b:g}" for a, b in v.items()) for n, v in effects) or "none"
     write_deflections(out, data, f"{SIMULATED_CSV_MARK[2:]} from {os.path.basename(str(model_path))}; "
                                  f"poses {poses}; loads {loads}; noise_t {noise_t} mm; noise_r {noise_r} rad; "
