@@ -15,7 +15,7 @@ import pytest
 import vjm
 from vjm.discrepancy import effects as fx
 from vjm.discrepancy import modelops as mo
-from vjm.model import Link
+from vjm.links import LinkSpring as Link
 
 FULL = vjm.load_model("data/orthoglide/puu.yaml")
 

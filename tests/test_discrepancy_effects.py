@@ -25,7 +25,7 @@ import vjm
 from vjm.discrepancy import effects as fx
 from vjm.discrepancy.diagnose import diagnose
 from vjm.discrepancy.simulate import design_loads, simulate
-from vjm.model import Link
+from vjm.links import LinkSpring as Link
 
 MODEL = vjm.load_model("data/orthoglide/puu.yaml").replace(foot=Link.rigid())
 _rng = np.random.default_rng(0)

@@ -17,7 +17,7 @@ from vjm.discrepancy.data import Deflections, read_csv
 from vjm.discrepancy.diagnose import diagnose, run, write_diagnosis
 from vjm.discrepancy.simulate import design_loads, simulate
 from vjm.errors import VjmError
-from vjm.model import Link
+from vjm.links import LinkSpring as Link
 
 PUU = "data/orthoglide/puu.yaml"
 MODEL = vjm.load_model(PUU).replace(foot=Link.rigid())

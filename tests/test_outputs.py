@@ -132,7 +132,7 @@ def diagnosis():
     import vjm
     from vjm.discrepancy.diagnose import diagnose
     from vjm.discrepancy.simulate import design_loads, simulate
-    from vjm.model import Link
+    from vjm.links import LinkSpring as Link
 
     model = vjm.load_model(PUU).replace(foot=Link.rigid())
     rng = np.random.default_rng(0)

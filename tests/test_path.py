@@ -145,7 +145,7 @@ def test_rigid_links_closed_form_of_the_actuators(tmp_path):
     tests/truth.py's closed-form inverse kinematics (tau = J^-T F, dq = c_a tau, dp = J^-1 dq), at random
     points of the workspace; the leg's residual compliance is < 1e-6 of the actuators' (its bending too)."""
     m0 = vjm.load_model(PUU)
-    m = m0.replace(foot=vjm.Link.rigid(), leg=vjm.Link.inline(m0.leg.compliance * 1e-9))
+    m = m0.replace(foot=vjm.LinkSpring.rigid(), leg=vjm.LinkSpring.inline(m0.leg.compliance * 1e-9))
     rng = np.random.default_rng(9)
     P = tr.postures(10, rng)
     W = np.hstack([rng.normal(0, 100, (10, 3)), np.zeros((10, 3))])

@@ -7,7 +7,8 @@ import yaml
 
 import vjm
 from vjm import VjmError
-from vjm.model import Actuator, Joints, Link
+from vjm.links import LinkSpring as Link
+from vjm.model import Actuator, Joints
 
 PUU = "data/orthoglide/puu.yaml"
 PRPAR = "data/orthoglide/prpar.yaml"
