@@ -250,6 +250,11 @@ CASES = [
     Case("18.8", "vjm stiffness m.yaml --at 0,0,0", "attribute access .__class__ is not allowed",
          {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "Tx(R.__class__), Tz(q0) actuated")},
          "linear_delta.yaml, first element Tx(R.__class__)"),
+    # vjm path: options and toolpaths
+    Case("22", "vjm path {puu} pocket.nc --out o --chord-tol -1", "--chord-tol and --step must be numbers > 0 (mm)"),
+    Case("22", "vjm path {puu} pocket.nc --out o --tolerance nan", "--tolerance must be a number > 0 (mm), got nan"),
+    Case("22", "vjm path {puu} p.nc --out o --wrench 10,0,0,0,0,0", "line 3",
+         {"p.nc": "G21 G90\nG0 X0 Y0 Z0\nG1 X5 Q3\n"}, "a G-code line with an unknown word Q"),
 ]
 
 

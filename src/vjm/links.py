@@ -87,7 +87,7 @@ def read_linkfea(path: str, key: str = "linkfea") -> Compliance:
     try:
         return read_compliance(path)
     except LinkFeaError as exc:
-        raise VjmError(f"{key}: cannot read {path}: {exc}") from None
+        raise VjmError(f"{key}: {exc}") from None  # linkfea names the file
 
 
 def deprecated_link():
