@@ -1,4 +1,5 @@
-"""Command functions ``diagnose`` and ``simulate``, registered on the ``vjm`` typer app.
+"""Command functions ``diagnose`` and ``simulate``, registered on the ``vjm`` typer app, and :func:`run`,
+the body of ``vjm diagnose``.
 
 ``register(app)`` adds both commands; errors (VjmError) become one line on
 stderr and exit status 2, like the other ``vjm`` commands.
@@ -12,6 +13,16 @@ from typing import List, Optional
 import typer
 
 from ..errors import one_line, user_errors
+
+
+def run(model_path, data_path, out_dir, **kw):
+    """Load, diagnose and write: the body of ``vjm diagnose``; returns the Diagnosis."""
+    from .diagnosis import write_diagnosis
+    from .workflow import diagnose
+
+    dg = diagnose(model_path, data_path, **kw)
+    write_diagnosis(dg, out_dir)
+    return dg
 
 
 def _fail(exc: Exception):
@@ -31,8 +42,6 @@ def diagnose_cmd(
     forces_only: bool = typer.Option(False, "--forces-only", help="suggest force loads only (no torques)"),
 ):
     """Name the physical effect missing from MODEL that the measurements in DATA reveal."""
-    from .diagnose import run
-
     try:
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
                  log=(lambda s: typer.echo(s, err=True)) if verbose else None,
