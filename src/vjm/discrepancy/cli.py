@@ -48,7 +48,7 @@ def diagnose_cmd(
                  suggest=suggest, forces_only=forces_only)
     except user_errors() as exc:
         _fail(exc)
-    typer.echo(dg.report["summary"])
+    typer.echo(dg.report.summary)
     typer.echo(f"Report: {Path(out) / 'report.html'}")
     if suggest:
         typer.echo(f"Next measurements: {Path(out) / 'next_measurements.csv'}")
