@@ -45,26 +45,16 @@ def diagnose(model, data, **options):
     model : a :class:`Model`, the path of a model file or a bundled model name ("puu").
     data : measurements (``vjm.discrepancy.data.Deflections`` / ``StiffnessObs``) or a CSV path.
     options : ``alpha``, ``effects``, ``suggest``, ``forces_only``, ... of
-        :func:`vjm.discrepancy.diagnose.diagnose`.
+        :func:`vjm.discrepancy.workflow.diagnose`.
 
     Returns
     -------
-    vjm.discrepancy.diagnose.Diagnosis
+    vjm.discrepancy.diagnosis.Diagnosis
         ``.verdict``, ``.named``, ``.confounded``, ``.summary()``, ``.updated_model``, ``.save(dir)``.
 
     >>> d = vjm.diagnose("data/orthoglide/puu.yaml", "measurements.csv")   # doctest: +SKIP
     >>> d.verdict, d.named                                                  # doctest: +SKIP
     """
-    import os
+    from .discrepancy.workflow import diagnose as _diagnose
 
-    from .discrepancy.data import read_csv
-    from .discrepancy.diagnose import diagnose as _diagnose
-
-    name = "<model>"
-    if isinstance(model, (str, os.PathLike)):
-        name = os.path.basename(os.fspath(model))
-        model = load_model(model)
-    if isinstance(data, (str, os.PathLike)):
-        data = read_csv(data)
-    options.setdefault("model_name", name)
     return _diagnose(model, data, **options)

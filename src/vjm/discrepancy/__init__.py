@@ -2,6 +2,7 @@
 name the missing physical effect from a library, fit it, and report.
 
 Modules: ``data`` (CSV in/out), ``effects`` (the effect registry),
-``fit.select`` (statistics), ``predict`` (batched predictions), ``diagnose``
-(the workflow), ``simulate``, ``report`` (JSON/HTML/PNG), ``cli``.
+``fit.select`` (statistics), ``predict`` (batched predictions), ``workflow``
+(the workflow) running the typed ``stages``, ``diagnosis`` (the result),
+``diagnose`` (the public names), ``simulate``, ``report`` (JSON/HTML/PNG), ``cli``.
 """

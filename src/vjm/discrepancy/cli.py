@@ -1,4 +1,5 @@
-"""Command functions ``diagnose`` and ``simulate``, registered on the ``vjm`` typer app.
+"""Command functions ``diagnose`` and ``simulate``, registered on the ``vjm`` typer app, and :func:`run`,
+the body of ``vjm diagnose``.
 
 ``register(app)`` adds both commands; errors (VjmError) become one line on
 stderr and exit status 2, like the other ``vjm`` commands.
@@ -12,6 +13,20 @@ from typing import List, Optional
 import typer
 
 from ..errors import one_line, user_errors
+
+
+def run(model_path, data_path, out_dir, force: bool = False, **kw):
+    """Check the arguments and the output folder, load, diagnose and write: the body of ``vjm diagnose``;
+    returns the Diagnosis."""
+    from .diagnosis import write_diagnosis
+    from .report import check_report_dir
+    from .workflow import check_arguments, diagnose
+
+    check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")})
+    check_report_dir(out_dir, force)
+    dg = diagnose(model_path, data_path, **kw)
+    write_diagnosis(dg, out_dir, force=force)
+    return dg
 
 
 def _fail(exc: Exception):
@@ -33,15 +48,13 @@ def diagnose_cmd(
                                                       "never overwritten or deleted)"),
 ):
     """Name the physical effect missing from MODEL that the measurements in DATA reveal."""
-    from .diagnose import run
-
     try:
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
                  log=(lambda s: typer.echo(s, err=True)) if verbose else None,
                  suggest=suggest, forces_only=forces_only, force=force)
     except user_errors() as exc:
         _fail(exc)
-    typer.echo(dg.report["summary"])
+    typer.echo(dg.report.summary)
     typer.echo(f"Report: {Path(out) / 'report.html'}")
     if suggest:
         typer.echo(f"Next measurements: {Path(out) / 'next_measurements.csv'}")

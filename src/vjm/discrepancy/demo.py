@@ -11,7 +11,7 @@ import os
 import sys
 
 from ..resources import data_dir
-from . import diagnose as dg
+from . import cli
 from . import simulate as sim
 
 MODEL = str(data_dir() / "orthoglide" / "puu.yaml")
@@ -24,11 +24,11 @@ def main(out="out/diagnose", model=None):
     hidden = "clearance:backlash=0.003"
     sim.run(model, [hidden], "random:30", "axes:100", 0.001, None, 1, csv)
     print(f"simulated 30 postures x 6 loads of the 3-PUU with a hidden effect ({hidden}), 1 um noise -> {csv}")
-    d = dg.run(model, csv, os.path.join(out, "report"))
-    print(d.report["summary"])
-    found = d.report["named_effects"] == ["clearance"]
-    print(f"hidden effect {'found' if found else 'NOT found'}; gap RMS {d.report['rms_before'] * 1e3:.2f} um -> "
-          f"{d.report['rms_after'] * 1e3:.2f} um; report: {os.path.join(out, 'report', 'report.html')}")
+    d = cli.run(model, csv, os.path.join(out, "report"))
+    print(d.report.summary)
+    found = d.report.named_effects == ["clearance"]
+    print(f"hidden effect {'found' if found else 'NOT found'}; gap RMS {d.report.rms_before * 1e3:.2f} um -> "
+          f"{d.report.rms_after * 1e3:.2f} um; report: {os.path.join(out, 'report', 'report.html')}")
     return 0 if found else 1
 
 

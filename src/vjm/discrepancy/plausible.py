@@ -27,16 +27,6 @@ from .predict import unique_postures
 UNITS_FACTOR = 10.0
 
 
-def usable_data(model, data):
-    """``(data, U, idx, q)``: the rows for the model's architecture (stiffness tables), every posture
-    reachable (``U`` unique postures, ``idx`` each row's, ``q`` actuator coordinates), in plausible units."""
-    if isinstance(data, StiffnessObs):
-        data = rows_for_architecture(data, model)
-    U, idx, q = check_reachable(model, data)
-    check_units(model, data, U, idx)
-    return data, U, idx, q
-
-
 def check_reachable(model, data):
     """Unique postures, index; raises naming the first unreachable row."""
     U, idx = unique_postures(data.P)
@@ -57,23 +47,6 @@ def check_reachable(model, data):
                 raise VjmError(f"{os.path.basename(data.source)}: row {row}, columns 'x,y,z': {why}") from None
         raise VjmError(f"{os.path.basename(data.source)}: a posture is unreachable")
     return U, idx, q
-
-
-def rows_for_architecture(data: StiffnessObs, model) -> StiffnessObs:
-    """Keep the rows of a stiffness table whose ``architecture`` column names the model's (if any)."""
-    arch = data.extra.get("architecture")
-    if arch is None:
-        return data
-    keep = np.array([a.strip() == model.architecture for a in arch])
-    if not keep.any():
-        raise VjmError(f"{os.path.basename(data.source)}: column 'architecture': no row for "
-                       f"{model.architecture} (found {', '.join(sorted(set(arch)))})")
-    ex = {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.extra.items()}
-    return StiffnessObs(data.P[keep], data.quantity[keep], data.value[keep],
-                        None if data.sigma_rel is None else data.sigma_rel[keep],
-                        None if data.rows is None else data.rows[keep], data.source, ex)
-
-
 
 
 def _scale(T, T0):

@@ -1,4 +1,5 @@
-"""The diagnosis in words and tables: the verdict line and a statsmodels-like Summary.
+"""The diagnosis in words and tables: the verdict line, the one-paragraph ``summary(report)``
+and a statsmodels-like Summary.
 
 ``Summary(report)`` prints as fixed-width text (``str()``) and renders as an
 HTML table set (``as_html()``, ``_repr_html_`` for notebooks); both come
@@ -7,6 +8,7 @@ from the same rows, so they cannot disagree.
 from __future__ import annotations
 
 import html
+from collections.abc import Mapping
 
 Z95 = 1.959963984540054
 
@@ -59,7 +61,7 @@ def _f(v, fmt="{:.4g}"):
 class Summary:
     """Tables of a diagnosis: header (verdict, fit, data), named effects, candidates, warnings."""
 
-    def __init__(self, report: dict):
+    def __init__(self, report: Mapping):
         self.report = report
 
     def tables(self) -> list:
@@ -131,3 +133,31 @@ class Summary:
 
     def _repr_html_(self) -> str:
         return self.as_html()
+
+
+def summary(rep) -> str:
+    """The one-paragraph terminal summary of a report (``vjm diagnose`` prints it; report.json holds it)."""
+    cal = rep["calibration"]
+    cal_s = ", ".join(f"{k} {v['value']:.3g} +- {Z95 * v['se']:.2g}" for k, v in cal.items())
+    parts = [verdict_line(rep)]
+    for nm in rep["named_effects"]:
+        c = rep["candidates"][nm]
+        ps = ", ".join(f"{k} = {v['value']:.4g} +- {Z95 * v['se']:.2g} {v['unit']}" for k, v in c["final_params"].items())
+        parts.append(f"{nm}: {ps} (round dBIC {c['round_delta_bic']:.1f}, p = {c['round_p_value']:.2g}).")
+    for why in rep.get("dropped", {}).values():
+        parts.append(why + ".")
+    for d in rep.get("confounding", []):
+        parts.append(d["why"] + ".")
+    parts += [a + "." for a in alternative_lines(rep)]
+    if rep["verdict"] == "unexplained":
+        parts.append(f"Where the remaining gap is: {rep['localization_after']['summary']}.")
+    for f in rep.get("flags", []):
+        parts.append(f"Warning: {f}.")
+    if rep.get("unobservable"):
+        parts.append("Not observable on this data (not fitted): " + ", ".join(rep["unobservable"]) + ".")
+    return (" ".join(parts[:1]) + f" {rep['n_observations']} observations at {rep['n_postures']} postures "
+            f"({rep['data_kind']} data, sigma {rep['sigma_source']}); baseline calibration: {cal_s}. "
+            + " ".join(parts[1:]) +
+            f" RMS {rep['rms_nominal']:.3g} (nominal) -> {rep['rms_before']:.3g} (calibrated) -> {rep['rms_after']:.3g} "
+            f"{rep['rms_units']}; reduced chi2 {rep['chi2_nominal']:.3g} -> {rep['chi2_before']:.3g} -> "
+            f"{rep['chi2_after']:.3g}. Gap before naming: {rep['localization']['summary']}.")

@@ -1,0 +1,208 @@
+"""The data kinds as strategy objects: what differs between deflections and stiffness observations.
+
+:class:`DeflectionKind` (``x,y,z,Fx..Mz,dx..rz``: twists under loads) and
+:class:`StiffnessKind` (``x,y,z,quantity,value``: k_tran, k_rot per posture)
+answer the same questions for the stages: which rows apply, the loads, the
+weights and residual problem, the groups of repeats, the residuals in physical
+units and where the gap is, and the scales a suggested design needs.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...errors import VjmError
+from .. import modelops as mo
+from ..data import StiffnessObs
+from ..locate import localize
+from ..predict import deflection_problem, stiffness_problem
+from .norms import per_pose, rms, robust_scale
+
+
+@dataclass(frozen=True)
+class Weights:
+    """The standard deviations of the observations and where they come from.
+
+    ``sig_t``/``sig_r`` (deflections, mm and rad per row) or ``sig_rel`` (stiffness, relative);
+    with ``sigma_known`` False they are relative weights and the common variance is fitted."""
+
+    sigma_known: bool
+    source: str
+    sig_t: np.ndarray | None = None
+    sig_r: np.ndarray | None = None
+    sig_rel: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Located:
+    """Residuals in the data's units (RMS nominal / calibrated / final) and where the gap is."""
+
+    rms_nominal: float
+    rms_before: float
+    rms_after: float
+    units: str
+    before: dict  # localize() of the calibrated baseline's normalized residuals
+    after: dict  # ... of the final model's
+    per_before: np.ndarray  # (m,) normalized RMS per unique posture
+    per_after: np.ndarray
+
+
+def _size_error(data, columns, what, n_obs, k_max):
+    return VjmError(f"{os.path.basename(data.source)}: rows {int(data.rows[0])}-{int(data.rows[-1])}, "
+                    f"{columns}: {n_obs} {what} are fewer than the {k_max + 1} needed to fit "
+                    f"the {k_max} parameters of the baseline plus one effect")
+
+
+class DeflectionKind:
+    """Twists measured under applied wrenches (some components may be missing)."""
+
+    name = "deflection"
+
+    def rows(self, data, model):
+        return data
+
+    def wrenches(self, data) -> np.ndarray:
+        return data.W
+
+    def noise_t(self, data, model, U, idx, W) -> float:
+        """Typical translation noise (mm): the file's sigma_t, else the nominal model's residual scatter."""
+        if data.sigma_t is not None:
+            return float(np.median(data.sigma_t))
+        r0 = data.T[:, :3] - np.einsum("nij,nj->ni", mo.compliance_map(model, U)[idx][:, :3], W)
+        return robust_scale(r0)
+
+    def check_size(self, data, k_max) -> None:
+        n_obs = int(data.mask.sum())
+        if n_obs <= k_max:
+            raise _size_error(data, "columns dx..rz", "measured values", n_obs, k_max)
+
+    def weights(self, data, pred) -> Weights:
+        has_t = data.mask[:, :3].any()
+        has_r = data.mask[:, 3:].any()
+        if data.sigma_t is not None and (data.sigma_r is not None or not has_r):
+            sig_r = data.sigma_r if data.sigma_r is not None else np.ones(data.n)
+            return Weights(True, "from the file (sigma_t, sigma_r)", data.sigma_t, sig_r)
+        # relative weights of translations and rotations from the nominal model's residual scatter;
+        # the common variance is then a nuisance parameter (F test, BIC with unknown variance)
+        r0 = data.T - pred.twists((), np.zeros(0))
+        st = data.sigma_t if data.sigma_t is not None else np.full(data.n, robust_scale(r0[:, :3]) if has_t else 1.0)
+        sr = data.sigma_r if data.sigma_r is not None else np.full(data.n, robust_scale(r0[:, 3:]) if has_r else 1.0)
+        return Weights(False, "estimated from the residuals (F test)", st, sr)
+
+    def problem(self, pred, data, w: Weights, cands):
+        return deflection_problem(pred, data, w.sig_t, w.sig_r, w.sigma_known, cands)
+
+    def repeat_groups(self, data) -> np.ndarray:
+        """Group id of each observation: same posture, same load, same component."""
+        key = np.hstack([np.round(data.P, 6), np.round(data.W, 9)])
+        _, g = np.unique(key, axis=0, return_inverse=True)
+        mask = data.mask
+        comp = np.broadcast_to(np.arange(6), mask.shape)[mask]
+        return np.broadcast_to(g.reshape(-1, 1), mask.shape)[mask] * 6 + comp
+
+    def sigmas(self, w: Weights, s2) -> np.ndarray:
+        """(n, 6) standard deviation of each component (the fitted common scale included)."""
+        return np.where(np.arange(6) < 3, w.sig_t[:, None], w.sig_r[:, None]) * np.sqrt(s2)
+
+    def locate(self, data, pred, prob, w: Weights, s2, base, final, U, idx, q) -> Located:
+        mask = data.mask
+        sigm = self.sigmas(w, s2)
+
+        def phys(names, theta):
+            return data.T - pred.twists(names, theta)
+
+        res_nom, res_base, res_fin = phys((), np.zeros(0)), phys(base.names, base.theta), phys(final.names, final.theta)
+        tr = mask[:, :3].any()
+        comp = slice(0, 3) if tr else slice(3, 6)
+
+        def rms_of(r):
+            return rms(np.where(mask[:, comp], r[:, comp], np.nan))
+
+        rn_base = np.where(mask, res_base / sigm, np.nan)
+        rn_fin = np.where(mask, res_fin / sigm, np.nan)
+        W = data.W
+        return Located(rms_of(res_nom), rms_of(res_base), rms_of(res_fin),
+                       "mm (translations)" if tr else "rad (rotations)",
+                       localize(U, W, rn_base, mask, idx, q), localize(U, W, rn_fin, mask, idx, q),
+                       per_pose(rn_base, mask, idx, len(U)), per_pose(rn_fin, mask, idx, len(U)))
+
+    def design_scales(self, data, w: Weights, s2) -> tuple:
+        """(measured components, their sigmas per row (inf where not measured), typical sigma of each)."""
+        mask = data.mask
+        sigm = self.sigmas(w, s2)
+        mcomp = np.flatnonzero(mask.any(axis=0))
+        return mcomp, np.where(mask, sigm, np.inf)[:, mcomp], np.median(sigm[:, mcomp], axis=0)
+
+
+class StiffnessKind:
+    """k_tran / k_rot observed per posture (no loads); residuals are ln(predicted / observed)."""
+
+    name = "stiffness"
+
+    def rows(self, data, model) -> StiffnessObs:
+        """The rows whose ``architecture`` column names the model's (all rows without that column)."""
+        arch = data.extra.get("architecture")
+        if arch is None:
+            return data
+        keep = np.array([a.strip() == model.architecture for a in arch])
+        if not keep.any():
+            raise VjmError(f"{os.path.basename(data.source)}: column 'architecture': no row for "
+                           f"{model.architecture} (found {', '.join(sorted(set(arch)))})")
+        ex = {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.extra.items()}
+        return StiffnessObs(data.P[keep], data.quantity[keep], data.value[keep],
+                            None if data.sigma_rel is None else data.sigma_rel[keep],
+                            None if data.rows is None else data.rows[keep], data.source, ex)
+
+    def wrenches(self, data) -> np.ndarray:
+        return np.zeros((data.n, 6))
+
+    def noise_t(self, data, model, U, idx, W) -> None:
+        return None
+
+    def check_size(self, data, k_max) -> None:
+        if data.n <= k_max:
+            raise _size_error(data, "column 'value'", "observations", data.n, k_max)
+
+    def weights(self, data, pred) -> Weights:
+        known = data.sigma_rel is not None
+        return Weights(known, "from the file (sigma_rel)" if known else "estimated from the residuals (F test)",
+                       sig_rel=data.sigma_rel if known else np.ones(data.n))
+
+    def problem(self, pred, data, w: Weights, cands):
+        return stiffness_problem(pred, data, w.sig_rel, w.sigma_known)
+
+    def repeat_groups(self, data) -> np.ndarray:
+        """Group id of each observation: same posture, same quantity."""
+        key = np.hstack([np.round(data.P, 6), data.quantity[:, None]])
+        _, grp = np.unique(key, axis=0, return_inverse=True)
+        return grp
+
+    def locate(self, data, pred, prob, w: Weights, s2, base, final, U, idx, q) -> Located:
+        s = np.sqrt(s2)
+        sig_rel = w.sig_rel
+        r_nom = prob.residuals((), np.zeros(0))
+        rw_b = prob.residuals(base.names, base.theta)  # ln(pred/obs) / sigma_rel
+        rw_f = prob.residuals(final.names, final.theta)
+        m1 = np.ones((data.n, 1), bool)
+        W = np.zeros((data.n, 6))
+        before = localize(U, W, (rw_b / s)[:, None], m1, idx, q)
+        before["by_quantity"] = {qn: rms(rw_b[data.quantity == i] * sig_rel[data.quantity == i])
+                                 for i, qn in enumerate(("k_tran", "k_rot")) if np.any(data.quantity == i)}
+        return Located(rms(r_nom * sig_rel), rms(rw_b * sig_rel), rms(rw_f * sig_rel),
+                       "relative (ln of predicted/observed)", before, localize(U, W, (rw_f / s)[:, None], m1, idx, q),
+                       per_pose((rw_b / s)[:, None], m1, idx, len(U)), per_pose((rw_f / s)[:, None], m1, idx, len(U)))
+
+    def design_scales(self, data, w: Weights, s2) -> tuple:
+        raise VjmError("--suggest needs deflection data (x,y,z,Fx..Mz,dx..rz): stiffness observations "
+                       "have no loads to design")
+
+
+#: the strategy of a data kind
+DataKind = DeflectionKind | StiffnessKind
+
+
+def kind_of(data) -> DataKind:
+    """The strategy of a data set read by :func:`~vjm.discrepancy.data.read_csv`."""
+    return StiffnessKind() if isinstance(data, StiffnessObs) else DeflectionKind()

@@ -1,0 +1,69 @@
+"""Stage 8: the verdict and the warnings that go with it."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .. import observe
+from ..fit.select import Z95, clipped
+from ..plausible import workspace_flags
+from ..predict import CALIBRATION
+from .calibrate import Calibration
+from .goodness import Goodness
+from .problem import Setup
+from .select import Selected
+from .thresholds import COLLINEAR, PLAUSIBLE
+
+
+@dataclass(frozen=True)
+class Verdict:
+    verdict: str  # "no_discrepancy", "explained" or "unexplained"
+    flags: list  # warnings, one sentence each
+
+
+def fit_flags(prob, sel, final) -> list:
+    """Warnings: calibration at a bound or far from nominal, fits that did not converge or were clipped."""
+    flags = []
+    vals = final.values(prob)[CALIBRATION]
+    at = set(clipped(prob, final, CALIBRATION))
+    for k, v in vals.items():
+        if k in at:
+            flags.append(f"calibration {k} = {v['value']:.3g} is at a bound of its range: the calibration is "
+                         "absorbing something it should not (a missing effect or a wrong model)")
+        elif not (PLAUSIBLE[0] <= v["value"] <= PLAUSIBLE[1]):
+            flags.append(f"calibration {k} = {v['value']:.3g} +- {Z95 * v['se']:.2g} is implausibly far from nominal "
+                         f"(outside {PLAUSIBLE[0]}-{PLAUSIBLE[1]}x): check the model or a missing effect it absorbs")
+    for r, info in enumerate(sel.rounds):
+        for nm, d in info.items():
+            if not d["converged"]:
+                flags.append(f"round {r + 1}: the fit of {nm} did not converge ({d['fit'].message}); not named")
+            elif d["clipped"] and d["p_value"] < d["threshold"]:
+                flags.append(f"round {r + 1}: {nm} ended with {', '.join(d['clipped'])} on a bound of its range; "
+                             "not named (the effect's shape or range does not fit the data)")
+    return flags
+
+
+def calibration_flags(prob, cal: Calibration) -> list:
+    """Warnings: calibration factors held at nominal, and pairs of factors the data cannot tell apart."""
+    free = [p.name for p in prob.terms[CALIBRATION].params]
+    flags = [f"calibration {k} held at {v:g}: on this data it cannot be told apart from {', '.join(free)}"
+             for k, v in cal.held.items()]
+    for i in range(len(free)):
+        for j in range(i + 1, len(free)):
+            c = observe.canonical_correlation(cal.cols[:, [i]], cal.cols[:, [j]])
+            if c >= COLLINEAR:
+                flags.append(f"calibration {free[i]} and {free[j]} cannot be told apart on this data "
+                             f"(correlation {c:.3f}): their values are not to be trusted separately")
+    return flags
+
+
+def verdict(s: Setup, cal: Calibration, chosen: Selected, fit: Goodness) -> Verdict:
+    """Stage 8: "unexplained" when the final model still lacks fit, else "explained" if something is named."""
+    sel = chosen.sel
+    flags = fit_flags(s.prob, sel, sel.final) + workspace_flags(s.model, s.data) + calibration_flags(s.prob, cal)
+    if fit.lack_of_fit["significant"]:
+        v = "unexplained"
+    elif sel.selected:
+        v = "explained"
+    else:
+        v = "no_discrepancy"
+    return Verdict(v, flags)

@@ -1,0 +1,82 @@
+"""The discrepancy workflow: calibrate, locate, name, add, show.
+
+:func:`diagnose` runs the stages of :mod:`vjm.discrepancy.stages` in turn on a
+model and a data set and returns a :class:`~vjm.discrepancy.diagnosis.Diagnosis`.
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+
+from linkfea.checks import Bounds, integer, number
+
+from ..errors import ArgumentError
+from . import covariance
+from .data import read_csv
+from .diagnosis import Diagnosis
+from .modelops import load_model
+from .stages.calibrate import calibrate
+from .stages.candidates import candidates
+from .stages.confounding import confounding
+from .stages.design import next_measurements
+from .stages.goodness import goodness
+from .stages.kinds import kind_of
+from .stages.locate import locate
+from .stages.observability import observability
+from .stages.problem import build_problem
+from .stages.record import build_report
+from .stages.select import select
+from .stages.thresholds import DEFAULT_ALPHA
+from .stages.update import updated_model
+from .stages.verdict import verdict
+from .summary import summary
+
+#: valid ranges of diagnose's numeric arguments: a level of 0 or 1 makes every test pass or fail
+ALPHA = Bounds(0, 1, lo_open=True, hi_open=True)
+FOLDS = Bounds(2)
+MAX_EFFECTS = Bounds(1)
+SUGGEST = Bounds(0)
+
+
+def check_arguments(alpha=DEFAULT_ALPHA, folds=5, max_effects=3, suggest=0):
+    """The numeric arguments of :func:`diagnose`, checked (type, finiteness, range): ArgumentError naming one."""
+    return (number(alpha, "alpha", ALPHA, ArgumentError), integer(folds, "folds", FOLDS, ArgumentError),
+            integer(max_effects, "max_effects", MAX_EFFECTS, ArgumentError),
+            integer(suggest, "suggest", SUGGEST, ArgumentError))
+
+
+def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int = 5, max_effects: int = 3,
+             model_name: str | None = None, log=None, suggest: int = 0, forces_only: bool = False) -> Diagnosis:
+    """Run the workflow on a model (loaded, or a YAML path) and a data set (:func:`read_csv` output, or a path).
+
+    Parameters
+    ----------
+    alpha : family-wise significance level of each selection round.
+    effects : candidate names (default: the whole registry).
+    model_name : the model's name in the report (default: the file name of a path, else "<model>").
+    suggest : number of (posture, load) rows to suggest measuring next (0: none).
+    forces_only : suggest force loads only (a rig that cannot apply torques).
+    """
+    alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
+    if isinstance(model, (str, os.PathLike)):
+        model_name = model_name or os.path.basename(os.fspath(model))
+        model = load_model(model)
+    if isinstance(data, (str, os.PathLike)):
+        data = read_csv(data)
+    s = build_problem(model, data, kind_of(data), effects)
+    cal = calibrate(s, log)
+    obs = observability(s, cal, log)
+    chosen = select(s, cal, obs, alpha, max_effects, folds, log)
+    fit = goodness(s, obs, chosen, alpha)
+    loc = locate(s, chosen, fit)
+    table = candidates(s, obs, chosen)
+    conf = confounding(s.prob, chosen.sel, obs.sens, cal.cols, table.entries, alpha, chosen.rivals)
+    rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, verdict(s, cal, chosen, fit),
+                       model_name=model_name or "<model>", alpha=alpha, folds=folds)
+    rows = None
+    if suggest:
+        sg, rep = next_measurements(s, chosen, fit, rep, suggest, forces_only)
+        rows = sg.rows
+    rep = dataclasses.replace(rep, summary=summary(rep))
+    return Diagnosis(rep, updated_model(s, chosen), s.U, loc.per_before, loc.per_after, rows,
+                     covariance.record(s.prob, s.pred, chosen.sel.final))
