@@ -3,11 +3,11 @@
 The tests hold one representative noise draw per case; this script runs the same checks over
 many draws and reports how often they hold, with Clopper-Pearson 95 % intervals:
 
-* ``clean``: tests/test_discrepancy_workflow.py's clean data (the 3-PUU with a rigid foot,
+* ``clean``: tests/discrepancy/test_discrepancy_workflow.py's clean data (the 3-PUU with a rigid foot,
   30 random postures x 6 axis loads of 100 N, 1 um noise, simulated by vjm.discrepancy) over
   ``--seeds`` draws from seed 100: how many name an effect (a false alarm).  At alpha = 0.01
   family-wise per round, about 1 % are expected.
-* ``effects``: tests/test_discrepancy_effects.py's ``check_hidden_effect`` (each effect of
+* ``effects``: tests/discrepancy/test_discrepancy_effects.py's ``check_hidden_effect`` (each effect of
   ``TRUTH`` hidden: named alone, verdict explained, every parameter within 3 standard errors,
   reduced chi2 <= 1.5, RMS reduced) over ``--seeds`` draws from seed 0, per effect.  The 3-se
   check alone fails in 0.27 % of draws per parameter by design.
