@@ -51,7 +51,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(
 import truth as tr
 
 ALPHA = 0.01
-#: noise-free chi-square at or below which nothing can see an effect (tests/test_diagnose_truth.py)
+#: noise-free chi-square at or below which nothing can see an effect (tests/discrepancy/test_diagnose_truth.py)
 CHI2_UNSEEN = 1.0
 #: the power ladder starts where an effect's signature adds this chi-square to the model given ...
 START_CHI2 = 100.0

@@ -7,7 +7,7 @@ scikit-fem's ``ElementTetP2``, VTK's ``QUADRATIC_TETRA`` and CalculiX's C3D10 al
 Global numbering: P2 node ``n`` is vertex ``n`` for ``n < n_vertices``, then one node per
 unique mesh edge; degree of freedom ``3 n + c`` is component ``c`` (CAD axes) of node ``n``.
 :func:`assemble_upper` is an exact, vectorized form of scikit-fem's ``linear_elasticity`` on
-``ElementTetP2`` (tests/test_fem_assembly.py checks it against ``skfem.asm``).
+``ElementTetP2`` (tests/linkfea/test_fem_assembly.py checks it against ``skfem.asm``).
 
 Units: N, mm, MPa.
 """

@@ -113,6 +113,13 @@ class Kinematics:
         """Per chain, the full Jacobian (n, 6, n_vars) (eq. 3-5): world axes at the end-effector point."""
         return tuple(jacobian(ch, v)[1] for ch, v in zip(self.chains, self.values))
 
+    @cached_property
+    def stiffness_memo(self) -> tuple[dict, ...]:
+        """Per chain, a dict for the geometric part of the chain stiffness at these poses
+        (:func:`vjm.stiffness.chain_stiffness_frames`): kept here, since it depends on no
+        compliance, so every model sharing these kinematics reuses it."""
+        return tuple({} for _ in self.chains)
+
     def take(self, idx) -> Kinematics:
         """The kinematics of a subset (slice or index array) of the poses."""
         return Kinematics(self.key, self.chains, self.frames[idx], self.q[idx], tuple(v[idx] for v in self.values))

@@ -124,6 +124,8 @@ class Model:
     description: Description | None = None
     #: kinematics of recent small pose batches (see :meth:`kinematics`); not a parameter
     _kin_cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    #: the load sharing of the last kinematics asked for (see :meth:`joint_forces`); not a parameter
+    _sharing: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __init__(self, architecture, geometry, actuator, foot=None, leg=None, joints=None, effects=None,
                  name="", path=None, links=None, description=None):
@@ -375,7 +377,7 @@ class Model:
         K, C, kt, kr, rank, inv, chain_rank = out
         Ksum = None
         for k, (ch, v, c) in enumerate(zip(kin.chains, kin.values, self.compliances(kin))):
-            Kc, chain_rank[a:b, k], pe = chain_stiffness_frames(ch, np.ascontiguousarray(v.T), c)
+            Kc, chain_rank[a:b, k], pe = chain_stiffness_frames(ch, np.ascontiguousarray(v.T), c, kin.stiffness_memo[k])
             self._closed(kin, k, pe.T, tol)
             Ksum = Kc if Ksum is None else Ksum + Kc
         Cb, rank[a:b], inv[a:b], kt[a:b], kr[a:b] = assemble_soa(Ksum)
@@ -416,8 +418,7 @@ class Model:
         """
         single = _single(P)
         kin = self.kinematics(P)
-        Ks, ranks = self._chain_stiffness(kin)
-        res = assemble(kin.points, list(Ks), list(ranks))
+        Ks, res = self._load_sharing(kin)
         W = np.broadcast_to(np.asarray(wrench, dtype=float), (kin.n, 6))
         t = np.einsum("nij,nj->ni", res.C, W)
         f = np.stack([np.einsum("nij,nj->ni", K, t) for K in Ks], axis=1)
@@ -425,6 +426,18 @@ class Model:
                         for k, (ch, J) in enumerate(zip(kin.chains, kin.jacobians))], axis=1)
         out = {"chain_wrench": f, "actuator": tau, "twist": t}
         return {k: v[0] for k, v in out.items()} if single else out
+
+
+    def _load_sharing(self, kin: Kinematics):
+        """Each chain's K_i and the assembled machine at ``kin``, kept for the last kinematics
+        asked for: the wrench-by-wrench calls at the same poses (unit loads) solve them once."""
+        hit = self._sharing.get("last")
+        if hit is not None and hit[0] is kin:
+            return hit[1], hit[2]
+        Ks, ranks = self._chain_stiffness(kin)
+        res = assemble(kin.points, list(Ks), list(ranks))
+        self._sharing["last"] = (kin, Ks, res)
+        return Ks, res
 
 
 def _single(P) -> bool:

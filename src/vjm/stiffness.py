@@ -115,7 +115,7 @@ def chain_stiffness_soa(chain: Chain, Jt: np.ndarray, compliances: dict) -> tupl
                           lambda bad: np.ascontiguousarray(Jt[:, :, bad].transpose(2, 1, 0)))
 
 
-def chain_stiffness_frames(chain: Chain, vt: np.ndarray, compliances: dict):
+def chain_stiffness_frames(chain: Chain, vt: np.ndarray, compliances: dict, memo: dict | None = None):
     """Chain stiffness straight from the chain's frames, variable values ``vt`` (n_vars, n).
 
     Same result as ``chain_stiffness_soa(chain, _jacobian_soa(chain, vt)[1], ...)``
@@ -124,10 +124,30 @@ def chain_stiffness_frames(chain: Chain, vt: np.ndarray, compliances: dict):
     ``e . (d x N_t + N_r)`` for a rotation about ``e`` at distance ``d`` from the
     end point), with ``d x N_t + N_r`` computed once per frame origin.
 
+    ``memo``: a dict kept with these frames (the same ``chain`` and ``vt`` on every call), where
+    the geometric part (``N``, ``N^T J_s``, the end point) is stored per set of non-rigid springs;
+    a fit that changes only compliances then redoes the spring part alone, with the same numbers.
+
     Returns
     -------
     K : (6, 6, n), rank : (n,), p_end : (3, n)
     """
+    want = frozenset(s.name for s in chain.springs if compliances.get(s.name) is not None)
+    geo = memo.get(want) if memo is not None else None
+    if geo is None:
+        geo = _frames_geometry(chain, vt, want)
+        if memo is not None:
+            memo[want] = geo
+    N, ok, Z, pe = geo
+    K, ok = _reduced_stiffness(N, ok, Z, compliances)
+    K, rank = _with_fallback(chain, K, ok, len(chain.passive), compliances,
+                             lambda bad: np.ascontiguousarray(_jacobian_soa(chain, vt[:, bad])[1].transpose(2, 1, 0)))
+    return K, rank, pe
+
+
+def _frames_geometry(chain: Chain, vt: np.ndarray, springs: frozenset):
+    """``(N, ok, Z, p_end)`` of :func:`chain_stiffness_frames`: the wrench basis of the passive
+    joints and ``Z_s = N^T J_s`` for the named ``springs``; geometry only, no compliance."""
     cols, recs = _frame_product(chain, vt)
     pe = cols[3]
     n = vt.shape[1]
@@ -152,7 +172,7 @@ def chain_stiffness_frames(chain: Chain, vt: np.ndarray, compliances: dict):
     # N^T J for the spring variables, grouped so that each einsum covers many factors
     want = set()
     for s in chain.springs:
-        if compliances.get(s.name) is not None:
+        if s.name in springs:
             want.update(s.vars)
     groups = {}
     for r in recs:
@@ -170,12 +190,8 @@ def chain_stiffness_frames(chain: Chain, vt: np.ndarray, compliances: dict):
         for r, z in zip(rs, Zg):
             z = z if r[2] == 1.0 else r[2] * z
             zvar[r[0]] = z if r[0] not in zvar else zvar[r[0]] + z
-    Z = {s.name: np.stack([zvar[v] for v in s.vars], axis=1) for s in chain.springs
-         if compliances.get(s.name) is not None}
-    K, ok = _reduced_stiffness(N, ok, Z, compliances)
-    K, rank = _with_fallback(chain, K, ok, k, compliances,
-                             lambda bad: np.ascontiguousarray(_jacobian_soa(chain, vt[:, bad])[1].transpose(2, 1, 0)))
-    return K, rank, pe
+    Z = {s.name: np.stack([zvar[v] for v in s.vars], axis=1) for s in chain.springs if s.name in springs}
+    return N, ok, Z, pe
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -123,6 +123,8 @@ class Predictor:
     #: data cannot see them (the Term then lists the free ones only)
     fixed: dict = field(default_factory=dict)
     _cache: dict = field(default_factory=dict, repr=False)
+    #: (needs_model effect, model-changing effects) -> whether the calibration leaves what it reads
+    _calibration_free: dict = field(default_factory=dict, repr=False)
 
     def full_theta(self, name, th):
         """An effect's full parameter vector from the fitted (free) part."""
@@ -171,9 +173,47 @@ class Predictor:
         for nm, th in blocks:
             eff = fx.REGISTRY[nm] if nm != CALIBRATION else None
             if eff is not None and eff.kind == "additive":
-                t = t + (eff.extra(self.ctx, th, C, model=model, key=key) if eff.needs_model
-                         else eff.extra(self.ctx, th, C))
+                if eff.needs_model:
+                    m, k = self.model_for(eff, blocks, model, key, C)
+                    t = t + eff.extra(self.ctx, th, C, model=m, key=k)
+                else:
+                    t = t + eff.extra(self.ctx, th, C)
         return t
+
+    def model_for(self, eff, blocks, model, key, C):
+        """(model, key) that a ``needs_model`` effect reads: the model being fitted, or the same
+        model without the calibration where the calibration does not change what the effect
+        reads there (then one computation serves every calibration the fit tries).
+
+        Decided once per effect and set of model-changing effects, by the effect's unit response
+        on that model at the nominal calibration and at two others (actuators x 1.37, links
+        x 0.71): equal to 1e-10 of its size (a machine whose load paths are statically
+        determinate, as the 3-PUU's, agrees to round-off; the 3-PRPaR's parallelograms differ
+        by percents).  The nominal calibration is the one used then, so the numbers do not
+        depend on the order in which a fit visits its parameters.
+        """
+        changes = [(nm, th) for nm, th in blocks if nm != CALIBRATION and fx.REGISTRY[nm].kind == "model"]
+        dkey = (eff.name, tuple(nm for nm, _ in changes))
+        free = self._calibration_free.get(dkey)
+        if free is False or all(nm != CALIBRATION for nm, _ in blocks):
+            return model, key
+        base = self.model
+        for nm, th in changes:
+            base = fx.REGISTRY[nm].apply(base, th)
+        bkey = ("uncalibrated", *((nm, th.tobytes()) for nm, th in changes))
+        if free is None:
+            unit = np.ones(len(eff.param_specs(self.model, self.ctx)))
+            ref = eff.extra(self.ctx, unit, C, model=base, key=bkey)
+            tol = 1e-10 * np.abs(ref).max(initial=0.0)
+            free = True
+            for probe in ((1.37, 1.0), (1.0, 0.71)):
+                m = apply_calibration(base, np.array(probe))
+                alt = eff.extra(self.ctx, unit, C, model=m, key=("probe", probe, *bkey[1:]))
+                free = free and bool(np.abs(alt - ref).max(initial=0.0) <= tol)
+            self._calibration_free[dkey] = free
+            if not free:
+                return model, key
+        return base, bkey
 
     def kvalues(self, names, theta) -> np.ndarray:
         """(m, 2) k_tran, k_rot of the unique postures."""

@@ -108,3 +108,40 @@ def test_slips_follow_the_moments_of_the_model_being_fitted():
     scale = np.abs(ref).max()
     assert np.abs(fitted - ref).max() <= 1e-4 * scale
     assert np.abs(nominal - ref).max() >= 1e-2 * scale
+
+
+@pytest.mark.parametrize("model, free", [(PUU, True), (PRPAR, False)], ids=["3-PUU", "3-PRPaR"])
+def test_fit_reads_the_uncalibrated_moments_only_where_the_calibration_leaves_them(model, free):
+    """The fit computes the slips once for every calibration it tries where the calibration does not
+    change the joints' moments: on the 3-PUU (statically determinate load paths) its predictions equal,
+    to round-off, those of the calibrated model (C w of the calibrated model plus the slip twist of
+    that model's moments); on the 3-PRPaR (parallelograms) the calibrated model is used."""
+    from vjm.discrepancy.fit.select import Term
+    from vjm.discrepancy.predict import (
+        CALIBRATION,
+        Context,
+        Predictor,
+        _slip_toward,
+        apply_calibration,
+        calibration_term,
+        unique_postures,
+    )
+    from vjm.discrepancy.simulate import design_loads
+
+    rng = np.random.default_rng(3)
+    L = design_loads("axes:100:10000", len(P), rng)
+    Pn, W = np.repeat(P, L.shape[1], axis=0), L.reshape(-1, 6)
+    U, idx = unique_postures(Pn)
+    ctx = Context(model, U, idx, W)
+    eff = fx.get("passive_clearance")
+    pred = Predictor(model, ctx, {CALIBRATION: calibration_term(model),
+                                  eff.name: Term(eff.name, tuple(eff.param_specs(model, ctx)))})
+    for cal in ((0.8, 1.3), (1.9, 0.4)):
+        theta = np.array([*cal, 3e-5])
+        t = pred.twists((CALIBRATION, eff.name), theta)
+        m = apply_calibration(model, np.array(cal))
+        elastic = np.einsum("nij,nj->ni", m.stiffness_map(U).C[idx], W)
+        slip = 3e-5 * _slip_toward(mo.joint_spring_influence(m, U)[idx], W)
+        assert np.abs(slip).max() > 1e-3 * np.abs(elastic).max()  # the slips are not lost in C w
+        assert np.abs(t - elastic - slip).max() <= 1e-12 * np.abs(slip).max()
+    assert pred._calibration_free[(eff.name, ())] is free

@@ -31,14 +31,12 @@ NOISE = 1e-3
 # diagnosing the clean seeds without it where noted (its own recovery is tested in test_discrepancy_effects)
 
 
-@pytest.mark.slow
-def test_clean_data_no_missing_effect_19_of_20():
-    """alpha = 0.01 family-wise per round: expected false alarms 0.2 in 20 seeds; >= 2 has p ~ 0.02."""
-    hits = []
-    for seed in range(100, 120):
-        rep = diagnose(MODEL, simulate(MODEL, [], P, W, NOISE, None, seed)).report
-        hits.append(rep["named_effects"])
-    assert sum(bool(h) for h in hits) <= 1, hits
+def test_clean_data_no_missing_effect():
+    """Clean data: nothing named, verdict no_discrepancy (alpha = 0.01 family-wise per round).  The
+    false-alarm rate over many such sets: benchmarks/bench_diagnose_repeats.py --only clean."""
+    rep = diagnose(MODEL, simulate(MODEL, [], P, W, NOISE, None, 100)).report
+    assert rep["named_effects"] == [], rep["summary"]
+    assert rep["verdict"] == "no_discrepancy", rep["summary"]
 
 
 def test_two_simultaneous_effects_are_both_named():

@@ -20,7 +20,7 @@ pytestmark = pytest.mark.slow
 
 MESH = ["--mesh-size", "6"]
 GRID = ["--param", "length=100,140", "--param", "width=10:14:4"]
-PUU = os.path.join(os.path.dirname(__file__), "..", "data", "orthoglide", "puu.yaml")
+PUU = os.path.join(os.path.dirname(__file__), "..", "..", "data", "orthoglide", "puu.yaml")
 
 
 @pytest.fixture(scope="module")

@@ -230,17 +230,12 @@ def test_shape_mismatch_foot_that_bends_but_does_not_twist(tmp_path, rows):
     assert rep["verdict"] == "explained", _describe(rep)
 
 
-CLEAN_SEEDS = range(5)
-
-
 def test_clean_data_no_discrepancy(tmp_path, rows):
-    """Clean independent sets: at most 1 false alarm in 5 (P(>= 2 | alpha = 0.01) = 1e-3)."""
+    """A clean set: verdict no_discrepancy.  The false-alarm rate over 200 such independent sets
+    (1/200, Clopper-Pearson 0.01-2.8 %): benchmarks/bench_diagnose_false_alarm.py --only false_alarm."""
     P, W = rows
-    verdicts = []
-    for s in CLEAN_SEEDS:
-        rep = diagnose(tmp_path / f"s{s}", NOMINAL, tr.measure(tr.Truth(tr.variant(NOMINAL)), P, W, seed=500 + s))
-        verdicts.append(rep["verdict"])
-    assert sum(v != "no_discrepancy" for v in verdicts) <= 1, verdicts
+    rep = diagnose(tmp_path, NOMINAL, tr.measure(tr.Truth(tr.variant(NOMINAL)), P, W, seed=500))
+    assert rep["verdict"] == "no_discrepancy", _describe(rep)
 
 
 def test_clean_data_with_repeats_no_discrepancy(tmp_path, rows):
