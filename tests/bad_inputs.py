@@ -148,7 +148,7 @@ CASES = [
     Case("18.2", S + " --loads axes:inf", "--loads axes:inf: 'inf' is not a finite number"),
     Case("18.2", S + " --loads axes:nan", "--loads axes:nan: 'nan' is not a finite number"),
     Case("18.2", S + " --loads random:0:100", "--loads random:0:100: the count must be a whole number >= 1"),
-    Case("18.2", S + " --effect gravity:weight=-5", "effect gravity.weight must be in [0, 100000] N, got -5"),
+    Case("18.2", S + " --effect gravity:weight=-5", "effect gravity.weight must be >= 0 N, got -5"),
     Case("18.2", S + " --effect gravity:weight=nan", "effect gravity.weight must be a finite number"),
     Case("18.2", S + " --effect gravty:weight=5", "unknown effect 'gravty' (did you mean 'gravity'?)"),
     Case("18.2", S + " --effect clearance:gap=0.01", "unknown parameter 'gap' of clearance; known: backlash"),

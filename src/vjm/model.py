@@ -137,7 +137,7 @@ class Model:
                 merged[key] = link
         fields = dict(architecture=architecture, geometry=geometry, actuator=actuator, links=merged,
                       joints=Joints() if joints is None else joints, effects={} if effects is None else effects,
-                      name=name, path=path, description=description, _kin_cache={})
+                      name=name, path=path, description=description, _kin_cache={}, _sharing={})
         for k, v in fields.items():
             object.__setattr__(self, k, v)
         self.__post_init__()

@@ -354,9 +354,12 @@ def get(name: str, where: str = "effect") -> Effect:
                        f"known: {', '.join(REGISTRY)}") from None
 
 
-def check_values(name: str, values, model, where: str) -> dict:
+def check_values(name: str, values, model, where: str, fit_range: bool = True) -> dict:
     """``{param: value}`` of effect ``name``, checked against its parameters: known names, finite
-    numbers within each parameter's range.  VjmError naming ``where`` (and the parameter) otherwise."""
+    numbers within each parameter's range.  VjmError naming ``where`` (and the parameter) otherwise.
+
+    ``fit_range=False`` (a simulated truth, which may lie beyond what a fit explores, to test
+    clipping) keeps only the sign of a parameter whose range is non-negative (a weight, a gap)."""
     from linkfea.checks import ArgumentError, Bounds, did_you_mean, number
 
     from ..errors import VjmError
@@ -371,8 +374,11 @@ def check_values(name: str, values, model, where: str) -> dict:
             raise VjmError(f"{where}: unknown parameter {k!r} of {name}{did_you_mean(str(k), specs)}; "
                            f"known: {', '.join(specs)}")
         p = specs[k]
-        rng = Bounds(float(p.lower) if np.isfinite(p.lower) else None,
-                     float(p.upper) if np.isfinite(p.upper) else None, unit=p.unit)
+        if fit_range:
+            rng = Bounds(float(p.lower) if np.isfinite(p.lower) else None,
+                         float(p.upper) if np.isfinite(p.upper) else None, unit=p.unit)
+        else:
+            rng = Bounds(0.0 if p.lower >= 0 else None, None, unit=p.unit)
         try:
             out[k] = number(v, f"{where}.{k}", rng)
         except ArgumentError as exc:

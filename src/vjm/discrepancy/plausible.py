@@ -24,7 +24,7 @@ from .data import StiffnessObs
 from .predict import unique_postures
 
 #: a measured/predicted scale beyond this factor (or below its inverse) is taken for a units error
-UNITS_FACTOR = 10.0
+UNITS_FACTOR = 30.0
 
 
 def check_reachable(model, data):

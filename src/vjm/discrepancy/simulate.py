@@ -54,7 +54,7 @@ def parse_effect(spec: str):
 def _effect_theta(model, name, vals):
     eff = fx.get(name)
     specs = eff.param_specs(model)
-    vals = fx.check_values(name, vals, model, f"effect {name}")
+    vals = fx.check_values(name, vals, model, f"effect {name}", fit_range=False)
     missing = [p.name for p in specs if p.name not in vals]
     # a multi-parameter effect may leave some parameters at their null (e.g. a foot that only bends)
     if missing and (len(missing) == len(specs)):
