@@ -18,9 +18,7 @@ from .compliance import TWIST, UNITS_SHORT, WRENCH, Compliance
 from .errors import LinkFeaError
 from .frames import Frame
 from .materials import Material
-
-PICTURE_CASE = 1
-"""Load case drawn by default: unit Fy (lateral bending)."""
+from .post import PICTURE_CASE
 
 
 @dataclass(frozen=True, eq=False)
