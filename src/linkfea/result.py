@@ -244,7 +244,6 @@ class LinkResult:
         return (info + self._error_html() + table(self.compliance, f"compliance C ({UNITS_SHORT})", TWIST, WRENCH)
                 + table(self.stiffness, "stiffness K = C^-1 (N/mm, N/rad, N, N mm/rad by block)", WRENCH, TWIST))
 
-
     def _error_html(self) -> str:
         err = self.error_diagonal
         if err is None:
