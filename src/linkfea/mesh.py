@@ -64,7 +64,7 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
               cache_dir: str | Path | None = None, use_cache: bool = True, sizing: bool = True,
               progress: Callable[[str], None] | None = None, mesher: str = DEFAULT_MESHER,
               area_gate: float | None = AREA_GATE, size_at: Callable | None = None) -> LinkMesh:
-    """Mesh a :class:`linkfea.cad.Link` into a :class:`LinkMesh`.
+    """Mesh a :class:`linkfea.link.Link` into a :class:`LinkMesh`.
 
     Parameters
     ----------

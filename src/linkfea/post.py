@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import WRENCH
+from .compliance import WRENCH
 
 PICTURE_CASE = 1
 """Load case drawn by default: unit Fy (lateral bending)."""
