@@ -19,3 +19,8 @@ from .result import LinkResult, load
 
 __all__ = ["Comparison", "Compliance", "LinkFeaError", "LinkResult", "SolverError", "checks", "compare", "compute",
            "load"]
+
+
+def __dir__():
+    # the public names only (submodules stay importable as linkfea.mesh etc.)
+    return sorted(__all__)

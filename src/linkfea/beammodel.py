@@ -112,7 +112,7 @@ def beam_model(body, frame: Frame, x_base: float, x_tip: float, n: int, material
 
 def link_extent(link, axis=None) -> tuple[float, float]:
     """Base and tip interface centroids projected on the beam axis, mm from the frame origin."""
-    from .cad import faces_area_centroid
+    from .selectors import faces_area_centroid
 
     bf = beam_frame(link.frame, axis)
     out = []
@@ -125,7 +125,7 @@ def link_extent(link, axis=None) -> tuple[float, float]:
 
 
 def link_beam_model(link, n: int, axis=None) -> BeamModel:
-    """N-beam equivalent of a :class:`linkfea.cad.Link` (see the module docstring)."""
+    """N-beam equivalent of a :class:`linkfea.link.Link` (see the module docstring)."""
     x_base, x_tip = link_extent(link, axis)
     if not x_base < x_tip:
         raise LinkFeaError(f"{link.name}: along the beam axis the base ({x_base:g} mm) is not behind the tip "

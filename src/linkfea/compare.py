@@ -22,7 +22,6 @@ from .report import (
     LABELS,
     error_rows,
     figure_png,
-    library_report,
     markdown_table,
     plot_error_vs_n,
     write_outputs,
@@ -30,7 +29,7 @@ from .report import (
 
 __all__ = ["BeamModel", "Comparison", "ErrorTable", "CLUSTER_TOL", "DEFAULT_BEAMS", "LABELS", "UNITS", "beam_frame", "beam_model",
            "compare", "compare_compliance", "compare_link", "entry_errors", "fea_compliance", "fea_info",
-           "figure_png", "library_report", "link_beam_model", "link_extent", "markdown_table", "parse_beams",
+           "figure_png", "link_beam_model", "link_extent", "markdown_table", "parse_beams",
            "principal_errors", "write_outputs"]
 
 DEFAULT_BEAMS = (1, 2, 4, 8)
@@ -274,9 +273,3 @@ def compare(spec, beams=DEFAULT_BEAMS, params=None, mesh_size=None, mode="rigid"
     if out is not None:
         write_outputs(record, out, force=force)
     return Comparison(record)
-
-
-if __name__ == "__main__":  # python -m linkfea.compare [names...]: the library results as Markdown
-    import sys
-
-    print(library_report(sys.argv[1:] or None))

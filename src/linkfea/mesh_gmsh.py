@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import LinkFeaError, SolverError
+from .linkmesh import tet_volumes
 
 SEGMENTS_PER_CIRCLE = 16
 """``Mesh.MeshSizeFromCurvature``: elements per 2 pi of a curved face's radius.  16 keeps the
@@ -388,8 +389,6 @@ def mesh_gmsh(name: str, body, block, base_faces, tip_faces, H: float, curved: b
         keep = (off > 1e-12 * float(np.ptp(points[used], axis=0).max())) & (pairs >= 0).all(axis=1)
         curved_edges, curved_points = pairs[keep], mid_points[keep]
     points = points[used]
-    from .mesh import tet_volumes
-
     neg = tet_volumes(points, tets) < 0
     tets[neg] = tets[neg][:, [0, 2, 1, 3]]
     return GmshMesh(points=points, tets=tets, block=block_flag, base_facets=base_tris, tip_facets=tip_tris,

@@ -5,8 +5,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import WRENCH
-from .result import PICTURE_CASE
+from .compliance import WRENCH
+
+PICTURE_CASE = 1
+"""Load case drawn by default: unit Fy (lateral bending)."""
 
 
 def solution_grid(res):

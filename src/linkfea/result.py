@@ -18,9 +18,7 @@ from .compliance import TWIST, UNITS_SHORT, WRENCH, Compliance
 from .errors import LinkFeaError
 from .frames import Frame
 from .materials import Material
-
-PICTURE_CASE = 1
-"""Load case drawn by default: unit Fy (lateral bending)."""
+from .post import PICTURE_CASE
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,7 +57,7 @@ class LinkResult:
         SHA-256 of the script, STEP or surface file that was used ('' if unknown); ``source`` is
         its absolute path.
     link, mesh, solution, fit, estimate
-        The CAD :class:`~linkfea.cad.Link`, the :class:`~linkfea.mesh.LinkMesh`, the
+        The CAD :class:`~linkfea.link.Link`, the :class:`~linkfea.mesh.LinkMesh`, the
         :class:`~linkfea.fem.FeaSolution`, the :class:`~linkfea.fit.FittedCompliance` and the
         :class:`~linkfea.estimate.ErrorEstimate` (with its per-element indicator);
         None for a result read by :func:`load` (the JSON keeps their summaries).
@@ -245,7 +243,6 @@ class LinkResult:
                 f"Richardson estimate {'not computed' if ee is None else f'{ee:.2e}'}</p>")
         return (info + self._error_html() + table(self.compliance, f"compliance C ({UNITS_SHORT})", TWIST, WRENCH)
                 + table(self.stiffness, "stiffness K = C^-1 (N/mm, N/rad, N, N mm/rad by block)", WRENCH, TWIST))
-
 
     def _error_html(self) -> str:
         err = self.error_diagonal

@@ -3,17 +3,14 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import LinkFeaError
 from .frames import Frame
+from .link import Link, check_link
 from .materials import get_material
 from .selectors import Selector, faces_area_centroid, faces_mean_normal
-
-if TYPE_CHECKING:
-    from .cad import Link
 
 
 def load_step(path, base: Selector, tip: Selector, material: str = "steel",
@@ -51,14 +48,12 @@ def load_step(path, base: Selector, tip: Selector, material: str = "steel",
 
 def link_from_solid(body, path: Path, base: Selector, tip: Selector, material: str, with_block: bool,
                     block_length: float | None) -> Link:
-    """The :class:`linkfea.cad.Link` of a checked solid read from ``path`` (a STEP file or a triangle surface).
+    """The :class:`linkfea.link.Link` of a checked solid read from ``path`` (a STEP file or a triangle surface).
 
-    The selectors are checked on ``body`` (:func:`linkfea.cad.check_link`), then the frame and
+    The selectors are checked on ``body`` (:func:`linkfea.link.check_link`), then the frame and
     the block come from the tip faces (:func:`interface_frame_and_block`).  ``params`` records
     the block length used (a planar tip in block mode), nothing else.
     """
-    from .cad import Link, check_link
-
     get_material(material)
     link = Link(name=path.stem, body=body, block=None, base=base, tip=tip,
                 frame=Frame(np.zeros(3), np.eye(3)), params={}, material=material, source=str(path))

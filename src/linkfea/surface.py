@@ -18,9 +18,10 @@ import numpy as np
 
 from .errors import LinkFeaError
 from .selectors import Selector
+from .step import link_from_solid
 
 if TYPE_CHECKING:
-    from .cad import Link
+    from .link import Link
 
 SUFFIXES = (".stl", ".obj", ".ply")
 
@@ -89,9 +90,7 @@ def solid_from_triangles(V: np.ndarray, F: np.ndarray, label: str):
 
 def load_surface(path, base: Selector, tip: Selector, material: str = "steel",
                  with_block: bool = True, block_length: float | None = None) -> Link:
-    """A :class:`linkfea.cad.Link` from a closed triangle surface (see the module docstring)."""
-    from .step import link_from_solid
-
+    """A :class:`linkfea.link.Link` from a closed triangle surface (see the module docstring)."""
     path = Path(path)
     V, F = read_surface(path)
     body = solid_from_triangles(V, F, path.name)
