@@ -353,19 +353,8 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
             break
         ch_a = [cd.take(act) for cd in chains]
         za = z[act]
-        x, u, lam = za[:, :nx], za[:, nx:nx + 6], za[:, nx + 6:]
         s = np.minimum(s_ok[act] + ds[act], 1.0)
-        w = W[act] * s[:, None]
-        g, G, Hs = _linearize(ch_a, x, u, lam, P[act])
-        r = np.concatenate([kappa[act] * (x - s[:, None] * x_rest[act]) - np.einsum("nci,nc->ni", G[:, :, :nx], lam),
-                            -w - np.einsum("nci,nc->ni", G[:, :, nx:], lam), g], axis=1)
-        N = nx + 6 + nc
-        A = np.zeros((act.size, N, N))
-        A[:, :nx + 6, :nx + 6] = -Hs
-        A[:, np.arange(nx), np.arange(nx)] += kd[act]
-        A[:, :nx + 6, nx + 6:] = -np.swapaxes(G, 1, 2)
-        A[:, nx + 6:, :nx + 6] = G
-        dz = _solve(A, -r)
+        dz = _newton_step(ch_a, za, s, W[act], P[act], kappa[act], kd[act], x_rest[act], nx, nc)
         # damping far from the solution: no rotational coordinate turns more than MAX_ROT_STEP
         big = np.maximum(_max_rotation_change(ch_a, dz[:, :nx]), np.max(np.abs(dz[:, nx + 3:nx + 6]), axis=1))
         alpha = np.where(big > MAX_ROT_STEP, MAX_ROT_STEP / np.maximum(big, 1e-300), 1.0)
@@ -413,6 +402,23 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
                 "springs": _spring_deformations(chains, z[:, :nx])}
         return t, info
     return t
+
+
+def _newton_step(ch_a, za, s, W, P, kappa, kd, x_rest, nx: int, nc: int) -> np.ndarray:
+    """The Newton step of the bordered equilibrium (springs, platform, closure) at iterates ``za``
+    (x, u, lam) under the load fraction ``s`` of the wrenches ``W`` and of the imposed offsets."""
+    x, u, lam = za[:, :nx], za[:, nx:nx + 6], za[:, nx + 6:]
+    w = W * s[:, None]
+    g, G, Hs = _linearize(ch_a, x, u, lam, P)
+    r = np.concatenate([kappa * (x - s[:, None] * x_rest) - np.einsum("nci,nc->ni", G[:, :, :nx], lam),
+                        -w - np.einsum("nci,nc->ni", G[:, :, nx:], lam), g], axis=1)
+    N = nx + 6 + nc
+    A = np.zeros((len(za), N, N))
+    A[:, :nx + 6, :nx + 6] = -Hs
+    A[:, np.arange(nx), np.arange(nx)] += kd
+    A[:, :nx + 6, nx + 6:] = -np.swapaxes(G, 1, 2)
+    A[:, nx + 6:, :nx + 6] = G
+    return _solve(A, -r)
 
 
 def _spring_deformations(chains, x) -> list[dict]:
