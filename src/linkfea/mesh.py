@@ -38,9 +38,11 @@ from typing import Callable
 
 import numpy as np
 
+from . import checks
 from .errors import LinkFeaError, SolverError
 from .frames import Frame
 from .meshcache import cached_mesh
+from .options import ENVELOPE, MESH_SIZE, MESHERS
 
 MESH_VERSION = "linkfea-mesh-2"
 """Bumped whenever the meshing code changes the cached arrays."""
@@ -56,7 +58,6 @@ CURVED = True
 """gmsh meshes are second order in geometry: the P2 node of a boundary edge lies on the CAD
 surface, not on the chord (isoparametric P2; docs/benchmarks.md measures the gain)."""
 
-MESHERS = ("gmsh", "pytetwild")
 DEFAULT_MESHER = "gmsh"
 
 AREA_GATE = 0.01
@@ -337,11 +338,9 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
         inverted or missing cells.
     """
     say = progress or (lambda msg: None)
-    H = default_mesh_size(link) if mesh_size is None else float(mesh_size)
-    if not (np.isfinite(H) and H > 0):
-        raise LinkFeaError(f"mesh size must be a positive number of mm, got {mesh_size}")
-    if not (np.isfinite(epsilon) and 0 < epsilon < 0.1):
-        raise LinkFeaError(f"mesh envelope epsilon must be in (0, 0.1), got {epsilon}")
+    # the ranges of linkfea.options (a ComputeOptions is already checked; a direct call is checked here)
+    H = default_mesh_size(link) if mesh_size is None else checks.number(mesh_size, "mesh_size", MESH_SIZE)
+    epsilon = checks.number(epsilon, "envelope", ENVELOPE)
     block_solid = link.block if with_block else None
     if with_block and block_solid is None:
         raise LinkFeaError(f"{link.name}: block mode needs a reference block; use --mode rigid")

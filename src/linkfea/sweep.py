@@ -39,16 +39,16 @@ from . import checks
 from .atomic import plain, write_text
 from .errors import LinkFeaError
 from .io import TWIST, WRENCH
+from .options import SWEEP_OPTIONS, ComputeOptions
 from .outputs import OutputSet, check_folder, claim, fault
-from .pipeline import BLOCK_RATIO, ENVELOPE, MESH_SIZE
 from .sweep_budget import DesignProgress, announcement, check_memory_limit, median_seconds, range_count, sweep_size
 
 KEY_VERSION = "linkfea.sweep/1"
 #: what a sweep writes in its folder: the table set and the results/ sub-folder
 SWEEP_FILES = ("sweep.parquet", "sweep.csv", "sweep.json", "sweep.png", "results/")
 RESULT_SCHEMA_FAILED = "linkfea.sweep-failure/1"
-#: compute options that enter the design key and are passed to linkfea.pipeline.compute
-OPTION_NAMES = ("mesh_size", "mode", "block_ratio", "material", "base", "tip", "envelope", "convergence", "mesher")
+#: the compute options of ``linkfea sweep`` (any field of ComputeOptions is accepted from Python)
+OPTION_NAMES = SWEEP_OPTIONS
 #: compliance columns of the table: C_<twist>_<wrench>, t = C w
 C_COLUMNS = [f"C_{t}_{w}" for t in TWIST for w in WRENCH]
 K_COLUMNS = [f"K_{t}" for t in TWIST]
@@ -164,8 +164,8 @@ class Sweep:
     """A sweep definition: the CAD source, the compute options and the designs.
 
     ``spec`` is the absolute path of the script or STEP file, ``source_sha`` the
-    SHA-256 of its bytes; ``options`` are keyword arguments of
-    :func:`linkfea.pipeline.compute`.
+    SHA-256 of its bytes; ``options`` the design key's spelling of the
+    :class:`linkfea.options.ComputeOptions` (:meth:`~linkfea.options.ComputeOptions.key_options`).
     """
 
     spec: str
@@ -174,22 +174,6 @@ class Sweep:
     names: tuple
     designs: tuple
     sampling: dict = field(default_factory=dict)
-
-
-def pipeline_defaults() -> dict:
-    """The defaults of :func:`linkfea.pipeline.compute` for :data:`OPTION_NAMES` (those that are not None)."""
-    import inspect
-
-    from .pipeline import compute
-
-    sig = inspect.signature(compute).parameters
-    out = {}
-    for k in OPTION_NAMES:
-        p = sig.get("epsilon" if k == "envelope" else k)
-        if p is not None and p.default is not inspect.Parameter.empty and p.default is not None \
-                and p.default is not False:
-            out[k] = p.default
-    return out
 
 
 def design_key(source_sha: str, params: dict, options: dict) -> str:
@@ -211,7 +195,7 @@ def resolve_source(spec) -> Path:
     return resolve_script(spec)
 
 
-def make_sweep(spec, params: Sequence[str], options: dict | None = None, sample: int | None = None,
+def make_sweep(spec, params: Sequence[str], options: dict | ComputeOptions | None = None, sample: int | None = None,
                seed: int | None = None) -> Sweep:
     """Build the designs of a sweep.
 
@@ -219,24 +203,16 @@ def make_sweep(spec, params: Sequence[str], options: dict | None = None, sample:
     ----------
     spec : cad/ script (path or name) or STEP file
     params : ``NAME=SPEC`` strings; several give the full grid (first name varies slowest)
-    options : compute options (see :data:`OPTION_NAMES`); None entries are left at the pipeline's defaults
+    options : a :class:`linkfea.options.ComputeOptions`, or a dict of its fields (None entries: the defaults)
     sample, seed : a Latin hypercube of ``sample`` designs (scipy.stats.qmc) instead of the grid
     """
+    # checked here, not on the workers after the cluster started
+    opts = options if isinstance(options, ComputeOptions) else ComputeOptions.from_mapping(options)
     src = resolve_source(spec)
     src_bytes = src.read_bytes()
     sha = hashlib.sha256(src_bytes).hexdigest()
-    given = {k: v for k, v in (options or {}).items() if v is not None}
-    bad = set(given) - set(OPTION_NAMES)
-    if bad:
-        raise LinkFeaError(f"unknown compute options {sorted(bad)}")
     seed = checks.optional_integer(seed, "seed", checks.NON_NEGATIVE)
-    for k, bounds in (("mesh_size", MESH_SIZE), ("block_ratio", BLOCK_RATIO), ("envelope", ENVELOPE)):
-        if k in given:  # checked here, not on the workers after the cluster started
-            given[k] = checks.number(given[k], k, bounds)
-    # the key holds the effective options: a default left out (or changed in a later version) is spelled out
-    options = {**pipeline_defaults(), **given}
-    if options.get("mode", "rigid") != "block":
-        options.pop("block_ratio", None)  # only block mode uses it: keep it out of the key
+    options = opts.key_options()
     specs = [parse_param_spec(p) for p in params or ()]
     names = tuple(s.name for s in specs)
     if len(set(names)) != len(names):
@@ -321,10 +297,8 @@ def run_design(task: dict) -> dict:
         from .io import result_dict
         from .pipeline import compute
 
-        opts = dict(task["options"])
-        envelope = opts.pop("envelope", None)
         res = compute(_source_here(task), params=dict(task["params"]), cache_dir=task.get("cache_dir"),
-                      epsilon=envelope, **opts)
+                      options=ComputeOptions.from_mapping(task["options"]))
         doc = result_dict(res)
         doc["source"] = task["spec"]
         doc["sweep"] = {**info, "status": "ok", "error": None, "seconds": time.perf_counter() - t0}
