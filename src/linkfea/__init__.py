@@ -14,8 +14,9 @@ from . import checks
 from .compare import Comparison, compare
 from .compliance import Compliance
 from .errors import LinkFeaError, SolverError
+from .options import ComputeOptions
 from .pipeline import compute
 from .result import LinkResult, load
 
-__all__ = ["Comparison", "Compliance", "LinkFeaError", "LinkResult", "SolverError", "checks", "compare", "compute",
+__all__ = ["Comparison", "Compliance", "ComputeOptions", "LinkFeaError", "LinkResult", "SolverError", "checks", "compare", "compute",
            "load"]
