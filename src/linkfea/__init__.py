@@ -20,3 +20,9 @@ from .result import LinkResult, load
 
 __all__ = ["Comparison", "Compliance", "ComputeOptions", "LinkFeaError", "LinkResult", "SolverError", "checks", "compare", "compute",
            "load"]
+
+
+def __dir__() -> list[str]:
+    # submodules imported on the way (linkfea.options, linkfea.pipeline ...) stay importable, but the
+    # package's listing is its public API
+    return sorted(__all__)
