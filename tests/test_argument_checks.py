@@ -62,7 +62,7 @@ def test_vjm_api_names_the_argument(call, message):
     ({"mesh_size": -1.0}, r"^mesh_size must be > 0 mm, got -1$"),
     ({"mesh_size": float("nan")}, r"^mesh_size must be a finite number > 0 mm"),
     ({"block_ratio": 1.0, "mode": "block"}, r"^block_ratio must be > 1, got 1$"),
-    ({"epsilon": 0.5}, r"^epsilon must be in \(0, 0.1\), got 0.5$"),
+    ({"envelope": 0.5}, r"^envelope must be in \(0, 0.1\), got 0.5$"),
 ])
 def test_linkfea_api_names_the_argument_before_any_work(kw, message):
     import linkfea

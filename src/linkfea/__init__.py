@@ -14,13 +14,15 @@ from . import checks
 from .compare import Comparison, compare
 from .compliance import Compliance
 from .errors import LinkFeaError, SolverError
+from .options import ComputeOptions
 from .pipeline import compute
 from .result import LinkResult, load
 
-__all__ = ["Comparison", "Compliance", "LinkFeaError", "LinkResult", "SolverError", "checks", "compare", "compute",
+__all__ = ["Comparison", "Compliance", "ComputeOptions", "LinkFeaError", "LinkResult", "SolverError", "checks", "compare", "compute",
            "load"]
 
 
-def __dir__():
-    # the public names only (submodules stay importable as linkfea.mesh etc.)
+def __dir__() -> list[str]:
+    # submodules imported on the way (linkfea.options, linkfea.pipeline ...) stay importable, but the
+    # package's listing is its public API
     return sorted(__all__)

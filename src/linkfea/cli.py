@@ -16,8 +16,8 @@ from .io import TWIST, WRENCH
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Link compliance by finite elements: CAD -> P2 tets -> 6x6 compliance at the link's frame.")
 err_console = Console(stderr=True)
-#: Python arguments whose CLI flag is not their name with dashes
-FLAGS = {"epsilon": "--envelope"}
+#: Python arguments whose CLI flag is not their name with dashes (today none: ComputeOptions' names are the flags)
+FLAGS: dict[str, str] = {}
 
 
 @app.callback()
@@ -85,6 +85,7 @@ def compute(
 ):
     """Compute a link's 6x6 compliance and stiffness at its reference frame."""
     from .cad import parse_param_args
+    from .options import ComputeOptions
     from .pipeline import compute as run
     from .resultset import check_result_out, write_result_set
 
@@ -93,11 +94,11 @@ def compute(
         check_result_out(out, vtu=picture, png=picture)  # before any work: the FEA may take minutes
         params = parse_param_args(param)
         tol = _fraction(tolerance) if tolerance is not None else None
+        opts = ComputeOptions(mesh_size=mesh_size, mode=mode, block_ratio=block_ratio, material=material, base=base,
+                              tip=tip, convergence=convergence, envelope=envelope, mesher=mesher,
+                              assembler=assembler, solver=solver, tolerance=tol, max_dofs=max_dofs)
         with console.status("starting") as status:
-            res = run(spec, params=params, mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
-                      material=material, base=base, tip=tip, convergence=convergence, epsilon=envelope, mesher=mesher,
-                      assembler=assembler, solver=solver, tolerance=tol, max_dofs=max_dofs,
-                      progress=lambda msg: status.update(f"[bold]{msg}"))
+            res = run(spec, params=params, options=opts, progress=lambda msg: status.update(f"[bold]{msg}"))
         written = write_result_set(out, res, vtu=picture, png=picture)
     except LinkFeaError as exc:
         _fail(exc)
@@ -224,15 +225,15 @@ def sweep_cmd(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar or summary"),
 ):
     """Run the pipeline over a grid or sample of link parameters on Dask (resumable)."""
+    from .options import ComputeOptions
     from .outputs import check_folder
     from .sweep import SWEEP_FILES, make_sweep, run_sweep
 
     try:
         check_folder(out, SWEEP_FILES, force=force)
-        sw = make_sweep(spec, param or [], dict(mesh_size=mesh_size, mode=mode, block_ratio=block_ratio,
-                                                material=material, base=base, tip=tip, envelope=envelope,
-                                                convergence=convergence or None, mesher=mesher),
-                        sample=sample, seed=seed)
+        opts = ComputeOptions(mesh_size=mesh_size, mode=mode, block_ratio=block_ratio, material=material, base=base,
+                              tip=tip, envelope=envelope, convergence=convergence, mesher=mesher)
+        sw = make_sweep(spec, param or [], opts, sample=sample, seed=seed)
         rep = run_sweep(sw, out, scheduler=scheduler, workers=workers, memory_limit=memory_limit,
                         retry_failed=retry_failed, plot=plot.split(",") if plot else None, progress=not quiet,
                         force=force)

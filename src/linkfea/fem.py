@@ -29,16 +29,16 @@ from typing import Callable, Optional
 import numpy as np
 import scipy.sparse as sp
 
+from . import checks
 from .errors import LinkFeaError, SolverError
 from .frames import Frame, skew
 from .materials import Material
+from .options import BLOCK_RATIO, MODES
 
 # p2_mesh, lame, the factorizers ...: imported from here by callers since before the split.
 from .p2 import P2Mesh, assemble_upper, assemble_upper_skfem, lame, link_p2, p2_mesh, symmetric_from_upper  # noqa: F401
 from .solvers import default_factorizer, pardiso_factorizer, scipy_factorizer  # noqa: F401
 
-MODES = ("rigid", "block")
-"""Reference modes: exact rigid coupling of the tip, or the seed's pseudo-rigid block."""
 ASSEMBLERS = {"kernel": assemble_upper, "skfem": assemble_upper_skfem}
 """Stiffness assemblies on scikit-fem's P2 discretization: the fast kernel and scikit-fem's own."""
 
@@ -201,8 +201,7 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
         raise LinkFeaError(f"unknown reference mode {mode!r}; use one of {', '.join(MODES)}")
     if assembler not in ASSEMBLERS:
         raise LinkFeaError(f"unknown assembler {assembler!r}; use one of {', '.join(ASSEMBLERS)}")
-    if not (np.isfinite(block_ratio) and block_ratio > 0):
-        raise LinkFeaError(f"block_ratio must be a positive number, got {block_ratio}")
+    block_ratio = checks.number(block_ratio, "block_ratio", BLOCK_RATIO)
     report = progress or (lambda stage: None)
     factorizer = solver or default_factorizer
     frame = mesh.frame

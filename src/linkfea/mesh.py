@@ -13,9 +13,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
-import numpy as np
-
-from . import mesh_gmsh
+from . import checks, mesh_gmsh
 from .errors import LinkFeaError
 from .linkmesh import (  # noqa: F401  (re-exported)
     AREA_GATE,
@@ -36,6 +34,7 @@ from .mesh_pytetwild import (  # noqa: F401  (re-exported)
     sizing_field,
     smooth_border_edges,
 )
+from .options import ENVELOPE, MESH_SIZE, MESHERS
 
 DEFAULT_EPSILON = 1e-3
 """fTetWild envelope relative to the bounding-box diagonal (its own default)."""
@@ -44,7 +43,6 @@ CURVED = True
 """gmsh meshes are second order in geometry: the P2 node of a boundary edge lies on the CAD
 surface, not on the chord (isoparametric P2; docs/benchmarks.md measures the gain)."""
 
-MESHERS = ("gmsh", "pytetwild")
 DEFAULT_MESHER = "gmsh"
 
 
@@ -100,11 +98,9 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
         inverted or missing cells.
     """
     say = progress or (lambda msg: None)
-    H = default_mesh_size(link) if mesh_size is None else float(mesh_size)
-    if not (np.isfinite(H) and H > 0):
-        raise LinkFeaError(f"mesh size must be a positive number of mm, got {mesh_size}")
-    if not (np.isfinite(epsilon) and 0 < epsilon < 0.1):
-        raise LinkFeaError(f"mesh envelope epsilon must be in (0, 0.1), got {epsilon}")
+    # the ranges of linkfea.options (a ComputeOptions is already checked; a direct call is checked here)
+    H = default_mesh_size(link) if mesh_size is None else checks.number(mesh_size, "mesh_size", MESH_SIZE)
+    epsilon = checks.number(epsilon, "envelope", ENVELOPE)
     block_solid = link.block if with_block else None
     if with_block and block_solid is None:
         raise LinkFeaError(f"{link.name}: block mode needs a reference block; use --mode rigid")

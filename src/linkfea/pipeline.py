@@ -3,41 +3,38 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from pathlib import Path
 from typing import Callable
 
-from . import checks
 from .errors import LinkFeaError
 from .materials import get_material
+from .options import BLOCK_RATIO as BLOCK_RATIO  # the options' ranges, also importable from here
+from .options import ENVELOPE as ENVELOPE
+from .options import MAX_DOFS, ComputeOptions
+from .options import MESH_SIZE as MESH_SIZE
 from .result import LinkResult
 
-__all__ = ["LinkResult", "compute"]
-
-#: valid ranges of the numeric arguments of :func:`compute` (also ``linkfea sweep``'s options)
-MESH_SIZE = checks.Bounds(0, lo_open=True, unit="mm")
-BLOCK_RATIO = checks.Bounds(1, lo_open=True)
-ENVELOPE = checks.Bounds(0, 0.1, lo_open=True, hi_open=True)
-
-MAX_DOFS = 1_000_000
-"""Default DOF budget of ``--tolerance``: the refinement stops before a mesh would pass it."""
+__all__ = ["ComputeOptions", "LinkResult", "compute"]
 REFINE_GROWTH = 2.5
 """Largest DOF growth expected from one refinement step (for the budget check before meshing)."""
 
 
-def _solve_once(link, material, H, mode, block_ratio, cache_dir, say, epsilon, mesher="gmsh", assembler="kernel",
-                solver="auto", size_at=None):
+def _solve_once(link, material, H, opts: ComputeOptions, cache_dir, say, size_at=None):
     from .fem import solve_link
     from .fit import compliance_from_solution
-    from .mesh import mesh_link
+    from .mesh import DEFAULT_EPSILON, mesh_link
 
+    mode, block_ratio = opts.mode, opts.block_ratio
+    epsilon = DEFAULT_EPSILON if opts.envelope is None else opts.envelope
     t0 = time.perf_counter()
     mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=say,
-                     mesher=mesher, size_at=size_at)
+                     mesher=opts.mesher, size_at=size_at)
     t_mesh = time.perf_counter() - t0
     from .solvers import factorizer_named
 
-    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say, assembler=assembler,
-                     solver=factorizer_named(solver))
+    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say, assembler=opts.assembler,
+                     solver=factorizer_named(opts.solver))
     say("fit")
     t0 = time.perf_counter()
     comp = compliance_from_solution(sol)
@@ -69,20 +66,6 @@ def _mesh_info(mesh, sol) -> dict:
             "envelope": float(mesh.envelope), "element": "P2 tetrahedron (10 nodes)" + (
                 ", curved boundary edges" if getattr(mesh, "curved_edges", None) is not None else ""),
             "quality": dict(mesh.quality), "cache_key": mesh.cache_key}
-
-
-def _check_solver_options(solver, tolerance, convergence, mesher) -> None:
-    """Bad ``solver`` or ``tolerance`` options fail here, before any work."""
-    from .solvers import factorizer_named
-
-    factorizer_named(solver)
-    if tolerance is not None:
-        if not (isinstance(tolerance, (int, float)) and 0 < tolerance < 1):
-            raise LinkFeaError(f"tolerance must be a fraction in (0, 1) (0.01 = 1%), got {tolerance}")
-        if convergence:
-            raise LinkFeaError("--tolerance and --convergence do not go together: choose one")
-        if mesher != "gmsh":
-            raise LinkFeaError("--tolerance refines with gmsh's local sizes: use --mesher gmsh")
 
 
 def _refine(run, tolerance, max_dofs, solve_with, say):
@@ -147,7 +130,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
             convergence: bool = False, progress: Callable[[str], None] | None = None,
             cache_dir=None, epsilon: float | None = None, mesher: str | None = None,
             assembler: str = "kernel", solver: str = "auto", tolerance: float | None = None,
-            max_dofs: int = MAX_DOFS) -> LinkResult:
+            max_dofs: int = MAX_DOFS, envelope: float | None = None,
+            options: ComputeOptions | None = None) -> LinkResult:
     """Compute a link's 6x6 compliance at its reference frame.
 
     Parameters
@@ -172,7 +156,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         Called with a short message at each stage.
     cache_dir : path, optional
         Mesh cache folder.
-    epsilon : float, optional
+    envelope : float, optional
         fTetWild envelope relative to the bounding-box diagonal (default
         :data:`linkfea.mesh.DEFAULT_EPSILON` = 1e-3).  Smaller follows small
         curved faces more closely (see ``mesh.quality``) but meshes much slower.
@@ -190,48 +174,48 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         Refine (gmsh, local sizes from the error indicator, :mod:`linkfea.refine`) until the
         estimated error of every diagonal entry is below it (0.01 = 1%), or the next mesh would
         pass ``max_dofs``; ``diagnostics["refinement"]`` says which, with each step's DOF and error.
+    options : ComputeOptions, optional
+        All of the options above as one value (then none of them may be given alone).
+    epsilon : float, optional
+        Deprecated name of ``envelope``.
     """
     from .cad import build_link
-    from .fem import ASSEMBLERS, MODES
-    from .mesh import DEFAULT_EPSILON, default_mesh_size
+    from .mesh import default_mesh_size
     from .resources import file_sha256
 
-    mesh_size = checks.optional_number(mesh_size, "mesh_size", MESH_SIZE)
-    block_ratio = checks.number(block_ratio, "block_ratio", BLOCK_RATIO)
-    epsilon = DEFAULT_EPSILON if epsilon is None else checks.number(epsilon, "epsilon", ENVELOPE)
-
+    if epsilon is not None:
+        warnings.warn("compute(epsilon=...) is deprecated: use envelope=...", DeprecationWarning, stacklevel=2)
+        if envelope is not None:
+            raise LinkFeaError("give envelope or its deprecated name epsilon, not both")
+        envelope = epsilon
+    given = ComputeOptions(mesh_size=mesh_size, mode=mode, block_ratio=block_ratio, material=material, base=base,
+                           tip=tip, envelope=envelope, convergence=convergence, mesher=mesher, assembler=assembler,
+                           solver=solver, tolerance=tolerance, max_dofs=max_dofs)
+    if options is not None:
+        if given != ComputeOptions():
+            raise LinkFeaError("give compute options as options=ComputeOptions(...) or as keywords, not both")
+        given = options
+    opts = given.for_input(spec)
     say = progress or (lambda msg: None)
-    if mode not in MODES:
-        raise LinkFeaError(f"unknown mode {mode!r}; use rigid or block")
-    if assembler not in ASSEMBLERS:
-        raise LinkFeaError(f"unknown assembler {assembler!r}; use kernel or skfem")
-    from .mesh import MESHERS
-    from .surface import is_surface
-
-    if mesher is None:
-        mesher = "pytetwild" if is_surface(spec) else "gmsh"
-    if mesher not in MESHERS:
-        raise LinkFeaError(f"unknown mesher {mesher!r}; use gmsh or pytetwild")
-    _check_solver_options(solver, tolerance, convergence, mesher)
     t_all = time.perf_counter()
     say("cad")
     t0 = time.perf_counter()
     source = _source_file(spec)  # before the CAD: a script is run from exactly this file
-    link = build_link(source, params, material=material, base=base, tip=tip, with_block=(mode == "block"))
+    link = build_link(source, params, material=opts.material, base=opts.base, tip=opts.tip,
+                      with_block=(opts.mode == "block"))
     mat = get_material(link.material)
     t_cad = time.perf_counter() - t0
-    H = float(mesh_size) if mesh_size is not None else default_mesh_size(link)
+    H = opts.mesh_size if opts.mesh_size is not None else default_mesh_size(link)
 
     diagnostics: dict = {}
-    if convergence:
+    if opts.convergence:
         from .convergence import richardson
 
         sizes = [2.0 * H, math.sqrt(2.0) * H, H]
         runs = []
         for h in sizes:
             say(f"convergence: mesh size {h:.3g} mm")
-            runs.append(_solve_once(link, mat, h, mode, block_ratio, cache_dir, say, epsilon, mesher, assembler,
-                                    solver))
+            runs.append(_solve_once(link, mat, h, opts, cache_dir, say))
         rich = richardson(sizes, [r[2].matrix for r in runs])
         mesh, sol, comp, timing, est = runs[-1]
         diagnostics["error_estimate"] = float(rich.error_diagonal)
@@ -240,16 +224,14 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         diagnostics["error_estimate_note"] = ("Richardson estimate of the relative error of the diagonal "
                                               "(largest entry) from 3 mesh sizes" + (f"; {rich.note}" if rich.note else ""))
     else:
-        mesh, sol, comp, timing, est = _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
-                                                   assembler, solver)
-        if tolerance is not None:
+        mesh, sol, comp, timing, est = _solve_once(link, mat, H, opts, cache_dir, say)
+        if opts.tolerance is not None:
             mesh, sol, comp, timing, est, diagnostics["refinement"] = _refine(
-                (mesh, sol, comp, timing, est), tolerance, max_dofs,
-                lambda size_at: _solve_once(link, mat, H, mode, block_ratio, cache_dir, say, epsilon, mesher,
-                                            assembler, solver, size_at), say)
+                (mesh, sol, comp, timing, est), opts.tolerance, opts.max_dofs,
+                lambda size_at: _solve_once(link, mat, H, opts, cache_dir, say, size_at), say)
         diagnostics["error_estimate"] = None
         diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
-    timing["edges"] = _error_diagnostics(diagnostics, est, link, mode)
+    timing["edges"] = _error_diagnostics(diagnostics, est, link, opts.mode)
     diagnostics.update(symmetry_error=float(comp.symmetry_error), fit_residual=float(comp.fit_residual),
                        min_eigenvalue=float(comp.min_eigenvalue))
     timing = {"cad": t_cad, **timing, "total": time.perf_counter() - t_all}
@@ -258,7 +240,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     mesh_info = _mesh_info(mesh, sol)
     return LinkResult(value=comp.compliance, name=link.name, source=str(source), source_sha256=file_sha256(source),
                       params=dict(link.params),
-                      material=mat, mode=mode, block_ratio=float(block_ratio) if mode == "block" else None,
+                      material=mat, mode=opts.mode, block_ratio=opts.block_ratio if opts.mode == "block" else None,
                       mesh_info=mesh_info, diagnostics=diagnostics, solver=dict(sol.solver), timing=timing,
                       versions=versions(), volume=float(link.body.Volume()), link=link, mesh=mesh, solution=sol,
                       fit=comp, estimate=est)

@@ -115,10 +115,13 @@ def test_mesh_level_interface_errors(bar, cache):
     same = dataclasses.replace(bar, base=parse_selector("plane:x=200"))
     with pytest.raises(LinkFeaError, match="overlap"):
         mesh_link(same, 10.0, with_block=False, cache_dir=cache, mesher="pytetwild")
-    with pytest.raises(LinkFeaError, match="mesh size"):
+    # the ranges of linkfea.options, in their one message format
+    with pytest.raises(LinkFeaError, match=r"^mesh_size must be > 0 mm, got -1$"):
         mesh_link(bar, -1.0, cache_dir=cache, mesher="pytetwild")
-    with pytest.raises(LinkFeaError, match="mesh size"):
+    with pytest.raises(LinkFeaError, match=r"^mesh_size must be a finite number > 0 mm"):
         mesh_link(bar, float("nan"), cache_dir=cache, mesher="pytetwild")
+    with pytest.raises(LinkFeaError, match=r"^envelope must be in \(0, 0.1\), got 0.2$"):
+        mesh_link(bar, 10.0, epsilon=0.2, cache_dir=cache, mesher="pytetwild")
 
 
 def test_quality_report(block_mesh):

@@ -122,6 +122,57 @@ def test_rerun_skips_everything_and_recomputes_only_a_deleted_result(grid_run, c
         np.testing.assert_allclose(after[k], before[k], rtol=1e-9, atol=1e-9 * np.abs(before[k]).max())
 
 
+def test_rerun_of_a_done_sweep_is_quick_and_starts_no_cluster(grid_run, monkeypatch):
+    """All designs done: no Dask cluster or client, the table set left as it is, the same rows."""
+    import time
+
+    import distributed
+
+    import linkfea.sweep.cluster
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a cluster was started for a sweep with nothing to do")
+
+    monkeypatch.setattr(linkfea.sweep.cluster, "local_cluster", refuse)
+    monkeypatch.setattr(distributed, "Client", refuse)
+    sw = make_sweep("bar", GRID[1::2], {"mesh_size": 6.0})
+    run_sweep(sw, grid_run)  # the table set of this plot choice, current from here on
+    names = ("sweep.parquet", "sweep.csv", "sweep.json", "sweep.png")
+    stamps = {n: os.stat(os.path.join(grid_run, n)).st_mtime_ns for n in names}
+    before = _table(grid_run)
+    t0 = time.perf_counter()
+    rep = run_sweep(sw, grid_run, workers=2)
+    seconds = time.perf_counter() - t0
+    assert seconds < 5.0, seconds  # loose on a shared machine; about 0.1 s idle
+    assert rep.computed == [] and rep.failed == [] and len(rep.skipped) == 4 and not rep.unfinished
+    assert {n: os.stat(os.path.join(grid_run, n)).st_mtime_ns for n in names} == stamps
+    assert [r["key"] for r in rep.rows] == [r["key"] for r in before]
+    for r, b in zip(rep.rows, before):
+        np.testing.assert_array_equal(_C(r), _C(b))
+    # another plot choice is another table set: rebuilt, still without a cluster
+    rep = run_sweep(sw, grid_run, plot=["dy_Fy"])
+    assert os.stat(os.path.join(grid_run, "sweep.png")).st_mtime_ns != stamps["sweep.png"]
+    assert json.load(open(os.path.join(grid_run, "sweep.json")))["plot"] == ["dy_Fy"]
+
+
+def test_parameter_names_read_without_running_the_script(tmp_path):
+    """The names read from the source are those of the imported script; a PARAMS that is not a
+    literal is read by running the script."""
+    from pathlib import Path
+
+    from linkfea.cad import load_script
+    from linkfea.sweep.designs import script_param_names
+
+    cad = Path(__file__).resolve().parents[1] / "cad"
+    for script in sorted(cad.glob("*.py")):
+        assert script_param_names(script) == set(load_script(script).PARAMS), script.name
+    odd = tmp_path / "odd.py"
+    odd.write_text("PARAMS = {'a': 1.0}\nPARAMS.update(b=2.0)\n\n\ndef build(**p):\n    return None\n")
+    assert script_param_names(odd) is None
+    with pytest.raises(LinkFeaError, match="unknown parameter 'c'; known parameters: a, b"):
+        make_sweep(odd, ["c=1,2"])
+
+
 def test_invalid_design_fails_alone(client, tmp_path):
     sw = make_sweep("bar", ["width=12,-3", "length=100"], {"mesh_size": 6.0})
     rep = run_sweep(sw, tmp_path, client=client)

@@ -1,0 +1,47 @@
+"""Where a sweep runs: a lean local Dask cluster of single-threaded worker processes."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from .. import checks
+
+
+def worker_env() -> dict:
+    """Environment of local worker processes: this package first on the path, one thread each."""
+    here = str(Path(__file__).resolve().parents[2])
+    path = os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH", "")) if p)
+    return {"PYTHONPATH": path, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+
+#: Dask settings of a local cluster (read by the scheduler at start and handed to each worker).
+LEAN_CLUSTER_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "500ms",
+    "distributed.worker.memory.monitor-interval": "200ms",
+    "distributed.admin.system-monitor.interval": "2s",
+}
+
+
+def local_cluster(n_workers: int | None = None, memory_limit="auto"):
+    """A LocalCluster of single-threaded worker processes (default one per core).
+
+    ``memory_limit`` is per worker ("auto" = the machine's memory divided among the workers,
+    or e.g. "4GB"): a worker above it is restarted by its nanny and its design is rerun.
+    """
+    import logging
+
+    import dask
+    from distributed import LocalCluster
+
+    os.environ["PYTHONPATH"] = worker_env()["PYTHONPATH"]  # spawned workers inherit it
+    n = checks.integer(n_workers or os.cpu_count() or 1, "workers", checks.Bounds(1))
+    # the workers and the scheduler share the machine's cores: with one worker per core, every CPU
+    # second the cluster spends on its own bookkeeping is taken from a design.  A design is seconds
+    # of work, so the 10 ms stack sampler of each worker and the 20-100 ms ticks and monitors are
+    # slowed down; they only feed the dashboard and the memory limit (checked every 200 ms).
+    with dask.config.set(LEAN_CLUSTER_CONFIG):
+        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, memory_limit=memory_limit,
+                            dashboard_address=":0", silence_logs=logging.ERROR, env=worker_env())
+
+

@@ -1,0 +1,154 @@
+"""Running a sweep: the pending designs on Dask, each result written as it completes, then the table."""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+from .. import checks
+from ..atomic import plain, write_text
+from ..errors import LinkFeaError
+from ..outputs import check_folder, claim, fault
+from ..sweep_budget import DesignProgress, announcement, check_memory_limit, median_seconds
+from . import cluster
+from .designs import Sweep
+from .plot import check_entries
+from .store import pending, read_design_result, result_path
+from .table import table_is_current, table_rows, write_table
+from .task import run_design
+
+#: what a sweep writes in its folder: the table set and the results/ sub-folder
+SWEEP_FILES = ("sweep.parquet", "sweep.csv", "sweep.json", "sweep.png", "results/")
+
+
+@dataclass
+class SweepReport:
+    """What one run did: counts and the table's rows."""
+
+    n_designs: int = 0
+    skipped: list = field(default_factory=list)
+    computed: list = field(default_factory=list)
+    failed: list = field(default_factory=list)
+    unfinished: list = field(default_factory=list)
+    rows: list = field(default_factory=list)
+    interrupted: bool = False
+    seconds: float = 0.0
+
+
+def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, workers: int | None = None,
+              memory_limit="auto", retry_failed: bool = False, cache_dir=None, plot: Sequence[str] | None = None,
+              progress: bool = False, on_result: Callable[[dict], None] | None = None,
+              force: bool = False) -> SweepReport:
+    """Run the designs of ``sweep`` not yet in ``out/results/`` and rebuild the table.
+
+    Parameters
+    ----------
+    client : distributed.Client, optional
+        Use this client (its cluster is left running).
+    scheduler : str, optional
+        Address of an existing scheduler (``tcp://host:8786``); else a :func:`local_cluster`
+        of ``workers`` processes is started for the run and closed after it.
+    cache_dir : path, optional
+        Mesh cache.  Default: for a local cluster the client's (``$LINKFEA_CACHE_DIR`` or
+        ``.cache/meshes``, made absolute); with ``scheduler`` each worker's own.
+    plot : entries ``dy_Fy`` ... for ``sweep.png`` (default the diagonal)
+    on_result : called with each design's document right after it is written
+    force : write into a folder that also holds files of other origin (never touching them)
+    """
+    from ..mesh import cache_dir_default
+
+    workers = checks.optional_integer(workers, "workers", checks.Bounds(1))
+    check_memory_limit(memory_limit)
+    t_start = time.perf_counter()
+    out = check_folder(out, SWEEP_FILES, force=force)
+    rep = SweepReport(n_designs=len(sweep.designs))
+    todo = pending(sweep, out, retry_failed)
+    todo_keys = {d.key for d in todo}
+    rep.skipped = [d.key for d in sweep.designs if d.key not in todo_keys]
+    if plot:
+        check_entries(plot)
+    try:
+        claim(out, ["results/"], "linkfea sweep results")  # owned before a kill can leave it half made
+    except OSError as exc:
+        raise LinkFeaError(f"cannot write {out}: {exc.strerror or exc}") from None
+    if cache_dir is None and scheduler is None:
+        cache_dir = cache_dir_default()
+    cache = None if cache_dir is None else str(Path(cache_dir).absolute())
+    own_cluster = own_client = None
+    try:
+        if todo:
+            src_bytes = Path(sweep.spec).read_bytes()
+            if client is None:
+                from distributed import Client
+
+                if scheduler is None:
+                    own_cluster = cluster.local_cluster(workers, memory_limit)
+                    own_client = client = Client(own_cluster)
+                else:
+                    try:
+                        own_client = client = Client(scheduler, timeout="20s")
+                    except (OSError, TimeoutError) as exc:
+                        raise LinkFeaError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+            _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_result,
+                     median_seconds(read_design_result(out, k) for k in rep.skipped + [d.key for d in todo]))
+    except KeyboardInterrupt:
+        rep.interrupted = True
+    finally:
+        if own_client is not None:
+            own_client.close()
+        if own_cluster is not None:
+            own_cluster.close()
+        done = {k for k in rep.computed} | {k for k in rep.failed}
+        rep.unfinished = sorted({d.key for d in todo} - done)
+        rows = table_rows(sweep, out)
+        if rep.computed or rep.failed or not table_is_current(sweep, out, rows, plot):
+            write_table(sweep, out, plot, rows)
+        rep.rows = rows
+        rep.seconds = time.perf_counter() - t_start
+    return rep
+
+
+def _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_result, per_design=None):
+    from distributed import as_completed
+
+    futures = []
+    for d in todo:
+        task = {"key": d.key, "index": d.index, "params": d.params, "spec": sweep.spec,
+                "source_sha": sweep.source_sha, "source_bytes": src_bytes, "options": sweep.options,
+                "cache_dir": cache}
+        # pure=False: a rerun must run; the name makes the dashboard readable
+        futures.append(client.submit(run_design, task, key=f"design-{d.key}", pure=False))
+    if progress:
+        say = announcement(len(todo), len(client.scheduler_info().get("workers", {})) or 1, per_design)
+        if say:
+            print(say, file=sys.stderr)
+    bar = DesignProgress(len(futures)) if progress else None
+    try:
+        for fut in as_completed(futures):
+            if fut.status != "finished":  # cancelled (restart) or lost worker: not the design's fault
+                if bar:
+                    bar.advance()
+                continue
+            try:
+                doc = fut.result()
+            except Exception:  # e.g. KilledWorker after repeated worker deaths: not the design's fault
+                if bar:
+                    bar.advance()
+                continue
+            key = doc["sweep"]["key"]
+            write_text(result_path(out, key), json.dumps(plain(doc), indent=1) + "\n")
+            fault("design-written")
+            (rep.computed if doc["sweep"]["status"] == "ok" else rep.failed).append(key)
+            if bar:
+                bar.advance(ok=doc["sweep"]["status"] == "ok")
+            if on_result is not None:
+                on_result(doc)
+    finally:
+        if bar:
+            bar.stop()
+        client.cancel([f for f in futures if not f.done()])
+
+
