@@ -48,6 +48,7 @@ import ast
 import math
 import re
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -58,7 +59,7 @@ PLATFORM_KEYS = ("dof", "seed", "attachments", "workspace")
 CHAIN_KEYS = ("name", "transforms", "copies", "seed", "platform", "limits")
 ROLES = ("passive", "actuated", "joint")
 KIND_OF = {k.capitalize(): k for k in KINDS}          # "Tx" -> "tx"
-_FUNCS = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "asin": math.asin, "acos": math.acos,
+_FUNCS: dict[str, Callable[..., float]] = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "asin": math.asin, "acos": math.acos,
           "atan": math.atan, "atan2": math.atan2, "sqrt": math.sqrt}
 _IDENT = re.compile(r"^\s*(-?)\s*([A-Za-z_]\w*)\s*$")
 
@@ -279,8 +280,8 @@ def _permutation(spec, where) -> tuple[Element, ...]:
     return tuple(Element(k, "const", expr=repr(v), text=f"{k}({v})") for k, v in (("rz", a), ("ry", b), ("rx", c)))
 
 
-def parse_description(d: dict, geometry: dict, link_names) -> Description:
-    """The ``platform``, ``links`` and ``chains`` of a description file -> Description."""
+def _parse_platform(d: dict, geometry: dict):
+    """``platform``: (dof, seed, attachments, workspace or None)."""
     plat = d.get("platform")
     if not isinstance(plat, dict):
         raise VjmError("platform: missing; give at least {dof: 3} or {dof: 6}")
@@ -308,82 +309,107 @@ def parse_description(d: dict, geometry: dict, link_names) -> Description:
         if ws is None or ws.shape != (2, 3) or not np.all(ws[0] < ws[1]):
             raise VjmError("platform.workspace must be [[xmin, ymin, zmin], [xmax, ymax, zmax]] in mm")
         ws = tuple(map(tuple, ws.tolist()))
+    return dof, seed, attachments, ws
+
+
+def _chain_elements(name: str, tr, geometry: dict, link_names, used: set):
+    """A chain's elements and the role of each coordinate; the links its springs use go into ``used``."""
+    if not isinstance(tr, list) or not tr:
+        raise VjmError(f"chain {name}: transforms must be a non-empty list of elements")
+    els = tuple(parse_element(t, geometry, f"chain {name}, element {k + 1} {t!r}") for k, t in enumerate(tr))
+    variables = {e.var for e in els if e.var}
+    for k, e in enumerate(els):
+        w = f"chain {name}, element {k + 1} {e.text!r}"
+        if e.role == "spring":
+            if e.link not in link_names:
+                raise VjmError(f"{w}: no link {e.link!r}; links: {', '.join(sorted(link_names)) or 'none'}")
+            if e.parallelogram and e.parallelogram[0] not in variables:
+                raise VjmError(f"{w}: the parallelogram angle {e.parallelogram[0]!r} is no coordinate of the chain")
+            used.add(e.link)
+    roles: dict = {}
+    for k, e in enumerate(els):
+        if e.var and roles.setdefault(e.var, e.role) != e.role:
+            raise VjmError(f"chain {name}, element {k + 1} {e.text!r}: coordinate {e.var!r} used with "
+                           f"two roles ({roles[e.var]}, {e.role})")
+    n_act = list(roles.values()).count("actuated")
+    if n_act != 1:
+        raise VjmError(f"chain {name}: needs exactly one actuated coordinate (e.g. 'Tx(q0) actuated'), "
+                       f"has {n_act}")
+    return els, roles
+
+
+def _chain_seed_limits(name: str, c: dict, roles: dict, geometry: dict):
+    """A chain's ``seed`` values and ``limits`` of its coordinates."""
+    seed_v = c.get("seed") or {}
+    if not isinstance(seed_v, dict):
+        raise VjmError(f"chain {name}.seed must be a mapping coordinate -> value")
+    sv = []
+    for k, v in seed_v.items():
+        if k not in roles:
+            raise VjmError(f"chain {name}.seed: {k!r} is no coordinate of the chain")
+        sv.append((str(k), evaluate(v, geometry, f"chain {name}.seed.{k}")))
+    lim_raw = c.get("limits") or {}
+    if not isinstance(lim_raw, dict):
+        raise VjmError(f"chain {name}.limits must be a mapping coordinate -> [min, max]")
+    limits = []
+    for k, v in lim_raw.items():
+        if k not in roles:
+            raise VjmError(f"chain {name}.limits: {k!r} is no coordinate of the chain")
+        if not (isinstance(v, list) and len(v) == 2):
+            raise VjmError(f"chain {name}.limits.{k} must be [min, max]")
+        lo, hi = (evaluate(x, geometry, f"chain {name}.limits.{k}") for x in v)
+        if not lo < hi:
+            raise VjmError(f"chain {name}.limits.{k}: min must be below max")
+        limits.append((str(k), lo, hi))
+    return tuple(sv), tuple(limits)
+
+
+def _chain_copies(name: str, copies, geometry: dict, els, sv, attach: str, limits) -> list:
+    """The chains a ``copies`` entry makes (by rotation or permutation of the axes)."""
+    if not isinstance(copies, dict) or set(copies) - {"rotate", "permute", "count", "names"} \
+            or ("rotate" in copies) == ("permute" in copies):
+        raise VjmError(f"chain {name}.copies: expected {{rotate: [transforms] | permute: [y, z, x], count: N, "
+                       f"names: [...]}}")
+    count = copies.get("count")
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise VjmError(f"chain {name}.copies.count must be an integer >= 1")
+    S = (_constants(copies["rotate"], geometry, f"chain {name}.copies.rotate") if "rotate" in copies
+         else _permutation(copies["permute"], f"chain {name}.copies"))
+    names = copies.get("names") or [f"{name}_{k + 1}" if k else name for k in range(count)]
+    if not isinstance(names, list) or len(names) != count:
+        raise VjmError(f"chain {name}.copies.names must list {count} names")
+    return [ChainSpec(str(names[k]), els, sv, S, k, attach, limits) for k in range(count)]
+
+
+def _parse_chain(i: int, c, geometry: dict, link_names, attachments, used: set) -> list:
+    """``chains[i]`` -> its ChainSpec (several with ``copies``)."""
+    if not isinstance(c, dict) or "name" not in c or "transforms" not in c:
+        raise VjmError(f"chains[{i}]: a chain is a mapping with name and transforms")
+    name = str(c["name"])
+    extra = set(c) - set(CHAIN_KEYS)
+    if extra:
+        raise VjmError(f"chain {name}: unknown keys {sorted(extra)}; known: {list(CHAIN_KEYS)}")
+    els, roles = _chain_elements(name, c["transforms"], geometry, link_names, used)
+    sv, limits = _chain_seed_limits(name, c, roles, geometry)
+    attach = c.get("platform", "")
+    if attach and attach not in dict(attachments):
+        raise VjmError(f"chain {name}: platform attachment {attach!r} is not in platform.attachments")
+    copies = c.get("copies")
+    if copies is None:
+        return [ChainSpec(name, els, sv, attach=attach or "", limits=limits)]
+    return _chain_copies(name, copies, geometry, els, sv, attach or "", limits)
+
+
+def parse_description(d: dict, geometry: dict, link_names) -> Description:
+    """The ``platform``, ``links`` and ``chains`` of a description file -> Description."""
+    dof, seed, attachments, ws = _parse_platform(d, geometry)
     chains_raw = d.get("chains")
     if not isinstance(chains_raw, list) or not chains_raw:
         raise VjmError("chains: expected a list of chains, each {name, transforms}")
-    chains = []
-    used = set()
+    chains: list = []
+    used: set = set()
     for i, c in enumerate(chains_raw):
-        if not isinstance(c, dict) or "name" not in c or "transforms" not in c:
-            raise VjmError(f"chains[{i}]: a chain is a mapping with name and transforms")
-        name = str(c["name"])
-        extra = set(c) - set(CHAIN_KEYS)
-        if extra:
-            raise VjmError(f"chain {name}: unknown keys {sorted(extra)}; known: {list(CHAIN_KEYS)}")
-        tr = c["transforms"]
-        if not isinstance(tr, list) or not tr:
-            raise VjmError(f"chain {name}: transforms must be a non-empty list of elements")
-        els = tuple(parse_element(t, geometry, f"chain {name}, element {k + 1} {t!r}") for k, t in enumerate(tr))
-        variables = {e.var for e in els if e.var}
-        for k, e in enumerate(els):
-            w = f"chain {name}, element {k + 1} {e.text!r}"
-            if e.role == "spring":
-                if e.link not in link_names:
-                    raise VjmError(f"{w}: no link {e.link!r}; links: {', '.join(sorted(link_names)) or 'none'}")
-                if e.parallelogram and e.parallelogram[0] not in variables:
-                    raise VjmError(f"{w}: the parallelogram angle {e.parallelogram[0]!r} is no coordinate of the chain")
-                used.add(e.link)
-        roles = {}
-        for k, e in enumerate(els):
-            if e.var and roles.setdefault(e.var, e.role) != e.role:
-                raise VjmError(f"chain {name}, element {k + 1} {e.text!r}: coordinate {e.var!r} used with "
-                               f"two roles ({roles[e.var]}, {e.role})")
-        n_act = list(roles.values()).count("actuated")
-        if n_act != 1:
-            raise VjmError(f"chain {name}: needs exactly one actuated coordinate (e.g. 'Tx(q0) actuated'), "
-                           f"has {n_act}")
-        seed_v = c.get("seed") or {}
-        if not isinstance(seed_v, dict):
-            raise VjmError(f"chain {name}.seed must be a mapping coordinate -> value")
-        sv = []
-        for k, v in seed_v.items():
-            if k not in roles:
-                raise VjmError(f"chain {name}.seed: {k!r} is no coordinate of the chain")
-            sv.append((str(k), evaluate(v, geometry, f"chain {name}.seed.{k}")))
-        lim_raw = c.get("limits") or {}
-        if not isinstance(lim_raw, dict):
-            raise VjmError(f"chain {name}.limits must be a mapping coordinate -> [min, max]")
-        limits = []
-        for k, v in lim_raw.items():
-            if k not in roles:
-                raise VjmError(f"chain {name}.limits: {k!r} is no coordinate of the chain")
-            if not (isinstance(v, list) and len(v) == 2):
-                raise VjmError(f"chain {name}.limits.{k} must be [min, max]")
-            lo, hi = (evaluate(x, geometry, f"chain {name}.limits.{k}") for x in v)
-            if not lo < hi:
-                raise VjmError(f"chain {name}.limits.{k}: min must be below max")
-            limits.append((str(k), lo, hi))
-        attach = c.get("platform", "")
-        if attach and attach not in dict(attachments):
-            raise VjmError(f"chain {name}: platform attachment {attach!r} is not in platform.attachments")
-        copies = c.get("copies")
-        if copies is None:
-            chains.append(ChainSpec(name, els, tuple(sv), attach=attach or "", limits=tuple(limits)))
-            continue
-        if not isinstance(copies, dict) or set(copies) - {"rotate", "permute", "count", "names"} \
-                or ("rotate" in copies) == ("permute" in copies):
-            raise VjmError(f"chain {name}.copies: expected {{rotate: [transforms] | permute: [y, z, x], count: N, "
-                           f"names: [...]}}")
-        count = copies.get("count")
-        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-            raise VjmError(f"chain {name}.copies.count must be an integer >= 1")
-        S = (_constants(copies["rotate"], geometry, f"chain {name}.copies.rotate") if "rotate" in copies
-             else _permutation(copies["permute"], f"chain {name}.copies"))
-        names = copies.get("names") or [f"{name}_{k + 1}" if k else name for k in range(count)]
-        if not isinstance(names, list) or len(names) != count:
-            raise VjmError(f"chain {name}.copies.names must list {count} names")
-        for k in range(count):
-            chains.append(ChainSpec(str(names[k]), els, tuple(sv), S, k, attach or "", tuple(limits)))
+        chains += _parse_chain(i, c, geometry, link_names, attachments, used)
     seen = set()
     for c in chains:
         if c.name in seen:

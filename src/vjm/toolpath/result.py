@@ -153,7 +153,7 @@ class PathResult:
         p = self.toolpath.points
         seg = np.stack([p[:-1, :2], p[1:, :2]], axis=1)
         e = self.error * 1e3
-        lc = LineCollection(seg, cmap="viridis", lw=2)
+        lc = LineCollection(list(seg), cmap="viridis", lw=2)
         lc.set_array(0.5 * (e[:-1] + e[1:]))
         ax.add_collection(lc)
         ax.figure.colorbar(lc, ax=ax, label="TCP error [um]")
