@@ -11,6 +11,7 @@ for JSON and YAML.
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import tempfile
 from contextlib import contextmanager
@@ -123,6 +124,15 @@ def atomic_path(path, suffix: str | None = None):
     finally:
         if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def file_sha256(path) -> str:
+    """SHA-256 of a file's bytes (hex): the identity of an output set's members and of a result's source."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def write_text(path, text: str) -> None:

@@ -25,7 +25,6 @@ forward (:func:`recover`), so the set is the new one, complete.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import shutil
@@ -36,6 +35,7 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from .atomic import TMP_PREFIX, fsync_dir, fsync_file, stale_temporary, temp_beside
+from .atomic import file_sha256 as sha256
 from .errors import LinkFeaError
 
 MANIFEST = ".linkfea-outputs.json"
@@ -71,14 +71,6 @@ def fault(point: str) -> None:
     _hits[point] = _hits.get(point, 0) + 1
     if _hits[point] >= (int(nth) if nth.isdigit() else 1):
         os.kill(os.getpid(), signal.SIGKILL)
-
-
-def sha256(path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _internal(name: str) -> bool:

@@ -179,9 +179,9 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     epsilon : float, optional
         Deprecated name of ``envelope``.
     """
+    from .atomic import file_sha256
     from .cad import build_link
     from .mesh import default_mesh_size
-    from .resources import file_sha256
 
     if epsilon is not None:
         warnings.warn("compute(epsilon=...) is deprecated: use envelope=...", DeprecationWarning, stacklevel=2)

@@ -32,17 +32,6 @@ def cad_dir() -> Path:
     return shipped_dir("linkfea", "_cad", "cad")
 
 
-def file_sha256(path) -> str:
-    """SHA-256 of a file's bytes (hex), recorded beside the file's path in results."""
-    import hashlib
-
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def _same(a: Path, b: Path) -> bool:
     try:
         return a.samefile(b)

@@ -77,7 +77,7 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
     except user_errors() as exc:
         _fail(exc)
     if as_json:
-        from linkfea.resources import file_sha256
+        from linkfea.atomic import file_sha256
 
         doc = r.to_dict()
         if m.path:  # which model file was used (a bare name may find a local or a bundled one)
