@@ -111,7 +111,7 @@ def _result(**changes) -> str:
 
 #: a machine description whose chains leave the platform no motion (mobility 0)
 LOCKED = """name: three sliders
-geometry: {a: 10.0}
+geometry: {}
 actuator: {stiffness: 1000.0}
 platform: {dof: 3, seed: [0, 0, 0], workspace: [[-10, -10, -10], [10, 10, 10]]}
 chains:
@@ -222,6 +222,9 @@ CASES = [
          {"leg.json": _result(stiffness=[[2 / c if i == j else 0.0 for j in range(6)]
                                          for i, c in enumerate(C_DIAG)])},
          "a link result whose stiffness is twice the inverse of its compliance"),
+    Case("18.4", "vjm stiffness m.yaml --at 0,0,0", "geometry.Rr: no expression of the platform or the chains uses it",
+         {"m.yaml": _linear("geometry:\n", "geometry:\n  Rr: 12.0\n")},
+         "linear_delta.yaml with an extra geometry name Rr that no expression uses"),
     # 18.9: messages
     Case("18.9", "vjm stiffness m.yaml --at 0,0,0", "'9**9**9' is too large: its value is beyond the largest",
          {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "Tx(9**9**9), Tz(q0) actuated")},

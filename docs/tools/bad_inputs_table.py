@@ -10,7 +10,9 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "tests"))
+# the helpers of tests/ (bad_inputs), after src/: the test folders tests/vjm and tests/linkfea must not
+# shadow the packages of the same names
+sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests")]
 
 from bad_inputs import CASES, run  # noqa: E402
 

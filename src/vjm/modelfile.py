@@ -38,6 +38,7 @@ into :attr:`vjm.Model.links`.
 from __future__ import annotations
 
 import os
+import re
 
 import numpy as np
 import yaml
@@ -250,9 +251,32 @@ def _described_from_dict(d: dict, base_dir: str, path: str | None) -> Model:
     geo = {k: _num(v, f"geometry.{k}") for k, v in geo.items()}
     links = parse_links(d, base_dir)
     desc = parse_description(d, geo, set(links))
+    _check_geometry_used(geo, desc.raw)
     actuator, jo, effects = _common(d)
     return Model(DESCRIBED, geo, actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")),
                  path=path, links=links, description=desc)
+
+
+def _check_geometry_used(geo: dict, raw: dict) -> None:
+    """Every geometry name of a description appears in one of its expressions: a name that none uses
+    is a typo or a value that changes nothing, and is refused."""
+    words: set = set()
+
+    def walk(v):
+        if isinstance(v, str):
+            words.update(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", v))
+        elif isinstance(v, dict):
+            for x in v.values():
+                walk(x)
+        elif isinstance(v, list):
+            for x in v:
+                walk(x)
+
+    walk({k: v for k, v in raw.items() if k != "links"})
+    unused = [k for k in geo if k not in words]
+    if unused:
+        raise VjmError(f"geometry.{unused[0]}: no expression of the platform or the chains uses it; remove it "
+                       f"or use it (a geometry name changes the machine only through the expressions)")
 
 
 def _is_result_path(link) -> bool:
