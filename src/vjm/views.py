@@ -163,6 +163,12 @@ def _link_row(link) -> str:
     return f"{kind}; {where}; diag C = [{', '.join(f'{x:.3e}' for x in d)}]"
 
 
+def _effect(name, params) -> str:
+    if isinstance(params, dict) and params:
+        return f"{name} (" + ", ".join(f"{k} = {v}" for k, v in params.items()) + ")"
+    return str(name)
+
+
 def model_html(model) -> str:
     """Architecture, geometry, links with their frames, actuator, joints and effects of a vjm Model."""
     a = model.actuator
@@ -173,7 +179,7 @@ def model_html(model) -> str:
                           f"q_ref {a.q_ref:g} mm"),
              ("joints", "ideal" if model.joints.passive_stiffness is None
               else f"passive stiffness {model.joints.passive_stiffness:g} N mm/rad"),
-             ("effects", ", ".join(model.effects) or "none")]
+             ("effects", "; ".join(_effect(k, v) for k, v in model.effects.items()) or "none")]
     if model.path:
         rows.append(("file", model.path))
     return "<p><b>vjm Model</b></p>" + rows_table(rows)

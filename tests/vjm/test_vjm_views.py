@@ -136,7 +136,9 @@ def test_model_html_shows_its_parts(model):
     for name in model.links:
         assert f"link {name}" in h
     assert f"stiffness {model.actuator.stiffness:g} N/mm" in h
-    assert "joints" in h and "effects" in h
+    assert "joints" in h and "effects</th><td style='text-align:left'>none" in h
+    h = model.replace(effects={"gravity": {"weight": 12.0}})._repr_html_()
+    assert "gravity (weight = 12.0)" in h
 
 
 def test_model_save_reads_back_to_the_same_stiffness(model, tmp_path):
