@@ -157,8 +157,8 @@ def _link_row(link) -> str:
     src = link.source or {}
     kind = next(iter(src), "inline")
     f = link.frame
-    where = ("frame not stated" if f is None else
-             f"frame origin {np.round(f.origin, 4).tolist()} mm, x axis {np.round(f.axes[0], 4).tolist()}")
+    where = ("in the architecture's spring frame (no CAD frame stated)" if f is None else
+             f"CAD frame origin {np.round(f.origin, 4).tolist()} mm, x axis {np.round(f.axes[0], 4).tolist()}")
     d = np.diag(np.asarray(link.compliance))
     return f"{kind}; {where}; diag C = [{', '.join(f'{x:.3e}' for x in d)}]"
 

@@ -156,3 +156,16 @@ def test_pictures_use_agg_when_no_backend_is_set():
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().endswith("agg")
+
+
+def test_model_html_states_each_links_frame(model):
+    from linkfea.compliance import Compliance
+    from linkfea.frames import Frame
+
+    R = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    foot = Compliance(model.foot.compliance, Frame(np.array([1.5, 2.0, -3.0]), R))
+    h = model.replace(foot=foot)._repr_html_()
+    assert "CAD frame origin [1.5, 2.0, -3.0] mm, x axis [0.0, 1.0, 0.0]" in h
+    assert h.count("no CAD frame stated") == 1  # the leg's
+    for v in np.diag(model.leg.compliance):
+        assert f"{v:.3e}" in h
