@@ -111,6 +111,19 @@ class StiffnessMap:
                 f"k_tran {np.nanmin(kt):.3g}..{np.nanmax(kt):.3g} mm/N, "
                 f"k_rot {np.nanmin(kr):.3g}..{np.nanmax(kr):.3g} rad/(N mm)")
 
+    def _repr_html_(self) -> str:
+        """The grid, and min / max of k_tran and k_rot with where they occur.
+
+        >>> import vjm
+        >>> html = vjm.load_model("puu").map(grid=3, slice="z=0")._repr_html_()
+        >>> "k_tran min" in html and "9 of 9" in html
+        True
+        """
+        from .views import map_html
+
+        return map_html(self.architecture, self.shape, self.axes, self.fixed, self.points, self.reachable,
+                        self.k_tran, self.k_rot)
+
     def save(self, out, force: bool = False) -> None:
         """Write ``out/map.npz``, ``out/k_tran.png`` and ``out/k_rot.png`` as one set (:mod:`linkfea.outputs`):
         all three new, or the old ones; ``force`` writes beside files of other origin."""
@@ -145,8 +158,11 @@ class StiffnessMap:
         (isotropic Q0, Q1, Q2) are marked: filled when in the plane shown, hollow (with
         their distance to it) when projected.
         """
-        import matplotlib.pyplot as plt
         from matplotlib.colors import LogNorm, Normalize
+
+        from .views import pyplot
+
+        plt = pyplot()
 
         unit = dict(MAPS)[name]
         axes, shape = self.axes, self.shape

@@ -242,6 +242,32 @@ class Model:
 
         return grid_map(self, grid, slice, orientation=orientation, progress=progress)
 
+    def save(self, path) -> None:
+        """Write this model as a YAML model file (:func:`vjm.save_model`; atomic), read back by
+        :func:`vjm.load_model` to an equal model.
+
+        >>> import tempfile, pathlib, vjm
+        >>> m = vjm.load_model("puu")
+        >>> p = pathlib.Path(tempfile.mkdtemp()) / "m.yaml"
+        >>> m.save(p)
+        >>> vjm.load_model(p).geometry == m.geometry
+        True
+        """
+        from .modelwrite import save_model
+
+        save_model(self, path)
+
+    def _repr_html_(self) -> str:
+        """Architecture, geometry, links with their frames, actuator, joints and effects.
+
+        >>> import vjm
+        >>> "orthoglide-3PUU" in vjm.load_model("puu")._repr_html_()
+        True
+        """
+        from .views import model_html
+
+        return model_html(self)
+
     def replace(self, **changes) -> "Model":
         """A copy with some fields or links changed (validated), like ``dataclasses.replace``.
 

@@ -339,6 +339,48 @@ class StiffnessResult:
             out["rotation_vector_rad"] = np.asarray(self.rotation).tolist()
         return out
 
+    def save(self, path):
+        """Write :meth:`to_dict` as JSON (schema ``vjm.stiffness/1``, frame, order and units stated),
+        atomically; a file at ``path`` that is not such a file is refused.  Returns the path.
+
+        >>> import json, tempfile, pathlib, vjm
+        >>> r = vjm.load_model("puu").stiffness([0.0, 0.0, 0.0])
+        >>> p = r.save(pathlib.Path(tempfile.mkdtemp()) / "K.json")
+        >>> json.loads(p.read_text())["frame"]
+        'world axes, origin at the end-effector point'
+        """
+        from .views import STIFFNESS_SCHEMA, save_json
+
+        return save_json(path, self.to_dict(), STIFFNESS_SCHEMA)
+
+    def plot(self, ax=None, kind: str = "principal", pose: int = 0):
+        """Draw one pose on ``ax`` (a new figure if None) and return the Axes.
+
+        ``kind="principal"``: bars of the principal compliances, the eigenvalues of
+        ``C[:3, :3]`` (mm/N) and ``C[3:, 3:]`` (rad/(N mm)) on two log axes -- how soft the
+        machine is in its weakest and stiffest directions.  ``kind="matrix"``: the 6x6 ``C``
+        as an image of log10 |C_ij|.  ``pose`` picks the pose of a multi-pose result.
+
+        >>> import vjm
+        >>> ax = vjm.load_model("puu").stiffness([0.0, 0.0, 0.0]).plot()
+        >>> len(ax.patches)
+        3
+        """
+        from .views import plot_matrix, plot_principal
+
+        r = self.pose(pose) if np.ndim(self.K) == 3 else self
+        title = f"at {np.round(np.asarray(r.points, dtype=float), 3).tolist()} mm"
+        if kind == "principal":
+            return plot_principal(r.C, ax=ax, title=f"principal compliances {title}")
+        if kind == "matrix":
+            return plot_matrix(r.C, ax=ax, title=f"C {title}")
+        raise ValueError(f"kind must be 'principal' or 'matrix', got {kind!r}")
+
+    def _repr_html_(self) -> str:
+        from .views import stiffness_html
+
+        return stiffness_html(self.K, self.C, self.k_tran, self.k_rot, self.rank, self.points)
+
 
 def assemble(points: np.ndarray, chain_K: list, chain_ranks: list) -> StiffnessResult:
     """Machine stiffness: sum of the chains' K (eq. 13) and the derived compliances."""
