@@ -230,4 +230,4 @@ def solve_calculix(mesh, material: Material, mode: str = "rigid", block_ratio: f
         return CalculixResult(C, wall, len(info["points"]) + (2 if mode == "rigid" else 0), res, peak)
     finally:
         if own_dir:
-            shutil.rmtree(wd, ignore_errors=True)
+            shutil.rmtree(wd, ignore_errors=True)  # own file: the mkdtemp folder made above

@@ -221,7 +221,7 @@ def _remove_legacy_temporaries(parent: Path) -> None:
     try:
         for entry in os.listdir(parent):
             if entry.startswith(LEGACY_TEMPORARIES) and (parent / entry).is_dir():
-                shutil.rmtree(parent / entry, ignore_errors=True)
+                shutil.rmtree(parent / entry, ignore_errors=True)  # own file: an earlier version's report swap
     except OSError:
         pass
 
