@@ -72,8 +72,10 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
               foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG):
     """Cartesian stiffness of MODEL at one point."""
     try:
+        from .spread import bars
+
         m = _load(model, foot, leg)
-        r = m.stiffness(_point(at))
+        r = m.stiffness(_point(at), spread=bool(bars(m)))
     except user_errors() as exc:
         _fail(exc)
     if as_json:
@@ -88,8 +90,11 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
     typer.echo(f"{m.architecture if m.description is None else m.name} at ({at}) mm  "
                f"[world axes, at the end-effector point]")
     typer.echo(f"K (N/mm, N/rad, N mm/rad):\n{r.K}")
-    typer.echo(f"k_tran = {r.k_tran:.4g} mm/N   (largest eigenvalue of C[:3,:3])")
-    typer.echo(f"k_rot  = {r.k_rot:.4g} rad/(N mm)   (largest eigenvalue of C[3:,3:])")
+    pm = ("", "") if r.k_tran_spread is None else (f" +- {r.k_tran_spread:.2g}", f" +- {r.k_rot_spread:.2g}")
+    typer.echo(f"k_tran = {r.k_tran:.4g}{pm[0]} mm/N   (largest eigenvalue of C[:3,:3])")
+    typer.echo(f"k_rot  = {r.k_rot:.4g}{pm[1]} rad/(N mm)   (largest eigenvalue of C[3:,3:])")
+    if r.k_tran_spread is not None:
+        typer.echo("+-: spread from the links' FEA error bars (vjm.spread; beam and inline links contribute none)")
     typer.echo(f"rank(K) = {r.rank}, rank(J_q) per chain = {np.asarray(r.chain_rank).tolist()}")
 
 
@@ -101,6 +106,9 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
                                             help="6-dof platforms: the fixed platform rotation vector rx,ry,rz "
                                                  "(rad) of the map"),
             out: Path = typer.Option(..., "--out", help="output directory (k_tran.png, k_rot.png, map.npz)"),
+            spread: bool = typer.Option(True, "--spread/--no-spread",
+                                        help="also save k_tran_spread and k_rot_spread, the spread from the links' "
+                                             "FEA error bars (map.npz; zero if no link has an error estimate)"),
             foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG, force: bool = FORCE):
     """k_tran and k_rot over the workspace box: PNG maps and an .npz of K, k_tran, k_rot."""
     from linkfea.checks import integer
@@ -113,7 +121,7 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
         rot = _point(orientation, "--orientation", (3,))
         check_folder(out, MAP_FILES, force=force)
         m = _load(model, foot, leg)
-        smap = m.map(grid, slice_, orientation=rot if m.dof == 6 else None, progress=_progress)
+        smap = m.map(grid, slice_, orientation=rot if m.dof == 6 else None, progress=_progress, spread=spread)
         smap.save(out, force=force)
     except user_errors() as exc:
         _fail(exc)

@@ -8,6 +8,11 @@ has at hand into one: a :class:`~linkfea.result.LinkResult`, a Compliance, a 6x6
 matrix, the path of a result JSON, or the name of a bundled CAD script (computed by
 :func:`linkfea.compute`).
 
+A spring computed by linkfea also carries the FEA's error bar (:attr:`LinkSpring.error`: the
+estimated relative discretization error of each diagonal entry, :mod:`linkfea.estimate`);
+:mod:`vjm.spread` carries it to the machine's k_tran and k_rot.  Analytic beams, inline
+matrices and rigid links have none.
+
 ``vjm.Link`` is the older name of :class:`LinkSpring` (it shared its name with the CAD
 input :class:`linkfea.cad.Link`); it still works and warns.
 """
@@ -46,10 +51,23 @@ class LinkSpring:
     Compliance without frame from there on.  ``source`` keeps what the model file said
     (``{"beam": ...}``, ``{"linkfea": path}`` ...) so that saving writes it back; None
     means "write the matrix inline".
+
+    ``error`` is the FEA's error bar: the estimated relative discretization error of each
+    diagonal entry (6,), order Fx..Mz (``LinkResult.error_diagonal``), or None where there is
+    no estimate (analytic beams, inline matrices, results saved before the estimate existed).
     """
 
     value: Any
     source: dict | None = None
+    error: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.error is not None:
+            e = np.array(self.error, dtype=float)
+            if e.shape != (6,) or not np.all(np.isfinite(e)) or np.any(e < 0) or np.any(e >= 1):
+                raise VjmError(f"a link's error bar is 6 relative errors in [0, 1) (order Fx..Mz), got {self.error!r}")
+            e.setflags(write=False)
+            object.__setattr__(self, "error", e)
 
     @property
     def compliance(self) -> np.ndarray | None:
@@ -61,7 +79,20 @@ class LinkSpring:
         """This spring with its compliance checked (VjmError naming ``key``)."""
         if self.value is None or isinstance(self.value, Compliance):
             return self
-        return LinkSpring(checked_compliance(self.value, key), self.source)
+        return LinkSpring(checked_compliance(self.value, key), self.source, self.error)
+
+    def scaled(self, t: float) -> "LinkSpring":
+        """This spring with its compliance moved ``t`` times along its error bar: ``D C D`` with
+        ``D = diag(sqrt(1 + t e_k))``, so each diagonal entry becomes ``C_kk (1 + t e_k)`` and each
+        off-diagonal one moves by the geometric mean of its row's and column's factors (the
+        bound ``|dC_ij| <= sqrt(dC_ii dC_jj)`` of :mod:`linkfea.estimate`); the result stays
+        symmetric positive definite for ``|t| <= 1``.  Frame and source are kept; the scaled
+        spring carries no error bar of its own."""
+        if self.error is None or self.value is None:
+            raise VjmError("this link has no error bar to move along")
+        c = self.value if isinstance(self.value, Compliance) else checked_compliance(self.value, "link")
+        d = np.sqrt(1.0 + float(t) * self.error)
+        return LinkSpring(Compliance(d[:, None] * c.matrix * d[None, :], c.frame, c.units, c.what), self.source)
 
     @property
     def frame(self):
@@ -88,6 +119,30 @@ def read_linkfea(path: str, key: str = "linkfea") -> Compliance:
         return read_compliance(path)
     except LinkFeaError as exc:
         raise VjmError(f"{key}: {exc}") from None  # linkfea names the file
+
+
+def linkfea_spring(path: str, key: str = "linkfea") -> LinkSpring:
+    """The LinkSpring of a ``linkfea compute`` result JSON, read once by linkfea's one reader: its
+    Compliance (6x6, frame, units), its source and its error bar
+    (``diagnostics.discretization_error.diagonal``; None for a result saved before the estimate)."""
+    from linkfea.io import read_result
+    from linkfea.result import compliance_of
+
+    path = os.path.abspath(path)
+    if not os.path.isfile(path):
+        raise VjmError(f"{key}: file not found: {path}")
+    try:
+        doc = read_result(path)
+        C = compliance_of(doc, path)
+    except LinkFeaError as exc:
+        raise VjmError(f"{key}: {exc}") from None  # linkfea names the file
+    est = (doc.get("diagnostics") or {}).get("discretization_error")
+    err = est.get("diagonal") if isinstance(est, dict) else None
+    try:
+        return LinkSpring(C, {"linkfea": path}, None if err is None else np.asarray(err, dtype=float))
+    except (VjmError, TypeError, ValueError):
+        raise VjmError(f"{key}: {path}: discretization_error.diagonal must be 6 relative errors in [0, 1), "
+                       f"got {err!r}") from None
 
 
 def deprecated_link():
@@ -119,14 +174,13 @@ def as_link(obj, key: str = "link") -> LinkSpring:
         return obj
     if isinstance(obj, LinkResult):
         source = {"linkfea": os.path.abspath(obj.path)} if obj.path is not None else None
-        return LinkSpring(obj.value, source)
+        return LinkSpring(obj.value, source, obj.error_diagonal)
     if isinstance(obj, Compliance):
         return LinkSpring(obj, None)
     if isinstance(obj, (str, os.PathLike)):
         text = os.fspath(obj)
         if _result_path(text):
-            path = os.path.abspath(text)
-            return LinkSpring(read_linkfea(path, key), {"linkfea": path})
+            return linkfea_spring(text, key)
         import linkfea
 
         try:

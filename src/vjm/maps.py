@@ -29,6 +29,7 @@ from linkfea.outputs import OutputSet, check_folder
 from .errors import ArgumentError, VjmError
 from .grid import MAP_BYTES, Progress, grid_plan, in_chunks
 from .grid import parse_slice as parse_slice
+from .stiffness import SPREAD_NOTE
 
 #: points per axis of a workspace grid (``vjm map --grid``, ``vjm sweep --grid``)
 GRID = Bounds(2)
@@ -100,6 +101,11 @@ class StiffnessMap:
     k_rot: np.ndarray
     #: named points marked on the pictures, ``{label: (x, y, z)}`` in mm
     landmarks: dict = field(default_factory=dict)
+    #: the spread of k_tran (mm/N) and k_rot (rad/(N mm)) from the links' FEA error bars
+    #: (:mod:`vjm.spread`; zero if no link has an error estimate, NaN where unreachable), or None
+    #: if the map was made without it
+    k_tran_spread: Optional[np.ndarray] = None
+    k_rot_spread: Optional[np.ndarray] = None
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -107,9 +113,16 @@ class StiffnessMap:
 
     def summary(self) -> str:
         kt, kr = self.k_tran, self.k_rot
-        return (f"{self.reachable.sum()} of {len(self.points)} points reachable; "
+        text = (f"{self.reachable.sum()} of {len(self.points)} points reachable; "
                 f"k_tran {np.nanmin(kt):.3g}..{np.nanmax(kt):.3g} mm/N, "
                 f"k_rot {np.nanmin(kr):.3g}..{np.nanmax(kr):.3g} rad/(N mm)")
+        if self.k_tran_spread is not None:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                rt, rr = (float(np.nanmax(s / k)) if np.any(np.isfinite(s / k)) else 0.0
+                          for s, k in ((self.k_tran_spread, kt), (self.k_rot_spread, kr)))
+            text += (f"; FEA error bars of the links: k_tran within +-{100 * rt:.2g}%, k_rot within "
+                     f"+-{100 * rr:.2g}% everywhere" if rt or rr else "; no link carries an FEA error estimate")
+        return text
 
     def _repr_html_(self) -> str:
         """The grid, and min / max of k_tran and k_rot with where they occur.
@@ -130,10 +143,13 @@ class StiffnessMap:
         check_folder(out, MAP_FILES, force=force)
         with OutputSet(out, "vjm map") as s:
             npz, png_t, png_r = (s.path(n) for n in MAP_FILES)
+            extra = {} if self.k_tran_spread is None else dict(
+                k_tran_spread=self.k_tran_spread, k_rot_spread=self.k_rot_spread,
+                spread_note=np.array(f"k_tran_spread mm/N, k_rot_spread rad/(N mm), per point: {SPREAD_NOTE}"))
             np.savez_compressed(npz, points=self.points, K=self.K, k_tran=self.k_tran, k_rot=self.k_rot,
                                 reachable=self.reachable, shape=np.array(self.shape),
                                 note=np.array("K world axes at the end-effector point; k_tran mm/N, "
-                                              "k_rot rad/(N mm); NaN = unreachable"))
+                                              "k_rot rad/(N mm); NaN = unreachable"), **extra)
             self.save_pictures({"k_tran": png_t, "k_rot": png_r})
 
     def save_pictures(self, paths: dict) -> None:
@@ -210,12 +226,13 @@ class StiffnessMap:
         return ax
 
 
-def compute_map(model, P, axes, fixed=None, where: str = "grid", progress: Optional[Progress] = None
-                ) -> StiffnessMap:
+def compute_map(model, P, axes, fixed=None, where: str = "grid", progress: Optional[Progress] = None,
+                spread: bool = False) -> StiffnessMap:
     """Stiffness at the points ``P`` (n, 3) of the grid ``axes``; NaN where the model cannot reach.
 
     ``where`` names the grid in the error raised when no point is reachable; a run longer
-    than about a minute reports through ``progress`` (:func:`vjm.grid.in_chunks`).
+    than about a minute reports through ``progress`` (:func:`vjm.grid.in_chunks`);
+    ``spread`` adds the spread of k_tran and k_rot from the links' FEA error bars (:mod:`vjm.spread`).
     """
     P = np.asarray(P, dtype=float)
     ok = model.reachable(P)
@@ -224,19 +241,23 @@ def compute_map(model, P, axes, fixed=None, where: str = "grid", progress: Optio
     kt = np.full(len(P), np.nan)
     kr = np.full(len(P), np.nan)
     K = np.full((len(P), 6, 6), np.nan)
+    st, sr = (np.full(len(P), np.nan) for _ in range(2)) if spread else (None, None)
     idx = np.flatnonzero(ok)
 
     def step(s: slice) -> None:
         i = idx[s]
-        r = model.stiffness_map(P[i])
+        r = model.stiffness_map(P[i], spread=spread)
         kt[i], kr[i], K[i] = r.k_tran, r.k_rot, r.K
+        if st is not None and sr is not None:
+            st[i], sr[i] = r.k_tran_spread, r.k_rot_spread
 
     in_chunks(len(idx), step, progress, "reachable points")
-    return StiffnessMap(model.architecture, list(axes), fixed, P, ok, K, kt, kr, landmarks(model.architecture))
+    return StiffnessMap(model.architecture, list(axes), fixed, P, ok, K, kt, kr, landmarks(model.architecture),
+                        st, sr)
 
 
 def grid_map(model, n: int, slice_: Optional[str] = None, orientation=None,
-             progress: Optional[Progress] = None) -> StiffnessMap:
+             progress: Optional[Progress] = None, spread: bool = False) -> StiffnessMap:
     """:meth:`vjm.Model.map`: the stiffness over an n-per-axis workspace grid, its memory checked first."""
     p = grid_plan(n, slice_, "the stiffness map", MAP_BYTES)
     if p.long and progress is not None:
@@ -249,4 +270,4 @@ def grid_map(model, n: int, slice_: Optional[str] = None, orientation=None,
             raise VjmError(f"orientation is a rotation vector rx, ry, rz (rad), got {orientation!r}")
         P = np.hstack([P, np.broadcast_to(rot, (len(P), 3))])
     where = f"{n}-point grid{' at ' + slice_ if slice_ else ''}"
-    return compute_map(model, P, g.axes, g.fixed, where=where, progress=progress)
+    return compute_map(model, P, g.axes, g.fixed, where=where, progress=progress, spread=spread)

@@ -23,6 +23,7 @@ from .grid import CHUNK, Grid, Workspace
 from .kinematics import Kinematics, as_poses
 from .links import LinkSpring, as_link
 from .models import ARCHITECTURES
+from .spread import Spread
 from .stiffness import StiffnessResult, assemble, assemble_soa, chain_stiffness, chain_stiffness_frames
 from .transforms import rotation_vector
 
@@ -230,17 +231,18 @@ class Model:
             out[a:a + CHUNK] = self.arch.reachable(self, P[a:a + CHUNK])
         return out
 
-    def map(self, grid: int = 41, slice: str | None = None, orientation=None, progress=None):
+    def map(self, grid: int = 41, slice: str | None = None, orientation=None, progress=None, spread: bool = False):
         """The stiffness map over an n-point-per-axis workspace grid (:class:`vjm.maps.StiffnessMap`).
 
         ``slice="z=0"`` fixes one axis; ``orientation`` (rx, ry, rz, rad) is the fixed platform
         rotation of a 6-dof platform's map.  The memory the map needs is checked first
         (VjmError if it cannot fit); a run longer than about a minute reports through
-        ``progress`` (a callable taking one line of text).
+        ``progress`` (a callable taking one line of text).  ``spread=True`` adds the spread of
+        k_tran and k_rot from the links' FEA error bars (:mod:`vjm.spread`).
         """
         from .maps import grid_map
 
-        return grid_map(self, grid, slice, orientation=orientation, progress=progress)
+        return grid_map(self, grid, slice, orientation=orientation, progress=progress, spread=spread)
 
     def save(self, path) -> None:
         """Write this model as a YAML model file (:func:`vjm.save_model`; atomic), read back by
@@ -358,9 +360,13 @@ class Model:
             out.append(chain_stiffness(ch, J, c))
         return tuple(zip(*out))
 
-    def stiffness_map(self, P) -> StiffnessResult:
+    def stiffness_map(self, P, spread: bool = False, spread_method: str = "linear") -> StiffnessResult:
         """Stiffness at every pose of P (points (n, 3), poses (n, 6) or (n, 4, 4), or a
         :class:`~vjm.kinematics.Kinematics`): batched, no loop over poses.
+
+        ``spread=True`` adds the links' FEA error bars carried to k_tran and k_rot
+        (``k_tran_spread``, ``k_rot_spread``; :mod:`vjm.spread`, ``spread_method`` "linear" or
+        "ends"); links without an error estimate contribute none.
 
         The poses are processed in blocks of ``MAP_BLOCK`` with the pose axis
         last, so that the intermediate arrays stay in cache; a bad pose raises
@@ -378,6 +384,7 @@ class Model:
                np.empty(n, dtype=int), np.empty(n, dtype=bool), np.empty((n, len(self.chains)), dtype=int))
         tol = 1e-6 * (1.0 + (np.max(np.abs(pts)) if n else 0.0))
         step = MAP_BLOCK if kin is not None else self.arch.ik_block
+        sp = Spread(self, n, spread_method) if spread else None
         for a0 in range(0, n, step):
             b0 = min(n, a0 + step)
             if kin is not None:
@@ -392,33 +399,46 @@ class Model:
                     raise
             for a in range(a0, b0, MAP_BLOCK):
                 b = min(b0, a + MAP_BLOCK)
-                self._map_block(kb if (a, b) == (a0, b0) else kb.take(slice(a - a0, b - a0)), a, out, tol)
+                self._map_block(kb if (a, b) == (a0, b0) else kb.take(slice(a - a0, b - a0)), a, out, tol, sp)
         K, C, kt, kr, rank, inv, chain_rank = out
         rot = rotation_vector(frames[:, :3, :3]) if self.dof == 6 else None
-        return StiffnessResult(pts, K, C, kt, kr, rank, inv, chain_rank, rot)
+        extra = {} if sp is None else dict(k_tran_spread=sp.k_tran, k_rot_spread=sp.k_rot, spread_by_link=sp.by_link)
+        return StiffnessResult(pts, K, C, kt, kr, rank, inv, chain_rank, rot, **extra)
 
-    def _map_block(self, kin: Kinematics, a: int, out, tol: float) -> None:
-        """Poses ``a : a + kin.n`` of :meth:`stiffness_map`, written into ``out``."""
+    def _block_stiffness(self, kin: Kinematics, tol: float):
+        """The machine stiffness (6, 6, n) (pose axis last) at ``kin`` and each chain's J_q rank;
+        the geometric part is kept with ``kin`` and shared by every model evaluated there."""
+        Ksum, ranks = None, []
+        for k, (ch, v, c) in enumerate(zip(kin.chains, kin.values, self.compliances(kin))):
+            Kc, rank, pe = chain_stiffness_frames(ch, np.ascontiguousarray(v.T), c, kin.stiffness_memo[k])
+            self._closed(kin, k, pe.T, tol)
+            ranks.append(rank)
+            Ksum = Kc if Ksum is None else Ksum + Kc
+        return Ksum, ranks
+
+    def _map_block(self, kin: Kinematics, a: int, out, tol: float, spread: Spread | None = None) -> None:
+        """Poses ``a : a + kin.n`` of :meth:`stiffness_map`, written into ``out`` (and into ``spread``)."""
         b = a + kin.n
         K, C, kt, kr, rank, inv, chain_rank = out
-        Ksum = None
-        for k, (ch, v, c) in enumerate(zip(kin.chains, kin.values, self.compliances(kin))):
-            Kc, chain_rank[a:b, k], pe = chain_stiffness_frames(ch, np.ascontiguousarray(v.T), c, kin.stiffness_memo[k])
-            self._closed(kin, k, pe.T, tol)
-            Ksum = Kc if Ksum is None else Ksum + Kc
+        Ksum, ranks = self._block_stiffness(kin, tol)
+        for k, r in enumerate(ranks):
+            chain_rank[a:b, k] = r
         Cb, rank[a:b], inv[a:b], kt[a:b], kr[a:b] = assemble_soa(Ksum)
         K[a:b] = Ksum.transpose(2, 0, 1)
         C[a:b] = Cb.transpose(2, 0, 1)
+        if spread is not None:
+            spread.block(kin, a, kt[a:b], kr[a:b], tol)
 
-    def stiffness(self, p) -> StiffnessResult:
+    def stiffness(self, p, spread: bool = False) -> StiffnessResult:
         """Stiffness at one pose p: a point (3,), (x, y, z, rx, ry, rz) or a 4x4 frame.
 
-        K (6, 6), C, k_tran, k_rot, rank ... (no leading pose axis)."""
+        K (6, 6), C, k_tran, k_rot, rank ... (no leading pose axis); ``spread=True`` adds the
+        links' FEA error bars carried to k_tran and k_rot (see :meth:`stiffness_map`)."""
         p = np.asarray(p, dtype=float)
         if p.shape not in ((3,), (6,), (4, 4)):
             raise VjmError(f"a pose is a point (x, y, z) in mm, (x, y, z, rx, ry, rz) or a 4x4 frame; "
                            f"got shape {p.shape}")
-        return self.stiffness_map(p[None]).pose(0)
+        return self.stiffness_map(p[None], spread=spread).pose(0)
 
     def deflection(self, P, wrench) -> np.ndarray:
         """Linear deflection twist ``C w`` (n, 6) (or (6,)) under wrench(es) (Fx..Mz, N and N mm)."""

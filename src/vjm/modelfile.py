@@ -46,7 +46,7 @@ from linkfea.checks import did_you_mean
 
 from .description import parse_description
 from .errors import VjmError
-from .links import LinkSpring, as_link, checked_compliance, read_linkfea
+from .links import LinkSpring, as_link, checked_compliance, linkfea_spring
 from .model import Actuator, Joints, Model, validate_compliance
 from .models import ARCHITECTURES
 from .models.described import NAME as DESCRIBED
@@ -140,7 +140,7 @@ def parse_link(spec, key: str, base_dir: str) -> LinkSpring:
     if not isinstance(val, str):
         raise VjmError(f"{key}.linkfea must be a file path")
     path = os.path.normpath(os.path.join(base_dir, val))
-    return LinkSpring(read_linkfea(path, f"{key}.linkfea"), {"linkfea": os.path.abspath(path)})
+    return linkfea_spring(path, f"{key}.linkfea")
 
 
 def parse_links(d: dict, base_dir: str) -> dict:

@@ -36,6 +36,11 @@ from .linalg import (
 )
 from .transforms import ROTATION
 
+#: what a saved spread means (JSON results, map files)
+SPREAD_NOTE = ("k +- spread: half-width of the range of k_tran (mm/N) and k_rot (rad/(N mm)) when every link's "
+               "compliance moves within its FEA error bar (vjm.spread; links added in magnitude); links "
+               "without an error estimate (analytic beams, inline matrices, rigid) contribute none")
+
 #: poses per block of the batched kernels (a block's arrays stay in cache)
 BLOCK = 2048
 
@@ -302,6 +307,13 @@ class StiffnessResult:
     invertible : (n,) bool
     chain_rank : (n, n_chains) rank of each chain's passive-joint Jacobian ``J_q``
     rotation : (n, 3) platform orientation (rotation vector, rad) of 6-dof platforms, else None
+    k_tran_spread, k_rot_spread : (n,) the spread of k_tran (mm/N) and k_rot (rad/(N mm)) when
+        every link's compliance moves within its FEA error bar (:mod:`vjm.spread`): read
+        ``k_tran +- k_tran_spread``.  Zero where no link carries an error estimate (analytic
+        beams, inline matrices); NaN where K is singular; None unless asked for
+        (``Model.stiffness_map(P, spread=True)``).
+    spread_by_link : ``{link name: (k_tran part, k_rot part)}``, each (n,): what each link's
+        bar contributes to the spread (the spread is their sum); None unless asked for
     """
 
     points: np.ndarray
@@ -313,12 +325,17 @@ class StiffnessResult:
     invertible: np.ndarray
     chain_rank: np.ndarray = field(default=None)
     rotation: np.ndarray | None = None
+    k_tran_spread: np.ndarray | None = None
+    k_rot_spread: np.ndarray | None = None
+    spread_by_link: dict | None = None
 
     def pose(self, i: int) -> "StiffnessResult":
         """The result of pose ``i`` alone (no leading axis)."""
         fields = ("points", "K", "C", "k_tran", "k_rot", "rank", "invertible", "chain_rank")
-        return StiffnessResult(**{f: getattr(self, f)[i] for f in fields},
-                               rotation=None if self.rotation is None else self.rotation[i])
+        opt = {f: None if getattr(self, f) is None else getattr(self, f)[i]
+               for f in ("rotation", "k_tran_spread", "k_rot_spread")}
+        by = None if self.spread_by_link is None else {k: (t[i], r[i]) for k, (t, r) in self.spread_by_link.items()}
+        return StiffnessResult(**{f: getattr(self, f)[i] for f in fields}, **opt, spread_by_link=by)
 
     def to_dict(self) -> dict:
         """JSON-ready dict (single pose or map), frames and units stated."""
@@ -337,6 +354,13 @@ class StiffnessResult:
         }
         if self.rotation is not None:
             out["rotation_vector_rad"] = np.asarray(self.rotation).tolist()
+        if self.k_tran_spread is not None:
+            out["k_tran_spread_mm_per_N"] = np.asarray(self.k_tran_spread).tolist()
+            out["k_rot_spread_rad_per_Nmm"] = np.asarray(self.k_rot_spread).tolist()
+            out["spread_by_link"] = {k: {"k_tran_mm_per_N": np.asarray(t).tolist(),
+                                         "k_rot_rad_per_Nmm": np.asarray(r).tolist()}
+                                     for k, (t, r) in (self.spread_by_link or {}).items()}
+            out["spread_note"] = SPREAD_NOTE
         return out
 
     def save(self, path):

@@ -43,7 +43,9 @@ def check_order(models, paths) -> None:
 
 
 def table1_rows(models) -> list[dict]:
-    """Our k_tran/k_rot at the seed's points next to the seed's values, for each model."""
+    """Our k_tran/k_rot at the seed's points next to the seed's values, for each model, with their
+    spread from the links' FEA error bars (``k_tran_spread``, ``k_rot_spread``, :mod:`vjm.spread`;
+    zero when no link carries an error estimate)."""
     seed = read_seed_table()
     out = []
     for m in models:
@@ -51,11 +53,11 @@ def table1_rows(models) -> list[dict]:
         if not rows:
             raise VjmError(f"the seed's Table 1 has no {m.architecture}")
         P = np.array([[float(r["x"]), float(r["y"]), float(r["z"])] for r in rows])
-        res = m.stiffness_map(P)
-        for r, kt, kr in zip(rows, res.k_tran, res.k_rot):
+        res = m.stiffness_map(P, spread=True)
+        for r, kt, kr, dt, dr in zip(rows, res.k_tran, res.k_rot, res.k_tran_spread, res.k_rot_spread):
             st, sr = float(r["k_tran_mm_per_N"]), float(r["k_rot_rad_per_Nmm"])
             out.append(dict(architecture=m.architecture, point=r["point"], seed_k_tran=st, k_tran=float(kt),
-                            seed_k_rot=sr, k_rot=float(kr)))
+                            seed_k_rot=sr, k_rot=float(kr), k_tran_spread=float(dt), k_rot_spread=float(dr)))
     return out
 
 
@@ -68,23 +70,41 @@ def describe_link(link) -> str:
         b = s["beam"]
         return "beam " + " ".join(f"{k}={v}" for k, v in b.items())
     if "linkfea" in s:
-        return f"linkfea {os.path.basename(s['linkfea'])}"
+        bar = "" if link.error is None else f" (FEA error bar up to {100 * float(max(link.error)):.2g}%)"
+        return f"linkfea {os.path.basename(s['linkfea'])}{bar}"
     return "inline compliance"
 
 
+def _ours(value: float, spread: float, bars: bool) -> str:
+    """``2.83`` or, when a link carries an error bar, ``2.83+-0.052`` (one word: columns stay split by blanks)."""
+    return f"{value:.3g}+-{spread:.2g}" if bars else f"{value:.3g}"
+
+
 def report_lines(rows: list[dict], models) -> list[str]:
-    """The table as text (k_tran in 1e-4 mm/N, k_rot in 1e-7 rad/(N mm), ratio ours/seed) and the models used."""
+    """The table as text (k_tran in 1e-4 mm/N, k_rot in 1e-7 rad/(N mm), ratio ours/seed) and the models used.
+
+    When a link carries an FEA error bar, "ours" reads ``value+-spread`` (:mod:`vjm.spread`)."""
+    bars = any(link.error is not None for m in models for link in m.links.values())
+    w = 18 if bars else 12
     lines = ["k_tran [1e-4 mm/N] and k_rot [1e-7 rad/(N mm)]: ours vs seed Table 1 (ratio ours/seed)",
-             f"{'architecture':<19}{'pt':<4}{'k_tran ours':>12}{'seed':>8}{'ratio':>7}"
-             f"{'k_rot ours':>12}{'seed':>8}{'ratio':>7}"]
+             f"{'architecture':<19}{'pt':<4}{'k_tran ours':>{w}}{'seed':>8}{'ratio':>7}"
+             f"{'k_rot ours':>{w}}{'seed':>8}{'ratio':>7}"]
     for r in rows:
-        lines.append(f"{r['architecture']:<19}{r['point']:<4}{r['k_tran'] * 1e4:>12.3g}{r['seed_k_tran'] * 1e4:>8.3g}"
-                     f"{r['k_tran'] / r['seed_k_tran']:>7.2f}{r['k_rot'] * 1e7:>12.3g}{r['seed_k_rot'] * 1e7:>8.3g}"
+        kt = _ours(r["k_tran"] * 1e4, r.get("k_tran_spread", 0.0) * 1e4, bars)
+        kr = _ours(r["k_rot"] * 1e7, r.get("k_rot_spread", 0.0) * 1e7, bars)
+        lines.append(f"{r['architecture']:<19}{r['point']:<4}{kt:>{w}}{r['seed_k_tran'] * 1e4:>8.3g}"
+                     f"{r['k_tran'] / r['seed_k_tran']:>7.2f}{kr:>{w}}{r['seed_k_rot'] * 1e7:>8.3g}"
                      f"{r['k_rot'] / r['seed_k_rot']:>7.2f}")
     for m in models:
         a = m.actuator
         lines.append(f"{m.architecture}: L={m.geometry.get('L')} r={m.geometry.get('r')} d={m.geometry.get('d')} mm, "
                      f"actuator {a.stiffness:g} N/mm, foot {describe_link(m.foot)}, leg {describe_link(m.leg)}")
+    if bars:
+        lines.append("+-: the spread of ours when every FEA link's compliance moves within its error bar (linear "
+                     "sensitivity, links added in magnitude; beam and inline links contribute none). The FEA "
+                     "compliance is too small, so the true value most likely lies on the + side.")
+    else:
+        lines.append("No link carries an FEA error estimate (beam, inline or rigid links): no error bar to carry.")
     lines.append("The seed publishes neither link sections nor actuator stiffness: ours are chosen (docs/table1.md);"
                  " the actuator is set so that k_tran(Q0) matches with the default beam links.")
     return lines
