@@ -106,9 +106,10 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
                                             help="6-dof platforms: the fixed platform rotation vector rx,ry,rz "
                                                  "(rad) of the map"),
             out: Path = typer.Option(..., "--out", help="output directory (k_tran.png, k_rot.png, map.npz)"),
-            spread: bool = typer.Option(True, "--spread/--no-spread",
-                                        help="also save k_tran_spread and k_rot_spread, the spread from the links' "
-                                             "FEA error bars (map.npz; zero if no link has an error estimate)"),
+            spread: bool = typer.Option(False, "--spread",
+                                        help="also save k_tran_spread and k_rot_spread (map.npz), the spread from "
+                                             "the links' FEA error bars; costs one more spring evaluation per FEA "
+                                             "link (1.4-3x the map's time); zero if no link has an error estimate"),
             foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG, force: bool = FORCE):
     """k_tran and k_rot over the workspace box: PNG maps and an .npz of K, k_tran, k_rot."""
     from linkfea.checks import integer

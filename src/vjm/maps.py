@@ -143,7 +143,7 @@ class StiffnessMap:
         check_folder(out, MAP_FILES, force=force)
         with OutputSet(out, "vjm map") as s:
             npz, png_t, png_r = (s.path(n) for n in MAP_FILES)
-            extra = {} if self.k_tran_spread is None else dict(
+            extra: dict = {} if self.k_tran_spread is None else dict(
                 k_tran_spread=self.k_tran_spread, k_rot_spread=self.k_rot_spread,
                 spread_note=np.array(f"k_tran_spread mm/N, k_rot_spread rad/(N mm), per point: {SPREAD_NOTE}"))
             np.savez_compressed(npz, points=self.points, K=self.K, k_tran=self.k_tran, k_rot=self.k_rot,

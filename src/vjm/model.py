@@ -402,8 +402,9 @@ class Model:
                 self._map_block(kb if (a, b) == (a0, b0) else kb.take(slice(a - a0, b - a0)), a, out, tol, sp)
         K, C, kt, kr, rank, inv, chain_rank = out
         rot = rotation_vector(frames[:, :3, :3]) if self.dof == 6 else None
-        extra = {} if sp is None else dict(k_tran_spread=sp.k_tran, k_rot_spread=sp.k_rot, spread_by_link=sp.by_link)
-        return StiffnessResult(pts, K, C, kt, kr, rank, inv, chain_rank, rot, **extra)
+        if sp is None:
+            return StiffnessResult(pts, K, C, kt, kr, rank, inv, chain_rank, rot)
+        return StiffnessResult(pts, K, C, kt, kr, rank, inv, chain_rank, rot, sp.k_tran, sp.k_rot, sp.by_link)
 
     def _block_stiffness(self, kin: Kinematics, tol: float):
         """The machine stiffness (6, 6, n) (pose axis last) at ``kin`` and each chain's J_q rank;
