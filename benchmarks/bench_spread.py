@@ -22,11 +22,11 @@ FOOT_BAR = np.array([0.018, 0.040, 0.017, 0.058, 0.020, 0.016])
 LEG_BAR = np.full(6, 0.03)
 
 
-def best(f):
+def best(f, *args, **kw):
     t_best = np.inf
     for _ in range(REPEAT):
         t = time.perf_counter()
-        f()
+        f(*args, **kw)
         t_best = min(t_best, time.perf_counter() - t)
     return t_best
 
@@ -45,11 +45,11 @@ def main():
             g = m.grid(grid, sl).points
             P = g[m.reachable(g)]
             m.map(grid, sl)  # warm caches and imports
-            tm0 = best(lambda: m.map(grid, sl))
-            tm1 = best(lambda: m.map(grid, sl, spread=True))
-            t0 = best(lambda: m.stiffness_map(P))
-            t1 = best(lambda: m.stiffness_map(P, spread=True))
-            t2 = best(lambda: m.stiffness_map(P, spread=True, spread_method="ends"))
+            tm0 = best(m.map, grid, sl)
+            tm1 = best(m.map, grid, sl, spread=True)
+            t0 = best(m.stiffness_map, P)
+            t1 = best(m.stiffness_map, P, spread=True)
+            t2 = best(m.stiffness_map, P, spread=True, spread_method="ends")
             r = m.stiffness_map(P, spread=True)
             print(f"{name:<7} {'41x41 z=0' if sl else '41^3':<11} | {tm0:7.3f} s {tm1:7.3f} s ({tm1 / tm0:.2f}x) | "
                   f"{t0:7.3f} s {t1:7.3f} s ({t1 / t0:.2f}x) {t2:7.3f} s ({t2 / t0:.2f}x) | {len(P)} points, "

@@ -117,11 +117,9 @@ class StiffnessMap:
                 f"k_tran {np.nanmin(kt):.3g}..{np.nanmax(kt):.3g} mm/N, "
                 f"k_rot {np.nanmin(kr):.3g}..{np.nanmax(kr):.3g} rad/(N mm)")
         if self.k_tran_spread is not None:
-            with np.errstate(invalid="ignore", divide="ignore"):
-                rt, rr = (float(np.nanmax(s / k)) if np.any(np.isfinite(s / k)) else 0.0
-                          for s, k in ((self.k_tran_spread, kt), (self.k_rot_spread, kr)))
-            text += (f"; FEA error bars of the links: k_tran within +-{100 * rt:.2g}%, k_rot within "
-                     f"+-{100 * rr:.2g}% everywhere" if rt or rr else "; no link carries an FEA error estimate")
+            rt, rr = _largest_ratio(self.k_tran_spread, kt), _largest_ratio(self.k_rot_spread, kr)
+            text += (f"; spread from the links' FEA error bars: k_tran +-{100 * rt:.2g}% at most, k_rot "
+                     f"+-{100 * rr:.2g}% at most" if rt or rr else "; no link carries an FEA error estimate")
         return text
 
     def _repr_html_(self) -> str:
@@ -224,6 +222,14 @@ class StiffnessMap:
         ax.set_ylabel(f"{'xyz'[keep[1]]} [mm]")
         ax.set_title(f"{self.architecture}: {name}, {'xyz'[k]} = {here:.4g} mm")
         return ax
+
+
+def _largest_ratio(spread, k) -> float:
+    """The largest ``spread / k`` over the finite points (0 if none)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = np.asarray(spread) / np.asarray(k)
+    r = r[np.isfinite(r)]
+    return float(r.max()) if r.size else 0.0
 
 
 def compute_map(model, P, axes, fixed=None, where: str = "grid", progress: Optional[Progress] = None,

@@ -9,11 +9,13 @@ import json
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
 import vjm
 from linkfea.compliance import UNITS
 from linkfea.frames import Frame
 from vjm import LinkSpring
+from vjm.cli import app
 from vjm.model import Actuator
 from vjm.table1 import report_lines, table1_rows
 
@@ -117,3 +119,13 @@ def test_bar_read_from_a_result_json_reaches_map_table_and_json(beams, tmp_path)
     assert float(val) == pytest.approx(rows[0]["k_tran"] * 1e4, rel=5e-3)
     assert float(spr) == pytest.approx(rows[0]["k_tran_spread"] * 1e4, rel=5e-2)
     assert rows[0]["k_tran_spread"] > 0 and rows[3]["k_tran_spread"] > 0  # the 3-PRPaR shares the foot
+
+    # the command line: `vjm map --spread` saves the spread, `vjm table1 --foot` prints it
+    runner = CliRunner()
+    r = runner.invoke(app, ["map", "puu", "--grid", "3", "--slice", "z=0", "--spread", "--foot", str(path),
+                            "--out", str(tmp_path / "cli")])
+    assert r.exit_code == 0, r.output
+    z = np.load(tmp_path / "cli" / "map.npz")
+    assert np.all(z["k_tran_spread"][z["reachable"]] > 0)
+    r = runner.invoke(app, ["table1", "puu", "prpar", "--foot", str(path)])
+    assert r.exit_code == 0 and r.output.count("+-") >= 12, r.output
