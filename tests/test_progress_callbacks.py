@@ -87,12 +87,14 @@ def test_deprecated_name_warns_and_is_passed_on():
         warnings.simplefilter("error")
         run(4, progress=lines.append)
     assert lines == ["x = 3", "x = 4"]
-    with pytest.raises(TypeError, match="progress and its deprecated name log"):
-        run(5, progress=print, log=print)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(TypeError, match="progress and its deprecated name log"):
+            run(5, progress=print, log=print)
     assert run.deprecated_progress_names == ("log",)
 
 
-@pytest.mark.parametrize("module,attr", [("vjm.discrepancy.workflow", "diagnose"),
+@pytest.mark.parametrize("module,attr", [("vjm", "diagnose"), ("vjm.discrepancy.workflow", "diagnose"),
                                          ("vjm.discrepancy.fit.select", "forward_select")])
 def test_old_public_keyword_is_a_deprecated_alias(module, attr):
     assert _get(module, attr).deprecated_progress_names == ("log",)
@@ -110,8 +112,9 @@ def test_diagnose_log_keyword_still_reports_the_rounds():
     data = simulate(m, [("gravity", {"weight": 10.0})], np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6),
                     1e-3, None, 1)
     old, new = [], []
-    with pytest.warns(DeprecationWarning, match="log=.*progress"):
+    with pytest.warns(DeprecationWarning, match="log=.*progress") as rec:
         d_old = vjm.diagnose(m, data, effects=["gravity", "clearance"], log=old.append)
+    assert [w.filename for w in rec] == [__file__]  # the warning names the caller's line
     d_new = vjm.diagnose(m, data, effects=["gravity", "clearance"], progress=new.append)
     assert old and old == new
     assert any(line.startswith("round 1") for line in new)

@@ -38,12 +38,11 @@ def renamed_progress(*old: str) -> Callable[[F], F]:
         def wrapper(*args, **kwargs):
             for name in old:
                 if name in kwargs:
-                    warnings.warn(f"{f.__name__}({name}=...) is deprecated: use progress=...",
-                                  DeprecationWarning, stacklevel=2)
-                    value = kwargs.pop(name)
                     if kwargs.get("progress") is not None:
                         raise TypeError(f"{f.__name__}() got progress and its deprecated name {name}: give one")
-                    kwargs["progress"] = value
+                    warnings.warn(f"{f.__name__}({name}=...) is deprecated: use progress=...",
+                                  DeprecationWarning, stacklevel=2)
+                    kwargs["progress"] = kwargs.pop(name)
             return f(*args, **kwargs)
 
         wrapper.deprecated_progress_names = old  # type: ignore[attr-defined]
