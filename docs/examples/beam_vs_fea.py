@@ -17,6 +17,7 @@ cmp = linkfea.compare("orthoglide_foot", beams=(1, 4), mesh_size=8.0)
 print(cmp.errors)                    # one row per N: principal, diagonal and coupling errors
 C_fea, C_1 = cmp.fea, cmp.beam(1)    # FEA and 1-beam (Timoshenko) compliances in the link frame
 ax = cmp.plot()                      # matplotlib Axes: the error against N
+print(cmp.link, f"{cmp.beam_length:.1f} mm", [b.n for b in cmp.beams])  # typed fields: compare.json's keys
 
 # %% [markdown]
 # Torsion is the worst: the open pocket's Saint-Venant J is far below what the closed

@@ -24,7 +24,7 @@ P, W = np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6)
 data = simulate(model, [("gravity", {"weight": 15.0})], P, W, 1e-3, None, seed=1)
 
 # %%
-dg = vjm.diagnose(model, data)
+dg = vjm.diagnose(model, data, progress=print)     # progress: a line per selection round
 print(dg.verdict, dg.named)
 print(dg.summary())
 dg.save(OUT)                                        # report.html, report.json, model_updated.yaml

@@ -29,7 +29,7 @@ def library_report(names=None, beams=None, img_dir="docs/img", mesh_size=None) -
     rows, details = [], []
     for name in names:
         try:
-            rec = compare(name, beams, mesh_size=mesh_size).record
+            rec = compare(name, beams, mesh_size=mesh_size).to_dict()
             write_bytes(img_dir / f"beam_vs_fea_{name}.png", figure_png(rec))
         except LinkFeaError as exc:
             rows.append(f"| {name} | – | failed: {exc} | | | | |")

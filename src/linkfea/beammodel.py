@@ -22,6 +22,7 @@ import numpy as np
 from .beam import BeamSegment, series_compliance
 from .errors import LinkFeaError
 from .frames import Frame
+from .link import interface_faces
 from .materials import Material, get_material
 from .sections import cut_section, section_constants
 
@@ -116,9 +117,7 @@ def link_extent(link, axis=None) -> tuple[float, float]:
 
     bf = beam_frame(link.frame, axis)
     out = []
-    for name, faces in (("base", link.base_faces), ("tip", link.tip_faces)):
-        if not faces:
-            raise LinkFeaError(f"{link.name}: the {name} selector finds no face")
+    for faces in interface_faces(link):
         _, c = faces_area_centroid(faces)
         out.append(float((c - bf.origin) @ bf.axes[0]))
     return out[0], out[1]

@@ -178,17 +178,17 @@ def compare_cmd(
     try:
         params = parse_param_args(param)
         with console.status("starting") as status:
-            rec = run(spec, beams, params=params, mesh_size=mesh_size, mode=mode, out=out, material=material,
-                      base=base, tip=tip, progress=lambda msg: status.update(f"[bold]{msg}"), force=force).record
+            cmp = run(spec, beams, params=params, mesh_size=mesh_size, mode=mode, out=out, material=material,
+                      base=base, tip=tip, progress=lambda msg: status.update(f"[bold]{msg}"), force=force)
     except LinkFeaError as exc:
         _fail(exc)
     if not quiet:
-        t = Table(title=f"{rec['link']}: max principal compliance error vs FEA, % (translation / rotation)")
+        t = Table(title=f"{cmp.link}: max principal compliance error vs FEA, % (translation / rotation)")
         for c in ("N", "Euler-Bernoulli", "Timoshenko", "max angle (deg)"):
             t.add_column(c, justify="right")
-        for m in rec["beams"]:
-            e, s = m["euler_bernoulli"]["summary"], m["timoshenko"]["summary"]
-            t.add_row(str(m["n"]), *(f"{100 * x['max_principal_error_translation']:.1f} / "
+        for m in cmp.beams:
+            e, s = m.euler_bernoulli["summary"], m.timoshenko["summary"]
+            t.add_row(str(m.n), *(f"{100 * x['max_principal_error_translation']:.1f} / "
                                      f"{100 * x['max_principal_error_rotation']:.1f}" for x in (e, s)),
                       f"{s['max_angle_deg']:.1f}")
         con = Console(width=max(Console().width, 100))

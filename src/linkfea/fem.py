@@ -37,6 +37,7 @@ from .options import BLOCK_RATIO, MODES
 
 # p2_mesh, lame, the factorizers ...: imported from here by callers since before the split.
 from .p2 import P2Mesh, assemble_upper, assemble_upper_skfem, lame, link_p2, p2_mesh, symmetric_from_upper  # noqa: F401
+from .progress import or_quiet
 from .solvers import default_factorizer, pardiso_factorizer, scipy_factorizer  # noqa: F401
 
 ASSEMBLERS = {"kernel": assemble_upper, "skfem": assemble_upper_skfem}
@@ -202,13 +203,13 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     if assembler not in ASSEMBLERS:
         raise LinkFeaError(f"unknown assembler {assembler!r}; use one of {', '.join(ASSEMBLERS)}")
     block_ratio = checks.number(block_ratio, "block_ratio", BLOCK_RATIO)
-    report = progress or (lambda stage: None)
+    progress = or_quiet(progress)
     factorizer = solver or default_factorizer
     frame = mesh.frame
     block = _block_flags(mesh)
     timing = {}
 
-    report("assemble")
+    progress("assemble")
     t0 = time.perf_counter()
     p2 = link_p2(mesh)
     clamped, ref_nodes = interface_nodes(p2, mesh, mode)
@@ -252,12 +253,12 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     A.sort_indices()
     timing["assemble"] = time.perf_counter() - t0
 
-    report("factor")
+    progress("factor")
     t0 = time.perf_counter()
-    solve = _factor(factorizer, A, lambda: _near_nullspace(p2.points, free_dofs, frame, mode), report)
+    solve = _factor(factorizer, A, lambda: _near_nullspace(p2.points, free_dofs, frame, mode), progress)
     timing["factor"] = time.perf_counter() - t0
 
-    report("solve")
+    progress("solve")
     t0 = time.perf_counter()
     X = np.asarray(solve(B)).reshape(A.shape[0], 6)
     if not np.all(np.isfinite(X)):
@@ -283,11 +284,11 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     )
 
 
-def _factor(factorizer, A, near_nullspace, report):
+def _factor(factorizer, A, near_nullspace, progress):
     """``factorizer(A)``, with the rigid-body modes for a factorizer that wants them (multigrid)."""
     try:
         if getattr(factorizer, "wants_near_nullspace", False):
-            return factorizer(A, near_nullspace=near_nullspace(), progress=report)
+            return factorizer(A, near_nullspace=near_nullspace(), progress=progress)
         return factorizer(A)
     except SolverError:
         raise

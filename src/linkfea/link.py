@@ -60,16 +60,25 @@ class Link:
         return select_faces(self.body, self.tip)
 
 
-def check_link(link: Link) -> None:
-    """Selectors find faces, base and tip do not overlap, solids are valid."""
-    for nm, s in (("body", link.body), ("block", link.block)):
-        if s is not None and not s.isValid():
-            raise LinkFeaError(f"{link.name}: the {nm} solid is not valid")
+def interface_faces(link: Link) -> tuple[list, list]:
+    """The body faces of the base and of the tip interface; a selector that finds none is refused.
+
+    The one home of that check: :func:`check_link`, the meshers and the beam models use it.
+    """
     bf, tf = link.base_faces, link.tip_faces
     if not bf:
         raise LinkFeaError(f"{link.name}: base selector {link.base} finds no face")
     if not tf:
         raise LinkFeaError(f"{link.name}: tip selector {link.tip} finds no face")
+    return bf, tf
+
+
+def check_link(link: Link) -> None:
+    """Selectors find faces, base and tip do not overlap, solids are valid."""
+    for nm, s in (("body", link.body), ("block", link.block)):
+        if s is not None and not s.isValid():
+            raise LinkFeaError(f"{link.name}: the {nm} solid is not valid")
+    bf, tf = interface_faces(link)
     if {f.hashCode() for f in bf} & {f.hashCode() for f in tf} or _faces_touch(bf, tf):
         raise LinkFeaError(f"{link.name}: base and tip interfaces overlap ({link.base} / {link.tip})")
     get_material(link.material)

@@ -15,6 +15,7 @@ from typing import Callable
 
 from . import checks, mesh_gmsh
 from .errors import LinkFeaError
+from .link import interface_faces
 from .linkmesh import (  # noqa: F401  (re-exported)
     AREA_GATE,
     LinkMesh,
@@ -35,6 +36,7 @@ from .mesh_pytetwild import (  # noqa: F401  (re-exported)
     smooth_border_edges,
 )
 from .options import ENVELOPE, MESH_SIZE, MESHERS
+from .progress import or_quiet
 
 DEFAULT_EPSILON = 1e-3
 """fTetWild envelope relative to the bounding-box diagonal (its own default)."""
@@ -97,7 +99,7 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
         Bad size, a selector matching no mesh facet, overlapping interfaces,
         inverted or missing cells.
     """
-    say = progress or (lambda msg: None)
+    progress = or_quiet(progress)
     # the ranges of linkfea.options (a ComputeOptions is already checked; a direct call is checked here)
     H = default_mesh_size(link) if mesh_size is None else checks.number(mesh_size, "mesh_size", MESH_SIZE)
     epsilon = checks.number(epsilon, "envelope", ENVELOPE)
@@ -110,24 +112,20 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
     if size_at is not None and mesher != "gmsh":
         raise LinkFeaError("refinement by the error estimate (--tolerance) needs the gmsh mesher")
     if mesher == "gmsh":
-        return _mesh_with_gmsh(link, H, block_solid, say, area_gate, size_at)
+        return _mesh_with_gmsh(link, H, block_solid, progress, area_gate, size_at)
 
-    return mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, say, area_gate)
+    return mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, progress, area_gate)
 
 
-def _mesh_with_gmsh(link, H, block_solid, say, area_gate, size_at=None) -> LinkMesh:
+def _mesh_with_gmsh(link, H, block_solid, progress, area_gate, size_at=None) -> LinkMesh:
     diag = link.body.BoundingBox().DiagonalLength
     if H > diag:
         raise LinkFeaError(f"mesh size {H:g} mm exceeds the part size ({diag:.3g} mm bounding-box diagonal)")
-    base_faces, tip_faces = link.base_faces, link.tip_faces
-    if not base_faces:
-        raise LinkFeaError(f"{link.name}: base selector {link.base} finds no face")
-    if not tip_faces:
-        raise LinkFeaError(f"{link.name}: tip selector {link.tip} finds no face")
-    say(f"meshing with gmsh (edge {H:.3g} mm)")
+    base_faces, tip_faces = interface_faces(link)
+    progress(f"meshing with gmsh (edge {H:.3g} mm)")
     g = mesh_gmsh.mesh_gmsh(link.name, link.body, block_solid, base_faces, tip_faces, H, curved=CURVED,
                             size_at=size_at)
-    say("checking interfaces")
+    progress("checking interfaces")
     m = finish_mesh(link, g.points, g.tets, g.block, g.base_facets, g.tip_facets, block_solid, H, 0.0, "",
                     "gmsh", mesh_gmsh.version(), area_gate)
     if g.curved_edges is None:

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import LinkFeaError, SolverError
+from .link import interface_faces
 from .linkmesh import LinkMesh, check_interface_areas, finish_mesh, tet_faces, tet_volumes, tri_areas_normals
 from .meshcache import cached_mesh
 
@@ -183,7 +184,7 @@ def smooth_border_edges(solid, faces) -> list:
     return out
 
 
-def mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, say, area_gate) -> LinkMesh:
+def mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, progress, area_gate) -> LinkMesh:
     """fTetWild, then, while an interface misses the area gate, a finer sizing field along its borders.
 
     fTetWild drops a strip about half a local edge wide along the border of an interface face
@@ -193,7 +194,7 @@ def mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, siz
     edges: list = []
     edge_h = None
     for step in range(REFINE_STEPS + 1):
-        m = _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, say, edges, edge_h)
+        m = _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, progress, edges, edge_h)
         q = m.quality
         worst = max(abs(q["base_area_error"]), abs(q["tip_area_error"]))
         q["interface_border_size"] = edge_h
@@ -205,12 +206,12 @@ def mesh_with_pytetwild(link, H, block_solid, epsilon, cache_dir, use_cache, siz
                 # Only a smooth border loses a strip: refining the sharp ones too costs tets for nothing.
                 edges = smooth_border_edges(link.body, faces) or [e for f in faces for e in f.Edges()]
             edge_h = (edge_h or H) * min(0.5, max(0.25, 0.6 * area_gate / worst))
-            say(f"interface area off by {100 * worst:.2g}%: refining the interface borders to {edge_h:.3g} mm")
+            progress(f"interface area off by {100 * worst:.2g}%: refining the interface borders to {edge_h:.3g} mm")
     check_interface_areas(link.name, m.quality, (link.base, link.tip), area_gate)
     return m  # not reached: the gate raised
 
 
-def _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, say, edges, edge_h) -> LinkMesh:
+def _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing, progress, edges, edge_h) -> LinkMesh:
     import cadquery as cq
 
     whole = link.body if block_solid is None else cq.Compound.makeCompound([link.body, block_solid])
@@ -220,7 +221,7 @@ def _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing,
     env = epsilon * diag
     # The tessellation is what fTetWild sees; keep its chord error well inside the envelope.
     ttol = 0.25 * env
-    say("tessellating")
+    progress("tessellating")
     Vb, Fb = _surface(link.body, ttol)
     parts = [(Vb, Fb)]
     if block_solid is not None:
@@ -244,7 +245,7 @@ def _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing,
     key = h.hexdigest()
 
     def make():
-        say(f"meshing with fTetWild (edge {H:.3g} mm{', refined near small curved faces' if bg is not None else ''})")
+        progress(f"meshing with fTetWild (edge {H:.3g} mm{', refined near small curved faces' if bg is not None else ''})")
         try:
             kw = {} if bg is None else dict(bg_vertices=bg[0], bg_tets=bg[1], bg_values=bg[2])
             with _scratch_cwd():
@@ -255,12 +256,12 @@ def _pytetwild_once(link, H, block_solid, epsilon, cache_dir, use_cache, sizing,
         return _clean(np.asarray(points, dtype=float), np.asarray(tets, dtype=np.int64))
 
     if use_cache:
-        points, tets = cached_mesh(Path(cache_dir) if cache_dir is not None else cache_dir_default(), key, make, say)
+        points, tets = cached_mesh(Path(cache_dir) if cache_dir is not None else cache_dir_default(), key, make, progress)
     else:
         points, tets = make()
     if len(tets) == 0:
         raise LinkFeaError(f"{link.name}: the mesher produced no tetrahedra (mesh size {H:g} mm too large?)")
-    say("tagging interfaces")
+    progress("tagging interfaces")
     block, base_facets, tip_facets = _tag_pytetwild(link, points, tets, block_solid, env, ttol)
     return finish_mesh(link, points, tets, block, base_facets, tip_facets, block_solid, H, env,
                        key if use_cache else "", "pytetwild", getattr(pytetwild, "__version__", "?"), None)
@@ -343,11 +344,7 @@ def _tag_pytetwild(link, points, tets, block_solid, env, ttol):
     body_bnd = boundary & ~block[owners[:, 0]]
     tol = 1.5 * env + ttol
     bnd_tris = oriented[body_bnd]
-    base_faces, tip_faces = link.base_faces, link.tip_faces
-    if not base_faces:
-        raise LinkFeaError(f"{name}: base selector {link.base} finds no face")
-    if not tip_faces:
-        raise LinkFeaError(f"{name}: tip selector {link.tip} finds no face")
+    base_faces, tip_faces = interface_faces(link)
     base_facets = bnd_tris[select_facets(points, bnd_tris, base_faces, tol, ttol)]
     if block_solid is not None:
         two = ~boundary

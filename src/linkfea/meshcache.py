@@ -87,7 +87,7 @@ def key_lock(path: Path, on_wait: Callable[[], None] | None = None) -> Iterator[
         os.close(fd)  # closing the last descriptor releases the lock
 
 
-def cached_mesh(cache_dir, key: str, make: Callable[[], Mesh], say: Callable[[str], None]) -> Mesh:
+def cached_mesh(cache_dir, key: str, make: Callable[[], Mesh], progress: Callable[[str], None]) -> Mesh:
     """The mesh of ``key``: from the cache, else made by ``make()`` (once, under the key's lock) and stored."""
     path = entry_path(cache_dir, key)
     try:
@@ -95,10 +95,10 @@ def cached_mesh(cache_dir, key: str, make: Callable[[], Mesh], say: Callable[[st
     except DamagedEntry:
         hit = None
     if hit is not None:
-        say("mesh from cache")
+        progress("mesh from cache")
         return hit
     with key_lock(path.with_name(path.name + ".lock"),
-                  on_wait=lambda: say("waiting for another run meshing the same part")):
+                  on_wait=lambda: progress("waiting for another run meshing the same part")):
         try:
             hit = read_entry(path)
         except DamagedEntry as exc:
@@ -106,7 +106,7 @@ def cached_mesh(cache_dir, key: str, make: Callable[[], Mesh], say: Callable[[st
                           LinkFeaWarning, stacklevel=2)
             hit = None
         if hit is not None:
-            say("mesh from cache")
+            progress("mesh from cache")
             return hit
         points, tets = make()
         write_entry(path, points, tets)

@@ -13,6 +13,7 @@ from .options import BLOCK_RATIO as BLOCK_RATIO  # the options' ranges, also imp
 from .options import ENVELOPE as ENVELOPE
 from .options import MAX_DOFS, ComputeOptions
 from .options import MESH_SIZE as MESH_SIZE
+from .progress import or_quiet
 from .result import LinkResult
 
 __all__ = ["ComputeOptions", "LinkResult", "compute"]
@@ -20,7 +21,7 @@ REFINE_GROWTH = 2.5
 """Largest DOF growth expected from one refinement step (for the budget check before meshing)."""
 
 
-def _solve_once(link, material, H, opts: ComputeOptions, cache_dir, say, size_at=None):
+def _solve_once(link, material, H, opts: ComputeOptions, cache_dir, progress, size_at=None):
     from .fem import solve_link
     from .fit import compliance_from_solution
     from .mesh import DEFAULT_EPSILON, mesh_link
@@ -28,18 +29,18 @@ def _solve_once(link, material, H, opts: ComputeOptions, cache_dir, say, size_at
     mode, block_ratio = opts.mode, opts.block_ratio
     epsilon = DEFAULT_EPSILON if opts.envelope is None else opts.envelope
     t0 = time.perf_counter()
-    mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=say,
+    mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=progress,
                      mesher=opts.mesher, size_at=size_at)
     t_mesh = time.perf_counter() - t0
     from .solvers import factorizer_named
 
-    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=say, assembler=opts.assembler,
+    sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=progress, assembler=opts.assembler,
                      solver=factorizer_named(opts.solver))
-    say("fit")
+    progress("fit")
     t0 = time.perf_counter()
     comp = compliance_from_solution(sol)
     t_fit = time.perf_counter() - t0
-    say("error estimate")
+    progress("error estimate")
     t0 = time.perf_counter()
     est = _estimate(sol, comp, material, mode, block_ratio, mesh)
     timing = {"mesh": t_mesh, **{k: float(sol.timing.get(k, 0.0)) for k in ("assemble", "factor", "solve")},
@@ -68,7 +69,7 @@ def _mesh_info(mesh, sol) -> dict:
             "quality": dict(mesh.quality), "cache_key": mesh.cache_key}
 
 
-def _refine(run, tolerance, max_dofs, solve_with, say):
+def _refine(run, tolerance, max_dofs, solve_with, progress):
     """Refine by the error indicator until every diagonal estimate is below ``tolerance`` or the
     DOF budget would be passed; returns the last run and the record of the steps."""
     from .refine import size_function
@@ -76,7 +77,7 @@ def _refine(run, tolerance, max_dofs, solve_with, say):
     mesh, sol, comp, timing, est = run
     steps = [{"n_dofs": int(sol.n_dofs), "error": float(est.matrix), "seconds": float(sum(timing.values()))}]
     while est.matrix > tolerance and sol.n_dofs * REFINE_GROWTH <= max_dofs:
-        say(f"refining: estimated error {100 * est.matrix:.2g}% > {100 * tolerance:.2g}% at {sol.n_dofs} DOF")
+        progress(f"refining: estimated error {100 * est.matrix:.2g}% > {100 * tolerance:.2g}% at {sol.n_dofs} DOF")
         mesh, sol, comp, timing, est = solve_with(size_function(mesh.points, mesh.tets, est.indicator))
         steps.append({"n_dofs": int(sol.n_dofs), "error": float(est.matrix), "seconds": float(sum(timing.values()))})
     reached = bool(est.matrix <= tolerance)
@@ -196,9 +197,9 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
             raise LinkFeaError("give compute options as options=ComputeOptions(...) or as keywords, not both")
         given = options
     opts = given.for_input(spec)
-    say = progress or (lambda msg: None)
+    progress = or_quiet(progress)
     t_all = time.perf_counter()
-    say("cad")
+    progress("cad")
     t0 = time.perf_counter()
     source = _source_file(spec)  # before the CAD: a script is run from exactly this file
     link = build_link(source, params, material=opts.material, base=opts.base, tip=opts.tip,
@@ -214,8 +215,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         sizes = [2.0 * H, math.sqrt(2.0) * H, H]
         runs = []
         for h in sizes:
-            say(f"convergence: mesh size {h:.3g} mm")
-            runs.append(_solve_once(link, mat, h, opts, cache_dir, say))
+            progress(f"convergence: mesh size {h:.3g} mm")
+            runs.append(_solve_once(link, mat, h, opts, cache_dir, progress))
         rich = richardson(sizes, [r[2].matrix for r in runs])
         mesh, sol, comp, timing, est = runs[-1]
         diagnostics["error_estimate"] = float(rich.error_diagonal)
@@ -224,11 +225,11 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         diagnostics["error_estimate_note"] = ("Richardson estimate of the relative error of the diagonal "
                                               "(largest entry) from 3 mesh sizes" + (f"; {rich.note}" if rich.note else ""))
     else:
-        mesh, sol, comp, timing, est = _solve_once(link, mat, H, opts, cache_dir, say)
+        mesh, sol, comp, timing, est = _solve_once(link, mat, H, opts, cache_dir, progress)
         if opts.tolerance is not None:
             mesh, sol, comp, timing, est, diagnostics["refinement"] = _refine(
                 (mesh, sol, comp, timing, est), opts.tolerance, opts.max_dofs,
-                lambda size_at: _solve_once(link, mat, H, opts, cache_dir, say, size_at), say)
+                lambda size_at: _solve_once(link, mat, H, opts, cache_dir, progress, size_at), progress)
         diagnostics["error_estimate"] = None
         diagnostics["error_estimate_note"] = "not computed: run with --convergence (3 mesh sizes, Richardson)"
     timing["edges"] = _error_diagnostics(diagnostics, est, link, opts.mode)

@@ -20,6 +20,7 @@ import math
 import os
 import statistics
 from dataclasses import dataclass
+from typing import Callable
 
 from .errors import LinkFeaError
 
@@ -162,6 +163,21 @@ class DesignProgress:
 
     def stop(self):
         self.p.stop()
+
+
+class LineProgress:
+    """The progress of a sweep as lines to a callback: one per finished design (done, failed, of total)."""
+
+    def __init__(self, total: int, progress: Callable[[str], None]):
+        self.total, self.progress, self.done, self.nfail = total, progress, 0, 0
+
+    def advance(self, ok: bool = True):
+        self.done += 1
+        self.nfail += not ok
+        self.progress(f"designs {self.done}/{self.total}" + (f", {self.nfail} failed" if self.nfail else ""))
+
+    def stop(self):
+        pass
 
 
 def check_memory_limit(text) -> None:

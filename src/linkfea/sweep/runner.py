@@ -12,7 +12,8 @@ from .. import checks
 from ..atomic import plain, write_text
 from ..errors import LinkFeaError
 from ..outputs import check_folder, claim, fault
-from ..sweep_budget import DesignProgress, announcement, check_memory_limit, median_seconds
+from ..progress import Progress
+from ..sweep_budget import DesignProgress, LineProgress, announcement, check_memory_limit, median_seconds
 from . import cluster
 from .designs import Sweep
 from .plot import check_entries
@@ -40,7 +41,7 @@ class SweepReport:
 
 def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, workers: int | None = None,
               memory_limit="auto", retry_failed: bool = False, cache_dir=None, plot: Sequence[str] | None = None,
-              progress: bool = False, on_result: Callable[[dict], None] | None = None,
+              progress: bool | Progress = False, on_result: Callable[[dict], None] | None = None,
               force: bool = False) -> SweepReport:
     """Run the designs of ``sweep`` not yet in ``out/results/`` and rebuild the table.
 
@@ -55,6 +56,8 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
         Mesh cache.  Default: for a local cluster the client's (``$LINKFEA_CACHE_DIR`` or
         ``.cache/meshes``, made absolute); with ``scheduler`` each worker's own.
     plot : entries ``dy_Fy`` ... for ``sweep.png`` (default the diagonal)
+    progress : True for a progress bar on stderr, or a callable called with a line per finished design
+        (and, first, the expected time of a long run)
     on_result : called with each design's document right after it is written
     force : write into a folder that also holds files of other origin (never touching them)
     """
@@ -121,11 +124,17 @@ def _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_resul
                 "cache_dir": cache}
         # pure=False: a rerun must run; the name makes the dashboard readable
         futures.append(client.submit(run_design, task, key=f"design-{d.key}", pure=False))
-    if progress:
-        say = announcement(len(todo), len(client.scheduler_info().get("workers", {})) or 1, per_design)
-        if say:
-            print(say, file=sys.stderr)
-    bar = DesignProgress(len(futures)) if progress else None
+    note = announcement(len(todo), len(client.scheduler_info().get("workers", {})) or 1, per_design) \
+        if progress else None
+    bar: DesignProgress | LineProgress | None = None
+    if callable(progress):
+        if note:
+            progress(note)
+        bar = LineProgress(len(futures), progress)
+    elif progress:
+        if note:
+            print(note, file=sys.stderr)
+        bar = DesignProgress(len(futures))
     try:
         for fut in as_completed(futures):
             if fut.status != "finished":  # cancelled (restart) or lost worker: not the design's fault

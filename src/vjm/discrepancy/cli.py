@@ -50,7 +50,7 @@ def diagnose_cmd(
     """Name the physical effect missing from MODEL that the measurements in DATA reveal."""
     try:
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
-                 log=(lambda s: typer.echo(s, err=True)) if verbose else None,
+                 progress=(lambda s: typer.echo(s, err=True)) if verbose else None,
                  suggest=suggest, forces_only=forces_only, force=force)
     except user_errors() as exc:
         _fail(exc)

@@ -9,6 +9,7 @@ import dataclasses
 import os
 
 from linkfea.checks import Bounds, integer, number
+from linkfea.progress import renamed_progress
 
 from ..errors import ArgumentError
 from . import covariance
@@ -45,8 +46,9 @@ def check_arguments(alpha=DEFAULT_ALPHA, folds=5, max_effects=3, suggest=0):
             integer(suggest, "suggest", SUGGEST, ArgumentError))
 
 
+@renamed_progress("log")
 def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int = 5, max_effects: int = 3,
-             model_name: str | None = None, log=None, suggest: int = 0, forces_only: bool = False) -> Diagnosis:
+             model_name: str | None = None, progress=None, suggest: int = 0, forces_only: bool = False) -> Diagnosis:
     """Run the workflow on a model (loaded, or a YAML path) and a data set (:func:`read_csv` output, or a path).
 
     Parameters
@@ -56,6 +58,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     model_name : the model's name in the report (default: the file name of a path, else "<model>").
     suggest : number of (posture, load) rows to suggest measuring next (0: none).
     forces_only : suggest force loads only (a rig that cannot apply torques).
+    progress : called with a line per selection round (``log``: its deprecated name).
     """
     alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
     if isinstance(model, (str, os.PathLike)):
@@ -64,9 +67,9 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     if isinstance(data, (str, os.PathLike)):
         data = read_csv(data)
     s = build_problem(model, data, kind_of(data), effects)
-    cal = calibrate(s, log)
-    obs = observability(s, cal, log)
-    chosen = select(s, cal, obs, alpha, max_effects, folds, log)
+    cal = calibrate(s, progress)
+    obs = observability(s, cal, progress)
+    chosen = select(s, cal, obs, alpha, max_effects, folds, progress)
     fit = goodness(s, obs, chosen, alpha)
     loc = locate(s, chosen, fit)
     table = candidates(s, obs, chosen)

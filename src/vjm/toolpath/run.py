@@ -12,6 +12,8 @@ import os
 
 import numpy as np
 
+from linkfea.progress import or_quiet
+
 from ..errors import VjmError
 from . import gcode as gc
 from . import uncertainty as unc
@@ -126,7 +128,7 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
          tolerance: float | None = None, linearize_arcs: bool = False, split_moves: bool = False,
          chord_tol: float = 1e-3,
          step: float = 1.0, passed: str = gc.DEFAULT_PASS, uncertainty: bool = True, workers: int = 1,
-         foot=None, leg=None) -> PathResult:
+         foot=None, leg=None, progress=None) -> PathResult:
     """Deflection of the tool along a toolpath and the compensated toolpath.  ``vjm path`` as a function.
 
     Parameters
@@ -146,6 +148,7 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
     chord_tol, step : sampling of arcs (chord error, mm) and of straight moves (spacing, mm)
     uncertainty : propagate the calibration covariance of the model file, if it carries one
     workers : threads for the nonlinear equilibrium (blocks of points)
+    progress : called with a line at each stage (deflection, uncertainty, compensation)
     """
     if tolerance is not None and not (np.isfinite(tolerance) and tolerance > 0):
         raise VjmError(f"--tolerance must be a number > 0 (mm), got {tolerance!r}")
@@ -161,6 +164,7 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
     tp = toolpath if isinstance(toolpath, Toolpath) else read_toolpath(toolpath, chord_tol, step, passed)
     check_machine(m, tp, t)
     W = (wrench or PerPoint()).wrenches(tp)
+    progress = or_quiet(progress)
     notes = []
     if m.dof == 6 and not tp.has_orientation:
         notes.append("6-dof platform, toolpath without orientations: the platform keeps a zero rotation and "
@@ -168,17 +172,20 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
     if method == "linear" and m.effects:
         notes.append(f"linear deflection: the model's effects ({', '.join(m.effects)}) are left out "
                      f"(they enter the nonlinear deflection and the compensation)")
+    progress(f"{method} deflection at {len(tp.poses):,} points")
     d = tcp_deflection(m, tp.poses, W, t, method, workers)
     _named_nan(tp, d)
     band = None
     cal = unc.read(m) if uncertainty else None
     if cal is not None:
+        progress("uncertainty from the calibration covariance")
         G = unc.sensitivities(m, cal, lambda mm: tcp_deflection(mm, tp.poses, W, t, method, workers))
         band = unc.band(d, G, cal.cov)
         notes.append(f"uncertainty from the calibration covariance of {os.path.basename(m.path or '')} "
                      f"({', '.join(cal.names)})")
     comp = after = text = None
     if compensate:
+        progress("compensation")
         d_nl = d if method == "nonlinear" else tcp_deflection(m, tp.poses, W, t, "nonlinear", workers)
         _named_nan(tp, d_nl)
         comp = _compensate(m, tp.poses, W, t, d_nl, workers, tp.where)

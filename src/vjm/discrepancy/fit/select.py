@@ -33,6 +33,8 @@ from typing import Any, Callable
 import numpy as np
 from scipy import optimize, stats
 
+from linkfea.progress import renamed_progress
+
 Z95 = 1.959963984540054
 
 
@@ -329,8 +331,9 @@ def lack_of_fit(fr: FitResult, pure_error: tuple | None = None) -> dict:
             "note": "sigmas unknown and no repeated measurements: lack of fit cannot be judged"}
 
 
+@renamed_progress("log")
 def forward_select(problem: Problem, candidates, alpha: float = 0.01, max_effects: int = 3,
-                   folds: int = 5, seed: int = 0, log=None, extra_tests: int = 0) -> Selection:
+                   folds: int = 5, seed: int = 0, progress=None, extra_tests: int = 0) -> Selection:
     """Forward selection of candidate terms on top of the baseline.
 
     At each round every remaining candidate is fitted together with the terms
@@ -372,8 +375,8 @@ def forward_select(problem: Problem, candidates, alpha: float = 0.01, max_effect
             d["eligible"] = bool(d["p_value"] < thr and d["delta_bic"] < 0 and cv_ok
                                  and d["converged"] and not d["clipped"])
         rounds.append(info)
-        if log:
-            log(f"round {len(rounds)}: " + ", ".join(
+        if progress:
+            progress(f"round {len(rounds)}: " + ", ".join(
                 f"{c} dBIC={info[c]['delta_bic']:.1f} p={info[c]['p_value']:.2g}" for c in remaining))
         elig = [c for c in remaining if info[c]["eligible"]]
         if not elig:

@@ -26,7 +26,7 @@ class Calibration:
     Q: np.ndarray  # orthonormal basis of their span
 
 
-def calibrate(s: Setup, log=None) -> Calibration:
+def calibrate(s: Setup, progress=None) -> Calibration:
     """Hold the inseparable calibration factors (in ``s.pred`` and ``s.terms``) and fit the rest."""
     cal_specs = s.terms[CALIBRATION].params
     th_cal = np.array([p.start for p in cal_specs])
@@ -35,8 +35,8 @@ def calibrate(s: Setup, log=None) -> Calibration:
     if held:
         s.pred.fixed[CALIBRATION] = (len(cal_specs), tuple(cal_free), list(th_cal))
         s.terms[CALIBRATION] = Term(CALIBRATION, tuple(cal_specs[i] for i in cal_free), s.terms[CALIBRATION].description)
-        if log:
-            log("calibration held at nominal (not separable on this data): " + ", ".join(held))
+        if progress:
+            progress("calibration held at nominal (not separable on this data): " + ", ".join(held))
     base = fit_terms(s.prob, (CALIBRATION,))
     cols = observe.calibration_columns(s.prob, base.theta, CALIBRATION)
     return Calibration(held, base, cols, observe._orth(cols))

@@ -29,7 +29,7 @@ class Observability:
         return observe.project_out(self.sens[name].Jfree, cal.Q)
 
 
-def observability(s: Setup, cal: Calibration, log=None) -> Observability:
+def observability(s: Setup, cal: Calibration, progress=None) -> Observability:
     """Stage 2: sensitivities; unseen candidates set aside, unseen parameters held (in ``s.pred``, ``s.terms``)."""
     sens, unobservable, full_terms = {}, {}, {}
     for nm in s.candidates:
@@ -52,6 +52,6 @@ def observability(s: Setup, cal: Calibration, log=None) -> Observability:
             s.pred.fixed[nm] = (len(specs), ts.free, [p.start for p in specs])
             s.terms[nm] = Term(nm, tuple(specs[i] for i in ts.free), s.terms[nm].description)
     tested = [c for c in s.candidates if c not in unobservable]
-    if log and unobservable:
-        log("not observable on this data: " + ", ".join(unobservable))
+    if progress and unobservable:
+        progress("not observable on this data: " + ", ".join(unobservable))
     return Observability(sens, unobservable, full_terms, tested)

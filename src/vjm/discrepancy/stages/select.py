@@ -47,10 +47,10 @@ def pair_screen(prob, sel: Selection, obs: Observability, cal: Calibration) -> l
     return screen_pairs(r0, cols, PAIR_SCREEN)
 
 
-def select(s: Setup, cal: Calibration, obs: Observability, alpha, max_effects, folds, log=None) -> Selected:
+def select(s: Setup, cal: Calibration, obs: Observability, alpha, max_effects, folds, progress=None) -> Selected:
     """Stage 3: forward selection, rival swaps, backward elimination, pair screen and swaps."""
     prob = s.prob
-    sel = forward_select(prob, obs.tested, alpha=alpha, max_effects=max_effects, folds=folds, log=log, extra_tests=1)
+    sel = forward_select(prob, obs.tested, alpha=alpha, max_effects=max_effects, folds=folds, progress=progress, extra_tests=1)
     sel, rivals = rival_check(prob, sel, obs.tested, obs.sens, cal.cols, alpha)
     # a named effect that another one (added or swapped in later) made redundant is dropped
     sel = backward_eliminate(prob, sel)
