@@ -27,6 +27,7 @@ from .stages.observability import observability
 from .stages.problem import build_problem
 from .stages.record import build_report
 from .stages.select import select
+from .stages.strength import weak_design
 from .stages.thresholds import DEFAULT_ALPHA
 from .stages.update import updated_model
 from .stages.verdict import verdict
@@ -75,8 +76,8 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     loc = locate(s, chosen, fit)
     table = candidates(s, obs, chosen)
     conf = confounding(s.prob, chosen.sel, obs.sens, cal.cols, table.entries, alpha, chosen.rivals)
-    rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, verdict(s, cal, chosen, fit, lev),
-                       model_name=model_name or "<model>", alpha=alpha, folds=folds)
+    v = verdict(s, cal, chosen, fit, lev, weak_design(s, chosen))
+    rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, v, model_name=model_name or "<model>", alpha=alpha, folds=folds)
     rows = None
     if suggest:
         sg, rep = next_measurements(s, chosen, fit, rep, suggest, forces_only)

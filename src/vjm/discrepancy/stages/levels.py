@@ -26,8 +26,10 @@ import numpy as np
 from scipy import stats
 
 from .. import observe
+from ..data import Deflections
 from ..levels import load_levels
 from .goodness import Goodness
+from .kinds import DeflectionKind
 from .problem import Setup
 from .select import Selected
 
@@ -47,7 +49,7 @@ def level_check(s: Setup, chosen: Selected, fit: Goodness) -> dict | None:
     """Stage 4b: the load-level lack-of-fit test of the final model, or None (no levels, or stiffness data).
 
     Returns ``{"levels_N", "statistic", "dof", "p_value", "alpha", "significant", "test"}``."""
-    if s.kind.name != "deflection":
+    if not isinstance(s.kind, DeflectionKind) or not isinstance(s.data, Deflections):
         return None
     lv = load_levels(s.data.W)
     if lv is None:

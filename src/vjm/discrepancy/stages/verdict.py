@@ -67,14 +67,19 @@ def level_flags(levels: dict | None) -> list:
             "effect of the library is"]
 
 
-def verdict(s: Setup, cal: Calibration, chosen: Selected, fit: Goodness, levels: dict | None = None) -> Verdict:
+def verdict(s: Setup, cal: Calibration, chosen: Selected, fit: Goodness, levels: dict | None = None,
+            weak: list | None = None) -> Verdict:
     """Stage 8: "unexplained" when the final model still lacks fit (overall, or across load levels),
-    else "explained" if something is named."""
+    else "insufficient_data" if something is named on a design too weak to name it (``weak``: the
+    reasons, :func:`.strength.weak_design`), else "explained" if something is named."""
     sel = chosen.sel
     flags = fit_flags(s.prob, sel, sel.final) + workspace_flags(s.model, s.data) + calibration_flags(s.prob, cal)
     flags += level_flags(levels)
     if fit.lack_of_fit["significant"] or (levels is not None and levels["significant"]):
         v = "unexplained"
+    elif sel.selected and weak:
+        v = "insufficient_data"
+        flags += [f"insufficient data to name {', '.join(sel.selected)}: {w}" for w in weak]
     elif sel.selected:
         v = "explained"
     else:
