@@ -36,7 +36,7 @@ def _bins(v, nb=4):
     return idx, edges
 
 
-def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
+def localize(P, W, rnorm, mask, pose_idx, q=None, top=5, tnorm=None) -> dict:
     """Summarise normalized residuals.
 
     Parameters
@@ -46,6 +46,8 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
     rnorm : (n, 6) normalized residuals (NaN/ignored where ``mask`` is False).
     mask : (n, 6) measured components.
     q : optional (m, k) actuator coordinates of the unique postures (mm or rad).
+    tnorm : optional (n, 6) the model's own deflections / sigma: with load levels, the residual along
+        them per level (how much softer or stiffer the data are than the model at each level).
     """
     r2 = np.where(mask, np.nan_to_num(rnorm) ** 2, 0.0).sum(axis=1)
     cnt = mask.sum(axis=1)
@@ -77,7 +79,7 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
                                 for b, v in sorted(g.items())]
     lv = load_levels(W)
     if lv is not None:  # a few distinct magnitudes: the residual per level (a load-dependent stiffness shows)
-        out["by_load_level"] = by_level(lv, W, rnorm, mask)
+        out["by_load_level"] = by_level(lv, W, rnorm, mask, tnorm)
     if q is not None:
         out.update(_by_actuator(q, pose_idx, r2, cnt))
     out["summary"] = _summary(out)
