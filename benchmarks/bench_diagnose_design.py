@@ -12,13 +12,19 @@ noise 1 um / 10 urad with sigma columns.
   level: tests/truth.py ``names_exactly``), *insufficient* (verdict ``insufficient_data``),
   *nothing* (``no_discrepancy``), *unexplained*, or *wrong* (``explained`` with a name that
   neither is the effect nor stands for a group holding it: the failure the verdict must avoid).
-  The smallest design is the first of the ladder on which every set named the effect alone.
+  The smallest design is the first of the ladder from which on every design run named the effect
+  alone in every set (the ladder stops after two such designs in a row).
 * **Suggest rounds** (``--only rounds``): the power benchmark's sets
   (benchmarks/bench_diagnose_false_alarm.py: 24 postures x 12 loads, each effect at the size
   where its signature adds a chi-square of 100, seeds 30000 + set), and weak designs
   (``--weak P:L``); a round is: diagnose with ``--suggest N``, measure the suggested rows on
   the true machine, diagnose the union.  Rounds are counted until the effect is named alone
   (at most ``--max-rounds``).
+
+* **Two load levels** (``--only levels``): ``--level-sets`` sets of 12 postures x 6 force
+  directions at 50 and 100 N (tests/truth.py ``level_design``), clean, with softening actuators
+  (out of the library) and with a softer leg in extension (linear): verdicts and how often the
+  load-level test fires.
 
 Run (CPU-heavy: nice it):
 
@@ -64,6 +70,16 @@ def run(model, data, work, suggest=0):
     return dg.report, dg.next_measurements
 
 
+def smallest(rows) -> list | None:
+    """[postures, loads] of the first design from which on every design run named the effect alone in
+    every set (None: the last one run did not)."""
+    first = None
+    for x in rows:
+        ok = all(s["outcome"] == "alone" for s in x["sets"])
+        first = (first or [x["postures"], x["loads"]]) if ok else None
+    return first
+
+
 def designs(names, reps, log=print) -> dict:
     out = {}
     with tempfile.TemporaryDirectory() as work:
@@ -81,8 +97,7 @@ def designs(names, reps, log=print) -> dict:
                 if all(x["outcome"] == "alone" for x in res) and len(rows) >= 2 and \
                         all(x["outcome"] == "alone" for x in rows[-2]["sets"]):
                     break  # named alone on two designs in a row: the larger ones are not run
-            first = next((x for x in rows if all(s["outcome"] == "alone" for s in x["sets"])), None)
-            out[name] = {"ladder": rows, "smallest": None if first is None else [first["postures"], first["loads"]]}
+            out[name] = {"ladder": rows, "smallest": smallest(rows)}
     return out
 
 
@@ -124,8 +139,38 @@ def rounds(names, reps, n_suggest, max_rounds, weak, log=print) -> dict:
     return out
 
 
-def markdown(ds, rs, meta) -> str:
+def levels(n_sets, log=print) -> dict:
+    """Data at two load levels (12 postures x 6 force directions at 50 and 100 N, translations only):
+    verdicts and the load-level test on clean sets, on softening actuators (out of the library) and
+    on a softer leg in extension (linear, in the library)."""
+    cases = {"clean": (tr.NOMINAL, tr.Truth(tr.variant(tr.NOMINAL))),
+             "softening 2e-7 mm/N^2": (tr.NOMINAL, tr.Truth(tr.variant(tr.NOMINAL), softening=2e-7)),
+             "leg_axial": tr.hide("leg_axial")}
+    out = {}
+    with tempfile.TemporaryDirectory() as work:
+        for key, (given, truth) in cases.items():
+            res = []
+            for r in range(n_sets):
+                P, W = tr.level_design(12, 6, seed=64_000 + r, forces_only=True)
+                rep, _ = run(given, tr.measure(truth, P, W, seed=65_000 + r, sigma_r=None), work)
+                lv = rep["lack_of_fit"]["load_levels"]
+                res.append({"verdict": rep["verdict"], "named": rep["named_effects"], "level_p": lv["p_value"],
+                            "level_significant": lv["significant"], "lof_p": rep["lack_of_fit"]["p_value"]})
+            out[key] = res
+            log(f"  {key}: " + ", ".join(f"{x['verdict']} {x['named']} {x['level_p']:.2g}" for x in res), flush=True)
+    return out
+
+
+def markdown(ds, rs, meta, lv=None) -> str:
     lines = []
+    if lv:
+        lines += ["| two load levels (50, 100 N) | sets | verdicts | load-level test significant | "
+                  "overall lack of fit significant |", "| --- | --- | --- | --- | --- |"]
+        for key, res in lv.items():
+            vs = {v: sum(x["verdict"] == v for x in res) for v in sorted({x["verdict"] for x in res})}
+            lines.append(f"| {key} | {len(res)} | {vs} | {sum(x['level_significant'] for x in res)} | "
+                         f"{sum(x['lof_p'] is not None and x['lof_p'] < 0.01 / 25 for x in res)} (p < 4e-4) |")
+        lines.append("")
     if ds:
         lines += ["| effect | smallest design named alone (postures x loads) | outcomes per design "
                   "(alone / group / insufficient / nothing / unexplained / wrong) |", "| --- | --- | --- |"]
@@ -156,25 +201,38 @@ def markdown(ds, rs, meta) -> str:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--only", choices=("designs", "rounds"))
+    ap.add_argument("--only", choices=("designs", "rounds", "levels"))
+    ap.add_argument("--level-sets", type=int, default=20)
     ap.add_argument("--reps", type=int, default=2)
     ap.add_argument("--effect", action="append")
     ap.add_argument("--suggest", type=int, default=24, help="rows suggested per round")
     ap.add_argument("--max-rounds", type=int, default=4)
     ap.add_argument("--weak", default="3:4", help="weak starting design P:L for the rounds ('' for none)")
     ap.add_argument("--json")
+    ap.add_argument("--merge", nargs="+", help="print the tables of earlier --json results")
     a = ap.parse_args(argv)
+    if a.merge:
+        parts = []
+        for path in a.merge:
+            with open(path, encoding="utf-8") as fh:
+                parts.append(json.load(fh))
+        ds = {k: {**v, "smallest": smallest(v["ladder"])} for p in parts for k, v in (p.get("designs") or {}).items()}
+        rs = {k: v for p in parts for k, v in (p.get("rounds") or {}).items()}
+        lv = {k: v for p in parts for k, v in (p.get("levels") or {}).items()}
+        print(markdown(ds or None, rs or None, "; ".join(p["meta"] for p in parts), lv or None))
+        return
     names = a.effect or [n for n, h in tr.LIBRARY.items() if h.seen and h.machine == "puu"]
     weak = tuple(int(x) for x in a.weak.split(":")) if a.weak else None
     t0 = time.perf_counter()
     ds = designs(names, a.reps) if a.only in (None, "designs") else None
     rs = rounds(names, a.reps, a.suggest, a.max_rounds, weak) if a.only in (None, "rounds") else None
+    lv = levels(a.level_sets) if a.only in (None, "levels") else None
     meta = (f"{a.reps} sets per cell, noise 1 um / 10 urad, alpha {ALPHA}, --suggest {a.suggest}; wall "
             f"{time.perf_counter() - t0:.0f} s, load average {os.getloadavg()[0]:.1f}")
-    print(markdown(ds, rs, meta))
+    print(markdown(ds, rs, meta, lv))
     if a.json:
         with open(a.json, "w", encoding="utf-8") as fh:
-            json.dump({"designs": ds, "rounds": rs, "meta": meta}, fh, indent=1)
+            json.dump({"designs": ds, "rounds": rs, "levels": lv, "meta": meta}, fh, indent=1)
 
 
 if __name__ == "__main__":
