@@ -145,3 +145,32 @@ def test_simulate_writes_every_load_level(tmp_path):
     bad = run(app, ["simulate", tr.PUU, "--loads", "axes:50,-1", "--out", str(tmp_path / "c.csv")])
     assert bad.exit_code == 2 and "must be a finite number > 0" in bad.output
     assert "Traceback" not in bad.output and not (tmp_path / "c.csv").exists()
+
+
+# ------------------------------------------------------------------ --suggest: rows that separate a group
+
+def test_rows_to_separate_is_the_first_prefix_that_separates_every_rival():
+    """Greedy T-optimal rows on a constructed pair of rivals: ``rows_to_separate`` is the first
+    number of rows (in their order) after which every rival's chi-square distance, recomputed
+    from scratch by least squares, reaches T_SEPARATE."""
+    from vjm.discrepancy import suggest as sg
+
+    rng = np.random.default_rng(7)
+    pairs_d, pairs_p = [], []
+    for _ in range(2):  # two rivals B: imitation columns (kx = 2), A's signature s
+        Xd = rng.standard_normal((5, 3, 2))
+        pairs_d.append((Xd, Xd @ np.array([1.0, 0.5])))  # on the data A is B exactly: T = 0
+        Xp = rng.standard_normal((40, 3, 2))
+        pairs_p.append((Xp, Xp @ np.array([1.0, 0.5]) + 0.6 * rng.standard_normal((40, 3))))
+    chosen, before, after, enough = sg._greedy_t(pairs_d, pairs_p, 30)
+    assert before == pytest.approx(0.0, abs=1e-9) and after > sg.T_SEPARATE
+
+    def t_after(k, pair_d, pair_p):  # |(I - P_X) s|^2 over the data and the first k chosen rows
+        X = np.concatenate([pair_d[0], pair_p[0][chosen[:k]]]).reshape(-1, 2)
+        s = np.concatenate([pair_d[1], pair_p[1][chosen[:k]]]).ravel()
+        r = s - X @ np.linalg.lstsq(X, s, rcond=None)[0]
+        return float(r @ r)
+
+    t = [min(t_after(k, d, p) for d, p in zip(pairs_d, pairs_p)) for k in range(31)]
+    assert enough is not None and 0 < enough <= 30
+    assert t[enough] >= sg.T_SEPARATE and all(v < sg.T_SEPARATE for v in t[:enough]), (enough, t)
