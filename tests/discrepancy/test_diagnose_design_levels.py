@@ -76,6 +76,20 @@ def test_level_design_repeats_each_direction_at_both_magnitudes(level_rows):
     assert np.all(P[:12] == P[0])
 
 
+def test_softening_truth_is_odd_and_quadratic_in_the_load(level_rows):
+    """tests/truth.py's softening actuators: the extra twist is odd in the load and grows as its
+    square (x4 at twice the load), and each actuator slips by s tau |tau| (J dp = slip)."""
+    P, W = level_rows
+    truth = tr.Truth(tr.variant(NOMINAL), softening=3e-7)
+    lo, hi = tr.softening_twist(truth, P[:6], W[:6]), tr.softening_twist(truth, P[6:12], W[6:12])
+    np.testing.assert_allclose(hi, 4.0 * lo, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(tr.softening_twist(truth, P[:6], -W[:6]), -lo, rtol=1e-12, atol=1e-15)
+    tau = tr.actuator_forces(P[:6], W[:6], truth.L)
+    J = tr.actuator_jacobian(P[:6], truth.L)
+    np.testing.assert_allclose(np.einsum("nij,nj->ni", J, lo[:, :3]), 3e-7 * tau * np.abs(tau), rtol=1e-10)
+    assert np.all(lo[:, 3:] == 0.0)
+
+
 def test_softening_spring_at_two_levels_is_unexplained(tmp_path, level_rows):
     """Actuators that give way by s tau |tau| (a softening spring, out of the library): the
     overall lack of fit does not see it (the calibration takes a mean compliance), the
