@@ -215,6 +215,9 @@ class Truth:
     hysteresis : dimensionless, fraction of the previous load's elastic deflection (same
         posture, file order) that remains (out of library)
     contact : mm / N^(2/3), translation ``contact |F|^(2/3) F/|F|`` (out of library)
+    softening : mm / N^2, each actuator's drive gives way by ``softening tau |tau|`` besides its
+        linear spring: a spring that softens with its force (out of library; it shows as a
+        compliance that grows with the load magnitude)
     """
 
     model: dict = field(default_factory=nominal)
@@ -225,6 +228,7 @@ class Truth:
     joint_backlash: float = 0.0
     hysteresis: float = 0.0
     contact: float = 0.0
+    softening: float = 0.0
 
     def vjm_model(self) -> vjm.Model:
         return build(self.model)
@@ -286,6 +290,13 @@ def contact_twist(truth: Truth, W) -> np.ndarray:
     return out
 
 
+def softening_twist(truth: Truth, P, W) -> np.ndarray:
+    """(n, 6) platform twist of actuators that soften with their force: slip ``softening tau |tau|``
+    (mm), ``tau`` the actuator force of the applied load (:func:`actuator_forces`)."""
+    tau = actuator_forces(P, W, truth.L)
+    return slip_twist(P, truth.softening * tau * np.abs(tau), truth.L)
+
+
 def hysteresis_twist(truth: Truth, P, W, t_elastic_applied) -> np.ndarray:
     """(n, 6) remnant of the previous row's elastic deflection at the same posture (rows in file order)."""
     out = np.zeros_like(t_elastic_applied)
@@ -306,6 +317,8 @@ def deflections(truth: Truth, P, W) -> np.ndarray:
         t = t + joint_slip_twist(truth, P, W)
     if truth.contact:
         t = t + contact_twist(truth, W)
+    if truth.softening:
+        t = t + softening_twist(truth, P, W)
     if truth.hysteresis:
         t0 = elastic(Truth(truth.model, truth.nonlinear), P, W)  # the applied load's own deflection, no weight
         t = t + hysteresis_twist(truth, P, W, t0)
@@ -353,6 +366,18 @@ def design(n_postures: int, n_loads: int, seed: int, box=WORKSPACE, **load_kw):
     P = np.repeat(P0, n_loads, axis=0)
     W = np.concatenate([loads(n_loads, rng, **load_kw) for _ in P0])
     return P, W
+
+
+def level_design(n_postures: int, n_dirs: int, seed: int, levels=(0.5, 1.0), box=WORKSPACE, **load_kw):
+    """Rows (P, W) with several load levels: ``n_postures`` random postures, at each ``n_dirs``
+    loads (opposite pairs, full magnitude 100 N / 5000 N mm unless ``force``/``moment`` say
+    otherwise) applied at every factor of ``levels``: the same posture and direction at each
+    magnitude."""
+    rng = np.random.default_rng(seed)
+    P0 = postures(n_postures, rng, box)
+    L0 = [loads(n_dirs, rng, spread=(1.0, 1.0), **load_kw) for _ in P0]
+    W = np.concatenate([np.concatenate([a * L for a in levels]) for L in L0])
+    return np.repeat(P0, n_dirs * len(levels), axis=0), W
 
 
 # --- measurements ----------------------------------------------------------------------------

@@ -5,7 +5,8 @@
 # platform that the model does not know about, at 12 random postures under +-100 N along each
 # axis, with 1 um of noise.  The diagnosis calibrates the model, tests each candidate effect
 # of its library and names the one the data need, with a verdict: "explained" when the named
-# effects leave only noise, "unexplained" when a significant gap remains, "no_discrepancy".
+# effects leave only noise, "unexplained" when a significant gap remains, "no_discrepancy", or
+# "insufficient_data" when an effect fits but the design is too weak to name it.
 
 # %%
 from pathlib import Path

@@ -2,7 +2,9 @@
 the body of ``vjm diagnose``.
 
 ``register(app)`` adds both commands; errors (VjmError) become one line on
-stderr and exit status 2, like the other ``vjm`` commands.
+stderr and exit status 2, like the other ``vjm`` commands.  ``vjm diagnose``
+exits with status 3 when its verdict is ``insufficient_data`` (the report is
+written; the design is too weak to name what fits), 0 for the other verdicts.
 """
 from __future__ import annotations
 
@@ -13,6 +15,9 @@ from typing import List, Optional
 import typer
 
 from ..errors import one_line, user_errors
+
+#: exit status of ``vjm diagnose`` when the verdict is "insufficient_data" (report written, nothing named)
+INSUFFICIENT_DATA_EXIT = 3
 
 
 def run(model_path, data_path, out_dir, force: bool = False, **kw):
@@ -58,13 +63,16 @@ def diagnose_cmd(
     typer.echo(f"Report: {Path(out) / 'report.html'}")
     if suggest:
         typer.echo(f"Next measurements: {Path(out) / 'next_measurements.csv'}")
+    if dg.verdict == "insufficient_data":  # the report is written, but nothing may be taken as named
+        raise typer.Exit(INSUFFICIENT_DATA_EXIT)
 
 
 def simulate_cmd(
     model: Path = typer.Argument(..., help="model YAML"),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="hidden effect NAME[:param=value,...] (repeatable)"),
     poses: str = typer.Option("grid:4", "--poses", help="grid:N | random:N | CSV with x,y,z"),
-    loads: str = typer.Option("axes:100", "--loads", help="axes:F[:M] | random:N:F | CSV with Fx..Mz"),
+    loads: str = typer.Option("axes:100", "--loads", help="axes:F[:M] | random:N:F | CSV with Fx..Mz; several "
+                                                           "magnitudes (load levels): axes:50,100, random:N:50,100"),
     noise_t: float = typer.Option(0.001, "--noise-t", help="translation noise sigma, mm"),
     noise_r: Optional[float] = typer.Option(None, "--noise-r", help="rotation noise sigma, rad (omit: rotations not measured)"),
     seed: int = typer.Option(0, "--seed"),

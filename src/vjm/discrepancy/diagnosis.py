@@ -27,7 +27,7 @@ class Diagnosis:
 
     @property
     def verdict(self) -> str:
-        """"no_discrepancy", "explained" or "unexplained"."""
+        """"no_discrepancy", "explained", "unexplained" or "insufficient_data"."""
         return self.report.verdict
 
     @property

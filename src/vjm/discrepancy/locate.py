@@ -11,6 +11,8 @@ import numpy as np
 
 from linkfea.compliance import WRENCH as WRENCH_NAMES
 
+from .levels import by_level, growth_words, load_levels
+
 
 def _rms(r2_sum, cnt):
     return float(np.sqrt(r2_sum / cnt)) if cnt else float("nan")
@@ -34,7 +36,7 @@ def _bins(v, nb=4):
     return idx, edges
 
 
-def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
+def localize(P, W, rnorm, mask, pose_idx, q=None, top=5, tnorm=None) -> dict:
     """Summarise normalized residuals.
 
     Parameters
@@ -44,6 +46,8 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
     rnorm : (n, 6) normalized residuals (NaN/ignored where ``mask`` is False).
     mask : (n, 6) measured components.
     q : optional (m, k) actuator coordinates of the unique postures (mm or rad).
+    tnorm : optional (n, 6) the model's own deflections / sigma: with load levels, the residual along
+        them per level (how much softer or stiffer the data are than the model at each level).
     """
     r2 = np.where(mask, np.nan_to_num(rnorm) ** 2, 0.0).sum(axis=1)
     cnt = mask.sum(axis=1)
@@ -73,6 +77,9 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
     g = _group_rms(bi, r2, cnt)
     out["by_load_magnitude"] = [{"force_N": [float(edges[b]), float(edges[b + 1])], "rms_normalized": v[0], "n": v[1]}
                                 for b, v in sorted(g.items())]
+    lv = load_levels(W)
+    if lv is not None:  # a few distinct magnitudes: the residual per level (a load-dependent stiffness shows)
+        out["by_load_level"] = by_level(lv, W, rnorm, mask, tnorm)
     if q is not None:
         out.update(_by_actuator(q, pose_idx, r2, cnt))
     out["summary"] = _summary(out)
@@ -140,6 +147,8 @@ def _summary(loc) -> str:
         lo, hi = mags[0]["rms_normalized"], mags[-1]["rms_normalized"]
         trend = "grows" if hi > 1.3 * lo else ("shrinks" if lo > 1.3 * hi else "is flat")
         parts.append(f"residual {trend} with load magnitude ({lo:.2f} -> {hi:.2f})")
+    if loc.get("by_load_level"):
+        parts.append(growth_words(loc["by_load_level"]))
     for name, bins in loc.get("by_actuator", {}).items():
         if len(bins) > 1:
             lo, hi = bins[0]["rms_normalized"], bins[-1]["rms_normalized"]

@@ -118,6 +118,10 @@ def render_html(rep: dict, figures) -> str:
                + _table([[_fmt(w["x"], "{:.1f}"), _fmt(w["y"], "{:.1f}"), _fmt(w["z"], "{:.1f}"),
                           _fmt(w["rms_normalized"], "{:.2f}"), w["n"]] for w in la.get("worst_postures", [])],
                         ["x", "y", "z", "RMS normalized (after)", "n"]))
+    if rep["verdict"] == "insufficient_data":
+        why = "".join(f"<li>{html.escape(f)}</li>" for f in rep.get("flags", []) if f.startswith("insufficient data"))
+        gap = ("<h2>Why nothing is named</h2><p>An effect fits, but this design is too weak to name it; "
+               f"measure more postures and loads (e.g. with <code>--suggest</code>).</p><ul>{why}</ul>")
     sug = ""
     if rep.get("suggest"):
         sg = rep["suggest"]

@@ -9,6 +9,12 @@ Design of the experiment
 ``loads`` (applied at every posture):
   * ``axes:F[:M]``   -- +-F N along x, y, z (and +-M N mm about x, y, z if M is given);
   * ``random:N:F``   -- N random force directions of magnitude F N (drawn per posture);
+  * several magnitudes (*load levels*), comma-separated: ``axes:50,100`` applies every axis
+    load at 50 N and at 100 N; ``axes:50,100:2500,5000`` pairs the moments with the forces,
+    ``axes:50,100:5000`` scales the moment with the force (5000 N mm at 100 N);
+    ``random:N:50,100`` applies each random direction at every magnitude.  The same posture
+    and direction at several magnitudes is what tells a load-dependent stiffness apart from a
+    compliance (:mod:`vjm.discrepancy.levels`);
   * ``PATH.csv``     -- a CSV with columns Fx,Fy,Fz,Mx,My,Mz.
 The same CSV given to both ``--poses`` and ``--loads`` (columns x,y,z,Fx..Mz, e.g.
 ``next_measurements.csv`` written by ``vjm diagnose --suggest``) is read as
@@ -32,6 +38,7 @@ from ..grid import SIMULATE_BYTES, in_chunks, plan
 from . import effects as fx
 from . import modelops as mo
 from .data import Deflections
+from .levels import parse_levels
 from .predict import Context, unique_postures
 
 
@@ -166,18 +173,40 @@ def design_loads(spec, n_poses: int, rng=None) -> np.ndarray:
     kind, _, arg = spec.partition(":")
     if kind == "axes":
         parts = arg.split(":")
-        F = _num(parts[0], spec, "loads")
-        M = _num(parts[1], spec, "loads") if len(parts) > 1 else 0.0
-        return _every_posture(axes_loads(F, M), n_poses)
+        if len(parts) > 2:
+            raise ArgumentError("loads", f"{spec}: expected axes:F[:M] (F, M: one magnitude or several, "
+                                         "comma-separated)")
+        Fs = _magnitudes(parts[0], spec)
+        Ms = _magnitudes(parts[1], spec) if len(parts) > 1 else [0.0]
+        if len(Fs) == 1 and len(Ms) == 1:
+            return _every_posture(axes_loads(Fs[0], Ms[0]), n_poses)
+        if len(Ms) == 1:  # one moment: scaled with the force, the largest force taking it whole
+            Ms = [Ms[0] * F / max(Fs) for F in Fs]
+        if len(Ms) != len(Fs):
+            raise ArgumentError("loads", f"{spec}: give one moment or as many moments as forces "
+                                         f"({len(Fs)}), got {len(Ms)}")
+        return _every_posture(np.concatenate([axes_loads(F, M) for F, M in zip(Fs, Ms)]), n_poses)
     if kind == "random":
         parts = arg.split(":")
         if len(parts) != 2:
             raise ArgumentError("loads", f"{spec}: expected random:N:F")
-        return random_loads(n_poses, _int(parts[0], spec, "loads"), _num(parts[1], spec, "loads"),
-                            np.random.default_rng() if rng is None else rng)
+        Fs = _magnitudes(parts[1], spec)
+        L = random_loads(n_poses, _int(parts[0], spec, "loads"), 1.0,
+                         np.random.default_rng() if rng is None else rng)
+        return np.concatenate([F * L for F in Fs], axis=1)
     if os.path.isfile(spec):
         return _every_posture(_read_cols(spec, list(WRENCH)), n_poses)
     raise ArgumentError("loads", f"{spec}: expected axes:F[:M], random:N:F or a CSV file with columns Fx..Mz")
+
+
+def _magnitudes(s, spec) -> list[float]:
+    """One magnitude, or several comma-separated ones (load levels: each finite and > 0, distinct)."""
+    if "," not in s:
+        return [_num(s, spec, "loads")]
+    try:
+        return parse_levels(s, spec)
+    except ValueError as exc:
+        raise ArgumentError("loads", str(exc)) from None
 
 
 def _every_posture(L: np.ndarray, n_poses: int) -> np.ndarray:

@@ -4,7 +4,9 @@ The candidate rows are reachable, non-singular postures drawn uniformly in
 the model's workspace box, each with the axis loads ``+-F`` along x, y, z
 (and ``+-M`` about them unless the rig applies forces only), ``F`` and ``M``
 being the median force and moment magnitudes of the data (``M = F x 100 mm``
-when the data hold no moment).  Each row's information is the whitened
+when the data hold no moment); when the data apply their loads at a few
+levels (:mod:`vjm.discrepancy.levels`), the axis loads at each level's median
+magnitudes, so that the suggested rows keep the levels.  Each row's information is the whitened
 sensitivity of the measured components to the parameters, the same
 quantity the fit uses, so rows add to the information of the data already
 taken.  N rows are chosen greedily (one at a time, each the best given the
@@ -31,10 +33,14 @@ import numpy as np
 
 from . import modelops as mo
 from . import observe
+from .levels import load_levels
 from .predict import CALIBRATION, Context, Predictor
 
 #: candidate postures drawn in the workspace box
 POOL = 160
+#: chi-square distance between an effect's signature and a rival's best imitation at which a chi-square(1)
+#: test at level 0.01 separates them with probability 0.8 (non-centrality of chi2(1, lambda) > 6.63)
+T_SEPARATE = 11.68
 #: moment arm used for the moment magnitude when the data apply no moment, mm
 ARM = 100.0
 
@@ -47,6 +53,9 @@ class Suggestion:
     gain: float  # criterion after / before (T: chi-square distance; D: log det)
     before: float
     after: float
+    #: T-optimal designs: how many of the rows, taken in their order, bring every rival's chi-square
+    #: distance to T_SEPARATE (None: the N rows do not, or no group to separate)
+    rows_to_separate: int | None = None
 
 
 def _pool(model, W, forces_only, rng):
@@ -57,13 +66,17 @@ def _pool(model, W, forces_only, rng):
         r = model.stiffness_map(P)
         P = P[r.invertible & np.isfinite(r.k_tran)]
     P = P[:POOL]
-    f = np.linalg.norm(W[:, :3], axis=1)
-    m = np.linalg.norm(W[:, 3:], axis=1)
-    F = float(np.median(f[f > 0])) if np.any(f > 0) else 100.0
-    M = float(np.median(m[m > 0])) if np.any(m > 0) else F * ARM
-    loads = [s * F * np.eye(6)[i] for i in range(3) for s in (1, -1)]
-    if not forces_only:
-        loads += [s * M * np.eye(6)[i] for i in range(3, 6) for s in (1, -1)]
+    lv = load_levels(W)
+    groups = [W] if lv is None else [W[lv.index == j] for j in range(lv.count)]
+    loads = []
+    for Wj in groups:  # the axis loads at the data's magnitude, or at each of its load levels
+        f = np.linalg.norm(Wj[:, :3], axis=1)
+        m = np.linalg.norm(Wj[:, 3:], axis=1)
+        F = float(np.median(f[f > 0])) if np.any(f > 0) else 100.0
+        M = float(np.median(m[m > 0])) if np.any(m > 0) else F * ARM
+        loads += [s * F * np.eye(6)[i] for i in range(3) for s in (1, -1)]
+        if not forces_only:
+            loads += [s * M * np.eye(6)[i] for i in range(3, 6) for s in (1, -1)]
     L = np.array(loads)
     return np.repeat(P, len(L), axis=0), np.tile(L, (len(P), 1)), F, M
 
@@ -128,7 +141,8 @@ def _greedy_t(pairs_d, pairs_p, n):
 
     before = total(state)
     m = pairs_p[0][0].shape[0]
-    chosen = []
+    chosen: list = []
+    enough = 0 if min(_t_value(G, h, a) for G, h, a in state) >= T_SEPARATE else None
     for _ in range(n):
         score = np.zeros(m)
         for (G, h, a), (Xp, sp) in zip(state, pairs_p):
@@ -146,7 +160,9 @@ def _greedy_t(pairs_d, pairs_p, n):
             st[0] = st[0] + Xp[j].T @ Xp[j]
             st[1] = st[1] + Xp[j].T @ sp[j]
             st[2] = st[2] + float(sp[j] @ sp[j])
-    return chosen, float(before), float(total(state))
+        if enough is None and min(_t_value(G, h, a) for G, h, a in state) >= T_SEPARATE:
+            enough = len(chosen)
+    return chosen, float(before), float(total(state)), enough
 
 
 def suggest(model, pred, data_ctx_rows, final_values, rep, n, forces_only=False, seed=0) -> Suggestion:
@@ -198,7 +214,7 @@ def suggest(model, pred, data_ctx_rows, final_values, rep, n, forces_only=False,
             keep = np.r_[0:kc, kc + ka:Xd.shape[-1]]
             pairs_d.append((Xd[..., keep], sd))
             pairs_p.append((Xp[..., keep], sp))
-        chosen, before, after = _greedy_t(pairs_d, pairs_p, n)
+        chosen, before, after, enough = _greedy_t(pairs_d, pairs_p, n)
         criterion = (f"T-optimal: separates {a} from {', '.join(others)} (chi-square distance between {a}'s "
                      f"signature and its best imitation by the others plus the calibration)")
         targets = [a] + others
@@ -214,7 +230,8 @@ def suggest(model, pred, data_ctx_rows, final_values, rep, n, forces_only=False,
         Xd = _columns(pred, names, th, comp, sig_d)
         Xp = _columns(pool, names, th, comp, sig_p)
         chosen, before, after = _greedy_d(Xd, Xp, n)
+        enough = None
         criterion = ("Bayesian D-optimal: log det(I + information) of the calibration and "
                      + ", ".join(targets) + " (parameters in units of their allowed range)")
     rows = np.hstack([Pp[chosen], Wp[chosen]])
-    return Suggestion(rows, criterion, list(targets), after - before, before, after)
+    return Suggestion(rows, criterion, list(targets), after - before, before, after, enough)

@@ -43,9 +43,16 @@ def verdict_line(rep) -> str:
         return f"Verdict: no discrepancy: the calibrated model fits the data ({fit_s})."
     if v == "explained":
         return f"Verdict: explained by {'; '.join(named)}; the final model fits ({fit_s})."
+    if v == "insufficient_data":
+        return (f"Verdict: insufficient data: {'; '.join(named)} fits ({fit_s}), but this design is too weak to "
+                "name it (see the warnings; measure more postures and loads, e.g. with --suggest).")
     head = "Verdict: unexplained: a significant gap remains"
     if named:
         head += f" after naming {'; '.join(named)}"
+    lv = lof.get("load_levels") or {}
+    if lv.get("significant"):
+        fit_s += (f"; the deflection does not scale with the load between levels "
+                  f"{', '.join(f'{m:.4g}' for m in lv['levels_N'])} N, p = {lv['p_value']:.2g}")
     return f"{head} ({fit_s}); no candidate of the library explains it."
 
 
@@ -96,8 +103,10 @@ class Summary:
         if r["verdict"] == "unexplained":
             notes.append([f"remaining gap: {r['localization_after']['summary']}"])
         if r.get("suggest"):
+            k = r["suggest"].get("rows_to_separate")
+            enough = "" if k is None else f"; its first {k} rows are expected to separate the group"
             notes.append([f"next measurements ({r['suggest']['n']} rows, {r['suggest']['file']}): "
-                          f"{r['suggest']['criterion']}"])
+                          f"{r['suggest']['criterion']}{enough}"])
         out = [("Diagnosis", ["", ""], head),
                ("Final model parameters", ["term", "parameter", "value", "se", "95% CI", "unit"], fin),
                ("Candidates (round 1, each on top of the calibrated model)",

@@ -22,11 +22,13 @@ from .stages.confounding import confounding
 from .stages.design import next_measurements
 from .stages.goodness import goodness
 from .stages.kinds import kind_of
+from .stages.levels import level_check
 from .stages.locate import locate
 from .stages.observability import observability
 from .stages.problem import build_problem
 from .stages.record import build_report
 from .stages.select import select
+from .stages.strength import weak_design
 from .stages.thresholds import DEFAULT_ALPHA
 from .stages.update import updated_model
 from .stages.verdict import verdict
@@ -71,11 +73,14 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     obs = observability(s, cal, progress)
     chosen = select(s, cal, obs, alpha, max_effects, folds, progress)
     fit = goodness(s, obs, chosen, alpha)
+    lev = level_check(s, chosen, fit)
+    if lev is not None:  # reported with the lack of fit it completes
+        fit.lack_of_fit["load_levels"] = lev
     loc = locate(s, chosen, fit)
     table = candidates(s, obs, chosen)
     conf = confounding(s.prob, chosen.sel, obs.sens, cal.cols, table.entries, alpha, chosen.rivals)
-    rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, verdict(s, cal, chosen, fit),
-                       model_name=model_name or "<model>", alpha=alpha, folds=folds)
+    v = verdict(s, cal, chosen, fit, lev, weak_design(s, chosen))
+    rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, v, model_name=model_name or "<model>", alpha=alpha, folds=folds)
     rows = None
     if suggest:
         sg, rep = next_measurements(s, chosen, fit, rep, suggest, forces_only)

@@ -22,5 +22,6 @@ def next_measurements(s: Setup, chosen: Selected, fit: Goodness, rep: Report, n:
         vals[nm] = final.term_theta(prob, nm)
     sg = suggest(s.model, s.pred, scales, vals, rep.to_dict(), int(n), forces_only)
     entry = {"n": int(n), "file": "next_measurements.csv", "criterion": sg.criterion, "targets": sg.targets,
-             "criterion_before": sg.before, "criterion_after": sg.after, "forces_only": bool(forces_only)}
+             "criterion_before": sg.before, "criterion_after": sg.after, "forces_only": bool(forces_only),
+             "rows_to_separate": sg.rows_to_separate}
     return sg, dataclasses.replace(rep, suggest=entry)

@@ -125,7 +125,8 @@ class DeflectionKind:
         W = data.W
         return Located(rms_of(res_nom), rms_of(res_base), rms_of(res_fin),
                        "mm (translations)" if tr else "rad (rotations)",
-                       localize(U, W, rn_base, mask, idx, q), localize(U, W, rn_fin, mask, idx, q),
+                       localize(U, W, rn_base, mask, idx, q, tnorm=pred.twists(base.names, base.theta) / sigm),
+                       localize(U, W, rn_fin, mask, idx, q, tnorm=pred.twists(final.names, final.theta) / sigm),
                        per_pose(rn_base, mask, idx, len(U)), per_pose(rn_fin, mask, idx, len(U)))
 
     def design_scales(self, data, w: Weights, s2) -> tuple:

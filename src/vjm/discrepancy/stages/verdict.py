@@ -16,7 +16,7 @@ from .thresholds import COLLINEAR, PLAUSIBLE
 
 @dataclass(frozen=True)
 class Verdict:
-    verdict: str  # "no_discrepancy", "explained" or "unexplained"
+    verdict: str  # "no_discrepancy", "explained", "unexplained" or "insufficient_data"
     flags: list  # warnings, one sentence each
 
 
@@ -56,12 +56,30 @@ def calibration_flags(prob, cal: Calibration) -> list:
     return flags
 
 
-def verdict(s: Setup, cal: Calibration, chosen: Selected, fit: Goodness) -> Verdict:
-    """Stage 8: "unexplained" when the final model still lacks fit, else "explained" if something is named."""
+def level_flags(levels: dict | None) -> list:
+    """Warning: the compliance the data show differs between load levels (stage 4b)."""
+    if not levels or not levels["significant"]:
+        return []
+    mags = ", ".join(f"{m:.4g}" for m in levels["levels_N"])
+    return [f"the deflection does not scale with the load between the load levels ({mags} N): a compliance "
+            f"that differs between levels (p = {levels['p_value']:.2g}, level {levels['alpha']:.2g}) is a "
+            "load-dependent stiffness (hardening or softening spring, preloaded clearance, contact), which no "
+            "effect of the library is"]
+
+
+def verdict(s: Setup, cal: Calibration, chosen: Selected, fit: Goodness, levels: dict | None = None,
+            weak: list | None = None) -> Verdict:
+    """Stage 8: "unexplained" when the final model still lacks fit (overall, or across load levels),
+    else "insufficient_data" if something is named on a design too weak to name it (``weak``: the
+    reasons, :func:`.strength.weak_design`), else "explained" if something is named."""
     sel = chosen.sel
     flags = fit_flags(s.prob, sel, sel.final) + workspace_flags(s.model, s.data) + calibration_flags(s.prob, cal)
-    if fit.lack_of_fit["significant"]:
+    flags += level_flags(levels)
+    if fit.lack_of_fit["significant"] or (levels is not None and levels["significant"]):
         v = "unexplained"
+    elif sel.selected and weak:
+        v = "insufficient_data"
+        flags += [f"insufficient data to name {', '.join(sel.selected)}: {w}" for w in weak]
     elif sel.selected:
         v = "explained"
     else:
