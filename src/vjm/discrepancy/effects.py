@@ -255,17 +255,37 @@ class ActuatorTravelStiffness(Effect):
 
 @register
 class Gravity(Effect):
+    """A weight on the platform.  On a 6-dof platform its centre of mass may lie off the end-effector
+    point: ``first_moment`` = weight x lever arm (N mm, platform axes), which the platform carries
+    round as it tilts, so the moment of the weight about the end-effector point, ``(R m) x g``,
+    changes with the orientation R.  Linear in its parameters (a weight and a first moment, not a
+    weight times a lever arm), so the lever arm ``m / W`` is unknown, never an unfittable nuisance,
+    when the weight is small.  A lever arm along g at zero orientation (a centre of mass above the
+    end-effector point) shows only at tilt."""
+
     name = "gravity"
     description = ("an unknown weight W >= 0 on the platform along the known gravity direction g "
-                   "(geometry.gravity, default -z): adds C(p) (W g, 0, 0, 0) whatever the applied load")
+                   "(geometry.gravity, default -z): adds C(p) (W g, 0, 0, 0) whatever the applied load; "
+                   "on a 6-dof platform with its centre of mass off the end-effector point also the moment "
+                   "(R m) x g of the first moment m = W x lever arm (platform axes) at orientation R")
     kind = "additive"
     data_kinds = ("deflection",)
     # an upward force is not a weight: W >= 0 (a negative fit is another, unexplained, effect)
     params = (Param("weight", start=0.0, lower=0.0, upper=1e5, scale=1.0, null=0.0, unit="N"),)
+    #: the first moment of a 6-dof platform's weight about the end-effector point (platform axes)
+    moments = tuple(Param(f"first_moment_{a}", start=0.0, lower=-1e8, upper=1e8, scale=100.0, null=0.0,
+                          unit="N mm (weight x lever arm, platform axes)") for a in "xyz")
+
+    def param_specs(self, model, ctx=None):
+        return self.params + (self.moments if model.dof == 6 else ())
 
     def extra(self, ctx, theta, C):
         g = mo.gravity_direction(ctx.model)
-        return theta[0] * np.einsum("nij,j->ni", C[:, :, :3], g)
+        t = theta[0] * np.einsum("nij,j->ni", C[:, :, :3], g)
+        if len(theta) > 1 and np.any(theta[1:4]):
+            Rm = np.einsum("nij,j->ni", mo.platform_rotations(ctx.P), np.asarray(theta[1:4], float))[ctx.idx]
+            t = t + np.einsum("nij,nj->ni", C[:, :, 3:], np.cross(Rm, g))
+        return t
 
 
 @register

@@ -39,7 +39,8 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
 
     Parameters
     ----------
-    P : (m, 3) unique postures; ``pose_idx`` (n,) maps measurements to them.
+    P : (m, 3) unique postures (or (m, 6) with the orientation ox, oy, oz of a 6-dof platform);
+        ``pose_idx`` (n,) maps measurements to them.
     W : (n, 6) applied wrenches.
     rnorm : (n, 6) normalized residuals (NaN/ignored where ``mask`` is False).
     mask : (n, 6) measured components.
@@ -51,7 +52,8 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5) -> dict:
     out = {"overall_rms_normalized": overall}
 
     per = _group_rms(pose_idx, r2, cnt)
-    posture = [{"x": float(P[i, 0]), "y": float(P[i, 1]), "z": float(P[i, 2]),
+    keys = ("x", "y", "z", "ox", "oy", "oz")[:P.shape[1]]
+    posture = [{**{k: float(P[i, j]) for j, k in enumerate(keys)},
                 "rms_normalized": v[0], "n": v[1]} for i, v in sorted(per.items())]
     out["by_posture"] = posture
     out["worst_postures"] = sorted(posture, key=lambda d: -d["rms_normalized"])[:top]

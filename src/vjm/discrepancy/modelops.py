@@ -377,6 +377,17 @@ def gravity_direction(model) -> np.ndarray:
     return v / n
 
 
+def platform_rotations(P) -> np.ndarray:
+    """(n, 3, 3) platform rotations of poses P: the rotation of columns 3:6 (``ox,oy,oz``, a rotation
+    vector) of (n, 6) poses, the identity for points (n, 3)."""
+    from ..kinematics import rotation_matrix
+
+    P = np.asarray(P, float)
+    if P.shape[1] == 6:
+        return rotation_matrix(P[:, 3:])
+    return np.broadcast_to(np.eye(3), (len(P), 3, 3))
+
+
 def with_foot_compliance_scale(model, s: float):
     """Foot compliance = ``s`` x the leg's compliance (rigid at s = 0): the shape simulate's old
     ``foot_compliance`` used; kept for model files and scripts that call it."""
