@@ -272,8 +272,9 @@ class Gravity(Effect):
     data_kinds = ("deflection",)
     # an upward force is not a weight: W >= 0 (a negative fit is another, unexplained, effect)
     params = (Param("weight", start=0.0, lower=0.0, upper=1e5, scale=1.0, null=0.0, unit="N"),)
-    #: the first moment of a 6-dof platform's weight about the end-effector point (platform axes)
-    moments = tuple(Param(f"first_moment_{a}", start=0.0, lower=-1e8, upper=1e8, scale=100.0, null=0.0,
+    #: the first moment of a 6-dof platform's weight about the end-effector point (platform axes); its scale
+    #: (100 N at 100 mm) sets the range the observability test sweeps (100 x: 1 kN at 1 m)
+    moments = tuple(Param(f"first_moment_{a}", start=0.0, lower=-1e8, upper=1e8, scale=1e4, null=0.0,
                           unit="N mm (weight x lever arm, platform axes)") for a in "xyz")
 
     def param_specs(self, model, ctx=None):
