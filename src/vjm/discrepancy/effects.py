@@ -60,6 +60,8 @@ class Effect:
     #: an additive effect whose ``extra`` also takes ``model=, key=``: the model being fitted
     #: (calibration and model-changing effects applied) and a key identifying it for caching
     needs_model: bool = False
+    #: parameters a model file's ``effects:`` entry may leave out (then at their null)
+    optional: tuple = ()
 
     def param_specs(self, model, ctx=None) -> tuple:
         """Parameters, possibly depending on the baseline model (e.g. its current value as null)
@@ -277,8 +279,13 @@ class Gravity(Effect):
     moments = tuple(Param(f"first_moment_{a}", start=0.0, lower=-1e8, upper=1e8, scale=1e4, null=0.0,
                           unit="N mm (weight x lever arm, platform axes)") for a in "xyz")
 
+    #: a model file's ``gravity:`` entry may leave the first moment out (a weight at the point)
+    optional = tuple(p.name for p in moments)
+
     def param_specs(self, model, ctx=None):
-        return self.params + (self.moments if model.dof == 6 else ())
+        """The weight; and the first moment on a 6-dof platform (and with no model at hand: a model
+        file's ``effects:`` entry, checked before its machine is known)."""
+        return self.params + (self.moments if model is None or model.dof == 6 else ())
 
     def extra(self, ctx, theta, C):
         g = mo.gravity_direction(ctx.model)
@@ -297,6 +304,12 @@ class Clearance(Effect):
     kind = "additive"
     data_kinds = ("deflection",)
     params = (Param("backlash", start=0.0, lower=0.0, upper=1.0, scale=1e-3, null=0.0, unit="mm"),)
+
+    def param_specs(self, model, ctx=None):
+        # a rotary actuator (the Delta's arms) slips by an angle
+        if model is not None and str(getattr(model.arch, "actuator_unit", "")).endswith("/rad"):
+            return (Param("backlash", start=0.0, lower=0.0, upper=1.0, scale=1e-3, null=0.0, unit="rad"),)
+        return self.params
 
     def extra(self, ctx, theta, C):
         return theta[0] * ctx.clearance_unit()
