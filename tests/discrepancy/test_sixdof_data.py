@@ -95,3 +95,20 @@ def test_gravity_on_a_tilted_platform_is_the_statics_of_an_offset_weight(hexapod
     assert np.abs(up[0] - at_point[0]).max() > 1e-3 * np.abs(at_point[0]).max()
     # a platform that only translates keeps its one-parameter weight
     assert [p.name for p in eff.param_specs(vjm.load_model(PUU))] == ["weight"]
+
+
+def test_vjm_path_applies_the_first_moment_of_a_saved_gravity(hexapod):
+    """model_updated.yaml's gravity entry on a 6-dof platform: vjm path puts the weight's moment
+    (R m) x g on the platform point, as a process wrench of that size would."""
+    from vjm.toolpath.deflect import tcp_deflection
+
+    poses = np.array([[10.0, -20.0, 560.0, 0.05, -0.07, 0.02], [-30.0, 15.0, 600.0, -0.09, 0.01, 0.06]])
+    W = np.array([[200.0, 0.0, -100.0, 0.0, 0.0, 0.0]] * 2)
+    weight, lever = 2500.0, np.array([0.0, 0.0, 180.0])
+    m = hexapod.replace(effects={"gravity": {"weight": weight, **{f"first_moment_{a}": weight * c
+                                                               for a, c in zip("xyz", lever)}}})
+    F = weight * np.array([0.0, 0.0, -1.0])
+    Wg = W + np.hstack([np.broadcast_to(F, (2, 3)), np.cross(Rotation.from_rotvec(poses[:, 3:]).as_matrix() @ lever, F)])
+    got = tcp_deflection(m, poses, W, np.zeros(3))
+    ref = tcp_deflection(hexapod, poses, Wg, np.zeros(3))
+    np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-14)
