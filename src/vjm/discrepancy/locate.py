@@ -123,7 +123,8 @@ def _summary(loc) -> str:
     parts = []
     w = loc["worst_postures"][0] if loc["worst_postures"] else None
     if w:
-        parts.append(f"worst posture ({w['x']:.1f}, {w['y']:.1f}, {w['z']:.1f}) mm at "
+        tilt = f" at orientation ({w['ox']:.3g}, {w['oy']:.3g}, {w['oz']:.3g}) rad" if "ox" in w else ""
+        parts.append(f"worst posture ({w['x']:.1f}, {w['y']:.1f}, {w['z']:.1f}) mm{tilt} at "
                      f"{w['rms_normalized'] / ov:.1f}x the overall RMS")
     d = loc.get("by_load_direction")
     if d:
