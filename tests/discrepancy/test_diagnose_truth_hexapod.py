@@ -85,3 +85,16 @@ def test_updated_model_carries_the_first_moment(diagnosis):
     m = vjm.load_model(folder / "model_updated.yaml")
     g = m.effects["gravity"]
     assert g["first_moment_z"] == pytest.approx(dg.report["final_params"]["gravity"]["first_moment_z"]["value"])
+
+
+def test_level_data_cannot_see_the_lever(rows, tmp_path):
+    """The same machine measured level: the weight is named, its lever along the platform's z axis is
+    not fitted (the data cannot see it), as the truth says."""
+    P, W = rows
+    level = np.hstack([P[:, :3], np.zeros((len(P), 3))])
+    T = tp.noisy(tp.hexapod_deflections(level, W, LOAD), 8, SIGMA_T, SIGMA_R)
+    dg = vjm.diagnose(tp.HEXAPOD, tp.write(tmp_path / "level.csv", level, W, T, SIGMA_T, SIGMA_R))
+    assert dg.named == ["gravity"]
+    g = dg.report["final_params"]["gravity"]
+    assert abs(g["weight"]["value"] - LOAD.weight) < 3.0 * g["weight"]["se"]  # 99.7 %: one data set
+    assert "first_moment_z" not in g
