@@ -50,3 +50,14 @@ def test_delta_backlash_is_named_at_its_size(diagnosis):
     assert p["unit"] == "rad"  # a rotary actuator slips by an angle
     lo, hi = p["ci95"]
     assert lo <= BACKLASH <= hi and hi - lo < 0.5 * BACKLASH
+
+
+def test_clearance_of_turning_actuators_is_an_angle():
+    from vjm.discrepancy import effects as fx
+    from vjm.resources import data_file
+
+    unit = {f: fx.get("clearance").param_specs(vjm.load_model(data_file(f)))[0].unit
+            for f in ("orthoglide/delta.yaml", "machines/delta_rrpar.yaml", "orthoglide/puu.yaml",
+                      "machines/linear_delta.yaml")}
+    assert unit == {"orthoglide/delta.yaml": "rad", "machines/delta_rrpar.yaml": "rad",
+                    "orthoglide/puu.yaml": "mm", "machines/linear_delta.yaml": "mm"}

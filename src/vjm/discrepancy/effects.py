@@ -307,7 +307,7 @@ class Clearance(Effect):
 
     def param_specs(self, model, ctx=None):
         # a rotary actuator (the Delta's arms) slips by an angle
-        if model is not None and str(getattr(model.arch, "actuator_unit", "")).endswith("/rad"):
+        if model is not None and mo.actuator_is_rotary(model):
             return (Param("backlash", start=0.0, lower=0.0, upper=1.0, scale=1e-3, null=0.0, unit="rad"),)
         return self.params
 

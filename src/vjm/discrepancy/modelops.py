@@ -154,6 +154,18 @@ def foot_is_rigid(model) -> bool:
     return model.foot.compliance is None
 
 
+def actuator_is_rotary(model) -> bool:
+    """The actuated joints turn (the Delta's arms; a description's ``Rz(q0) actuated``): their slips
+    and travels are angles, rad."""
+    if str(getattr(model.arch, "actuator_unit", "")).endswith("/rad"):
+        return True
+    desc = getattr(model, "description", None)
+    if desc is None:
+        return False
+    kinds = {e.kind for ch in desc.chains for e in ch.elements if e.role == "actuated"}
+    return bool(kinds) and all(k.startswith("r") for k in kinds)
+
+
 def with_actuator_scale(model, s: float):
     """Actuator stiffness multiplied by ``s``."""
     if s == 1.0:
