@@ -6,7 +6,8 @@ case must exit with status 2, print exactly one ``error:`` line on stderr and no
 phrase, and leave the folder as it was.  ``tests/test_bad_inputs.py`` checks them; ``docs/tools/
 bad_inputs_table.py`` writes ``docs/bad_inputs.md`` from the same list.
 
-Placeholders in the command: ``{puu}``, ``{prpar}``, ``{delta}``, ``{linear}`` (bundled model files).
+Placeholders in the command: ``{puu}``, ``{prpar}``, ``{delta}``, ``{linear}``, ``{hexapod}`` (bundled model
+files).
 Adding a case is one line: ``Case("18.x", "vjm ... --flag value", "fragment", {"file.csv": TEXT})``.
 """
 from __future__ import annotations
@@ -21,7 +22,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PLACES = {"puu": ROOT / "data/orthoglide/puu.yaml", "prpar": ROOT / "data/orthoglide/prpar.yaml",
-          "delta": ROOT / "data/orthoglide/delta.yaml", "linear": ROOT / "data/machines/linear_delta.yaml"}
+          "delta": ROOT / "data/orthoglide/delta.yaml", "linear": ROOT / "data/machines/linear_delta.yaml",
+          "hexapod": ROOT / "data/machines/hexapod_6ups.yaml"}
 
 
 @dataclass(frozen=True)
@@ -123,6 +125,8 @@ chains:
 # ------------------------------------------------------------------ the cases
 D = "vjm diagnose {puu} m.csv --out rep"
 S = "vjm simulate {puu} --out s.csv"
+HD = "vjm diagnose {hexapod} m.csv --out rep"
+HEX_HDR = "x,y,z,ox,oy,oz,Fx,Fy,Fz,Mx,My,Mz,dx,dy,dz,rx,ry,rz"
 CASES = [
     # 18.2: numeric options, vjm
     Case("18.2", D + " --alpha 0", "--alpha must be in (0, 1), got 0", {"m.csv": GOOD}),
@@ -253,6 +257,19 @@ CASES = [
     Case("18.8", "vjm stiffness m.yaml --at 0,0,0", "attribute access .__class__ is not allowed",
          {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "Tx(R.__class__), Tz(q0) actuated")},
          "linear_delta.yaml, first element Tx(R.__class__)"),
+    # 20.5: platform orientations (ox,oy,oz) in measurement and pose files
+    Case("20.5", D, "m.csv: column 'ox': the file gives platform orientations (ox,oy,oz) but the machine's platform "
+                    "only translates (3 dof)", {"m.csv": _csv(",ox,oy,oz", ",0,0,0.05")}),
+    Case("20.5", D, "column 'oz': missing column(s) oz: the platform orientation is a rotation vector ox,oy,oz (rad)",
+         {"m.csv": _csv(",ox,oy", ",0,0")}),
+    Case("20.5", HD, "row 2, column 'oy': value is missing (required column)",
+         {"m.csv": HEX_HDR + "\n0,0,550,0,,0,1000,0,0,0,0,0,0.01,0,0,,,\n"}),
+    Case("20.5", HD, "row 2, columns 'x,y,z,ox,oy,oz': pose (0, 0, 550, 1.5, 0, 0) is unreachable by chain",
+         {"m.csv": HEX_HDR + "\n0,0,550,1.5,0,0,1000,0,0,0,0,0,0.01,0,0,,,\n"}),
+    Case("20.5", S + " --tilt 0.1", "--tilt 0.1 rad: the machine's platform only translates (3 dof)"),
+    Case("20.5", "vjm simulate {hexapod} --tilt -0.1 --out s.csv", "--tilt must be in [0, 3.14159] rad, got -0.1"),
+    Case("20.5", S + " --poses p.csv", "p.csv: column 'ox': the file gives platform orientations (ox,oy,oz) but the "
+                                     "machine's platform only translates (3 dof)", {"p.csv": "x,y,z,ox,oy,oz\n0,0,0,0,0,0\n"}),
     # vjm path: options and toolpaths
     Case("22", "vjm path {puu} pocket.nc --out o --chord-tol -1", "--chord-tol and --step must be numbers > 0 (mm)"),
     Case("22", "vjm path {puu} pocket.nc --out o --tolerance nan", "--tolerance must be a number > 0 (mm), got nan"),

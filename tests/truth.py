@@ -32,6 +32,9 @@ machine does, not what its own effect code wrote.  The true deflections are
     and ``contact`` (a Hertz-like contact at the tool whose deflection grows as
     ``|F|^(2/3)`` along the force: it stiffens with the load).
 
+The Delta 3-RRPaR and a 6-dof hexapod at tilted orientations are in :mod:`truth_platforms`
+(their own kinematics and statics, same rules).
+
 The 3-PRPaR (``data/orthoglide/prpar.yaml``, parallelogram legs) shares the
 3-PUU's actuators, workspace and leg inverse kinematics, so the terms above
 hold for it as written; its bar's effects are richer prpar.yaml files.

@@ -232,7 +232,7 @@ def check_effects(effects) -> dict:
             raise VjmError(f"effects.{name}: {name} changes the model itself; it is written as the model's own "
                            f"parameters (links, actuator, joints), not under effects")
         out[name] = fx.check_values(name, vals, None, f"effects.{name}")
-        missing = [p.name for p in eff.param_specs(None) if p.name not in out[name]]
+        missing = [p.name for p in eff.param_specs(None) if p.name not in out[name] and p.name not in eff.optional]
         if missing:
             raise VjmError(f"effects.{name}: missing {', '.join(missing)}")
     return out

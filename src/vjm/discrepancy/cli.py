@@ -41,7 +41,7 @@ def _fail(exc: Exception):
 
 def diagnose_cmd(
     model: Path = typer.Argument(..., help="model YAML (e.g. data/orthoglide/puu.yaml)"),
-    data: Path = typer.Argument(..., help="measurements CSV: x,y,z,Fx..Mz,dx..rz[,sigma_t,sigma_r] or x,y,z,quantity,value"),
+    data: Path = typer.Argument(..., help="measurements CSV: x,y,z[,ox,oy,oz],Fx..Mz,dx..rz[,sigma_t,sigma_r] or x,y,z,quantity,value"),
     out: Path = typer.Option(..., "--out", help="output directory (report.json, report.html, PNGs, model_updated.yaml)"),
     alpha: float = typer.Option(0.01, "--alpha", help="family-wise significance level of each selection round"),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="restrict the candidates (repeatable)"),
@@ -70,20 +70,22 @@ def diagnose_cmd(
 def simulate_cmd(
     model: Path = typer.Argument(..., help="model YAML"),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="hidden effect NAME[:param=value,...] (repeatable)"),
-    poses: str = typer.Option("grid:4", "--poses", help="grid:N | random:N | CSV with x,y,z"),
+    poses: str = typer.Option("grid:4", "--poses", help="grid:N | random:N | CSV with x,y,z[,ox,oy,oz]"),
     loads: str = typer.Option("axes:100", "--loads", help="axes:F[:M] | random:N:F | CSV with Fx..Mz; several "
                                                            "magnitudes (load levels): axes:50,100, random:N:50,100"),
     noise_t: float = typer.Option(0.001, "--noise-t", help="translation noise sigma, mm"),
     noise_r: Optional[float] = typer.Option(None, "--noise-r", help="rotation noise sigma, rad (omit: rotations not measured)"),
     seed: int = typer.Option(0, "--seed"),
     out: Path = typer.Option(..., "--out", help="output CSV"),
+    tilt: float = typer.Option(0.0, "--tilt", help="6-dof platform: random orientations of grid/random poses, "
+                                                   "each rotation-vector component within +-TILT rad"),
 ):
     """Write synthetic measurements of MODEL with hidden effects."""
     from .simulate import run
 
     try:
         d = run(model, effect or [], poses, loads, noise_t, noise_r, seed, out,
-                progress=lambda line: typer.echo(line, err=True))
+                progress=lambda line: typer.echo(line, err=True), tilt=tilt)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(f"wrote {d.n} measurements to {out}")

@@ -10,6 +10,10 @@ Two kinds of CSV are accepted (header row required, comma separated):
   individual translations) may be left blank where they were not measured.
   ``sigma_t``/``sigma_r`` are the standard deviations of one translation /
   rotation component; when absent they are estimated from the residuals.
+  Optional ``ox,oy,oz`` (all three or none): the commanded platform orientation
+  of a 6-dof platform, a rotation vector in rad (world axes, the convention of
+  ``vjm stiffness --at x,y,z,rx,ry,rz`` and ``vjm map --orientation``); blank
+  is not allowed.  A machine whose platform only translates refuses them.
 * **stiffness observations** -- columns ``x,y,z,quantity,value`` with
   ``quantity`` one of ``k_tran`` (mm/N) or ``k_rot`` (rad/(N mm)), and optional
   ``sigma_rel`` (relative standard deviation of ``value``).  The text columns
@@ -53,6 +57,8 @@ from ..errors import VjmError
 from ..resources import data_file
 
 POS = ("x", "y", "z")
+#: the commanded platform orientation of a 6-dof platform: a rotation vector, rad (world axes)
+ORIENT = ("ox", "oy", "oz")
 SIGMA = ("sigma_t", "sigma_r")
 STIFF = ("x", "y", "z", "quantity", "value")
 QUANTITIES = ("k_tran", "k_rot")
@@ -64,7 +70,8 @@ class Deflections:
 
     Attributes
     ----------
-    P : (n, 3) commanded positions, mm.
+    P : (n, 3) commanded positions, mm; (n, 6) positions and orientations (``ox,oy,oz``: a
+        rotation vector, rad) when the file gives the platform's orientation.
     W : (n, 6) applied wrenches, N and N mm.
     T : (n, 6) measured twists, mm and rad; NaN where not measured.
     sigma_t, sigma_r : (n,) standard deviations, or None when absent from the file.
@@ -90,6 +97,11 @@ class Deflections:
     def mask(self) -> np.ndarray:
         """(n, 6) bool: which twist components were measured."""
         return np.isfinite(self.T)
+
+    @property
+    def has_orientation(self) -> bool:
+        """The rows give the platform's orientation (columns ``ox,oy,oz``)."""
+        return self.P.shape[1] == 6
 
 
 @dataclass(frozen=True)
@@ -190,7 +202,7 @@ def _read_table(path):
 #: a number written with a decimal comma (1,5 or -2,5e-3), in a ';' or tab separated file
 _DECIMAL_COMMA = re.compile(r"^([+-]?\d*),(\d+(?:[eE][+-]?\d+)?)$")
 #: every column name a measurement file may hold (matched whatever its case), and the metadata prefix
-KNOWN = POS + WRENCH + TWIST + SIGMA + ("quantity", "value", "sigma_rel", "architecture", "point")
+KNOWN = POS + ORIENT + WRENCH + TWIST + SIGMA + ("quantity", "value", "sigma_rel", "architecture", "point")
 META = "meta_"
 
 
@@ -245,14 +257,16 @@ def read_csv(path) -> Deflections | StiffnessObs:
     if missing:
         raise _err(path, hdr_row, missing[0],
                    f"missing column(s) {', '.join(missing)}; expected "
-                   f"{','.join(POS + WRENCH + TWIST)} [+ sigma_t,sigma_r] or {','.join(STIFF)}"
+                   f"{','.join(POS + WRENCH + TWIST)} [+ ox,oy,oz] [+ sigma_t,sigma_r] or {','.join(STIFF)}"
                    + _dialect_hint(header))
-    _check_columns(path, hdr_row, header, POS + WRENCH + TWIST + SIGMA)
+    _check_columns(path, hdr_row, header, POS + ORIENT + WRENCH + TWIST + SIGMA)
+    orient = _orientation_columns(path, hdr_row, header)
     if not body:
         raise _err(path, hdr_row + 1, None, "no data rows")
     col = {h: i for i, h in enumerate(header)}
     n = len(body)
-    P = np.empty((n, 3))
+    pos = POS + orient
+    P = np.empty((n, len(pos)))
     W = np.empty((n, 6))
     T = np.empty((n, 6))
     has_sig = {s: s in col for s in SIGMA}
@@ -263,7 +277,7 @@ def read_csv(path) -> Deflections | StiffnessObs:
             raise _err(path, r, None, f"has {len(rec)} fields, header has {len(header)} (malformed CSV"
                                       f"{'; a decimal comma needs ; as the separator' if delim == ',' else ''})")
         rownums[k] = r
-        for j, c in enumerate(POS):
+        for j, c in enumerate(pos):
             P[k, j] = _float(rec[col[c]], path, r, c, True)
         for j, c in enumerate(WRENCH):
             W[k, j] = _float(rec[col[c]], path, r, c, True)
@@ -285,6 +299,16 @@ def read_csv(path) -> Deflections | StiffnessObs:
     meta = {h: [rec[col[h]] for _, rec in body] for h in header if h.startswith(META)}
     _refuse_duplicates(path, rownums, [P, W, T] + list(sig.values()), meta)
     return Deflections(P, W, T, sig.get("sigma_t"), sig.get("sigma_r"), rownums, str(path), meta)
+
+
+def _orientation_columns(path, hdr_row, header) -> tuple:
+    """``ORIENT`` when the header gives the platform's orientation, () without; a partial set is refused."""
+    given = [c for c in ORIENT if c in header]
+    if given and len(given) < len(ORIENT):
+        missing = [c for c in ORIENT if c not in header]
+        raise _err(path, hdr_row, missing[0], f"missing column(s) {', '.join(missing)}: the platform orientation "
+                                              f"is a rotation vector {','.join(ORIENT)} (rad), all three or none")
+    return ORIENT if given else ()
 
 
 def _dialect_hint(header) -> str:
@@ -384,7 +408,7 @@ def write_deflections(path, data: Deflections, header_comment: str | None = None
     if header_comment:
         for line in header_comment.splitlines():
             buf.write(f"# {line}\n")
-    cols = list(POS + WRENCH + TWIST)
+    cols = list(POS + (ORIENT if data.has_orientation else ()) + WRENCH + TWIST)
     if data.sigma_t is not None:
         cols.append("sigma_t")
     if data.sigma_r is not None:
@@ -407,13 +431,15 @@ def write_deflections(path, data: Deflections, header_comment: str | None = None
 
 def write_design(path, rows, header_comment: str | None = None) -> None:
     """Write (posture, load) rows ``x,y,z,Fx,Fy,Fz,Mx,My,Mz`` (no measured values): the measurement plan
-    ``vjm diagnose --suggest`` proposes, read back by ``vjm simulate --poses FILE --loads FILE``."""
+    ``vjm diagnose --suggest`` proposes, read back by ``vjm simulate --poses FILE --loads FILE``.
+    Rows of 12 values (a 6-dof platform) are ``x,y,z,ox,oy,oz,Fx..Mz``."""
     buf = io.StringIO()
     if header_comment:
         for line in header_comment.splitlines():
             buf.write(f"# {line}\n")
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(list(POS + WRENCH))
-    for r in np.asarray(rows, float):
+    rows = np.asarray(rows, float)
+    w.writerow(list(POS + (ORIENT if rows.ndim == 2 and rows.shape[1] == 12 else ()) + WRENCH))
+    for r in rows:
         w.writerow([repr(float(v) + 0.0) for v in r])  # + 0.0: no "-0.0" in the file
     write_text(path, buf.getvalue())

@@ -60,6 +60,8 @@ class Effect:
     #: an additive effect whose ``extra`` also takes ``model=, key=``: the model being fitted
     #: (calibration and model-changing effects applied) and a key identifying it for caching
     needs_model: bool = False
+    #: parameters a model file's ``effects:`` entry may leave out (then at their null)
+    optional: tuple = ()
 
     def param_specs(self, model, ctx=None) -> tuple:
         """Parameters, possibly depending on the baseline model (e.g. its current value as null)
@@ -255,17 +257,43 @@ class ActuatorTravelStiffness(Effect):
 
 @register
 class Gravity(Effect):
+    """A weight on the platform.  On a 6-dof platform its centre of mass may lie off the end-effector
+    point: ``first_moment`` = weight x lever arm (N mm, platform axes), which the platform carries
+    round as it tilts, so the moment of the weight about the end-effector point, ``(R m) x g``,
+    changes with the orientation R.  Linear in its parameters (a weight and a first moment, not a
+    weight times a lever arm), so the lever arm ``m / W`` is unknown, never an unfittable nuisance,
+    when the weight is small.  A lever arm along g at zero orientation (a centre of mass above the
+    end-effector point) shows only at tilt."""
+
     name = "gravity"
     description = ("an unknown weight W >= 0 on the platform along the known gravity direction g "
-                   "(geometry.gravity, default -z): adds C(p) (W g, 0, 0, 0) whatever the applied load")
+                   "(geometry.gravity, default -z): adds C(p) (W g, 0, 0, 0) whatever the applied load; "
+                   "on a 6-dof platform with its centre of mass off the end-effector point also the moment "
+                   "(R m) x g of the first moment m = W x lever arm (platform axes) at orientation R")
     kind = "additive"
     data_kinds = ("deflection",)
     # an upward force is not a weight: W >= 0 (a negative fit is another, unexplained, effect)
     params = (Param("weight", start=0.0, lower=0.0, upper=1e5, scale=1.0, null=0.0, unit="N"),)
+    #: the first moment of a 6-dof platform's weight about the end-effector point (platform axes); its scale
+    #: (100 N at 100 mm) sets the range the observability test sweeps (100 x: 1 kN at 1 m)
+    moments = tuple(Param(f"first_moment_{a}", start=0.0, lower=-1e8, upper=1e8, scale=1e4, null=0.0,
+                          unit="N mm (weight x lever arm, platform axes)") for a in "xyz")
+
+    #: a model file's ``gravity:`` entry may leave the first moment out (a weight at the point)
+    optional = tuple(p.name for p in moments)
+
+    def param_specs(self, model, ctx=None):
+        """The weight; and the first moment on a 6-dof platform (and with no model at hand: a model
+        file's ``effects:`` entry, checked before its machine is known)."""
+        return self.params + (self.moments if model is None or model.dof == 6 else ())
 
     def extra(self, ctx, theta, C):
         g = mo.gravity_direction(ctx.model)
-        return theta[0] * np.einsum("nij,j->ni", C[:, :, :3], g)
+        t = theta[0] * np.einsum("nij,j->ni", C[:, :, :3], g)
+        if len(theta) > 1 and np.any(theta[1:4]):
+            Rm = np.einsum("nij,j->ni", mo.platform_rotations(ctx.P), np.asarray(theta[1:4], float))[ctx.idx]
+            t = t + np.einsum("nij,nj->ni", C[:, :, 3:], np.cross(Rm, g))
+        return t
 
 
 @register
@@ -276,6 +304,12 @@ class Clearance(Effect):
     kind = "additive"
     data_kinds = ("deflection",)
     params = (Param("backlash", start=0.0, lower=0.0, upper=1.0, scale=1e-3, null=0.0, unit="mm"),)
+
+    def param_specs(self, model, ctx=None):
+        # a rotary actuator (the Delta's arms) slips by an angle
+        if model is not None and mo.actuator_is_rotary(model):
+            return (Param("backlash", start=0.0, lower=0.0, upper=1.0, scale=1e-3, null=0.0, unit="rad"),)
+        return self.params
 
     def extra(self, ctx, theta, C):
         return theta[0] * ctx.clearance_unit()

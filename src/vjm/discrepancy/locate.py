@@ -41,7 +41,8 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5, tnorm=None) -> dict:
 
     Parameters
     ----------
-    P : (m, 3) unique postures; ``pose_idx`` (n,) maps measurements to them.
+    P : (m, 3) unique postures (or (m, 6) with the orientation ox, oy, oz of a 6-dof platform);
+        ``pose_idx`` (n,) maps measurements to them.
     W : (n, 6) applied wrenches.
     rnorm : (n, 6) normalized residuals (NaN/ignored where ``mask`` is False).
     mask : (n, 6) measured components.
@@ -55,7 +56,8 @@ def localize(P, W, rnorm, mask, pose_idx, q=None, top=5, tnorm=None) -> dict:
     out = {"overall_rms_normalized": overall}
 
     per = _group_rms(pose_idx, r2, cnt)
-    posture = [{"x": float(P[i, 0]), "y": float(P[i, 1]), "z": float(P[i, 2]),
+    keys = ("x", "y", "z", "ox", "oy", "oz")[:P.shape[1]]
+    posture = [{**{k: float(P[i, j]) for j, k in enumerate(keys)},
                 "rms_normalized": v[0], "n": v[1]} for i, v in sorted(per.items())]
     out["by_posture"] = posture
     out["worst_postures"] = sorted(posture, key=lambda d: -d["rms_normalized"])[:top]
@@ -128,7 +130,8 @@ def _summary(loc) -> str:
     parts = []
     w = loc["worst_postures"][0] if loc["worst_postures"] else None
     if w:
-        parts.append(f"worst posture ({w['x']:.1f}, {w['y']:.1f}, {w['z']:.1f}) mm at "
+        tilt = f" at orientation ({w['ox']:.3g}, {w['oy']:.3g}, {w['oz']:.3g}) rad" if "ox" in w else ""
+        parts.append(f"worst posture ({w['x']:.1f}, {w['y']:.1f}, {w['z']:.1f}) mm{tilt} at "
                      f"{w['rms_normalized'] / ov:.1f}x the overall RMS")
     d = loc.get("by_load_direction")
     if d:

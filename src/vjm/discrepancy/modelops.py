@@ -154,6 +154,18 @@ def foot_is_rigid(model) -> bool:
     return model.foot.compliance is None
 
 
+def actuator_is_rotary(model) -> bool:
+    """The actuated joints turn (the Delta's arms; a description's ``Rz(q0) actuated``): their slips
+    and travels are angles, rad."""
+    if str(getattr(model.arch, "actuator_unit", "")).endswith("/rad"):
+        return True
+    desc = getattr(model, "description", None)
+    if desc is None:
+        return False
+    kinds = {e.kind for ch in desc.chains for e in ch.elements if e.role == "actuated"}
+    return bool(kinds) and all(k.startswith("r") for k in kinds)
+
+
 def with_actuator_scale(model, s: float):
     """Actuator stiffness multiplied by ``s``."""
     if s == 1.0:
@@ -375,6 +387,17 @@ def gravity_direction(model) -> np.ndarray:
     if not np.isfinite(n) or n == 0:
         raise VjmError(f"geometry.gravity must be a non-zero direction [gx, gy, gz], got {g!r}")
     return v / n
+
+
+def platform_rotations(P) -> np.ndarray:
+    """(n, 3, 3) platform rotations of poses P: the rotation of columns 3:6 (``ox,oy,oz``, a rotation
+    vector) of (n, 6) poses, the identity for points (n, 3)."""
+    from ..kinematics import rotation_matrix
+
+    P = np.asarray(P, float)
+    if P.shape[1] == 6:
+        return rotation_matrix(P[:, 3:])
+    return np.broadcast_to(np.eye(3), (len(P), 3, 3))
 
 
 def with_foot_compliance_scale(model, s: float):

@@ -27,8 +27,22 @@ from .predict import unique_postures
 UNITS_FACTOR = 30.0
 
 
+def check_orientation(model, data) -> None:
+    """Orientation columns (``ox,oy,oz``) on a machine whose platform only translates: VjmError naming them."""
+    if data.P.shape[1] == 6 and model.dof != 6:
+        raise VjmError(f"{os.path.basename(str(data.source))}: column 'ox': the file gives platform orientations "
+                       f"(ox,oy,oz) but the machine's platform only translates (3 dof); drop the columns ox,oy,oz")
+
+
+def _pose_text(p) -> str:
+    text = f"posture ({p[0]:g}, {p[1]:g}, {p[2]:g}) mm"
+    return text + (f" at orientation ({p[3]:g}, {p[4]:g}, {p[5]:g}) rad" if len(p) == 6 else "")
+
+
 def check_reachable(model, data):
-    """Unique postures, index; raises naming the first unreachable row."""
+    """Unique postures (positions, or positions and orientations), index; raises naming the first
+    unreachable row (and orientation columns a 3-dof machine cannot take)."""
+    check_orientation(model, data)
     U, idx = unique_postures(data.P)
     try:
         q = mo.actuator_coords(model, U)
@@ -43,8 +57,9 @@ def check_reachable(model, data):
             except VjmError as exc:
                 row = int(data.rows[k]) if data.rows is not None else k + 2
                 why = str(exc) if "unreachable" in str(exc) else (  # the kinematics' message names the pose
-                    f"posture ({data.P[k, 0]:g}, {data.P[k, 1]:g}, {data.P[k, 2]:g}) mm is unreachable: {exc}")
-                raise VjmError(f"{os.path.basename(data.source)}: row {row}, columns 'x,y,z': {why}") from None
+                    f"{_pose_text(data.P[k])} is unreachable: {exc}")
+                cols = "x,y,z,ox,oy,oz" if data.P.shape[1] == 6 else "x,y,z"
+                raise VjmError(f"{os.path.basename(data.source)}: row {row}, columns '{cols}': {why}") from None
         raise VjmError(f"{os.path.basename(data.source)}: a posture is unreachable")
     return U, idx, q
 
@@ -96,7 +111,8 @@ def check_units(model, data, U, idx) -> None:
 def workspace_flags(model, data) -> list[str]:
     """Warnings for rows whose posture is reachable but outside the model's workspace box."""
     lo, hi = mo.workspace_box(model)
-    out = np.any((data.P < lo - 1e-9) | (data.P > hi + 1e-9), axis=1)
+    pos = data.P[:, :3]
+    out = np.any((pos < lo - 1e-9) | (pos > hi + 1e-9), axis=1)
     if not out.any():
         return []
     rows = (np.asarray(data.rows) if data.rows is not None else np.arange(data.n) + 2)[out]

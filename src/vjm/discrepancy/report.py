@@ -21,6 +21,17 @@ REPORT_FILES = ("report.json", "report.html", "before_after.png", "residuals_per
 SET_NAME = "vjm diagnose"
 
 
+def _pose_cells(w) -> list:
+    """A posture's cells: x, y, z (mm), and ox, oy, oz (rad) of a 6-dof platform's orientation."""
+    return ([_fmt(w[k], "{:.1f}") for k in ("x", "y", "z")]
+            + [_fmt(w[k], "{:.4f}") for k in ("ox", "oy", "oz") if k in w])
+
+
+def _pose_header(loc) -> list:
+    rows = loc.get("worst_postures", [])
+    return ["x", "y", "z"] + (["ox [rad]", "oy [rad]", "oz [rad]"] if rows and "ox" in rows[0] else [])
+
+
 def plot_residuals(path, P, rms_before, rms_after, title):
     """Bar chart of normalized RMS residual per posture, before and after."""
     import matplotlib
@@ -98,8 +109,7 @@ def render_html(rep: dict, figures) -> str:
         cand_rows.append([name, _fmt(c.get("delta_bic"), "{:.1f}"), _fmt(c.get("p_value"), "{:.2g}"),
                           _fmt(c.get("cv_error"), "{:.3f}"), state, ps, c.get("description", "")])
     loc = rep["localization"]
-    worst = [[_fmt(w["x"], "{:.1f}"), _fmt(w["y"], "{:.1f}"), _fmt(w["z"], "{:.1f}"),
-              _fmt(w["rms_normalized"], "{:.2f}"), w["n"]] for w in loc.get("worst_postures", [])]
+    worst = [_pose_cells(w) + [_fmt(w["rms_normalized"], "{:.2f}"), w["n"]] for w in loc.get("worst_postures", [])]
     dirs = [[k, _fmt(v["rms_normalized"], "{:.2f}"), v["n"]] for k, v in loc.get("by_load_direction", {}).items()]
     dirs += [[k, _fmt(v, "{:.3g}"), "-"] for k, v in loc.get("by_quantity", {}).items()]
     first = [f for f in figures if f == "before_after.png"]
@@ -115,9 +125,9 @@ def render_html(rep: dict, figures) -> str:
         la = rep["localization_after"]
         gap = (f"<h2>Where the remaining gap is</h2><p>No candidate of the library explains it. "
                f"{html.escape(la.get('summary', ''))}.</p>"
-               + _table([[_fmt(w["x"], "{:.1f}"), _fmt(w["y"], "{:.1f}"), _fmt(w["z"], "{:.1f}"),
-                          _fmt(w["rms_normalized"], "{:.2f}"), w["n"]] for w in la.get("worst_postures", [])],
-                        ["x", "y", "z", "RMS normalized (after)", "n"]))
+               + _table([_pose_cells(w) + [_fmt(w["rms_normalized"], "{:.2f}"), w["n"]]
+                         for w in la.get("worst_postures", [])],
+                        _pose_header(la) + ["RMS normalized (after)", "n"]))
     if rep["verdict"] == "insufficient_data":
         why = "".join(f"<li>{html.escape(f)}</li>" for f in rep.get("flags", []) if f.startswith("insufficient data"))
         gap = ("<h2>Why nothing is named</h2><p>An effect fits, but this design is too weak to name it; "
@@ -156,7 +166,7 @@ that pass the test. Significance level alpha = {rep['alpha']} shared by Bonferro
 {_table(cand_rows, ["effect", "delta_bic", "p_value", "cv_error", "state", "parameters (95% CI)", "description"])}
 {'<h2>Not observable on this data (never fitted)</h2><ul>' + unobs + '</ul>' if unobs else ''}
 <h2>Where the gap was (before)</h2><p>{html.escape(loc.get('summary', ''))}</p>
-<h3>Worst postures (before)</h3>{_table(worst, ["x", "y", "z", "RMS normalized", "n"])}
+<h3>Worst postures (before)</h3>{_table(worst, _pose_header(loc) + ["RMS normalized", "n"])}
 <h3>By dominant load direction (before)</h3>{_table(dirs, ["load", "RMS normalized", "n"])}
 {figs}
 </body></html>"""

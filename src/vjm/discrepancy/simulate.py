@@ -5,7 +5,12 @@ Design of the experiment
 ``poses``:
   * ``grid:N``   -- N x N x N grid over the model's workspace box, unreachable points dropped;
   * ``random:N`` -- N uniform random points in the box (reachable ones kept, drawn until N);
-  * ``PATH.csv`` -- a CSV with columns x,y,z (mm).
+  * ``PATH.csv`` -- a CSV with columns x,y,z (mm) and, for a 6-dof platform, optionally ox,oy,oz
+    (the platform orientation, a rotation vector in rad, as ``vjm stiffness --at``).
+A 6-dof platform's grid and random postures are level (zero orientation) unless ``tilt`` (rad)
+is given: then each gets a random orientation, every rotation-vector component uniform in
+``[-tilt, tilt]`` (unreachable poses dropped, as for the positions).  The file written for a
+6-dof platform always has the orientation columns ``ox,oy,oz``.
 ``loads`` (applied at every posture):
   * ``axes:F[:M]``   -- +-F N along x, y, z (and +-M N mm about x, y, z if M is given);
   * ``random:N:F``   -- N random force directions of magnitude F N (drawn per posture);
@@ -37,7 +42,7 @@ from ..errors import ArgumentError, VjmError
 from ..grid import SIMULATE_BYTES, in_chunks, plan
 from . import effects as fx
 from . import modelops as mo
-from .data import Deflections
+from .data import ORIENT, Deflections
 from .levels import parse_levels
 from .predict import Context, unique_postures
 
@@ -69,7 +74,8 @@ def _effect_theta(model, name, vals):
     return np.array([vals.get(p.name, p.null) for p in specs])
 
 
-def _read_cols(path, cols):
+def _read_cols(path, cols, optional=()):
+    """Columns ``cols`` (n, k) of a CSV, and ``optional`` after them when the header has them all."""
     try:
         with open(path, newline="", encoding="utf-8") as fh:
             rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith("#")]
@@ -81,6 +87,13 @@ def _read_cols(path, cols):
     miss = [c for c in cols if c not in hdr]
     if miss:
         raise VjmError(f"{os.path.basename(path)}: row 1: missing column(s) {', '.join(miss)}")
+    given = [c for c in optional if c in hdr]
+    if given:
+        if len(given) < len(optional):
+            miss = [c for c in optional if c not in hdr]
+            raise VjmError(f"{os.path.basename(path)}: row 1: missing column(s) {', '.join(miss)} "
+                           f"(give {','.join(optional)} all three or none)")
+        cols = list(cols) + list(optional)
     out = np.empty((len(rows) - 1, len(cols)))
     for i, r in enumerate(rows[1:]):
         for j, c in enumerate(cols):
@@ -94,47 +107,84 @@ def _read_cols(path, cols):
 FEWER = "use fewer postures or loads"
 
 
-def grid_poses(model, n: int) -> np.ndarray:
-    """The reachable points (m, 3) of an n x n x n grid of the model's workspace (:meth:`vjm.Model.grid`), mm."""
+def with_orientation(model, P, tilt: float = 0.0, rng=None) -> np.ndarray:
+    """Poses of ``model``: points P (n, 3) of a 3-dof platform as they are; for a 6-dof platform
+    (n, 6) with the orientation given, or zero, or (``tilt`` > 0) random, each rotation-vector
+    component uniform in ``[-tilt, tilt]`` rad."""
+    P = np.asarray(P, float)
+    if model.dof != 6 or P.shape[1] == 6:
+        return P
+    O = np.zeros((len(P), 3))
+    if tilt > 0:
+        O = tilt * (2.0 * (np.random.default_rng() if rng is None else rng).random((len(P), 3)) - 1.0)
+    return np.hstack([P, O])
+
+
+def grid_poses(model, n: int, tilt: float = 0.0, rng=None) -> np.ndarray:
+    """The reachable poses of an n x n x n grid of the model's workspace (:meth:`vjm.Model.grid`), mm:
+    points (m, 3), or (m, 6) with the orientations of :func:`with_orientation` for a 6-dof platform."""
     plan(f"a posture grid of {n} per axis", int(n) ** 3, SIMULATE_BYTES, unit="postures", hint=FEWER)
-    P = model.grid(n).points
+    P = with_orientation(model, model.grid(n).points, tilt, rng)
     return P[model.reachable(P)]
 
 
-def random_poses(model, n: int, rng) -> np.ndarray:
-    """n uniform random reachable points (n, 3) of the model's workspace box, mm (fewer if the box
-    is mostly out of reach: 20 draws of 2n points at most)."""
+def random_poses(model, n: int, rng, tilt: float = 0.0) -> np.ndarray:
+    """n uniform random reachable poses of the model's workspace box (points (n, 3), or (n, 6) for a
+    6-dof platform, see :func:`with_orientation`), mm and rad (fewer if the box is mostly out of
+    reach: 20 draws of 2n poses at most)."""
     plan(f"{n} random postures", 2 * n, SIMULATE_BYTES, unit="draws", hint=FEWER)
     ws = model.workspace
-    P = np.empty((0, 3))
+    P = np.empty((0, 6 if model.dof == 6 else 3))
     for _ in range(20):
-        Q = ws.random(2 * n, rng)
+        Q = with_orientation(model, ws.random(2 * n, rng), tilt, rng)
         P = np.vstack([P, Q[model.reachable(Q)]])
         if len(P) >= n:
             break
     return P[:n]
 
 
-def design_poses(model, spec, rng=None) -> np.ndarray:
-    """Postures (n, 3), mm: ``spec`` is ``grid:N``, ``random:N``, a CSV path with columns x,y,z, or an
-    array of points (checked reachable).  ``rng`` draws the random ones."""
+def _pose_text(p) -> str:
+    text = f"({p[0]:g}, {p[1]:g}, {p[2]:g}) mm"
+    return text + (f" at orientation ({p[3]:g}, {p[4]:g}, {p[5]:g}) rad" if len(p) == 6 else "")
+
+
+def file_poses(model, path) -> np.ndarray:
+    """Poses of a CSV: columns x,y,z, and ox,oy,oz where given (a 6-dof platform only: one line
+    naming the file and the column for a 3-dof one); a 6-dof platform's poses are (n, 6)."""
+    P = _read_cols(path, ["x", "y", "z"], ORIENT)
+    if P.shape[1] == 6 and model.dof != 6:
+        raise VjmError(f"{os.path.basename(path)}: column 'ox': the file gives platform orientations (ox,oy,oz) "
+                       f"but the machine's platform only translates (3 dof); drop the columns ox,oy,oz")
+    return with_orientation(model, P)
+
+
+def design_poses(model, spec, rng=None, tilt: float = 0.0) -> np.ndarray:
+    """Poses, mm and rad: ``spec`` is ``grid:N``, ``random:N``, a CSV path with columns x,y,z[,ox,oy,oz],
+    or an array of points (n, 3) or poses (n, 6) (checked reachable).  ``rng`` draws the random ones;
+    ``tilt`` (rad) the random orientations of a 6-dof platform's grid and random poses.
+    Points (n, 3) for a 3-dof platform, poses (n, 6) x, y, z, ox, oy, oz for a 6-dof one."""
+    rng = np.random.default_rng() if rng is None else rng
     if not isinstance(spec, (str, os.PathLike)):
         P = np.asarray(spec, dtype=float)
-        if P.ndim != 2 or P.shape[1] != 3 or not np.all(np.isfinite(P)):
-            raise VjmError(f"postures must be a finite array (n, 3) of points in mm, got shape {P.shape}")
+        if P.ndim != 2 or P.shape[1] not in (3, 6) or not np.all(np.isfinite(P)):
+            raise VjmError(f"postures must be a finite array (n, 3) of points in mm or (n, 6) of poses "
+                           f"x, y, z, ox, oy, oz (mm, rad), got shape {P.shape}")
+        if P.shape[1] == 6 and model.dof != 6:
+            raise VjmError("postures: orientations (n, 6) given, but the machine's platform only translates (3 dof)")
+        P = with_orientation(model, P)
         bad = ~model.reachable(P)
         if bad.any():
             i = int(np.argmax(bad))
-            raise VjmError(f"posture {i} ({P[i, 0]:g}, {P[i, 1]:g}, {P[i, 2]:g}) mm is unreachable")
+            raise VjmError(f"posture {i} {_pose_text(P[i])} is unreachable")
         return P
     spec = os.fspath(spec)
     kind, _, arg = spec.partition(":")
     if kind == "grid":
-        P = grid_poses(model, _int(arg, spec, "poses"))
+        P = grid_poses(model, _int(arg, spec, "poses"), tilt, rng)
     elif kind == "random":
-        P = random_poses(model, _int(arg, spec, "poses"), np.random.default_rng() if rng is None else rng)
+        P = random_poses(model, _int(arg, spec, "poses"), rng, tilt)
     elif os.path.isfile(spec):
-        P = _read_cols(spec, ["x", "y", "z"])
+        P = file_poses(model, spec)
     else:
         raise ArgumentError("poses", f"{spec}: expected grid:N, random:N or a CSV file with columns x,y,z")
     if len(P) == 0:
@@ -256,6 +306,8 @@ def true_model(model, effects):
 #: valid ranges of the noise sigmas (mm, rad) and the random seed
 NOISE_T = Bounds(0, unit="mm")
 NOISE_R = Bounds(0, unit="rad")
+#: random orientations of a 6-dof platform's poses: each rotation-vector component within +-tilt
+TILT = Bounds(0, 3.14159, unit="rad")
 
 
 def check_arguments(noise_t, noise_r, seed):
@@ -267,7 +319,8 @@ def check_arguments(noise_t, noise_r, seed):
 
 def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: int,
              progress=None) -> Deflections:
-    """Noisy deflections of ``model`` with hidden ``effects`` at postures P (n,3) under wrenches W (n,6).
+    """Noisy deflections of ``model`` with hidden ``effects`` at postures P (n, 3) (or poses (n, 6) x, y, z,
+    ox, oy, oz of a 6-dof platform; its points get zero orientation) under wrenches W (n, 6).
 
     The arguments and the memory of the rows are checked first; a run longer than about a minute
     reports through ``progress`` (a callable taking one line of text).
@@ -279,6 +332,7 @@ def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: 
     if not np.any(W):
         raise VjmError("all loads are zero: a deflection measurement needs a load")
     rng = np.random.default_rng(seed)
+    P = with_orientation(model, P)
     mt, add = true_model(model, effects)
     U, idx = unique_postures(P)
     CU = np.empty((len(U), 6, 6))
@@ -306,8 +360,11 @@ def simulate(model, effects, P, W, noise_t: float, noise_r: float | None, seed: 
 
 
 def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_r, seed: int, out,
-        progress=None) -> Deflections:
+        progress=None, tilt: float = 0.0) -> Deflections:
     """Body of ``vjm simulate``: check ``out``, design, simulate, write the CSV atomically.
+
+    ``tilt`` (rad): random orientations of a 6-dof platform's grid and random poses (see
+    :func:`design_poses`); a 3-dof platform refuses a non-zero tilt.
 
     An existing ``out`` is replaced only if vjm simulate wrote it (measured data is never overwritten).
     """
@@ -316,22 +373,26 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
     from .data import write_deflections
 
     check_arguments(noise_t, noise_r, seed)
+    tilt = number(tilt, "tilt", TILT, ArgumentError)
     check_file(out, is_simulated_csv, "a CSV written by vjm simulate")
     model = mo.load_model(model_path)
+    if tilt and model.dof != 6:
+        raise ArgumentError("tilt", f"{tilt:g} rad: the machine's platform only translates (3 dof)")
     effects = [parse_effect(s) for s in effect_specs]
     rng = np.random.default_rng([seed, 1])
     if _same_file(poses, loads):
         # one file with x,y,z,Fx..Mz (e.g. next_measurements.csv of vjm diagnose --suggest): paired rows
-        P = _read_cols(poses, ["x", "y", "z"])
+        P = file_poses(model, poses)
         W = _read_cols(loads, list(WRENCH))
         if len(P) == 0:
             raise ArgumentError("poses", f"{poses}: no data rows")
         bad = ~model.reachable(P)
         if bad.any():
-            raise VjmError(f"{os.path.basename(poses)}: row {int(np.argmax(bad)) + 2}, columns 'x,y,z': posture "
-                           f"({P[bad][0, 0]:g}, {P[bad][0, 1]:g}, {P[bad][0, 2]:g}) mm is unreachable")
+            cols = "x,y,z,ox,oy,oz" if P.shape[1] == 6 else "x,y,z"
+            raise VjmError(f"{os.path.basename(poses)}: row {int(np.argmax(bad)) + 2}, columns '{cols}': posture "
+                           f"{_pose_text(P[bad][0])} is unreachable")
     else:
-        P0 = design_poses(model, poses, rng)
+        P0 = design_poses(model, poses, rng, tilt)
         L = design_loads(loads, len(P0), rng)
         k = L.shape[1]
         P = np.repeat(P0, k, axis=0)
@@ -340,5 +401,5 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
     desc = ", ".join(f"{n}:" + ",".join(f"{a}={b:g}" for a, b in v.items()) for n, v in effects) or "none"
     write_deflections(out, data, f"{SIMULATED_CSV_MARK[2:]} from {os.path.basename(str(model_path))}; "
                                  f"poses {poses}; loads {loads}; noise_t {noise_t} mm; noise_r {noise_r} rad; "
-                                 f"seed {seed}; hidden effects: {desc}")
+                                 f"seed {seed}{f'; tilt {tilt} rad' if tilt else ''}; hidden effects: {desc}")
     return data

@@ -1,7 +1,10 @@
 """What to measure next: an optimal design of N (posture, load) rows.
 
 The candidate rows are reachable, non-singular postures drawn uniformly in
-the model's workspace box, each with the axis loads ``+-F`` along x, y, z
+the model's workspace box (a 6-dof platform's data with orientations: each
+with an orientation drawn uniformly within the largest tilt of the data,
+component by component, so the rows stay where the data say the platform
+goes), each with the axis loads ``+-F`` along x, y, z
 (and ``+-M`` about them unless the rig applies forces only), ``F`` and ``M``
 being the median force and moment magnitudes of the data (``M = F x 100 mm``
 when the data hold no moment); when the data apply their loads at a few
@@ -47,7 +50,7 @@ ARM = 100.0
 
 @dataclass(frozen=True)
 class Suggestion:
-    rows: np.ndarray  # (N, 9): x, y, z, Fx, Fy, Fz, Mx, My, Mz
+    rows: np.ndarray  # (N, 9): x, y, z, Fx, Fy, Fz, Mx, My, Mz; (N, 12) x, y, z, ox, oy, oz, Fx..Mz (6-dof)
     criterion: str
     targets: list
     gain: float  # criterion after / before (T: chi-square distance; D: log det)
@@ -58,9 +61,13 @@ class Suggestion:
     rows_to_separate: int | None = None
 
 
-def _pool(model, W, forces_only, rng):
+def _pool(model, W, forces_only, rng, tilt=None):
+    """Candidate rows (P, W, F, M); ``tilt`` (3,) the largest |orientation| per component of the data
+    (None: points only)."""
     lo, hi = mo.workspace_box(model)
     P = lo + (hi - lo) * rng.random((4 * POOL, 3))
+    if tilt is not None:
+        P = np.hstack([P, tilt * (2.0 * rng.random((len(P), 3)) - 1.0)])
     P = P[model.arch.reachable(model, P)]
     if len(P):
         r = model.stiffness_map(P)
@@ -179,7 +186,9 @@ def suggest(model, pred, data_ctx_rows, final_values, rep, n, forces_only=False,
     """
     rng = np.random.default_rng(seed)
     comp, sig_d, sig_p = data_ctx_rows
-    Pp, Wp, F, M = _pool(model, pred.ctx.W, forces_only, rng)
+    P0 = pred.ctx.P
+    tilt = np.max(np.abs(P0[:, 3:]), axis=0) if P0.shape[1] == 6 else None
+    Pp, Wp, F, M = _pool(model, pred.ctx.W, forces_only, rng, tilt)
     from .predict import unique_postures
 
     U, idx = unique_postures(Pp)

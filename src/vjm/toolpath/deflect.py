@@ -12,7 +12,8 @@ The TCP's deflection counts the platform rotation times the tool lever:
   (what ``vjm diagnose`` writes into model_updated.yaml):
 
   - ``gravity: {weight: W}``: ``W g`` (N, along ``geometry.gravity``, default -z) on the
-    platform point, with the process wrench;
+    platform point, with the process wrench; on a 6-dof platform with ``first_moment_x/y/z``
+    (``m``, N mm, platform axes: weight x lever arm) also the moment ``(R m) x g``;
   - ``clearance: {backlash: b}``: every actuator slips by ``b`` (mm) toward the force it
     carries under the total load, imposed as the rest value of its spring in the same
     equilibrium;
@@ -57,9 +58,10 @@ def platform_poses(model, tcp_poses, tool) -> tuple[np.ndarray, np.ndarray]:
     return (np.hstack([P, np.zeros_like(P)]) if model.dof == 6 else P), lever
 
 
-def _effect(model, name: str, key: str) -> float:
+def _effect(model, name: str, key: str, optional: bool = False) -> float:
+    """Parameter ``key`` of the model's effect ``name`` (0 without the effect, or an optional key left out)."""
     e = model.effects.get(name)
-    if e is None:
+    if e is None or (optional and isinstance(e, dict) and key not in e):
         return 0.0
     try:
         return float(e[key])
@@ -97,6 +99,9 @@ def _nonlinear_block(model, P, Wp):
     weight = _effect(model, "gravity", "weight")
     if weight:
         W[:, :3] += weight * mo.gravity_direction(model)
+    m = np.array([_effect(model, "gravity", f"first_moment_{a}", optional=True) for a in "xyz"])
+    if m.any():
+        W[:, 3:] += np.cross(mo.platform_rotations(P) @ m, mo.gravity_direction(model))
     offsets = None
     b = _effect(model, "clearance", "backlash")
     if b:

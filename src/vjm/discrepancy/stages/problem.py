@@ -28,7 +28,7 @@ class Setup:
     model: object
     data: Deflections | StiffnessObs  # (the rows for the model only)
     kind: DataKind
-    U: np.ndarray  # (m, 3) unique postures
+    U: np.ndarray  # (m, 3) unique postures; (m, 6) with the orientations of a 6-dof platform
     idx: np.ndarray  # (n,) row -> posture
     q: np.ndarray  # (m, n_chains) actuator coordinates of U
     ctx: Context
