@@ -118,6 +118,14 @@ def render_html(rep: dict, figures) -> str:
                + _table([[_fmt(w["x"], "{:.1f}"), _fmt(w["y"], "{:.1f}"), _fmt(w["z"], "{:.1f}"),
                           _fmt(w["rms_normalized"], "{:.2f}"), w["n"]] for w in la.get("worst_postures", [])],
                         ["x", "y", "z", "RMS normalized (after)", "n"]))
+    outl = ""
+    if rep.get("outliers"):
+        o = rep["outliers"]
+        outl = (f"<h2>Rows set aside as gross outliers</h2><p>{o['n_rows']} of {o['n_rows_total']} rows; "
+                f"|z| &gt; {o['threshold']:.2f} (robust scale {o['robust_scale']:.3g}); the diagnosis above is "
+                "computed without them.</p>"
+                + _table([[e["row"], e["component"], _fmt(e["z"], "{:+.1f}")] for e in o["observations"]],
+                         ["file row", "component", "standardized residual"]))
     sug = ""
     if rep.get("suggest"):
         sg = rep["suggest"]
@@ -133,6 +141,7 @@ td,th{{border:1px solid #ccc;padding:3px 6px;font-size:90%}}img{{max-width:100%}
 ({rep['n_observations']} observations, {rep['n_postures']} postures, sigma {html.escape(rep['sigma_source'])}).</p>
 <p>{html.escape(rep['summary'])}</p>
 {gap}
+{outl}
 {'<h2>Cannot be told apart</h2><ul>' + conf + '</ul>' if conf else ''}
 {'<h2>Warnings</h2><ul>' + flags + '</ul>' if flags else ''}
 {sug}

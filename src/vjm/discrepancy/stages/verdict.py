@@ -16,7 +16,7 @@ from .thresholds import COLLINEAR, PLAUSIBLE
 
 @dataclass(frozen=True)
 class Verdict:
-    verdict: str  # "no_discrepancy", "explained" or "unexplained"
+    verdict: str  # "no_discrepancy", "explained" or "unexplained" (stages.outliers: "untrusted_data")
     flags: list  # warnings, one sentence each
 
 
