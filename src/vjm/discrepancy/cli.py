@@ -44,6 +44,9 @@ def diagnose_cmd(
     suggest: int = typer.Option(0, "--suggest", min=0,
                                 help="write DIR/next_measurements.csv: N (posture, load) rows to measure next"),
     forces_only: bool = typer.Option(False, "--forces-only", help="suggest force loads only (no torques)"),
+    outliers: bool = typer.Option(True, "--outliers/--no-outliers",
+                                  help="set aside rows holding a gross outlier (|z| > 5 robust sigmas) and diagnose "
+                                       "the others; more than 10 %% of such rows: verdict untrusted_data"),
     force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files (they are "
                                                       "never overwritten or deleted)"),
 ):
@@ -51,7 +54,7 @@ def diagnose_cmd(
     try:
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
                  log=(lambda s: typer.echo(s, err=True)) if verbose else None,
-                 suggest=suggest, forces_only=forces_only, force=force)
+                 suggest=suggest, forces_only=forces_only, force=force, outliers=outliers)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(dg.report.summary)

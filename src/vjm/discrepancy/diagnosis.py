@@ -27,7 +27,8 @@ class Diagnosis:
 
     @property
     def verdict(self) -> str:
-        """"no_discrepancy", "explained" or "unexplained"."""
+        """"no_discrepancy", "explained", "unexplained" or "untrusted_data" (more than 10 % of the rows
+        are gross outliers: no effect named)."""
         return self.report.verdict
 
     @property

@@ -110,10 +110,11 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     cov = covariance.record(s.prob, s.pred, chosen.sel.final)
     if found is not None:
         if log:
-            log(f"outliers: {len(found.positions)} rows set aside after {found.passes} diagnoses")
+            log(f"outliers: {len(found.positions)} rows beyond the threshold after {found.passes} diagnoses; "
+                f"{'set aside' if found.accepted else 'kept (part of the gap)'}")
         base = chosen.sel.baseline
         rep = with_outliers(rep, found, base.values(s.prob))
-        if found.untrusted:
+        if found.accepted and found.untrusted:
             upd, cov = untrusted_model(s, base), covariance.record(s.prob, s.pred, base)
     rows = None
     if suggest:

@@ -40,7 +40,7 @@ Z_MIN = 5.0
 #: above this fraction of rows set aside, the data are not trusted
 UNTRUSTED = 0.10
 #: diagnoses run at most (the first, plain, one included)
-MAX_PASSES = 5
+MAX_PASSES = 4
 #: flagged observations listed in the flags and the summary (report.json lists all)
 SHOWN = 8
 
@@ -56,6 +56,7 @@ class Outliers:
     scale: float  # robust scale the residuals were divided by (in units of the stated sigmas, or whitened)
     passes: int  # diagnoses run
     settled: bool  # the set aside is the set the final model flags
+    accepted: bool = True  # settled, and the other rows fit once they are set aside: gross errors
 
     @property
     def rows(self) -> list:
@@ -67,7 +68,7 @@ class Outliers:
 
     @property
     def untrusted(self) -> bool:
-        return self.fraction > UNTRUSTED
+        return self.accepted and self.fraction > UNTRUSTED
 
     def record(self) -> dict:
         """report.json's ``outliers``."""
@@ -155,8 +156,10 @@ def flag(full, cur, final, sigma_known: bool):
 def set_aside(first, run, sigma_known: bool):
     """(the pass to report, :class:`Outliers` or None) from the first, plain, pass.
 
-    ``first`` and every pass ``run(data)`` returns have ``s`` (the stage-0 Setup) and
-    ``final`` (the final FitResult).  No outlier: ``(first, None)``, the plain diagnosis as it is.
+    ``first`` and every pass ``run(data)`` returns have ``s`` (the stage-0 Setup), ``final`` (the
+    final FitResult) and ``rep`` (the Report).  No outlier: ``(first, None)``, the plain diagnosis as
+    it is.  Outliers that are not gross errors but part of a gap (:attr:`Outliers.accepted` False):
+    ``(first, outliers)``.
     """
     full = first.s
     got = flag(full, full, first.final, sigma_known)
@@ -172,23 +175,31 @@ def set_aside(first, run, sigma_known: bool):
         cur = run(subset(full.data, keep))
         passes += 1
         got = flag(full, cur.s, cur.final, sigma_known)
-    if got is None:  # the last model cannot predict the rows set aside: report them as flagged before
-        return cur, Outliers(aside, [], full.data.n, threshold(0), float("nan"), passes, False)
-    settled = got[0] == aside
-    entries = [e for e in got[1] if e["row"] in set(file_rows(full.data)[list(aside)].tolist())]
-    return cur, Outliers(aside, entries, full.data.n, got[2], got[3], passes, settled)
+        if cur.rep.verdict == "unexplained":
+            break  # the other rows still lack fit: the rows flagged are part of a gap, not gross errors
+    settled = got is not None and got[0] == aside
+    # rows that are gross errors leave the others fitting once set aside; a gap the library lacks does not
+    # (the rows beyond the threshold are its worst part, and setting them aside uncovers the next ones)
+    accepted = settled and cur.rep.verdict != "unexplained"
+    if got is None:
+        return first, Outliers(aside, [], full.data.n, threshold(0), float("nan"), passes, False, False)
+    rows = set(file_rows(full.data)[list(aside)].tolist())
+    entries = [e for e in got[1] if e["row"] in rows]
+    return (cur if accepted else first), Outliers(aside, entries, full.data.n, got[2], got[3], passes, settled,
+                                                  accepted)
 
 
 def flags(o: Outliers) -> list:
-    """The warnings of the rows set aside."""
+    """The warnings of the rows set aside (or of the rows beyond the threshold that were kept)."""
+    if not o.accepted:
+        return [f"{len(o.positions)} of {o.n_rows} rows hold residuals beyond {o.threshold:.2f} robust sigmas, but "
+                f"setting them aside {'does not make the other rows fit' if o.settled else 'uncovers more'} "
+                f"({o.passes} diagnoses): they are part of the gap, not gross errors; every row is kept"]
     shown = ", ".join(f"{e['row']} ({e['component']}, z = {e['z']:+.1f})" for e in o.entries[:SHOWN])
     more = f" and {len(o.entries) - SHOWN} more (report.json: outliers)" if len(o.entries) > SHOWN else ""
     out = [f"{len(o.positions)} of {o.n_rows} rows ({100 * o.fraction:.1f} %) are gross outliers "
            f"(|standardized residual| > {o.threshold:.2f} robust sigmas) and were set aside; file rows "
            f"{shown}{more}; check them (a mistyped value, a probe that slipped, a row logged with another load)"]
-    if not o.settled:
-        out.append(f"the set of outlying rows did not settle in {o.passes} diagnoses: the rows set aside are "
-                   "those the last model flagged before its fit")
     if o.untrusted:
         out.append(f"more than {100 * UNTRUSTED:.0f} % of the rows are outliers: the data cannot be trusted, "
                    "no effect is named")
@@ -204,6 +215,8 @@ def with_outliers(rep, o: Outliers, baseline_values: dict | None):
     """The report with the rows set aside: ``outliers``, the warnings, and for more than
     :data:`UNTRUSTED` of the rows verdict ``untrusted_data`` with no effect named (``baseline_values``:
     the calibration-only fit's parameters, then the final ones)."""
+    if not o.accepted:
+        return dataclasses.replace(rep, flags=flags(o) + list(rep.flags))
     rep = dataclasses.replace(rep, outliers=o.record(), flags=flags(o) + list(rep.flags))
     if o.untrusted:
         rep = dataclasses.replace(rep, verdict="untrusted_data", named_effects=[], confounded=[], alternatives=[],
