@@ -70,12 +70,12 @@ class Report(Mapping):
     n_tested: int
     suggest: dict | None = None  # present in report.json only when measurements were suggested
     summary: str = ""
-    outliers: dict | None = None  # rows set aside as gross outliers (stages.outliers); present only when some were
+    outliers: dict | None = None  # rows set aside as gross outliers (stages.outliers); None (null) when none were
 
     def to_dict(self) -> dict:
         """The report.json dictionary (keys in the file's order)."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-                if not (f.name in ("suggest", "outliers") and getattr(self, f.name) is None)}
+                if not (f.name == "suggest" and self.suggest is None)}
 
     def __getitem__(self, key):
         return self.to_dict()[key]
