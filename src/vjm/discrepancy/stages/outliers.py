@@ -10,7 +10,10 @@ normal quantile over the n observations at :data:`FALSE_FLAG`, at least :data:`Z
 sigmas: a clean set flags nothing with probability >= 99 %) is an outlier, and its whole file row
 is set aside.  The diagnosis is rerun on the other rows and the residuals of all rows (those set
 aside included, predicted by the new model) are judged again: rows may come back.  This repeats
-until the set aside is the set flagged (at most :data:`MAX_PASSES` diagnoses).
+until the set aside is the set flagged (at most :data:`MAX_PASSES` diagnoses).  The rows are set aside
+only if the other rows then fit: where they still lack fit, the rows beyond the threshold are the
+worst part of a gap the library lacks (a contact, a hysteresis), every row is kept and the plain
+diagnosis reported, with a warning.
 
 Breakdown point: the scale is a median absolute deviation (breakdown 50 %), but the fit itself is
 least squares, trusted only once the outliers are set aside; each pass needs the model fitted
