@@ -11,7 +11,7 @@ and copy the printed lines into docs/benchmarks.md (## diagnose).  The time
 is split into the nonlinear-equilibrium precompute of the
 ``geometric_nonlinearity`` candidate (vjm.nonlinear, all measurements in
 one batched Newton solve) and the rest (calibration, 7 candidates, forward selection,
-5-fold grouped CV); CPU time includes worker processes.
+5-fold grouped CV, the outlier stage's check of the final residuals); CPU time includes worker processes.
 """
 import os
 import resource
@@ -49,7 +49,8 @@ def main(model_path="data/orthoglide/puu.yaml"):
     total = t2 - t0
     load = os.getloadavg()[0]
     print(f"diagnose: {data.n} measurements ({len(P0)} postures), {len(rep['candidates'])} candidates, "
-          f"named {rep['named_effects']}")
+          f"named {rep['named_effects']}; outlier stage on, rows set aside: "
+          f"{rep['outliers']['n_rows'] if rep['outliers'] else 0}")
     print(f"  wall {total:.1f} s = nonlinear precompute {t1 - t0:.1f} s + rest {t2 - t1:.1f} s; "
           f"CPU {c2 - c0:.1f} s (nonlinear {c1 - c0:.1f} s); {os.cpu_count()} cpus, load average {load:.1f}")
     print(f"  [{'PASS' if total <= 30 else 'FAIL'} vs 30 s target]")

@@ -438,6 +438,22 @@ def measure(truth: Truth, P, W, seed: int, sigma_t: float = 1e-3, sigma_r: float
     return Measurements(P, W, T, sigma_t, sigma_r)
 
 
+def with_outliers(m: Measurements, fraction: float, rng, size=(20.0, 60.0), sigma_t: float = 1e-3,
+                  sigma_r: float = 1e-5) -> tuple[Measurements, np.ndarray]:
+    """``m`` with gross errors: ``round(fraction n)`` rows, each with one measured component off by
+    ``size`` (uniform, random sign) times its noise sigma (the file's, else ``sigma_t``/``sigma_r``);
+    and the sorted positions (0-based) of the rows changed (file row = position + 2)."""
+    n = len(m.P)
+    rows = np.sort(rng.choice(n, int(round(fraction * n)), replace=False))
+    st = sigma_t if m.sigma_t is None else m.sigma_t
+    sr = sigma_r if m.sigma_r is None else m.sigma_r
+    T = m.T.copy()
+    for r in rows:
+        c = rng.choice(np.flatnonzero(np.isfinite(T[r])))
+        T[r, c] += rng.choice([-1.0, 1.0]) * rng.uniform(*size) * (st if c < 3 else sr)
+    return Measurements(m.P, m.W, T, m.sigma_t, m.sigma_r), rows
+
+
 def read_rows(path) -> tuple[np.ndarray, np.ndarray]:
     """(P, W) of a CSV with columns x,y,z,Fx..Mz (e.g. ``next_measurements.csv``), '#' lines skipped."""
     with open(path, newline="", encoding="utf-8") as fh:

@@ -3,8 +3,9 @@ the body of ``vjm diagnose``.
 
 ``register(app)`` adds both commands; errors (VjmError) become one line on
 stderr and exit status 2, like the other ``vjm`` commands.  ``vjm diagnose``
-exits with status 3 when its verdict is ``insufficient_data`` (the report is
-written; the design is too weak to name what fits), 0 for the other verdicts.
+exits with status 3 when its verdict is ``insufficient_data`` or ``untrusted_data`` (the report
+is written, but nothing may be taken as named: the design is too weak to name what fits, or more
+than 10 % of the rows are gross outliers), 0 for the other verdicts.
 """
 from __future__ import annotations
 
@@ -16,8 +17,11 @@ import typer
 
 from ..errors import one_line, user_errors
 
-#: exit status of ``vjm diagnose`` when the verdict is "insufficient_data" (report written, nothing named)
+#: exit status of ``vjm diagnose`` when the verdict is "insufficient_data" or "untrusted_data" (report
+#: written, nothing named)
 INSUFFICIENT_DATA_EXIT = 3
+#: the verdicts under which nothing may be taken as named although the report is written
+NOTHING_NAMED = ("insufficient_data", "untrusted_data")
 
 
 def run(model_path, data_path, out_dir, force: bool = False, **kw):
@@ -49,6 +53,9 @@ def diagnose_cmd(
     suggest: int = typer.Option(0, "--suggest", min=0,
                                 help="write DIR/next_measurements.csv: N (posture, load) rows to measure next"),
     forces_only: bool = typer.Option(False, "--forces-only", help="suggest force loads only (no torques)"),
+    outliers: bool = typer.Option(True, "--outliers/--no-outliers",
+                                  help="set aside rows holding a gross outlier (|z| > 5 robust sigmas) and diagnose "
+                                       "the others; more than 10 %% of such rows: verdict untrusted_data"),
     force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files (they are "
                                                       "never overwritten or deleted)"),
 ):
@@ -56,14 +63,14 @@ def diagnose_cmd(
     try:
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
                  progress=(lambda s: typer.echo(s, err=True)) if verbose else None,
-                 suggest=suggest, forces_only=forces_only, force=force)
+                 suggest=suggest, forces_only=forces_only, force=force, outliers=outliers)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(dg.report.summary)
     typer.echo(f"Report: {Path(out) / 'report.html'}")
     if suggest:
         typer.echo(f"Next measurements: {Path(out) / 'next_measurements.csv'}")
-    if dg.verdict == "insufficient_data":  # the report is written, but nothing may be taken as named
+    if dg.verdict in NOTHING_NAMED:  # the report is written, but nothing may be taken as named
         raise typer.Exit(INSUFFICIENT_DATA_EXIT)
 
 

@@ -27,7 +27,8 @@ class Diagnosis:
 
     @property
     def verdict(self) -> str:
-        """"no_discrepancy", "explained", "unexplained" or "insufficient_data"."""
+        """"no_discrepancy", "explained", "unexplained", "insufficient_data" (the design is too weak to name
+        what fits) or "untrusted_data" (more than 10 % of the rows are gross outliers: no effect named)."""
         return self.report.verdict
 
     @property

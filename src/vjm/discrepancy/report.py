@@ -132,6 +132,14 @@ def render_html(rep: dict, figures) -> str:
         why = "".join(f"<li>{html.escape(f)}</li>" for f in rep.get("flags", []) if f.startswith("insufficient data"))
         gap = ("<h2>Why nothing is named</h2><p>An effect fits, but this design is too weak to name it; "
                f"measure more postures and loads (e.g. with <code>--suggest</code>).</p><ul>{why}</ul>")
+    outl = ""
+    if rep.get("outliers"):
+        o = rep["outliers"]
+        outl = (f"<h2>Rows set aside as gross outliers</h2><p>{o['n_rows']} of {o['n_rows_total']} rows; "
+                f"|z| &gt; {o['threshold']:.2f} (robust scale {o['robust_scale']:.3g}); the diagnosis above is "
+                "computed without them.</p>"
+                + _table([[e["row"], e["component"], _fmt(e["z"], "{:+.1f}")] for e in o["observations"]],
+                         ["file row", "component", "standardized residual"]))
     sug = ""
     if rep.get("suggest"):
         sg = rep["suggest"]
@@ -147,6 +155,7 @@ td,th{{border:1px solid #ccc;padding:3px 6px;font-size:90%}}img{{max-width:100%}
 ({rep['n_observations']} observations, {rep['n_postures']} postures, sigma {html.escape(rep['sigma_source'])}).</p>
 <p>{html.escape(rep['summary'])}</p>
 {gap}
+{outl}
 {'<h2>Cannot be told apart</h2><ul>' + conf + '</ul>' if conf else ''}
 {'<h2>Warnings</h2><ul>' + flags + '</ul>' if flags else ''}
 {sug}

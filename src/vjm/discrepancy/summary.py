@@ -29,8 +29,26 @@ def alternative_lines(rep) -> list:
             f"1:20; reduced chi2 {a['chi2_red']:.3f})" for a in rep.get("alternatives", [])]
 
 
+def outlier_words(rep) -> str:
+    """How many rows were set aside as gross outliers, and which ("" when none were)."""
+    o = rep.get("outliers")
+    if not o:
+        return ""
+    rows = ", ".join(str(r) for r in o["rows"][:8]) + (", ..." if len(o["rows"]) > 8 else "")
+    return (f"{o['n_rows']} of {o['n_rows_total']} rows ({100 * o['fraction']:.1f} %) set aside as gross outliers "
+            f"(file rows {rows})")
+
+
 def verdict_line(rep) -> str:
-    """One sentence: the verdict, the named effects (or groups) and the lack of fit."""
+    """One sentence: the verdict, the named effects (or groups) and the lack of fit (and the rows set aside)."""
+    line = _verdict_line(rep)
+    o = outlier_words(rep)
+    if o and rep["verdict"] != "untrusted_data":
+        line = line[:-1] + f"; {o}, the verdict is on the other rows."
+    return line
+
+
+def _verdict_line(rep) -> str:
     lof = rep["lack_of_fit"]
     if lof.get("p_value") is None:
         fit_s = lof.get("note", "lack of fit cannot be judged")
@@ -39,6 +57,10 @@ def verdict_line(rep) -> str:
                  f"(level {lof['alpha']:.2g})")
     named = _named_words(rep)
     v = rep["verdict"]
+    if v == "untrusted_data":
+        return (f"Verdict: untrusted data: {outlier_words(rep)}, more than "
+                f"{100 * rep['outliers']['limit_fraction']:.0f} % of the rows: the data cannot be trusted and no "
+                "effect is named.")
     if v == "no_discrepancy":
         return f"Verdict: no discrepancy: the calibrated model fits the data ({fit_s})."
     if v == "explained":
@@ -81,6 +103,7 @@ class Summary:
                 ["lack of fit", "cannot be judged (sigmas unknown, no repeats)" if lof.get("p_value") is None else
                  f"chi2_red {lof['chi2_red']:.3g}, dof {lof['dof']}, p = {lof['p_value']:.3g} (level {lof['alpha']:.2g})"],
                 ["observations", f"{r['n_observations']} at {r['n_postures']} postures ({r['data_kind']})"],
+                *([["outliers set aside", outlier_words(r)]] if r.get("outliers") else []),
                 ["sigma", r["sigma_source"]],
                 ["calibration", cal],
                 ["RMS before -> after", f"{_f(r['rms_before'])} -> {_f(r['rms_after'])} {r['rms_units']}"],

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from dataclasses import dataclass
 
 from linkfea.checks import Bounds, integer, number
 from linkfea.progress import renamed_progress
@@ -20,14 +21,15 @@ from .stages.calibrate import calibrate
 from .stages.candidates import candidates
 from .stages.confounding import confounding
 from .stages.design import next_measurements
-from .stages.goodness import goodness
-from .stages.kinds import kind_of
+from .stages.goodness import Goodness, goodness
+from .stages.kinds import Located, kind_of
 from .stages.levels import level_check
 from .stages.locate import locate
 from .stages.observability import observability
-from .stages.problem import build_problem
-from .stages.record import build_report
-from .stages.select import select
+from .stages.outliers import set_aside, untrusted_model, with_outliers
+from .stages.problem import Setup, build_problem
+from .stages.record import Report, build_report
+from .stages.select import Selected, select
 from .stages.strength import weak_design
 from .stages.thresholds import DEFAULT_ALPHA
 from .stages.update import updated_model
@@ -48,26 +50,23 @@ def check_arguments(alpha=DEFAULT_ALPHA, folds=5, max_effects=3, suggest=0):
             integer(suggest, "suggest", SUGGEST, ArgumentError))
 
 
-@renamed_progress("log")
-def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int = 5, max_effects: int = 3,
-             model_name: str | None = None, progress=None, suggest: int = 0, forces_only: bool = False) -> Diagnosis:
-    """Run the workflow on a model (loaded, or a YAML path) and a data set (:func:`read_csv` output, or a path).
+@dataclass(frozen=True)
+class Pass:
+    """One run of the stages on one set of rows."""
 
-    Parameters
-    ----------
-    alpha : family-wise significance level of each selection round.
-    effects : candidate names (default: the whole registry).
-    model_name : the model's name in the report (default: the file name of a path, else "<model>").
-    suggest : number of (posture, load) rows to suggest measuring next (0: none).
-    forces_only : suggest force loads only (a rig that cannot apply torques).
-    progress : called with a line per selection round (``log``: its deprecated name).
-    """
-    alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
-    if isinstance(model, (str, os.PathLike)):
-        model_name = model_name or os.path.basename(os.fspath(model))
-        model = load_model(model)
-    if isinstance(data, (str, os.PathLike)):
-        data = read_csv(data)
+    s: Setup
+    chosen: Selected
+    fit: Goodness
+    loc: Located
+    rep: Report
+
+    @property
+    def final(self):
+        return self.chosen.sel.final
+
+
+def run_stages(model, data, alpha, effects, folds, max_effects, progress, model_name) -> Pass:
+    """Stages 0-8 and the report on the rows of ``data``."""
     s = build_problem(model, data, kind_of(data), effects)
     cal = calibrate(s, progress)
     obs = observability(s, cal, progress)
@@ -80,11 +79,54 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     table = candidates(s, obs, chosen)
     conf = confounding(s.prob, chosen.sel, obs.sens, cal.cols, table.entries, alpha, chosen.rivals)
     v = verdict(s, cal, chosen, fit, lev, weak_design(s, chosen))
-    rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, v, model_name=model_name or "<model>", alpha=alpha, folds=folds)
+    rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, v, model_name=model_name, alpha=alpha, folds=folds)
+    return Pass(s, chosen, fit, loc, rep)
+
+
+@renamed_progress("log")
+def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int = 5, max_effects: int = 3,
+             model_name: str | None = None, progress=None, suggest: int = 0, forces_only: bool = False,
+             outliers: bool = True) -> Diagnosis:
+    """Run the workflow on a model (loaded, or a YAML path) and a data set (:func:`read_csv` output, or a path).
+
+    Parameters
+    ----------
+    alpha : family-wise significance level of each selection round.
+    effects : candidate names (default: the whole registry).
+    model_name : the model's name in the report (default: the file name of a path, else "<model>").
+    suggest : number of (posture, load) rows to suggest measuring next (0: none).
+    forces_only : suggest force loads only (a rig that cannot apply torques).
+    outliers : set aside the rows holding a gross outlier and diagnose the others
+        (:mod:`~vjm.discrepancy.stages.outliers`); False: every row is used as it is.
+    progress : called with a line per selection round (``log``: its deprecated name).
+    """
+    alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
+    if isinstance(model, (str, os.PathLike)):
+        model_name = model_name or os.path.basename(os.fspath(model))
+        model = load_model(model)
+    if isinstance(data, (str, os.PathLike)):
+        data = read_csv(data)
+
+    def run(rows) -> Pass:
+        return run_stages(model, rows, alpha, effects, folds, max_effects, progress, model_name or "<model>")
+
+    p, found = run(data), None
+    if outliers:
+        p, found = set_aside(p, run, p.s.weights.sigma_known)
+    s, chosen, rep = p.s, p.chosen, p.rep
+    upd = updated_model(s, chosen)
+    cov = covariance.record(s.prob, s.pred, chosen.sel.final)
+    if found is not None:
+        if progress:
+            progress(f"outliers: {len(found.positions)} rows beyond the threshold after {found.passes} diagnoses; "
+                f"{'set aside' if found.accepted else 'kept (part of the gap)'}")
+        base = chosen.sel.baseline
+        rep = with_outliers(rep, found, base.values(s.prob))
+        if found.accepted and found.untrusted:
+            upd, cov = untrusted_model(s, base), covariance.record(s.prob, s.pred, base)
     rows = None
     if suggest:
-        sg, rep = next_measurements(s, chosen, fit, rep, suggest, forces_only)
+        sg, rep = next_measurements(s, chosen, p.fit, rep, suggest, forces_only)
         rows = sg.rows
     rep = dataclasses.replace(rep, summary=summary(rep))
-    return Diagnosis(rep, updated_model(s, chosen), s.U, loc.per_before, loc.per_after, rows,
-                     covariance.record(s.prob, s.pred, chosen.sel.final))
+    return Diagnosis(rep, upd, s.U, p.loc.per_before, p.loc.per_after, rows, cov)

@@ -70,6 +70,7 @@ class Report(Mapping):
     n_tested: int
     suggest: dict | None = None  # present in report.json only when measurements were suggested
     summary: str = ""
+    outliers: dict | None = None  # rows set aside as gross outliers (stages.outliers); None (null) when none were
 
     def to_dict(self) -> dict:
         """The report.json dictionary (keys in the file's order)."""

@@ -16,7 +16,7 @@ from .thresholds import COLLINEAR, PLAUSIBLE
 
 @dataclass(frozen=True)
 class Verdict:
-    verdict: str  # "no_discrepancy", "explained", "unexplained" or "insufficient_data"
+    verdict: str  # "no_discrepancy", "explained", "unexplained" or "insufficient_data" (stages.outliers: "untrusted_data")
     flags: list  # warnings, one sentence each
 
 
