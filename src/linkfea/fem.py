@@ -30,8 +30,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import checks
+from .coarse import p1_coarse_space
 from .errors import LinkFeaError, SolverError
-from .frames import Frame, skew
+from .frames import Frame, rigid_motion_matrix  # noqa: F401  (imported from here by callers)
 from .materials import Material
 from .options import BLOCK_RATIO, MODES
 
@@ -90,21 +91,6 @@ class FeaSolution:
     timing: dict = field(default_factory=dict)
     ref_twists: Optional[np.ndarray] = None
     solver: dict = field(default_factory=dict)
-
-
-def rigid_motion_matrix(points: np.ndarray, origin: np.ndarray, axes: np.ndarray) -> np.ndarray:
-    """Nodal displacements (n, 3, 6) of a small rigid motion per unit twist component.
-
-    Twist components are in the frame with rows ``axes``: ``u = R t + (R r) x (x - o)``
-    with ``R = axes.T``.
-    """
-    R = np.asarray(axes, dtype=float).T
-    d = np.asarray(points, dtype=float) - np.asarray(origin, dtype=float)
-    out = np.empty((len(d), 3, 6))
-    out[:, :, :3] = R
-    # (R r) x d = -skew(d) R r
-    out[:, :, 3:] = -skew(d) @ R
-    return out
 
 
 def _block_flags(mesh) -> np.ndarray:
@@ -254,7 +240,8 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
 
     report("factor")
     t0 = time.perf_counter()
-    solve = _factor(factorizer, A, lambda: _near_nullspace(p2.points, free_dofs, frame, mode), report)
+    solve = _factor(factorizer, A, lambda: _near_nullspace(p2.points, free_dofs, frame, mode),
+                    lambda: p1_coarse_space(p2, free_dofs, fixed, ref_nodes, frame, mode), report)
     timing["factor"] = time.perf_counter() - t0
 
     report("solve")
@@ -283,9 +270,12 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     )
 
 
-def _factor(factorizer, A, near_nullspace, report):
-    """``factorizer(A)``, with the rigid-body modes for a factorizer that wants them (multigrid)."""
+def _factor(factorizer, A, near_nullspace, coarse, report):
+    """``factorizer(A)``, with the rigid-body modes or the P1 coarse space (a function that builds
+    it, :func:`linkfea.coarse.p1_coarse_space`) for a factorizer that wants them (multigrid)."""
     try:
+        if getattr(factorizer, "wants_coarse_space", False):
+            return factorizer(A, coarse=coarse, progress=report)
         if getattr(factorizer, "wants_near_nullspace", False):
             return factorizer(A, near_nullspace=near_nullspace(), progress=report)
         return factorizer(A)

@@ -1,11 +1,19 @@
-"""Conjugate gradients with a smoothed-aggregation multigrid preconditioner (pyamg), and the
-memory estimate that chooses between it and the direct factorization.
+"""Conjugate gradients with multigrid preconditioners, and the memory estimate that chooses
+between the iterative path and the direct factorization.
 
-A factorizer in the sense of :mod:`linkfea.solvers`: it takes the upper triangle (CSR, SPD)
-and returns ``solve(B)``.  Multigrid needs the near null space of the operator, the rigid-body
-motions of the free nodes: :func:`linkfea.fem.solve_link` passes them as ``near_nullspace``
-(a factorizer that sets ``wants_near_nullspace``).  The returned ``solve`` records its
-convergence (iterations and final relative residual per load case) in ``convergence``.
+Factorizers in the sense of :mod:`linkfea.solvers`: they take the upper triangle (CSR, SPD) and
+return ``solve(B)``; the returned ``solve`` records its convergence (iterations and final
+relative residual per load case) in ``convergence``.
+
+- :func:`cg_p1mg_factorizer` (``--solver iterative``): the 6 load cases in lockstep CG
+  (:mod:`linkfea.krylov`) preconditioned by a V-cycle with Chebyshev smoothing on the P2
+  system, its P1 Galerkin operator as the first coarse level (:mod:`linkfea.coarse`) and pyamg
+  smoothed aggregation with the rigid-body modes below (:mod:`linkfea.multigrid`).
+  :func:`linkfea.fem.solve_link` passes the coarse space (a factorizer that sets
+  ``wants_coarse_space``).
+- :func:`cg_amg_factorizer`: scipy's CG per load case with pyamg smoothed aggregation on the P2
+  matrix itself (rigid-body modes as ``near_nullspace``); the earlier path, kept for the
+  benchmarks' comparison and for callers that have only the matrix.
 
 Why not a direct solver for everything: PARDISO's Cholesky factor of a 3D P2 problem grows
 like n^(4/3); the sharp foot at 871,710 DOF peaked at 12.0 GB (docs/benchmarks.md).  CG with
@@ -70,6 +78,54 @@ def choose(n_dofs: int, budget: Optional[float] = None) -> str:
     if n_dofs < MIN_ITERATIVE_DOFS or direct_peak_bytes(n_dofs) <= budget:
         return "direct"
     return "iterative"
+
+
+def cg_p1mg_factorizer(U: sp.csr_matrix, coarse=None, rtol: float = RTOL,
+                       progress: Optional[Callable[[str], None]] = None):
+    """CG on the 6 load cases in lockstep, preconditioned by the P2 / P1 / smoothed-aggregation V-cycle.
+
+    ``coarse`` is a :class:`linkfea.coarse.CoarseSpace` or a function that returns one (built
+    only here, when the iterative path is taken).
+    """
+    from .krylov import cg_columns
+    from .multigrid import p1_sa_hierarchy
+
+    say = progress or (lambda msg: None)
+    if coarse is None:
+        raise SolverError("the iterative solver needs the P1 coarse space of the link (solve through solve_link)")
+    t0 = time.perf_counter()
+    A = symmetric_from_upper(U).tocsr()
+    A.sort_indices()
+    n = A.shape[0]
+    say(f"solve: multigrid setup ({n:,} DOF)")
+    space = coarse() if callable(coarse) else coarse
+    h = p1_sa_hierarchy(A, space.P, space.near_nullspace)
+    setup = time.perf_counter() - t0
+    stats: dict = {"method": "CG on the load cases in lockstep; V-cycle: Chebyshev on P2, P1 Galerkin level, "
+                             "pyamg smoothed aggregation (rigid-body modes)",
+                   "rtol": rtol, "levels": len(h.sizes), "level_sizes": h.sizes,
+                   "operator_complexity": h.operator_complexity(), "setup_seconds": setup,
+                   "iterations": [], "relative_residual": []}
+    log.info("multigrid: %d levels %s, setup %.1f s", len(h.sizes), h.sizes, setup)
+
+    def solve(Bmat):
+        Bmat = np.asarray(Bmat, dtype=float).reshape(n, -1)
+        r = cg_columns(A, Bmat, h.cycle, rtol, MAXITER, progress=say)
+        stats.update(iterations=r.iterations, relative_residual=r.relative_residual, solve_seconds=r.seconds,
+                     history=r.history)
+        bad = [k for k, res in enumerate(r.relative_residual) if res > 1e3 * rtol]
+        if bad:
+            k = bad[0]
+            raise SolverError(f"CG did not converge on load case {k + 1} ({r.iterations[k]} iterations, relative "
+                              f"residual {r.relative_residual[k]:.2e}); use the direct solver (--solver direct)")
+        return r.X
+
+    setattr(solve, "factorizer", "cg+p1mg")  # noqa: B010
+    setattr(solve, "convergence", stats)  # noqa: B010
+    return solve
+
+
+setattr(cg_p1mg_factorizer, "wants_coarse_space", True)  # noqa: B010
 
 
 def cg_amg_factorizer(U: sp.csr_matrix, near_nullspace: Optional[np.ndarray] = None,

@@ -123,7 +123,7 @@ def default_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
     return solve
 
 
-def auto_factorizer(U: sp.csr_matrix, near_nullspace=None, progress=None) -> Callable[[np.ndarray], np.ndarray]:
+def auto_factorizer(U: sp.csr_matrix, coarse=None, progress=None) -> Callable[[np.ndarray], np.ndarray]:
     """The direct factorization if its estimated peak memory fits (:func:`linkfea.iterative.choose`),
     else CG with multigrid; the choice and its figures are recorded in ``solve.choice``."""
     from . import iterative
@@ -131,22 +131,21 @@ def auto_factorizer(U: sp.csr_matrix, near_nullspace=None, progress=None) -> Cal
     n = U.shape[0]
     budget = iterative.available_bytes()
     kind = iterative.choose(n, budget)
-    solve = default_factorizer(U) if kind == "direct" else iterative.cg_amg_factorizer(U, near_nullspace,
-                                                                                       progress=progress)
+    solve = default_factorizer(U) if kind == "direct" else iterative.cg_p1mg_factorizer(U, coarse, progress=progress)
     setattr(solve, "choice", {"chosen": kind, "estimated_direct_peak_gb": iterative.direct_peak_bytes(n) / 1e9,  # noqa: B010
                               "budget_gb": budget / 1e9})
     return solve
 
 
-setattr(auto_factorizer, "wants_near_nullspace", True)  # noqa: B010
+setattr(auto_factorizer, "wants_coarse_space", True)  # noqa: B010
 
 
 def factorizer_named(kind: str) -> Callable:
     """The factorizer of ``--solver``: ``auto`` (by the memory estimate), ``direct`` or ``iterative``."""
     from .errors import LinkFeaError
-    from .iterative import cg_amg_factorizer
+    from .iterative import cg_p1mg_factorizer
 
-    table = {"auto": auto_factorizer, "direct": default_factorizer, "iterative": cg_amg_factorizer}
+    table = {"auto": auto_factorizer, "direct": default_factorizer, "iterative": cg_p1mg_factorizer}
     if kind not in table:
         raise LinkFeaError(f"unknown solver {kind!r}; use auto, direct or iterative")
     return table[kind]
