@@ -32,7 +32,7 @@ import scipy.sparse as sp
 from . import checks
 from .coarse import p1_coarse_space
 from .errors import LinkFeaError, SolverError
-from .frames import Frame, rigid_motion_matrix  # noqa: F401  (imported from here by callers)
+from .frames import Frame, rigid_motion_matrix
 from .materials import Material
 from .options import BLOCK_RATIO, MODES
 

@@ -94,12 +94,13 @@ def cg_p1mg_factorizer(U: sp.csr_matrix, coarse=None, rtol: float = RTOL,
     if coarse is None:
         raise SolverError("the iterative solver needs the P1 coarse space of the link (solve through solve_link)")
     t0 = time.perf_counter()
-    A = symmetric_from_upper(U).tocsr()
-    A.sort_indices()
-    n = A.shape[0]
+    U = sp.csr_matrix(U)
+    U.sort_indices()
+    n = U.shape[0]
     say(f"solve: multigrid setup ({n:,} DOF)")
     space = coarse() if callable(coarse) else coarse
-    h = p1_sa_hierarchy(A, space.P, space.near_nullspace)
+    h = p1_sa_hierarchy(U, space.P, space.near_nullspace)
+    A = h.levels[0].A
     setup = time.perf_counter() - t0
     stats: dict = {"method": "CG on the load cases in lockstep; V-cycle: Chebyshev on P2, P1 Galerkin level, "
                              "pyamg smoothed aggregation (rigid-body modes)",

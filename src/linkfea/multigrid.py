@@ -2,7 +2,7 @@
 
 Level 0 is the P2 system, level 1 its P1 Galerkin operator (:mod:`linkfea.coarse`), the levels
 below are pyamg's smoothed aggregation of the P1 operator with the rigid-body modes; the
-coarsest is factored densely.  Every level smooths with a Chebyshev polynomial in the Jacobi-
+coarsest is factored.  Every level smooths with a Chebyshev polynomial in the Jacobi-
 scaled operator: only matrix products with (n, k) blocks (one pass over the matrix serves all
 load cases), no triangular sweeps, and the same polynomial before and after the coarse
 correction, so the cycle is a symmetric positive definite preconditioner and CG stays valid.
@@ -19,15 +19,17 @@ from typing import List, Optional
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
-CHEBYSHEV_DEGREE = 2
-"""Smoother degree on every level.  Measured on a 116k-DOF bar (rigid mode): degree 2 and 3 need
-about the same CG time (3 converges in fewer iterations, each costs more); 1 is slower."""
+CHEBYSHEV_DEGREE = 1
+"""Smoother degree on every level.  Measured on a 98k-DOF bar (rigid mode, lockstep CG to 1e-8):
+degree 1, 2, 3 take 27, 21, 19 iterations, i.e. 81, 105, 133 products with the P2 matrix (a
+cycle costs 2 d, CG one more), and the CG time follows the products (5.1, 7.1, 7.6 s)."""
 SMOOTHING_RANGE = 30.0
 """The Chebyshev polynomial damps the eigenvalues of ``D^-1 A`` in [lmax / 30, lmax]: the upper
 part of the spectrum, which the coarse level cannot represent (the usual ratio for elasticity)."""
 MAX_COARSE = 600
-"""Unknowns of the coarsest level, factored densely (Cholesky)."""
+"""Unknowns of the coarsest level, factored (sparse LU)."""
 
 
 @dataclass
@@ -42,6 +44,11 @@ class Level:
     R: Optional[sp.csr_matrix] = None
 
 
+def _norm(v: np.ndarray) -> float:
+    # einsum, not BLAS: no thread pool to wait for on a busy machine.
+    return float(np.sqrt(np.einsum("i,i->", v, v)))
+
+
 def largest_eigenvalue(A, dinv: np.ndarray, steps: int = 15, seed: int = 0) -> float:
     """Upper estimate of the largest eigenvalue of ``D^-1 A``: Lanczos on ``D^-1/2 A D^-1/2``, the
     largest Ritz value plus its residual bound (a Ritz value is below the eigenvalue it approaches)."""
@@ -49,14 +56,14 @@ def largest_eigenvalue(A, dinv: np.ndarray, steps: int = 15, seed: int = 0) -> f
     n = A.shape[0]
     steps = min(steps, n)
     v = np.random.default_rng(seed).standard_normal(n)
-    v /= np.linalg.norm(v)
+    v /= _norm(v)
     alpha, beta = np.zeros(steps), np.zeros(steps)
     v_prev, b_prev = np.zeros(n), 0.0
     for k in range(steps):
         w = s * (A @ (s * v)) - b_prev * v_prev
-        alpha[k] = float(v @ w)
+        alpha[k] = float(np.einsum("i,i->", v, w))
         w -= alpha[k] * v
-        beta[k] = float(np.linalg.norm(w))
+        beta[k] = _norm(w)
         if beta[k] <= 1e-12 * abs(alpha[k]) or k == steps - 1:
             steps = k + 1
             break
@@ -104,15 +111,14 @@ class Hierarchy:
         self.levels = [_level(A) for A in operators[:-1]]
         for lev, P in zip(self.levels, prolongations):
             lev.P, lev.R = sp.csr_matrix(P), sp.csr_matrix(P.T)
-        Ac = operators[-1]
-        Ac = Ac.toarray() if sp.issparse(Ac) else np.asarray(Ac)
-        self.coarse = la.cho_factor(0.5 * (Ac + Ac.T))
-        self.sizes = [A.shape[0] for A in operators]
+        # The coarsest level by a sparse LU: no multithreaded BLAS, whose threads wait for a core on a busy machine.
+        self.coarse = spla.splu(sp.csc_matrix(operators[-1]))
+        self.sizes = [int(A.shape[0]) for A in operators]
         self.degree = degree
 
     def cycle(self, B: np.ndarray, k: int = 0) -> np.ndarray:
         if k == len(self.levels):
-            return la.cho_solve(self.coarse, B)
+            return self.coarse.solve(np.asarray(B))
         lev = self.levels[k]
         X, res = chebyshev(lev, B, None, self.degree, want_residual=True)
         E = lev.P @ self.cycle(lev.R @ res, k + 1)
@@ -122,26 +128,42 @@ class Hierarchy:
         return X
 
     def operator_complexity(self) -> float:
-        nnz = [lev.A.nnz for lev in self.levels]
+        """Stored entries of all the levels' operators over the finest one's (the fine level's upper
+        triangle counted as the full matrix)."""
+        nnz = [2 * lev.A.nnz - lev.A.shape[0] if k == 0 else lev.A.nnz for k, lev in enumerate(self.levels)]
         return float(sum(nnz) / nnz[0]) if nnz else 1.0
 
 
-def p1_sa_hierarchy(A: sp.csr_matrix, P1: sp.csr_matrix, B1: np.ndarray, degree: int = CHEBYSHEV_DEGREE) -> Hierarchy:
-    """Level 0 ``A`` (P2), level 1 ``P1^T A P1`` (P1), then pyamg smoothed aggregation of the P1
-    operator with its rigid-body modes ``B1`` (node blocks of 3 DOFs) down to :data:`MAX_COARSE`."""
+def galerkin_from_upper(U: sp.csr_matrix, P: sp.csr_matrix) -> sp.csr_matrix:
+    """``P^T A P`` for the symmetric ``A`` given by its upper triangle ``U``: ``Q + Q^T - P^T D P``
+    with ``Q = P^T U P`` (no full copy of ``A``)."""
+    Q = (P.T @ (U @ P)).tocsr()
+    D = sp.diags(np.asarray(U.diagonal(), dtype=float))
+    Ac = (Q + Q.T - P.T @ (D @ P)).tocsr()
+    Ac.sort_indices()
+    return Ac
+
+
+def p1_sa_hierarchy(U: sp.csr_matrix, P1: sp.csr_matrix, B1: np.ndarray, degree: Optional[int] = None) -> Hierarchy:
+    """Level 0 the P2 system (upper triangle ``U``), level 1 its P1 Galerkin operator, then pyamg
+    smoothed aggregation of the P1 operator with its rigid-body modes ``B1`` (node blocks of 3
+    DOFs) down to :data:`MAX_COARSE`.  Products through MKL where available (:mod:`linkfea.sparse_mkl`)."""
     import pyamg
 
-    Ac = (P1.T @ (A @ P1)).tocsr()
-    Ac = 0.5 * (Ac + Ac.T)
-    Ac.sort_indices()
-    ops, pros = [A, Ac.tocsr()], [P1]
+    from .sparse_mkl import operator
+
+    Ac = galerkin_from_upper(U, P1)
+    ops, pros = [operator(U, symmetric_upper=True), operator(Ac)], [P1]
     if Ac.shape[0] > MAX_COARSE:
         Ab = Ac.tobsr(blocksize=(3, 3)) if Ac.shape[0] % 3 == 0 else Ac
         ml = pyamg.smoothed_aggregation_solver(Ab, B=B1, symmetry="hermitian", strength="symmetric",
-                                               smooth=("jacobi", {"omega": 4.0 / 3.0}), max_coarse=MAX_COARSE,
+                                               smooth=("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}), max_coarse=MAX_COARSE,
                                                keep=False)
-        for lev in ml.levels[1:]:
-            ops.append(lev.A.tocsr())
+        for lev in ml.levels[1:-1]:
+            ops.append(operator(lev.A.tocsr()))
         for lev in ml.levels[:-1]:
             pros.append(lev.P.tocsr())
-    return Hierarchy(ops, pros, degree)
+        ops.append(ml.levels[-1].A)
+    else:
+        ops[-1] = Ac
+    return Hierarchy(ops, pros, CHEBYSHEV_DEGREE if degree is None else degree)

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
+from linkfea import multigrid
 from linkfea.errors import LinkFeaError
 from linkfea.fem import solve_link
 from linkfea.fit import compliance_from_solution
-from linkfea import multigrid
 from linkfea.iterative import cg_amg_factorizer, cg_p1mg_factorizer, choose, direct_peak_bytes
 from linkfea.solvers import auto_factorizer, factorizer_named
 
