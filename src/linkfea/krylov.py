@@ -98,3 +98,4 @@ def cg_columns(A, B: np.ndarray, M: Callable[[np.ndarray], np.ndarray], rtol: fl
     res = B - A @ X
     rel_true = [float(v) for v in np.sqrt(_coldot(res, res)) / np.where(bnorm > 0, bnorm, 1.0)]
     return CGResult(X, iters, rel_true, history, time.perf_counter() - t0)
+
