@@ -236,6 +236,9 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
         B = np.zeros((nf, 6))
         B[pos] = F
     A.sort_indices()
+    # The whole-mesh stiffness and its slices are copies of A's entries: free them before the solve
+    # (about 3 copies of the matrix, the largest share of the iterative path's memory).
+    del U, U_f, U_ff
     timing["assemble"] = time.perf_counter() - t0
 
     report("factor")
