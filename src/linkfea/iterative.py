@@ -51,6 +51,16 @@ def direct_peak_bytes(n_dofs: int) -> float:
     return b0 * (n_dofs / n0) ** (4.0 / 3.0)
 
 
+ITERATIVE_PEAK_BYTES_PER_DOF = 4.1e3
+"""Measured peak memory of the P1-multigrid path per DOF (the structured bar at 172,299 DOF:
+0.71 GB, assembly included; docs/benchmarks.md); it grows linearly with the size."""
+
+
+def iterative_peak_bytes(n_dofs: int) -> float:
+    """Estimated peak memory (bytes) of assembling and solving ``n_dofs`` with the P1-multigrid CG."""
+    return ITERATIVE_PEAK_BYTES_PER_DOF * n_dofs
+
+
 def available_bytes() -> float:
     """Memory the solve may use: ``LINKFEA_MEMORY`` (GB) if set, else 60% of MemAvailable."""
     env = os.environ.get("LINKFEA_MEMORY")

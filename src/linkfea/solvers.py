@@ -108,6 +108,7 @@ def auto_factorizer(U: sp.csr_matrix, coarse=None, progress=None) -> Callable[[n
     kind = iterative.choose(n, budget)
     solve = default_factorizer(U) if kind == "direct" else iterative.cg_p1mg_factorizer(U, coarse, progress=progress)
     setattr(solve, "choice", {"chosen": kind, "estimated_direct_peak_gb": iterative.direct_peak_bytes(n) / 1e9,  # noqa: B010
+                              "estimated_iterative_peak_gb": iterative.iterative_peak_bytes(n) / 1e9,
                               "budget_gb": budget / 1e9})
     return solve
 
