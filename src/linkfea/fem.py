@@ -171,7 +171,10 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     solver : callable, optional
         A factorizer ``solver(U) -> solve(B)``, where ``U`` is the upper
         triangle (CSR) of the SPD system and ``B`` an (n, 6) right-hand side.
-        Defaults to :func:`default_factorizer` (PARDISO, else SuperLU).
+        Defaults to :func:`default_factorizer` (PARDISO, else SuperLU).  A factorizer that sets
+        ``wants_coarse_space`` (the iterative solver) also gets ``coarse``, a function that builds
+        the P1 coarse space of the solved system (:func:`linkfea.coarse.p1_coarse_space`), and
+        ``progress``.
     progress : callable, optional
         Called with a stage name ("assemble", "factor", "solve") when it starts.
     assembler : {"kernel", "skfem"}

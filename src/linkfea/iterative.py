@@ -83,8 +83,8 @@ memory the machine happens to have free (the two paths agree to 1e-9 on the 6x6 
 ITERATIVE_FROM_DOFS = 250_000
 """From this size ``auto`` takes the iterative path even where the factorization would fit: measured
 side by side (docs/benchmarks.md), P1-multigrid CG is as fast as PARDISO at 170k DOF on the sharp
-foot (17.4 s against 18.5 s CPU, 1.48 GB against 2.23 GB peak) and 2.7x faster on a 149k-DOF bar,
-and the factorization's cost grows faster with the size."""
+foot (17.2 s against 18.2 s CPU, 1.26 GB against 1.96 GB peak) and 2x faster on a 149k-DOF bar
+(5.3 s against 10.4 s CPU), and the factorization's cost grows faster with the size."""
 
 
 def choose(n_dofs: int, budget: Optional[float] = None) -> str:
