@@ -70,3 +70,15 @@ def test_the_choice_follows_the_memory_estimate(steel, monkeypatch):
     assert _scaled(compliance_from_solution(small).matrix, compliance_from_solution(big).matrix) < 1e-6
     with pytest.raises(LinkFeaError, match="unknown solver"):
         factorizer_named("gauss")
+
+
+def test_the_choice_takes_the_iterative_path_where_it_is_faster():
+    """Under 150k DOF always direct; from 250k always iterative (faster and lighter, measured);
+    in between by the memory estimate.  Both estimates grow with the size, the iterative one linearly."""
+    from linkfea.iterative import iterative_peak_bytes
+
+    assert choose(149_999, budget=1.0) == "direct"
+    assert choose(200_000, budget=1e12) == "direct" and choose(200_000, budget=1.0) == "iterative"
+    assert choose(250_000, budget=1e12) == "iterative"
+    assert iterative_peak_bytes(2_000_000) == pytest.approx(2 * iterative_peak_bytes(1_000_000))
+    assert iterative_peak_bytes(871_710) < direct_peak_bytes(871_710) / 2
