@@ -37,7 +37,9 @@ log = logging.getLogger(__name__)
 RTOL = 1e-8
 """Relative residual ``||b - A x|| / ||b||`` at which CG stops.  Measured on a 5k-DOF bar: the 6x6
 agrees with the direct solve to 2e-7, 2e-8, 2e-9 at rtol 1e-6, 1e-7, 1e-8 (45-60 iterations at
-1e-8, 20% fewer than at 1e-10), so 1e-8 keeps a wide margin under the 1e-6 the project asks."""
+1e-8, 20% fewer than at 1e-10), so 1e-8 keeps a wide margin under the 1e-6 the project asks.
+The P1-multigrid path at 1e-8: 16-20 iterations on a 149k-DOF bar, 25-31 on the 170k-DOF foot,
+6x6 within 5e-9 of the direct solve."""
 MAXITER = 2000
 
 DIRECT_PEAK_BYTES_AT = (871_710, 12.0e9)
