@@ -31,7 +31,10 @@ SMOOTHING_RANGE = 30.0
 """The Chebyshev polynomial damps the eigenvalues of ``D^-1 A`` in [lmax / 30, lmax]: the upper
 part of the spectrum, which the coarse level cannot represent (the usual ratio for elasticity)."""
 MAX_COARSE = 600
-"""Unknowns of the coarsest level, factored (sparse LU)."""
+"""The aggregation stops once at most this many node blocks are left (pyamg counts block rows: 6 DOFs
+each below P1, one per rigid-body mode); the coarsest level, a few thousand DOFs, is factored (sparse
+LU).  Measured on the 170k-DOF foot: one more aggregation level (2,754 -> 84 DOFs) doubles the CG
+iterations (58 against 31); the LU solves of the 2,754-DOF level cost about 10% of the CG time."""
 
 
 @dataclass
