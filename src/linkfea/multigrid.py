@@ -86,25 +86,32 @@ def _level(A) -> Level:
 def chebyshev(level: Level, res: np.ndarray, X: Optional[np.ndarray], degree: int, want_residual: bool):
     """``X + q(D^-1 A) D^-1 res`` (Chebyshev on [lmax / SMOOTHING_RANGE, lmax]) and, if asked, its residual.
 
-    ``res`` is the residual of ``X`` (``X`` None: zero).  ``degree - 1`` products with ``A``,
-    one more for the residual.
+    ``res`` is the residual of ``X`` (``X`` None: zero); ``X`` is updated in place, ``res`` is not.
+    ``degree - 1`` products with ``A``, one more for the residual; the block updates reuse their
+    arrays (these (n, 6) passes are most of a cycle's time besides the products).
     """
     hi = level.lmax
     lo = hi / SMOOTHING_RANGE
     theta, delta = 0.5 * (hi + lo), 0.5 * (hi - lo)
     sigma = theta / delta
     rho = 1.0 / sigma
-    D = level.dinv * res / theta
-    X = D.copy() if X is None else X + D
+    D = res * (level.dinv / theta)
+    if X is None:
+        X = D.copy()
+    else:
+        X += D
+    tmp = np.empty_like(D) if degree > 1 else None
     for _ in range(1, degree):
-        res = res - level.A @ D
+        AD = level.A @ D
+        res = np.subtract(res, AD, out=AD)  # a new array: the caller's res is left alone
         rho_new = 1.0 / (2.0 * sigma - rho)
         D *= rho_new * rho
-        D += (2.0 * rho_new / delta) * (level.dinv * res)
+        D += np.multiply(res, level.dinv * (2.0 * rho_new / delta), out=tmp)
         X += D
         rho = rho_new
     if want_residual:
-        res = res - level.A @ D
+        AD = level.A @ D
+        res = np.subtract(res, AD, out=AD)
     return X, res
 
 
@@ -128,7 +135,7 @@ class Hierarchy:
         X, res = chebyshev(lev, B, None, self.degree, want_residual=True)
         E = lev.P @ self.cycle(lev.R @ res, k + 1)
         X += E
-        res = res - lev.A @ E
+        res -= lev.A @ E  # res is the smoother's own array
         X, _ = chebyshev(lev, res, X, self.degree, want_residual=False)
         return X
 
