@@ -27,6 +27,12 @@ Measured (lockstep CG to 1e-8, rigid mode): the structured 98k-DOF bar takes 27,
 at degree 1, 2, 3 (81, 105, 133 products; CG 5.1, 7.1, 7.6 s); the sharp foot's unstructured,
 curved 170k-DOF mesh 51 and 31 iterations at degree 1 and 2 (153 and 155 products, 13.9 and
 13.0 s CPU).  Degree 2: as fast on the real part, and fewer iterations where the mesh is harder."""
+AGGREGATION_DEGREE = 6
+"""Smoother degree on the aggregation levels below P1 (small: more smoothing is cheap there).  Where
+the hierarchy has two aggregation levels (links of about 1M DOF and more), degree 2 there made the
+coarse correction weak: forced on the 170k-DOF foot, 58 CG iterations at degree 2, 41 at 6, 38 at
+12 (31 with the first aggregation level solved exactly); on the 149k-DOF bar 50 and 40 (CPU 9.6 and
+8.8 s)."""
 SMOOTHING_RANGE = 30.0
 """The Chebyshev polynomial damps the eigenvalues of ``D^-1 A`` in [lmax / 30, lmax]: the upper
 part of the spectrum, which the coarse level cannot represent (the usual ratio for elasticity)."""
@@ -132,11 +138,12 @@ class Hierarchy:
         if k == len(self.levels):
             return self.coarse.solve(np.asarray(B))
         lev = self.levels[k]
-        X, res = chebyshev(lev, B, None, self.degree, want_residual=True)
+        degree = self.degree if k < 2 else AGGREGATION_DEGREE
+        X, res = chebyshev(lev, B, None, degree, want_residual=True)
         E = lev.P @ self.cycle(lev.R @ res, k + 1)
         X += E
         res -= lev.A @ E  # res is the smoother's own array
-        X, _ = chebyshev(lev, res, X, self.degree, want_residual=False)
+        X, _ = chebyshev(lev, res, X, degree, want_residual=False)
         return X
 
     def operator_complexity(self) -> float:
