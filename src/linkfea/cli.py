@@ -78,7 +78,8 @@ def compute(
     assembler: str = typer.Option("kernel", "--assembler",
                                   help="stiffness assembly: kernel (fast) or skfem (scikit-fem's asm, reference)"),
     solver: str = typer.Option("auto", "--solver", help="linear solver: direct (PARDISO), iterative (CG + "
-                               "multigrid) or auto (direct unless its estimated memory exceeds what is free)"),
+                               "multigrid) or auto (direct under 150k DOF, iterative from 250k, in between "
+                               "direct unless its estimated memory exceeds what is free)"),
     out: Path = typer.Option(Path("out/result.json"), "--out", "-o", help="result JSON; .vtu and .png go beside it"),
     picture: bool = typer.Option(True, "--picture/--no-picture", help="write the .vtu and .png beside the JSON"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or tables"),

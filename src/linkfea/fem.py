@@ -30,8 +30,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import checks
+from .coarse import p1_coarse_space
 from .errors import LinkFeaError, SolverError
-from .frames import Frame, skew
+from .frames import Frame, rigid_motion_matrix
 from .materials import Material
 from .options import BLOCK_RATIO, MODES
 
@@ -91,21 +92,6 @@ class FeaSolution:
     timing: dict = field(default_factory=dict)
     ref_twists: Optional[np.ndarray] = None
     solver: dict = field(default_factory=dict)
-
-
-def rigid_motion_matrix(points: np.ndarray, origin: np.ndarray, axes: np.ndarray) -> np.ndarray:
-    """Nodal displacements (n, 3, 6) of a small rigid motion per unit twist component.
-
-    Twist components are in the frame with rows ``axes``: ``u = R t + (R r) x (x - o)``
-    with ``R = axes.T``.
-    """
-    R = np.asarray(axes, dtype=float).T
-    d = np.asarray(points, dtype=float) - np.asarray(origin, dtype=float)
-    out = np.empty((len(d), 3, 6))
-    out[:, :, :3] = R
-    # (R r) x d = -skew(d) R r
-    out[:, :, 3:] = -skew(d) @ R
-    return out
 
 
 def _block_flags(mesh) -> np.ndarray:
@@ -186,7 +172,10 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     solver : callable, optional
         A factorizer ``solver(U) -> solve(B)``, where ``U`` is the upper
         triangle (CSR) of the SPD system and ``B`` an (n, 6) right-hand side.
-        Defaults to :func:`default_factorizer` (PARDISO, else SuperLU).
+        Defaults to :func:`default_factorizer` (PARDISO, else SuperLU).  A factorizer that sets
+        ``wants_coarse_space`` (the iterative solver) also gets ``coarse``, a function that builds
+        the P1 coarse space of the solved system (:func:`linkfea.coarse.p1_coarse_space`), and
+        ``progress``.
     progress : callable, optional
         Called with a stage name ("assemble", "factor", "solve") when it starts.
     assembler : {"kernel", "skfem"}
@@ -251,11 +240,15 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
         B = np.zeros((nf, 6))
         B[pos] = F
     A.sort_indices()
+    # The whole-mesh stiffness and its slices are copies of A's entries: free them before the solve
+    # (about 3 copies of the matrix, the largest share of the iterative path's memory).
+    del U, U_f, U_ff
     timing["assemble"] = time.perf_counter() - t0
 
     progress("factor")
     t0 = time.perf_counter()
-    solve = _factor(factorizer, A, lambda: _near_nullspace(p2.points, free_dofs, frame, mode), progress)
+    solve = _factor(factorizer, A, lambda: _near_nullspace(p2.points, free_dofs, frame, mode),
+                    lambda: p1_coarse_space(p2, free_dofs, fixed, ref_nodes, frame, mode), progress)
     timing["factor"] = time.perf_counter() - t0
 
     progress("solve")
@@ -284,9 +277,12 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     )
 
 
-def _factor(factorizer, A, near_nullspace, progress):
-    """``factorizer(A)``, with the rigid-body modes for a factorizer that wants them (multigrid)."""
+def _factor(factorizer, A, near_nullspace, coarse, progress):
+    """``factorizer(A)``, with the rigid-body modes or the P1 coarse space (a function that builds
+    it, :func:`linkfea.coarse.p1_coarse_space`) for a factorizer that wants them (multigrid)."""
     try:
+        if getattr(factorizer, "wants_coarse_space", False):
+            return factorizer(A, coarse=coarse, progress=progress)
         if getattr(factorizer, "wants_near_nullspace", False):
             return factorizer(A, near_nullspace=near_nullspace(), progress=progress)
         return factorizer(A)

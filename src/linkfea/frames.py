@@ -33,6 +33,21 @@ def skew(v) -> np.ndarray:
     return S
 
 
+def rigid_motion_matrix(points: np.ndarray, origin: np.ndarray, axes: np.ndarray) -> np.ndarray:
+    """Nodal displacements (n, 3, 6) of a small rigid motion per unit twist component.
+
+    Twist components are in the frame with rows ``axes``: ``u = R t + (R r) x (x - o)``
+    with ``R = axes.T``.
+    """
+    R = np.asarray(axes, dtype=float).T
+    d = np.asarray(points, dtype=float) - np.asarray(origin, dtype=float)
+    out = np.empty((len(d), 3, 6))
+    out[:, :, :3] = R
+    # (R r) x d = -skew(d) R r
+    out[:, :, 3:] = -skew(d) @ R
+    return out
+
+
 def twist_transform(R, p) -> np.ndarray:
     """6x6 map of twists from frame A to frame B.
 

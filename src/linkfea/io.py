@@ -14,7 +14,7 @@ Schema (``"schema": "linkfea.result/1"``)::
     diagnostics  symmetry_error, fit_residual, min_eigenvalue, error_estimate (null unless --convergence),
                  discretization_error (the recovered-stress estimate: diagonal, matrix, bound, raw_diagonal,
                  safety_factor, method, note), sharp_edges (count, note), refinement (with --tolerance)
-    solver       factorizer that ran (pardiso | superlu | cg+amg), fallback_reason (null unless PARDISO
+    solver       factorizer that ran (pardiso | superlu | cg+p1mg | cg+amg), fallback_reason (null unless PARDISO
                  failed), choice (with --solver auto), convergence (CG: levels, iterations, residuals)
     timing       seconds per stage: cad, mesh, assemble, factor, solve, fit, total
     versions     python and package versions

@@ -1,11 +1,19 @@
-"""Conjugate gradients with a smoothed-aggregation multigrid preconditioner (pyamg), and the
-memory estimate that chooses between it and the direct factorization.
+"""Conjugate gradients with multigrid preconditioners, and the memory estimate that chooses
+between the iterative path and the direct factorization.
 
-A factorizer in the sense of :mod:`linkfea.solvers`: it takes the upper triangle (CSR, SPD)
-and returns ``solve(B)``.  Multigrid needs the near null space of the operator, the rigid-body
-motions of the free nodes: :func:`linkfea.fem.solve_link` passes them as ``near_nullspace``
-(a factorizer that sets ``wants_near_nullspace``).  The returned ``solve`` records its
-convergence (iterations and final relative residual per load case) in ``convergence``.
+Factorizers in the sense of :mod:`linkfea.solvers`: they take the upper triangle (CSR, SPD) and
+return ``solve(B)``; the returned ``solve`` records its convergence (iterations and final
+relative residual per load case) in ``convergence``.
+
+- :func:`cg_p1mg_factorizer` (``--solver iterative``): the 6 load cases in lockstep CG
+  (:mod:`linkfea.krylov`) preconditioned by a V-cycle with Chebyshev smoothing on the P2
+  system, its P1 Galerkin operator as the first coarse level (:mod:`linkfea.coarse`) and pyamg
+  smoothed aggregation with the rigid-body modes below (:mod:`linkfea.multigrid`).
+  :func:`linkfea.fem.solve_link` passes the coarse space (a factorizer that sets
+  ``wants_coarse_space``).
+- :func:`cg_amg_factorizer`: scipy's CG per load case with pyamg smoothed aggregation on the P2
+  matrix itself (rigid-body modes as ``near_nullspace``); the earlier path, kept for the
+  benchmarks' comparison and for callers that have only the matrix.
 
 Why not a direct solver for everything: PARDISO's Cholesky factor of a 3D P2 problem grows
 like n^(4/3); the sharp foot at 871,710 DOF peaked at 12.0 GB (docs/benchmarks.md).  CG with
@@ -29,7 +37,9 @@ log = logging.getLogger(__name__)
 RTOL = 1e-8
 """Relative residual ``||b - A x|| / ||b||`` at which CG stops.  Measured on a 5k-DOF bar: the 6x6
 agrees with the direct solve to 2e-7, 2e-8, 2e-9 at rtol 1e-6, 1e-7, 1e-8 (45-60 iterations at
-1e-8, 20% fewer than at 1e-10), so 1e-8 keeps a wide margin under the 1e-6 the project asks."""
+1e-8, 20% fewer than at 1e-10), so 1e-8 keeps a wide margin under the 1e-6 the project asks.
+The P1-multigrid path at 1e-8: 16-20 iterations on a 149k-DOF bar, 25-31 on the 170k-DOF foot,
+6x6 within 5e-9 of the direct solve."""
 MAXITER = 2000
 
 DIRECT_PEAK_BYTES_AT = (871_710, 12.0e9)
@@ -41,6 +51,16 @@ def direct_peak_bytes(n_dofs: int) -> float:
     """Estimated peak memory (bytes) of assembling and factoring ``n_dofs`` with PARDISO."""
     n0, b0 = DIRECT_PEAK_BYTES_AT
     return b0 * (n_dofs / n0) ** (4.0 / 3.0)
+
+
+ITERATIVE_PEAK_BYTES_PER_DOF = 4.1e3
+"""Measured peak memory of the P1-multigrid path per DOF (the structured bar at 172,299 DOF:
+0.71 GB, assembly included; docs/benchmarks.md); it grows linearly with the size."""
+
+
+def iterative_peak_bytes(n_dofs: int) -> float:
+    """Estimated peak memory (bytes) of assembling and solving ``n_dofs`` with the P1-multigrid CG."""
+    return ITERATIVE_PEAK_BYTES_PER_DOF * n_dofs
 
 
 def available_bytes() -> float:
@@ -58,18 +78,75 @@ def available_bytes() -> float:
     return 8e9
 
 
-MIN_ITERATIVE_DOFS = 300_000
-"""Below this size ``auto`` always factors (about 3 GB at 300k DOF): a small link's result then does
-not depend on how much memory the machine happens to have free."""
+MIN_ITERATIVE_DOFS = 150_000
+"""Below this size ``auto`` always factors: a small link's result then does not depend on how much
+memory the machine happens to have free (the two paths agree to 1e-9 on the 6x6 anyway)."""
+
+ITERATIVE_FROM_DOFS = 250_000
+"""From this size ``auto`` takes the iterative path even where the factorization would fit: measured
+side by side (docs/benchmarks.md), P1-multigrid CG is as fast as PARDISO at 170k DOF on the sharp
+foot (17.2 s against 18.2 s CPU, 1.26 GB against 1.96 GB peak) and 2x faster on a 149k-DOF bar
+(5.3 s against 10.4 s CPU), and the factorization's cost grows faster with the size."""
 
 
 def choose(n_dofs: int, budget: Optional[float] = None) -> str:
-    """``"direct"`` if the direct solver's estimated peak fits the budget (or the link is smaller
-    than :data:`MIN_ITERATIVE_DOFS`), else ``"iterative"``."""
+    """``"direct"`` below :data:`MIN_ITERATIVE_DOFS`; ``"iterative"`` from :data:`ITERATIVE_FROM_DOFS`
+    or where the direct solver's estimated peak does not fit the budget; else ``"direct"``."""
     budget = available_bytes() if budget is None else budget
-    if n_dofs < MIN_ITERATIVE_DOFS or direct_peak_bytes(n_dofs) <= budget:
+    if n_dofs < MIN_ITERATIVE_DOFS:
         return "direct"
-    return "iterative"
+    if n_dofs >= ITERATIVE_FROM_DOFS or direct_peak_bytes(n_dofs) > budget:
+        return "iterative"
+    return "direct"
+
+
+def cg_p1mg_factorizer(U: sp.csr_matrix, coarse=None, rtol: float = RTOL,
+                       progress: Optional[Callable[[str], None]] = None):
+    """CG on the 6 load cases in lockstep, preconditioned by the P2 / P1 / smoothed-aggregation V-cycle.
+
+    ``coarse`` is a :class:`linkfea.coarse.CoarseSpace` or a function that returns one (built
+    only here, when the iterative path is taken).
+    """
+    from .krylov import cg_columns
+    from .multigrid import p1_sa_hierarchy
+
+    say = progress or (lambda msg: None)
+    if coarse is None:
+        raise SolverError("the iterative solver needs the P1 coarse space of the link (solve through solve_link)")
+    t0 = time.perf_counter()
+    U = sp.csr_matrix(U)
+    U.sort_indices()
+    n = U.shape[0]
+    say(f"solve: multigrid setup ({n:,} DOF)")
+    space = coarse() if callable(coarse) else coarse
+    h = p1_sa_hierarchy(U, space.P, space.near_nullspace)
+    A = h.levels[0].A
+    setup = time.perf_counter() - t0
+    stats: dict = {"method": "CG on the load cases in lockstep; V-cycle: Chebyshev on P2, P1 Galerkin level, "
+                             "pyamg smoothed aggregation (rigid-body modes)",
+                   "rtol": rtol, "levels": len(h.sizes), "level_sizes": h.sizes,
+                   "operator_complexity": h.operator_complexity(), "setup_seconds": setup,
+                   "iterations": [], "relative_residual": []}
+    log.info("multigrid: %d levels %s, setup %.1f s", len(h.sizes), h.sizes, setup)
+
+    def solve(Bmat):
+        Bmat = np.asarray(Bmat, dtype=float).reshape(n, -1)
+        r = cg_columns(A, Bmat, h.cycle, rtol, MAXITER, progress=say)
+        stats.update(iterations=r.iterations, relative_residual=r.relative_residual, solve_seconds=r.seconds,
+                     history=r.history)
+        bad = [k for k, res in enumerate(r.relative_residual) if res > 1e3 * rtol]
+        if bad:
+            k = bad[0]
+            raise SolverError(f"CG did not converge on load case {k + 1} ({r.iterations[k]} iterations, relative "
+                              f"residual {r.relative_residual[k]:.2e}); use the direct solver (--solver direct)")
+        return r.X
+
+    setattr(solve, "factorizer", "cg+p1mg")  # noqa: B010
+    setattr(solve, "convergence", stats)  # noqa: B010
+    return solve
+
+
+setattr(cg_p1mg_factorizer, "wants_coarse_space", True)  # noqa: B010
 
 
 def cg_amg_factorizer(U: sp.csr_matrix, near_nullspace: Optional[np.ndarray] = None,

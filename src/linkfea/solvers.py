@@ -7,15 +7,14 @@ A factorizer takes the upper triangle (CSR, symmetric positive definite) and ret
 from __future__ import annotations
 
 import logging
-import os
 import warnings
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
 
 from .p2 import symmetric_from_upper
+from .sparse_mkl import point_pypardiso_at_mkl as _point_pypardiso_at_mkl
 
 log = logging.getLogger(__name__)
 
@@ -33,30 +32,6 @@ unrefined Cholesky solution already agrees with it to 3e-11 (relative, reference
 ``iparm(1) = 1`` says the others are given: ``iparm(2) = 3`` parallel nested dissection
 (METIS), ``iparm(10) = 8`` pivot perturbation 1e-8, ``iparm(18) = -1`` report the factor's
 non-zeros, ``iparm(21) = 1`` Bunch-Kaufman pivoting (unused for SPD)."""
-
-
-def _point_pypardiso_at_mkl() -> None:
-    """Tell pypardiso where MKL's ``mkl_rt`` is (``PYPARDISO_MKL_RT``), from the ``mkl`` wheel's file list.
-
-    Without it, importing pypardiso and creating each solver search the whole environment for
-    the library (``glob('**/*mkl_rt*')``), about 0.6 s each on this venv; an explicit setting
-    by the user is kept.
-    """
-    if os.environ.get("PYPARDISO_MKL_RT"):
-        return
-    try:
-        from importlib.metadata import PackageNotFoundError, files
-    except ImportError:  # pragma: no cover
-        return
-    try:
-        found = [f for f in files("mkl") or () if f.name.startswith("libmkl_rt.so") or f.name == "mkl_rt.2.dll"]
-    except PackageNotFoundError:
-        return
-    for f in found:
-        path = Path(str(f.locate())).resolve()
-        if path.is_file():
-            os.environ["PYPARDISO_MKL_RT"] = str(path)
-            return
 
 
 def pardiso_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
@@ -123,7 +98,7 @@ def default_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
     return solve
 
 
-def auto_factorizer(U: sp.csr_matrix, near_nullspace=None, progress=None) -> Callable[[np.ndarray], np.ndarray]:
+def auto_factorizer(U: sp.csr_matrix, coarse=None, progress=None) -> Callable[[np.ndarray], np.ndarray]:
     """The direct factorization if its estimated peak memory fits (:func:`linkfea.iterative.choose`),
     else CG with multigrid; the choice and its figures are recorded in ``solve.choice``."""
     from . import iterative
@@ -131,22 +106,22 @@ def auto_factorizer(U: sp.csr_matrix, near_nullspace=None, progress=None) -> Cal
     n = U.shape[0]
     budget = iterative.available_bytes()
     kind = iterative.choose(n, budget)
-    solve = default_factorizer(U) if kind == "direct" else iterative.cg_amg_factorizer(U, near_nullspace,
-                                                                                       progress=progress)
+    solve = default_factorizer(U) if kind == "direct" else iterative.cg_p1mg_factorizer(U, coarse, progress=progress)
     setattr(solve, "choice", {"chosen": kind, "estimated_direct_peak_gb": iterative.direct_peak_bytes(n) / 1e9,  # noqa: B010
+                              "estimated_iterative_peak_gb": iterative.iterative_peak_bytes(n) / 1e9,
                               "budget_gb": budget / 1e9})
     return solve
 
 
-setattr(auto_factorizer, "wants_near_nullspace", True)  # noqa: B010
+setattr(auto_factorizer, "wants_coarse_space", True)  # noqa: B010
 
 
 def factorizer_named(kind: str) -> Callable:
     """The factorizer of ``--solver``: ``auto`` (by the memory estimate), ``direct`` or ``iterative``."""
     from .errors import LinkFeaError
-    from .iterative import cg_amg_factorizer
+    from .iterative import cg_p1mg_factorizer
 
-    table = {"auto": auto_factorizer, "direct": default_factorizer, "iterative": cg_amg_factorizer}
+    table = {"auto": auto_factorizer, "direct": default_factorizer, "iterative": cg_p1mg_factorizer}
     if kind not in table:
         raise LinkFeaError(f"unknown solver {kind!r}; use auto, direct or iterative")
     return table[kind]

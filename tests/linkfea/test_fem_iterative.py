@@ -1,13 +1,14 @@
-"""The iterative path (CG + pyamg smoothed aggregation) against the direct factorization, and the
-memory-based choice between them."""
+"""The iterative paths (CG + pyamg smoothed aggregation on P2; lockstep CG + the P2 / P1 / aggregation
+V-cycle) against the direct factorization, and the memory-based choice between them."""
 import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
+from linkfea import multigrid
 from linkfea.errors import LinkFeaError
 from linkfea.fem import solve_link
 from linkfea.fit import compliance_from_solution
-from linkfea.iterative import cg_amg_factorizer, choose, direct_peak_bytes
+from linkfea.iterative import cg_amg_factorizer, cg_p1mg_factorizer, choose, direct_peak_bytes
 from linkfea.solvers import auto_factorizer, factorizer_named
 
 
@@ -31,6 +32,25 @@ def test_iterative_and_direct_agree_on_a_small_link(steel, mode):
     assert _scaled(b, a) < 1e-6
 
 
+@pytest.mark.parametrize("mode,max_coarse", [("rigid", 600), ("rigid", 40), ("block", 40)])
+def test_the_p1_multigrid_path_agrees_with_the_direct_solver(steel, mode, max_coarse, monkeypatch):
+    """Same 6x6 to 1e-6; the hierarchy has the P1 level (and aggregation levels below it when the
+    coarsest size allows), every load case converges, and the recorded residuals are true ones."""
+    monkeypatch.setattr(multigrid, "MAX_COARSE", max_coarse)
+    mesh = bar_link_mesh(60.0, 8.0, 6.0, 10, 2, 2, block_length=6.0, nb=1)
+    direct = solve_link(mesh, steel, mode=mode)
+    it = solve_link(mesh, steel, mode=mode, solver=cg_p1mg_factorizer)
+    conv = it.solver["convergence"]
+    assert it.solver["factorizer"] == "cg+p1mg"
+    nv_free = conv["level_sizes"][1]
+    assert nv_free < it.n_dofs / 4  # the P1 level: vertices only
+    assert (conv["levels"] == 2) if max_coarse == 600 else (conv["levels"] >= 3)
+    assert len(conv["iterations"]) == 6 and all(0 < n < 100 for n in conv["iterations"])
+    assert max(conv["relative_residual"]) < (1e-6 if mode == "rigid" else 1e-5)
+    a, b = compliance_from_solution(direct).matrix, compliance_from_solution(it).matrix
+    assert _scaled(b, a) < 1e-6
+
+
 def test_the_choice_follows_the_memory_estimate(steel, monkeypatch):
     """``choose`` scales the measured 12 GB at 871,710 DOF as n^(4/3); ``auto`` records its choice."""
     assert direct_peak_bytes(871_710) == pytest.approx(12.0e9)
@@ -43,10 +63,22 @@ def test_the_choice_follows_the_memory_estimate(steel, monkeypatch):
     monkeypatch.setattr(iterative, "MIN_ITERATIVE_DOFS", 0)
     monkeypatch.setenv("LINKFEA_MEMORY", "1e-6")  # nothing fits: iterative
     small = solve_link(mesh, steel, solver=auto_factorizer)
-    assert small.solver["choice"]["chosen"] == "iterative" and small.solver["factorizer"] == "cg+amg"
+    assert small.solver["choice"]["chosen"] == "iterative" and small.solver["factorizer"] == "cg+p1mg"
     monkeypatch.setenv("LINKFEA_MEMORY", "8")
     big = solve_link(mesh, steel, solver=auto_factorizer)
     assert big.solver["choice"]["chosen"] == "direct" and big.solver["factorizer"] in ("pardiso", "superlu")
     assert _scaled(compliance_from_solution(small).matrix, compliance_from_solution(big).matrix) < 1e-6
     with pytest.raises(LinkFeaError, match="unknown solver"):
         factorizer_named("gauss")
+
+
+def test_the_choice_takes_the_iterative_path_where_it_is_faster():
+    """Under 150k DOF always direct; from 250k always iterative (faster and lighter, measured);
+    in between by the memory estimate.  Both estimates grow with the size, the iterative one linearly."""
+    from linkfea.iterative import iterative_peak_bytes
+
+    assert choose(149_999, budget=1.0) == "direct"
+    assert choose(200_000, budget=1e12) == "direct" and choose(200_000, budget=1.0) == "iterative"
+    assert choose(250_000, budget=1e12) == "iterative"
+    assert iterative_peak_bytes(2_000_000) == pytest.approx(2 * iterative_peak_bytes(1_000_000))
+    assert iterative_peak_bytes(871_710) < direct_peak_bytes(871_710) / 2
