@@ -23,7 +23,8 @@ from .stages.goodness import goodness
 from .stages.kinds import kind_of
 from .stages.locate import locate
 from .stages.observability import observability
-from .stages.problem import build_problem
+from .stages.noise import check_stated, estimated
+from .stages.problem import build_problem, with_weights
 from .stages.record import build_report
 from .stages.select import select
 from .stages.thresholds import DEFAULT_ALPHA
@@ -64,15 +65,26 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     if isinstance(data, (str, os.PathLike)):
         data = read_csv(data)
     s = build_problem(model, data, kind_of(data), effects)
-    cal = calibrate(s, log)
-    obs = observability(s, cal, log)
-    chosen = select(s, cal, obs, alpha, max_effects, folds, log)
-    fit = goodness(s, obs, chosen, alpha)
+    terms = dict(s.terms)
+    cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, log)
+    nc = check_stated(s, chosen.sel.final, alpha)
+    if nc is not None and nc.rescale:
+        # the stated sigmas look too small and the excess is noise-like: the tests again, at the residuals' scale
+        if log:
+            log(f"stated sigmas look too small (x{nc.scale[0]:.2f} translations, x{nc.scale[1]:.2f} rotations): "
+                "selecting again at that scale")
+        s = with_weights(s, terms, s.weights.scaled(*nc.scale, s.weights.source + f", x{nc.scale[0]:.3g} "
+                                                    f"translations, x{nc.scale[1]:.3g} rotations (see noise)"))
+        cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, log)
+        nc = check_stated(s, chosen.sel.final, alpha, nc.scale)
     loc = locate(s, chosen, fit)
     table = candidates(s, obs, chosen)
     conf = confounding(s.prob, chosen.sel, obs.sens, cal.cols, table.entries, alpha, chosen.rivals)
-    rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, verdict(s, cal, chosen, fit),
+    v = verdict(s, cal, chosen, fit)
+    v = dataclasses.replace(v, flags=v.flags + (nc.flags if nc is not None else []))
+    rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, v,
                        model_name=model_name or "<model>", alpha=alpha, folds=folds)
+    rep = dataclasses.replace(rep, noise=nc.record() if nc is not None else estimated(s, fit.scales))
     rows = None
     if suggest:
         sg, rep = next_measurements(s, chosen, fit, rep, suggest, forces_only)
@@ -80,3 +92,11 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     rep = dataclasses.replace(rep, summary=summary(rep))
     return Diagnosis(rep, updated_model(s, chosen), s.U, loc.per_before, loc.per_after, rows,
                      covariance.record(s.prob, s.pred, chosen.sel.final))
+
+
+def _name(s, alpha, max_effects, folds, log):
+    """Stages 1-4: calibration, observability, selection, goodness of fit."""
+    cal = calibrate(s, log)
+    obs = observability(s, cal, log)
+    chosen = select(s, cal, obs, alpha, max_effects, folds, log)
+    return cal, obs, chosen, goodness(s, obs, chosen, alpha)

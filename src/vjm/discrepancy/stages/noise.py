@@ -1,0 +1,163 @@
+"""Stage 4b: the noise the file states, checked against the final model's residuals.
+
+With stated sigmas the residuals of a right model, whitened by them, have
+unit variance: per component group (translations, rotations) the sum of
+squares ``RSS_g`` of the ``n_g`` residuals is chi-square with about
+``n_g - k n_g / n`` degrees of freedom.  A ratio ``s_g^2 = RSS_g / dof_g``
+outside that distribution's central ``1 - alpha`` range says the stated sigma
+looks ``s_g`` times too small (or too large).
+
+Larger residuals than stated have two causes the ratio alone cannot tell
+apart: noise larger than stated, or an effect the model lacks (outside the
+library).  The **structure test** tells them apart where the design allows:
+at each posture, each component's residuals are regressed on the applied
+wrench (a free local compliance correction, linear in the load); an F test
+of the final model against final model + these local corrections,
+``F = ((RSS_g - RSS_local)/p) / (RSS_local/dof_local)``, does not depend on
+the noise level.  Noise leaves nothing for the local corrections; a missing
+effect that is not linear in the load at a posture (a contact that stiffens,
+hysteresis that remembers the previous load, a backlash) does.
+
+Rule (documented in docs/discrepancy.md): when a group's residuals are
+significantly larger than stated **and** the structure test can be made
+(more loads at a posture than wrench components) **and** finds no
+structure, the stated sigma of that group is taken as too small: the
+selection is run again with it multiplied by ``max(1, s_g)``, so a
+misstated noise level is not named as an effect, and the verdict is
+flagged.  Otherwise (structure found, or no test possible) the stated sigma
+stands: the lack of fit is reported ``unexplained`` as before.  Sigmas that
+look too large are flagged only (the tests are then conservative).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from ..fit.select import FitResult
+from .problem import Setup
+
+#: the structure test needs at least this many residual degrees of freedom in a group
+MIN_LOCAL_DOF = 10
+GROUPS = (("t", "sigma_t", slice(0, 3), 1e3, "um"), ("r", "sigma_r", slice(3, 6), 1e6, "urad"))
+
+
+@dataclass(frozen=True)
+class NoiseCheck:
+    """The stated sigmas against the final residuals, per group; ``scale`` the factors the tests used."""
+
+    groups: dict = field(default_factory=dict)  # "t"/"r" -> numbers of the check (report.json "noise")
+    scale: tuple = (1.0, 1.0)  # (translations, rotations): multiplies the stated sigmas in the tests
+    flags: list = field(default_factory=list)
+
+    @property
+    def rescale(self) -> bool:
+        return any(f > 1.0 for f in self.scale)
+
+    def record(self) -> dict:
+        return {"groups": self.groups, "scale_used": list(self.scale)}
+
+
+def residual_matrix(s: Setup, r: np.ndarray) -> np.ndarray:
+    """(n, 6) the whitened residuals ``r`` (measured components, row-major) at their places, NaN elsewhere."""
+    mask = s.data.mask
+    E = np.full(mask.shape, np.nan)
+    E[mask] = r
+    return E
+
+
+def structure_test(s: Setup, E: np.ndarray, cols: slice) -> dict:
+    """F test of the residuals ``E`` (n, 6, whitened) of the components ``cols`` against a free
+    compliance correction linear in the load at each posture: ``{"F", "dof", "p_value"}`` (p None
+    when no posture has more loads than wrench components)."""
+    mask, W, idx, sig = s.data.mask, s.data.W, s.idx, s.weights.sig
+    rss_all = rss_loc = 0.0
+    p = dof = 0
+    for u in range(len(s.U)):
+        at = idx == u
+        for j in range(cols.start, cols.stop):
+            rows = at & mask[:, j]
+            X = W[rows] / sig[rows, j][:, None]  # whitened: a correction c . w in mm is (c . w) / sigma
+            e = E[rows, j]
+            rank = np.linalg.matrix_rank(X) if X.size else 0
+            if e.size <= rank or rank == 0:
+                continue
+            coef, *_ = np.linalg.lstsq(X, e, rcond=None)
+            res = e - X @ coef
+            rss_all += float(e @ e)
+            rss_loc += float(res @ res)
+            p += rank
+            dof += e.size - rank
+    if dof < MIN_LOCAL_DOF or rss_loc <= 0:
+        return {"F": None, "dof": [int(p), int(dof)], "p_value": None}
+    F = (rss_all - rss_loc) / p / (rss_loc / dof)
+    return {"F": float(F), "dof": [int(p), int(dof)], "p_value": float(stats.f.sf(F, p, dof))}
+
+
+def _group_numbers(s: Setup, E: np.ndarray, k: int, n: int, cols, alpha) -> dict | None:
+    mask = s.data.mask[:, cols]
+    e = E[:, cols][mask]
+    if e.size == 0:
+        return None
+    dof = max(e.size - k * e.size / n, 1.0)
+    ratio2 = float(e @ e) / dof
+    lo, hi = stats.chi2.ppf(alpha / 2, dof) / dof, stats.chi2.ppf(1 - alpha / 2, dof) / dof
+    state = "too_small" if ratio2 > hi else "too_large" if ratio2 < lo else "consistent"
+    return {"ratio": float(np.sqrt(ratio2)), "range": [float(np.sqrt(lo)), float(np.sqrt(hi))], "stated": state,
+            "dof": float(dof)}
+
+
+def check_stated(s: Setup, final: FitResult, alpha: float, scale=(1.0, 1.0)) -> NoiseCheck | None:
+    """The stated sigmas (``s.weights`` divided by ``scale``) against ``final``'s residuals; None unless
+    the sigmas of deflection data are stated.  ``alpha``: level of the range and of the structure test."""
+    if not s.weights.sigma_known or s.weights.sig is None:
+        return None
+    E = residual_matrix(s, final.residuals)
+    f6 = np.where(np.arange(6) < 3, scale[0], scale[1])
+    E = E * f6  # in units of the stated sigmas
+    groups, flags, new = {}, [], list(scale)
+    for i, (key, name, cols, unit, uname) in enumerate(GROUPS):
+        g = _group_numbers(s, E, final.k, final.n, cols, alpha)
+        if g is None:
+            continue
+        typical = float(np.median((s.weights.sig / f6)[:, cols][s.data.mask[:, cols]])) * unit
+        g["stated_sigma"] = typical
+        g["unit"] = uname
+        if g["stated"] == "too_small":
+            g["structure"] = st = structure_test(s, E, cols)
+            noise_like = st["p_value"] is not None and st["p_value"] >= alpha
+            g["taken_as_noise"] = bool(noise_like)
+            if noise_like:
+                new[i] = max(scale[i], g["ratio"])
+                flags.append(f"stated {name} looks {g['ratio']:.1f}x too small: the final model's residuals are "
+                             f"{g['ratio']:.2f}x the stated {typical:.3g} {uname} (statistical range "
+                             f"{g['range'][0]:.2f}-{g['range'][1]:.2f}x) with no structure over the loads "
+                             f"(p = {st['p_value']:.2g}); the tests used {g['ratio']:.2f}x the stated {name}")
+            else:
+                why = ("shows structure over the loads at each posture (p = "
+                       f"{st['p_value']:.2g}): an effect the model lacks rather than noise"
+                       if st["p_value"] is not None else
+                       "cannot be told from an effect the model lacks (too few loads per posture for the "
+                       "structure test)")
+                flags.append(f"the final model's residuals are {g['ratio']:.2f}x the stated {name} "
+                             f"({typical:.3g} {uname}); the excess {why}")
+        elif g["stated"] == "too_large":
+            flags.append(f"stated {name} looks {1 / g['ratio']:.1f}x too large: the final model's residuals are "
+                         f"{g['ratio']:.2f}x the stated {typical:.3g} {uname} (statistical range "
+                         f"{g['range'][0]:.2f}-{g['range'][1]:.2f}x); the tests are conservative")
+        groups[key] = g
+    return NoiseCheck(groups, tuple(new), flags)
+
+
+def estimated(s: Setup, scales) -> dict:
+    """Unknown sigmas: the fitted noise of each group (``scales``: Goodness.scales), in um / urad."""
+    if s.weights.sig is None or s.weights.sigma_known:
+        return {}
+    sig = s.kind.sigmas(s.weights, scales)
+    out = {}
+    for key, name, cols, unit, uname in GROUPS:
+        m = s.data.mask[:, cols]
+        if m.any():
+            out[key] = {"estimated_sigma": float(np.median(sig[:, cols][m]) * unit), "unit": uname}
+    return {"groups": out}
