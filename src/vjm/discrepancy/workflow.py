@@ -12,7 +12,7 @@ from linkfea.checks import Bounds, integer, number
 
 from ..errors import ArgumentError
 from . import covariance
-from .data import read_csv
+from .data import Deflections, read_csv
 from .diagnosis import Diagnosis
 from .modelops import load_model
 from .stages.calibrate import calibrate
@@ -31,6 +31,7 @@ from .stages.thresholds import DEFAULT_ALPHA
 from .stages.update import updated_model
 from .stages.verdict import verdict
 from .summary import summary
+from .tracker import TrackerNoise
 
 #: valid ranges of diagnose's numeric arguments: a level of 0 or 1 makes every test pass or fail
 ALPHA = Bounds(0, 1, lo_open=True, hi_open=True)
@@ -47,7 +48,8 @@ def check_arguments(alpha=DEFAULT_ALPHA, folds=5, max_effects=3, suggest=0):
 
 
 def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int = 5, max_effects: int = 3,
-             model_name: str | None = None, log=None, suggest: int = 0, forces_only: bool = False) -> Diagnosis:
+             model_name: str | None = None, log=None, suggest: int = 0, forces_only: bool = False,
+             noise: TrackerNoise | None = None) -> Diagnosis:
     """Run the workflow on a model (loaded, or a YAML path) and a data set (:func:`read_csv` output, or a path).
 
     Parameters
@@ -57,6 +59,8 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     model_name : the model's name in the report (default: the file name of a path, else "<model>").
     suggest : number of (posture, load) rows to suggest measuring next (0: none).
     forces_only : suggest force loads only (a rig that cannot apply torques).
+    noise : the translations' sigmas of a laser tracker (:class:`~vjm.discrepancy.tracker.TrackerNoise`:
+        growing with the distance from it, per axis) for deflection data whose file states none.
     """
     alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
     if isinstance(model, (str, os.PathLike)):
@@ -64,6 +68,10 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         model = load_model(model)
     if isinstance(data, (str, os.PathLike)):
         data = read_csv(data)
+    if noise is not None:
+        if not isinstance(data, Deflections):
+            raise ArgumentError("noise: a tracker noise model applies to deflection data (x,y,z,Fx..Mz,dx..rz)")
+        data = noise.apply(data)
     s = build_problem(model, data, kind_of(data), effects)
     terms = dict(s.terms)
     cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, log)
