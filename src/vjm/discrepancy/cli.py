@@ -31,11 +31,11 @@ def run(model_path, data_path, out_dir, force: bool = False, **kw):
 
 def _tracker(position, noise):
     """The TrackerNoise of --tracker and --tracker-noise (both or neither), or None."""
-    from ..errors import ArgumentError
+    from ..errors import VjmError
     from .tracker import TrackerNoise
 
     if (position is None) != (noise is None):
-        raise ArgumentError("--tracker and --tracker-noise go together (the tracker's position and its noise)")
+        raise VjmError("--tracker and --tracker-noise go together (the tracker's position and its noise)")
     return None if position is None else TrackerNoise.parse(position, noise)
 
 

@@ -10,7 +10,7 @@ import os
 
 from linkfea.checks import Bounds, integer, number
 
-from ..errors import ArgumentError
+from ..errors import ArgumentError, VjmError
 from . import covariance
 from .data import Deflections, read_csv
 from .diagnosis import Diagnosis
@@ -70,7 +70,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         data = read_csv(data)
     if noise is not None:
         if not isinstance(data, Deflections):
-            raise ArgumentError("noise: a tracker noise model applies to deflection data (x,y,z,Fx..Mz,dx..rz)")
+            raise VjmError("noise: a tracker noise model applies to deflection data (x,y,z,Fx..Mz,dx..rz)")
         data = noise.apply(data)
     s = build_problem(model, data, kind_of(data), effects)
     terms = dict(s.terms)
