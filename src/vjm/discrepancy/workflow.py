@@ -22,8 +22,8 @@ from .stages.design import next_measurements
 from .stages.goodness import goodness
 from .stages.kinds import kind_of
 from .stages.locate import locate
-from .stages.observability import observability
 from .stages.noise import check_stated, estimated
+from .stages.observability import observability
 from .stages.problem import build_problem, with_weights
 from .stages.record import build_report
 from .stages.select import select
@@ -81,7 +81,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         if log:
             log(f"stated sigmas look too small (x{nc.scale[0]:.2f} translations, x{nc.scale[1]:.2f} rotations): "
                 "selecting again at that scale")
-        s = with_weights(s, terms, s.weights.scaled(*nc.scale, s.weights.source + f", x{nc.scale[0]:.3g} "
+        s = with_weights(s, terms, s.weights.scaled(nc.scale[0], nc.scale[1], s.weights.source + f", x{nc.scale[0]:.3g} "
                                                     f"translations, x{nc.scale[1]:.3g} rotations (see noise)"))
         cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, log)
         nc = check_stated(s, chosen.sel.final, alpha, nc.scale)

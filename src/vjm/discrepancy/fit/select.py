@@ -45,6 +45,8 @@ from typing import Any, Callable
 import numpy as np
 from scipy import optimize, stats
 
+from .components import REWEIGHT_ROUNDS, REWEIGHT_TOL, component_labels, group_fields, group_var
+
 Z95 = 1.959963984540054
 
 
@@ -202,35 +204,6 @@ def _start_vector(problem, names, warm):
     return np.array(x0, dtype=float)
 
 
-def _component_labels(problem: Problem, mask):
-    """(labels (m,) 0..G-1 of the residuals used, G) when the components' variances are fitted apart, else None."""
-    if problem.n_components < 2:
-        return None
-    c = np.asarray(problem.components)
-    c = c if mask is None else c[mask]
-    _, lab = np.unique(c, return_inverse=True)
-    return lab.reshape(-1), int(lab.max()) + 1
-
-
-#: reweighting rounds of a fit with several unknown variance components, and the relative change of
-#: a component's variance below which they have settled
-REWEIGHT_ROUNDS = 6
-REWEIGHT_TOL = 1e-3
-
-
-def _group_var(r, lab, G):
-    rss = np.bincount(lab, r * r, minlength=G)
-    cnt = np.bincount(lab, minlength=G)
-    return rss, cnt, np.maximum(rss / np.maximum(cnt, 1), 1e-300)
-
-
-def _group_fields(r, comp) -> dict:
-    if comp is None:
-        return {}
-    rss, cnt, _ = _group_var(r, *comp)
-    return {"group_rss": tuple(float(v) for v in rss), "group_n": tuple(int(v) for v in cnt)}
-
-
 def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None) -> FitResult:
     """Fit the parameters of ``names`` by nonlinear least squares.
 
@@ -253,7 +226,7 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
     # strictly feasible start for trf: nudge off a bound by a small fraction of the scale
     x0 = np.where(x0 <= lo, lo + 1e-3 * xs, x0)
     x0 = np.where(x0 >= hi, hi - 1e-3 * xs, x0)
-    comp = _component_labels(problem, mask)
+    comp = component_labels(problem, mask)
 
     def raw(u):
         r = problem.residuals(names, u * xs)
@@ -262,7 +235,7 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
     if len(params) == 0:
         r = raw(x0)
         return FitResult(names, x0, np.zeros(0), float(r @ r), r.size, 0, problem.sigma_known, True, r,
-                         **_group_fields(r, comp))
+                         **group_fields(r, comp))
     # per-component weights 1/sd (relative): from the warm fit's variances, else equal
     wg = None
     if comp is not None:
@@ -285,7 +258,7 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
         if comp is None:
             break
         u0 = sol.x
-        new = 1.0 / np.sqrt(_group_var(raw(sol.x), *comp)[2])
+        new = 1.0 / np.sqrt(group_var(raw(sol.x), *comp)[2])
         # settled: the components' relative weights are those the fit's own residuals give
         ratio = new / wg
         wg = new
@@ -313,7 +286,7 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
     tol = 1e-4 * xs
     at = (sol.active_mask != 0) | (theta - lo <= tol) | (hi - theta <= tol)
     return FitResult(names, theta, se, chi2, n, k, problem.sigma_known, bool(sol.success), r,
-                     tuple(int(i) for i in np.flatnonzero(at)), str(sol.message), cov * s2, **_group_fields(r, comp))
+                     tuple(int(i) for i in np.flatnonzero(at)), str(sol.message), cov * s2, **group_fields(r, comp))
 
 
 def compare(problem: Problem, small: FitResult, big: FitResult) -> tuple[float, float]:

@@ -36,7 +36,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from ..data import Deflections
 from ..fit.select import FitResult
+from .kinds import DeflectionKind
 from .problem import Setup
 
 #: the structure test needs at least this many residual degrees of freedom in a group
@@ -60,9 +62,14 @@ class NoiseCheck:
         return {"groups": self.groups, "scale_used": list(self.scale)}
 
 
+def _data(s: Setup) -> Deflections:
+    assert isinstance(s.data, Deflections)
+    return s.data
+
+
 def residual_matrix(s: Setup, r: np.ndarray) -> np.ndarray:
     """(n, 6) the whitened residuals ``r`` (measured components, row-major) at their places, NaN elsewhere."""
-    mask = s.data.mask
+    mask = _data(s).mask
     E = np.full(mask.shape, np.nan)
     E[mask] = r
     return E
@@ -70,7 +77,7 @@ def residual_matrix(s: Setup, r: np.ndarray) -> np.ndarray:
 
 def previous_loads(s: Setup) -> np.ndarray:
     """(n, 6) the wrench of the row before each one in the file when it was at the same posture, else 0."""
-    W, idx = s.data.W, s.idx
+    W, idx = _data(s).W, s.idx
     prev = np.zeros_like(W)
     same = idx[1:] == idx[:-1]
     prev[1:][same] = W[:-1][same]
@@ -80,7 +87,7 @@ def previous_loads(s: Setup) -> np.ndarray:
 def _local_f(s: Setup, E: np.ndarray, cols: slice, X_all: np.ndarray) -> dict:
     """F test of the residuals ``E`` of components ``cols`` against a free correction linear in the
     regressors ``X_all`` (n, k) at each posture (whitened like the residuals)."""
-    mask, idx, sig = s.data.mask, s.idx, s.weights.sig
+    mask, idx, sig = _data(s).mask, s.idx, s.weights.sig
     rss_all = rss_loc = 0.0
     p = dof = 0
     for u in range(len(s.U)):
@@ -110,13 +117,13 @@ def structure_test(s: Setup, E: np.ndarray, cols: slice) -> dict:
     the load) and against one linear in the previous row's wrench at that posture (a memory of the
     previous load: hysteresis, friction); ``p_value`` the smaller one's times 2 (Bonferroni; None when
     neither test can be made: no posture with more loads than wrench components)."""
-    tests = {"load": _local_f(s, E, cols, s.data.W), "previous_load": _local_f(s, E, cols, previous_loads(s))}
+    tests = {"load": _local_f(s, E, cols, _data(s).W), "previous_load": _local_f(s, E, cols, previous_loads(s))}
     ps = [t["p_value"] for t in tests.values() if t["p_value"] is not None]
     return {**tests, "p_value": None if not ps else float(min(1.0, len(ps) * min(ps)))}
 
 
 def _group_numbers(s: Setup, E: np.ndarray, k: int, n: int, cols, alpha) -> dict | None:
-    mask = s.data.mask[:, cols]
+    mask = _data(s).mask[:, cols]
     e = E[:, cols][mask]
     if e.size == 0:
         return None
@@ -131,7 +138,7 @@ def _group_numbers(s: Setup, E: np.ndarray, k: int, n: int, cols, alpha) -> dict
 def check_stated(s: Setup, final: FitResult, alpha: float, scale=(1.0, 1.0)) -> NoiseCheck | None:
     """The stated sigmas (``s.weights`` divided by ``scale``) against ``final``'s residuals; None unless
     the sigmas of deflection data are stated.  ``alpha``: level of the range and of the structure test."""
-    if not s.weights.sigma_known or s.weights.sig is None:
+    if not s.weights.sigma_known or s.weights.sig is None or not isinstance(s.data, Deflections):
         return None
     E = residual_matrix(s, final.residuals)
     f6 = np.where(np.arange(6) < 3, scale[0], scale[1])
@@ -172,12 +179,12 @@ def check_stated(s: Setup, final: FitResult, alpha: float, scale=(1.0, 1.0)) -> 
 
 def estimated(s: Setup, scales) -> dict:
     """Unknown sigmas: the fitted noise of each group (``scales``: Goodness.scales), in um / urad."""
-    if s.weights.sig is None or s.weights.sigma_known:
+    if s.weights.sig is None or s.weights.sigma_known or not isinstance(s.kind, DeflectionKind):
         return {}
     sig = s.kind.sigmas(s.weights, scales)
     out = {}
-    for key, name, cols, unit, uname in GROUPS:
-        m = s.data.mask[:, cols]
+    for key, _name, cols, unit, uname in GROUPS:
+        m = _data(s).mask[:, cols]
         if m.any():
             out[key] = {"estimated_sigma": float(np.median(sig[:, cols][m]) * unit), "unit": uname}
     return {"groups": out}
