@@ -10,18 +10,20 @@ looks ``s_g`` times too small (or too large).
 Larger residuals than stated have two causes the ratio alone cannot tell
 apart: noise larger than stated, or an effect the model lacks (outside the
 library).  The **structure test** tells them apart where the design allows:
-at each posture, each component's residuals are regressed on the applied
-wrench (a free local compliance correction, linear in the load), and on the
-wrench of the row before it at that posture (a memory of the previous load);
+at each posture, each component's residuals are regressed on an offset and
+the applied wrench (a free local correction: a load-independent term plus a
+compliance linear in the load), and on an offset and the wrench of the row
+before it at that posture (a memory of the previous load);
 F tests of the final model against final model + these local corrections,
 ``F = ((RSS_g - RSS_local)/p) / (RSS_local/dof_local)``, do not depend on
 the noise level.  Noise leaves nothing for the local corrections; a missing
-effect that is not linear in the load at a posture (a contact that stiffens,
-a backlash) or that remembers the previous load (hysteresis, friction) does.
+effect that does not depend linearly on the load at a posture (a contact that
+stiffens, a backlash, a force that is not the applied one) or that remembers
+the previous load (hysteresis, friction) does.
 
 Rule (documented in docs/discrepancy.md): when a group's residuals are
 significantly larger than stated **and** the structure test can be made
-(more loads at a posture than wrench components) **and** finds no
+(more loads at a posture than the correction has parameters) **and** finds no
 structure, the stated sigma of that group is taken as too small: the
 selection is run again with it multiplied by ``max(1, s_g)``, so a
 misstated noise level is not named as an effect, and the verdict is
@@ -113,11 +115,14 @@ def _local_f(s: Setup, E: np.ndarray, cols: slice, X_all: np.ndarray) -> dict:
 
 def structure_test(s: Setup, E: np.ndarray, cols: slice) -> dict:
     """Whether the residuals ``E`` (n, 6, whitened) of the components ``cols`` depend on the loads at each
-    posture: F tests against a free correction linear in the applied wrench (an effect not linear in
-    the load) and against one linear in the previous row's wrench at that posture (a memory of the
-    previous load: hysteresis, friction); ``p_value`` the smaller one's times 2 (Bonferroni; None when
-    neither test can be made: no posture with more loads than wrench components)."""
-    tests = {"load": _local_f(s, E, cols, _data(s).W), "previous_load": _local_f(s, E, cols, previous_loads(s))}
+    posture: F tests against a free correction, an offset plus a term linear in the applied wrench (a
+    load-independent term, or an effect not linear in the load), and against an offset plus a term
+    linear in the previous row's wrench at that posture (a memory of the previous load: hysteresis,
+    friction); ``p_value`` the smaller one's times 2 (Bonferroni; None when neither test can be made:
+    no posture with more loads than such a correction has parameters)."""
+    one = np.ones((len(s.idx), 1))  # an offset at each posture (a load-independent term: a weight, a drift)
+    tests = {"load": _local_f(s, E, cols, np.hstack([one, _data(s).W])),
+             "previous_load": _local_f(s, E, cols, np.hstack([one, previous_loads(s)]))}
     ps = [t["p_value"] for t in tests.values() if t["p_value"] is not None]
     return {**tests, "p_value": None if not ps else float(min(1.0, len(ps) * min(ps)))}
 
