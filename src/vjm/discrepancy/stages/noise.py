@@ -145,6 +145,7 @@ def check_stated(s: Setup, final: FitResult, alpha: float, scale=(1.0, 1.0)) -> 
     the sigmas of deflection data are stated.  ``alpha``: level of the range and of the structure test."""
     if not s.weights.sigma_known or s.weights.sig is None or not isinstance(s.data, Deflections):
         return None
+    rerun = any(f != 1.0 for f in scale)
     E = residual_matrix(s, final.residuals)
     f6 = np.where(np.arange(6) < 3, scale[0], scale[1])
     E = E * f6  # in units of the stated sigmas
@@ -162,10 +163,13 @@ def check_stated(s: Setup, final: FitResult, alpha: float, scale=(1.0, 1.0)) -> 
             g["taken_as_noise"] = bool(noise_like)
             if noise_like:
                 new[i] = max(scale[i], g["ratio"])
+                # the second look (after a rerun at ``scale``) reports the scale the tests did use
+                used = scale[i] if rerun else new[i]
                 flags.append(f"stated {name} looks {g['ratio']:.1f}x too small: the final model's residuals are "
                              f"{g['ratio']:.2f}x the stated {typical:.3g} {uname} (statistical range "
                              f"{g['range'][0]:.2f}-{g['range'][1]:.2f}x) and do not depend on the loads "
-                             f"(p = {st['p_value']:.2g}); the tests used {g['ratio']:.2f}x the stated {name}")
+                             f"(p = {st['p_value']:.2g}); the tests used "
+                             + (f"{used:.2f}x the stated {name}" if used > 1.0 else f"the stated {name}"))
             else:
                 why = ("depends on the load at each posture, or on the load before it (p = "
                        f"{st['p_value']:.2g}): an effect the model lacks rather than noise"
