@@ -81,8 +81,8 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         if log:
             log(f"stated sigmas look too small (x{nc.scale[0]:.2f} translations, x{nc.scale[1]:.2f} rotations): "
                 "selecting again at that scale")
-        s = with_weights(s, terms, s.weights.scaled(nc.scale[0], nc.scale[1], s.weights.source + f", x{nc.scale[0]:.3g} "
-                                                    f"translations, x{nc.scale[1]:.3g} rotations (see noise)"))
+        source = f"{s.weights.source}, x{nc.scale[0]:.3g} translations, x{nc.scale[1]:.3g} rotations (see noise)"
+        s = with_weights(s, terms, s.weights.scaled(nc.scale[0], nc.scale[1], source))
         cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, log)
         nc = check_stated(s, chosen.sel.final, alpha, nc.scale)
     loc = locate(s, chosen, fit)
