@@ -111,6 +111,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if a.merge:
         rows = [json.loads(line) for p in a.merge for line in open(p, encoding="utf-8") if line.strip()]
+        rows = list({(r["hidden"] is None, r["set"]): r for r in rows}.values())  # a set run twice counts once
         print(markdown(a.label, summarise(rows)))
         return
     _paths(a.src)
