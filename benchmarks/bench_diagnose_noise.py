@@ -39,8 +39,8 @@ def _paths(src):
 
 
 def one_set(case: str, s: int, work: str) -> dict:
-    import numpy as np  # noqa: F401  (after the path is set)
     import truth as tr
+
     from vjm.discrepancy.workflow import diagnose
 
     if case == "clean":
