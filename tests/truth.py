@@ -46,7 +46,11 @@ refit its own actuator and link scales).
 
 Noise: independent Gaussian on each component, ``sigma_t`` (mm) and
 ``sigma_r`` (rad), written as columns (known sigmas) or left out with every
-row repeated (unknown sigmas, pure error from the repeats).
+row repeated (unknown sigmas, pure error from the repeats).  Defects of the
+noise are made here too (:func:`measure`): a component noisier than the others,
+a laser tracker's noise growing with the distance, a file that states another
+sigma than the real one; per-component sigmas are written as
+``sigma_dx..sigma_rz``.
 
 Units N, mm, rad; wrench order Fx Fy Fz Mx My Mz, twist dx dy dz rx ry rz,
 world axes at the end-effector point (the frame of ``puu.yaml``).
@@ -387,55 +391,85 @@ def level_design(n_postures: int, n_dirs: int, seed: int, levels=(0.5, 1.0), box
 
 @dataclass(frozen=True)
 class Measurements:
-    """Rows of a measurement file: P (n, 3), W (n, 6), T (n, 6) (NaN = not measured), sigmas or None."""
+    """Rows of a measurement file: P (n, 3), W (n, 6), T (n, 6) (NaN = not measured), sigmas or None.
+
+    ``sigma``: (n, 6) per-component stated sigmas (columns ``sigma_dx..sigma_rz``) instead of
+    ``sigma_t``/``sigma_r``; NaN where a component is not measured."""
 
     P: np.ndarray
     W: np.ndarray
     T: np.ndarray
     sigma_t: float | None
     sigma_r: float | None
+    sigma: np.ndarray | None = None
 
     def write(self, path) -> str:
-        """The README's CSV: ``x,y,z,Fx..Mz,dx..rz[,sigma_t[,sigma_r]]``; blank = not measured."""
+        """The README's CSV: ``x,y,z,Fx..Mz,dx..rz[,sigma_t[,sigma_r] | ,sigma_dx..sigma_rz]``; blank = not measured."""
         cols = list(COLUMNS)
         sig = [] if self.sigma_t is None else [self.sigma_t] + ([] if self.sigma_r is None else [self.sigma_r])
         cols += ["sigma_t", "sigma_r"][:len(sig)]  # no sigma_r column when rotations were not measured
+        per = [] if self.sigma is None else [j for j in range(6) if np.isfinite(self.sigma[:, j]).any()]
+        cols += ["sigma_" + COLUMNS[9 + j] for j in per]
         tmp = f"{path}.tmp"
         with open(tmp, "w", newline="", encoding="utf-8") as fh:
             wr = csv.writer(fh)
             wr.writerow(cols)
-            for p, w, t in zip(self.P, self.W, self.T):
+            for k, (p, w, t) in enumerate(zip(self.P, self.W, self.T)):
                 rec = [repr(float(v)) for v in (*p, *w)] + ["" if np.isnan(v) else repr(float(v)) for v in t]
                 rec += [repr(float(v)) for v in sig]
+                rec += ["" if np.isnan(self.sigma[k, j]) else repr(float(self.sigma[k, j])) for j in per]
                 wr.writerow(rec)
         os.replace(tmp, path)
         return str(path)
 
     def __add__(self, other: "Measurements") -> "Measurements":
+        sig = None if self.sigma is None or other.sigma is None else np.vstack([self.sigma, other.sigma])
         return Measurements(np.vstack([self.P, other.P]), np.vstack([self.W, other.W]),
-                            np.vstack([self.T, other.T]), self.sigma_t, self.sigma_r)
+                            np.vstack([self.T, other.T]), self.sigma_t, self.sigma_r, sig)
+
+
+def tracker_sigma(P, origin, a, b) -> np.ndarray:
+    """(n, 3) standard deviation of a laser tracker's dx, dy, dz at points P (mm) seen from ``origin``:
+    ``sqrt(a^2 + (b d)^2)`` per axis, d the distance (mm); ``a`` (mm) and ``b`` (mm per mm) scalars or
+    one per axis (the angle encoders' noise grows with the distance, the range meter's less)."""
+    d = np.linalg.norm(np.asarray(P, float) - np.asarray(origin, float), axis=1)
+    return np.sqrt(np.asarray(a, float) ** 2 + (np.asarray(b, float) * d[:, None]) ** 2) * np.ones((1, 3))
 
 
 def measure(truth: Truth, P, W, seed: int, sigma_t: float = 1e-3, sigma_r: float | None = 1e-5,
-            known_sigmas: bool = True, repeats: int = 1) -> Measurements:
+            known_sigmas: bool = True, repeats: int = 1, axis_factor=None, tracker=None,
+            stated_factor: float = 1.0, per_component: bool = False) -> Measurements:
     """Noisy measurements of ``truth`` at rows (P, W).
 
     ``sigma_r=None``: rotations not measured (blank).  ``known_sigmas=False``:
     no sigma columns; use ``repeats >= 2`` so that the file holds pure error
     (each row measured ``repeats`` times in a row, independent noise).
+
+    Defects of the noise, made here: ``axis_factor`` (6,) multiplies the real noise of each
+    component (dx..rz); ``tracker = (origin, a, b)`` makes the translations' real noise a laser
+    tracker's (:func:`tracker_sigma`); ``stated_factor`` is the stated sigma over the real one (0.5:
+    the file states half the real noise).  With ``axis_factor``, ``tracker`` or ``per_component`` the
+    stated sigmas are written per component (``sigma_dx..sigma_rz``), else as ``sigma_t``/``sigma_r``.
     """
     P = np.repeat(np.asarray(P, dtype=float), repeats, axis=0)
     W = np.repeat(np.asarray(W, dtype=float), repeats, axis=0)
     T = deflections(truth, P, W)
     rng = np.random.default_rng(seed)
-    T[:, :3] += sigma_t * rng.standard_normal((len(P), 3))
+    sd = np.empty((len(P), 6))
+    sd[:, :3] = sigma_t if tracker is None else tracker_sigma(P, *tracker)
+    sd[:, 3:] = np.nan if sigma_r is None else sigma_r
+    if axis_factor is not None:
+        sd = sd * np.asarray(axis_factor, float)
+    T[:, :3] += sd[:, :3] * rng.standard_normal((len(P), 3))
     if sigma_r is None:
         T[:, 3:] = np.nan
     else:
-        T[:, 3:] += sigma_r * rng.standard_normal((len(P), 3))
+        T[:, 3:] += sd[:, 3:] * rng.standard_normal((len(P), 3))
     if not known_sigmas:
         return Measurements(P, W, T, None, None)
-    return Measurements(P, W, T, sigma_t, sigma_r)
+    if axis_factor is not None or tracker is not None or per_component:
+        return Measurements(P, W, T, None, None, stated_factor * sd)
+    return Measurements(P, W, T, stated_factor * sigma_t, None if sigma_r is None else stated_factor * sigma_r)
 
 
 def with_outliers(m: Measurements, fraction: float, rng, size=(20.0, 60.0), sigma_t: float = 1e-3,

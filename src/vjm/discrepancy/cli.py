@@ -38,6 +38,16 @@ def run(model_path, data_path, out_dir, force: bool = False, **kw):
     return dg
 
 
+def _tracker(position, noise):
+    """The TrackerNoise of --tracker and --tracker-noise (both or neither), or None."""
+    from ..errors import VjmError
+    from .tracker import TrackerNoise
+
+    if (position is None) != (noise is None):
+        raise VjmError("--tracker and --tracker-noise go together (the tracker's position and its noise)")
+    return None if position is None else TrackerNoise.parse(position, noise)
+
+
 def _fail(exc: Exception):
     typer.echo(f"error: {one_line(exc)}", err=True)
     raise typer.Exit(2)
@@ -45,7 +55,7 @@ def _fail(exc: Exception):
 
 def diagnose_cmd(
     model: Path = typer.Argument(..., help="model YAML (e.g. data/orthoglide/puu.yaml)"),
-    data: Path = typer.Argument(..., help="measurements CSV: x,y,z[,ox,oy,oz],Fx..Mz,dx..rz[,sigma_t,sigma_r] or x,y,z,quantity,value"),
+    data: Path = typer.Argument(..., help="measurements CSV: x,y,z[,ox,oy,oz],Fx..Mz,dx..rz[,sigma_t,sigma_r | ,sigma_dx..sigma_rz] or x,y,z,quantity,value"),
     out: Path = typer.Option(..., "--out", help="output directory (report.json, report.html, PNGs, model_updated.yaml)"),
     alpha: float = typer.Option(0.01, "--alpha", help="family-wise significance level of each selection round"),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="restrict the candidates (repeatable)"),
@@ -58,12 +68,19 @@ def diagnose_cmd(
                                        "the others; more than 10 %% of such rows: verdict untrusted_data"),
     force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files (they are "
                                                       "never overwritten or deleted)"),
+    tracker: Optional[str] = typer.Option(None, "--tracker", help="X,Y,Z: position (mm) of the laser tracker that "
+                                                                 "measured the translations (with --tracker-noise)"),
+    tracker_noise: Optional[str] = typer.Option(None, "--tracker-noise",
+                                                help="A,B or AX,AY,AZ,BX,BY,BZ: translation sigma "
+                                                     "sqrt(A^2 + (B d)^2) per axis, A mm, B mm/mm, d the distance "
+                                                     "from --tracker"),
 ):
     """Name the physical effect missing from MODEL that the measurements in DATA reveal."""
     try:
+        noise = _tracker(tracker, tracker_noise)
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
                  progress=(lambda s: typer.echo(s, err=True)) if verbose else None,
-                 suggest=suggest, forces_only=forces_only, force=force, outliers=outliers)
+                 suggest=suggest, forces_only=forces_only, force=force, outliers=outliers, noise=noise)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(dg.report.summary)

@@ -14,6 +14,10 @@ Two kinds of CSV are accepted (header row required, comma separated):
   of a 6-dof platform, a rotation vector in rad (world axes, the convention of
   ``vjm stiffness --at x,y,z,rx,ry,rz`` and ``vjm map --orientation``); blank
   is not allowed.  A machine whose platform only translates refuses them.
+  Per-component standard deviations ``sigma_dx,sigma_dy,sigma_dz`` (all three,
+  instead of ``sigma_t``) and ``sigma_rx,sigma_ry,sigma_rz`` (instead of
+  ``sigma_r``) may be given instead (e.g. a tracker noisier along one axis);
+  blank where the component is not measured.
 * **stiffness observations** -- columns ``x,y,z,quantity,value`` with
   ``quantity`` one of ``k_tran`` (mm/N) or ``k_rot`` (rad/(N mm)), and optional
   ``sigma_rel`` (relative standard deviation of ``value``).  The text columns
@@ -60,6 +64,8 @@ POS = ("x", "y", "z")
 #: the commanded platform orientation of a 6-dof platform: a rotation vector, rad (world axes)
 ORIENT = ("ox", "oy", "oz")
 SIGMA = ("sigma_t", "sigma_r")
+#: per-component standard deviations, in twist order (mm, rad)
+SIGMA6 = tuple(f"sigma_{c}" for c in TWIST)
 STIFF = ("x", "y", "z", "quantity", "value")
 QUANTITIES = ("k_tran", "k_rot")
 
@@ -75,6 +81,8 @@ class Deflections:
     W : (n, 6) applied wrenches, N and N mm.
     T : (n, 6) measured twists, mm and rad; NaN where not measured.
     sigma_t, sigma_r : (n,) standard deviations, or None when absent from the file.
+    sigma : (n, 6) per-component standard deviations (columns ``sigma_dx..sigma_rz``), NaN where the
+        file states none for that component; None without such columns.
     rows : (n,) 1-based row numbers in the source file (header = row 1).
     source : file name, for messages.
     """
@@ -88,10 +96,23 @@ class Deflections:
     source: str = "<memory>"
     #: ``meta_`` columns of the file, name -> list of str (carried along, not used)
     meta: dict = field(default_factory=dict)
+    sigma: np.ndarray | None = None
 
     @property
     def n(self) -> int:
         return self.P.shape[0]
+
+    def stated_sigmas(self) -> np.ndarray:
+        """(n, 6) standard deviation the file states for each component (``sigma_t``/``sigma_r`` or
+        ``sigma_dx..sigma_rz``), NaN where it states none."""
+        out = np.full((self.n, 6), np.nan)
+        if self.sigma_t is not None:
+            out[:, :3] = self.sigma_t[:, None]
+        if self.sigma_r is not None:
+            out[:, 3:] = self.sigma_r[:, None]
+        if self.sigma is not None:
+            out = np.where(np.isfinite(self.sigma), self.sigma, out)
+        return out
 
     @property
     def mask(self) -> np.ndarray:
@@ -202,7 +223,7 @@ def _read_table(path):
 #: a number written with a decimal comma (1,5 or -2,5e-3), in a ';' or tab separated file
 _DECIMAL_COMMA = re.compile(r"^([+-]?\d*),(\d+(?:[eE][+-]?\d+)?)$")
 #: every column name a measurement file may hold (matched whatever its case), and the metadata prefix
-KNOWN = POS + ORIENT + WRENCH + TWIST + SIGMA + ("quantity", "value", "sigma_rel", "architecture", "point")
+KNOWN = POS + ORIENT + WRENCH + TWIST + SIGMA + SIGMA6 + ("quantity", "value", "sigma_rel", "architecture", "point")
 META = "meta_"
 
 
@@ -257,9 +278,10 @@ def read_csv(path) -> Deflections | StiffnessObs:
     if missing:
         raise _err(path, hdr_row, missing[0],
                    f"missing column(s) {', '.join(missing)}; expected "
-                   f"{','.join(POS + WRENCH + TWIST)} [+ ox,oy,oz] [+ sigma_t,sigma_r] or {','.join(STIFF)}"
-                   + _dialect_hint(header))
-    _check_columns(path, hdr_row, header, POS + ORIENT + WRENCH + TWIST + SIGMA)
+                   f"{','.join(POS + WRENCH + TWIST)} [+ ox,oy,oz] [+ sigma_t,sigma_r or sigma_dx..sigma_rz] "
+                   f"or {','.join(STIFF)}" + _dialect_hint(header))
+    _check_columns(path, hdr_row, header, POS + ORIENT + WRENCH + TWIST + SIGMA + SIGMA6)
+    _check_sigma_columns(path, hdr_row, header)
     orient = _orientation_columns(path, hdr_row, header)
     if not body:
         raise _err(path, hdr_row + 1, None, "no data rows")
@@ -297,8 +319,43 @@ def read_csv(path) -> Deflections | StiffnessObs:
         raise _err(path, int(rownums[0]), "Fx",
                    "all applied loads are zero in every row: deflections carry no stiffness information")
     meta = {h: [rec[col[h]] for _, rec in body] for h in header if h.startswith(META)}
-    _refuse_duplicates(path, rownums, [P, W, T] + list(sig.values()), meta)
-    return Deflections(P, W, T, sig.get("sigma_t"), sig.get("sigma_r"), rownums, str(path), meta)
+    sig6 = _per_component_sigmas(path, body, col, T, rownums)
+    _refuse_duplicates(path, rownums, [P, W, T] + list(sig.values()) + ([] if sig6 is None else [sig6]), meta)
+    return Deflections(P, W, T, sig.get("sigma_t"), sig.get("sigma_r"), rownums, str(path), meta, sig6)
+
+
+def _check_sigma_columns(path, hdr_row, header) -> None:
+    """One way of stating each group's sigmas: ``sigma_t`` or all of ``sigma_dx,sigma_dy,sigma_dz``
+    (``sigma_r`` or all of ``sigma_rx..sigma_rz``), never both, never some of the three."""
+    for one, three in (("sigma_t", SIGMA6[:3]), ("sigma_r", SIGMA6[3:])):
+        given = [c for c in three if c in header]
+        if given and one in header:
+            raise _err(path, hdr_row, given[0], f"{one} and {given[0]} both given: state the sigmas of "
+                                                f"these components one way ({one}, or {', '.join(three)})")
+        if given and len(given) < 3:
+            missing = [c for c in three if c not in header]
+            raise _err(path, hdr_row, given[0], f"{', '.join(given)} without {', '.join(missing)}: give all three "
+                                                f"({', '.join(three)}) or {one}")
+
+
+def _per_component_sigmas(path, body, col, T, rownums) -> np.ndarray | None:
+    """(n, 6) ``sigma_dx..sigma_rz`` (NaN where not stated), or None without such columns; a measured
+    component needs its sigma, a sigma must be > 0."""
+    if not any(c in col for c in SIGMA6):
+        return None
+    out = np.full(T.shape, np.nan)
+    for j, c in enumerate(SIGMA6):
+        if c not in col:
+            continue
+        for k, (r, rec) in enumerate(body):
+            v = _float(rec[col[c]], path, r, c, False)
+            if np.isnan(v) and np.isfinite(T[k, j]):
+                raise _err(path, r, c, f"value is missing: {TWIST[j]} is measured in this row, so its standard "
+                                       "deviation is needed")
+            if v <= 0:
+                raise _err(path, r, c, f"standard deviation must be > 0, got {v}")
+            out[k, j] = v
+    return out
 
 
 def _orientation_columns(path, hdr_row, header) -> tuple:
@@ -413,6 +470,9 @@ def write_deflections(path, data: Deflections, header_comment: str | None = None
         cols.append("sigma_t")
     if data.sigma_r is not None:
         cols.append("sigma_r")
+    groups = [] if data.sigma is None else [g for g in (slice(0, 3), slice(3, 6)) if np.isfinite(data.sigma[:, g]).any()]
+    for g in groups:
+        cols += list(SIGMA6[g])
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(cols)
 
@@ -425,6 +485,8 @@ def write_deflections(path, data: Deflections, header_comment: str | None = None
             rec.append(fmt(data.sigma_t[k]))
         if data.sigma_r is not None:
             rec.append(fmt(data.sigma_r[k]))
+        for g in groups:
+            rec += [fmt(v) for v in data.sigma[k, g]]
         w.writerow(rec)
     write_text(path, buf.getvalue())
 

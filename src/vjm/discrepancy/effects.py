@@ -344,7 +344,10 @@ class GeometricNonlinearity(Effect):
                    "itself; s = 1 is the model's own geometric nonlinearity, s > 1 a stronger one")
     kind = "additive"
     data_kinds = ("deflection",)
-    params = (Param("scale", start=0.0, scale=1.0, null=0.0, unit="x model nonlinearity"),)
+    # s >= 0: the nonlinear part's direction is the model's own (finite rotations of its legs under the
+    # load); a stronger or weaker nonlinearity scales it, a negative s would reverse the geometry's own
+    # stiffening / softening, which no machine does (a negative fit is another, unexplained, effect)
+    params = (Param("scale", start=0.0, lower=0.0, scale=1.0, null=0.0, unit="x model nonlinearity"),)
 
     #: screening threshold: skip when the model's own nonlinearity is below this fraction of the noise
     screen = 0.1

@@ -221,18 +221,20 @@ class Predictor:
         return mo.kvalues_map(model, self.ctx.P)
 
 
-def deflection_problem(pred: Predictor, data: Deflections, sig_t, sig_r, sigma_known, candidates) -> Problem:
-    """Whitened residual problem for deflection data (measured components only)."""
+def deflection_problem(pred: Predictor, data: Deflections, sig, sigma_known, candidates) -> Problem:
+    """Whitened residual problem for deflection data (measured components only); ``sig`` (n, 6)
+    standard deviations (relative ones when not ``sigma_known``: translations and rotations are then
+    two variance components)."""
     mask = data.mask
-    sig = np.where(np.arange(6) < 3, 1.0, 0.0) * sig_t[:, None] + np.where(np.arange(6) >= 3, 1.0, 0.0) * sig_r[:, None]
     y = data.T[mask]
-    s = sig[mask]
+    s = np.asarray(sig, float)[mask]
     groups = np.broadcast_to(pred.ctx.idx[:, None], mask.shape)[mask]
+    components = np.broadcast_to((np.arange(6) >= 3).astype(int), mask.shape)[mask]
 
     def residuals(names, theta):
         return (y - pred.twists(names, theta)[mask]) / s
 
-    return Problem(residuals, pred.terms, groups, sigma_known, (CALIBRATION,))
+    return Problem(residuals, pred.terms, groups, sigma_known, (CALIBRATION,), components.copy())
 
 
 def stiffness_problem(pred: Predictor, data: StiffnessObs, sig_rel, sigma_known) -> Problem:

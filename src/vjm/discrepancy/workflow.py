@@ -12,9 +12,9 @@ from dataclasses import dataclass
 from linkfea.checks import Bounds, integer, number
 from linkfea.progress import renamed_progress
 
-from ..errors import ArgumentError
+from ..errors import ArgumentError, VjmError
 from . import covariance
-from .data import read_csv
+from .data import Deflections, read_csv
 from .diagnosis import Diagnosis
 from .modelops import load_model
 from .stages.calibrate import calibrate
@@ -25,9 +25,10 @@ from .stages.goodness import Goodness, goodness
 from .stages.kinds import Located, kind_of
 from .stages.levels import level_check
 from .stages.locate import locate
+from .stages.noise import check_stated, estimated
 from .stages.observability import observability
 from .stages.outliers import set_aside, untrusted_model, with_outliers
-from .stages.problem import Setup, build_problem
+from .stages.problem import Setup, build_problem, with_weights
 from .stages.record import Report, build_report
 from .stages.select import Selected, select
 from .stages.strength import weak_design
@@ -35,6 +36,7 @@ from .stages.thresholds import DEFAULT_ALPHA
 from .stages.update import updated_model
 from .stages.verdict import verdict
 from .summary import summary
+from .tracker import TrackerNoise
 
 #: valid ranges of diagnose's numeric arguments: a level of 0 or 1 makes every test pass or fail
 ALPHA = Bounds(0, 1, lo_open=True, hi_open=True)
@@ -68,10 +70,18 @@ class Pass:
 def run_stages(model, data, alpha, effects, folds, max_effects, progress, model_name) -> Pass:
     """Stages 0-8 and the report on the rows of ``data``."""
     s = build_problem(model, data, kind_of(data), effects)
-    cal = calibrate(s, progress)
-    obs = observability(s, cal, progress)
-    chosen = select(s, cal, obs, alpha, max_effects, folds, progress)
-    fit = goodness(s, obs, chosen, alpha)
+    terms = dict(s.terms)
+    cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, progress)
+    nc = check_stated(s, chosen.sel.final, alpha)
+    if nc is not None and nc.rescale:
+        # the stated sigmas look too small and the excess is noise-like: the tests again, at the residuals' scale
+        if progress:
+            progress(f"stated sigmas look too small (x{nc.scale[0]:.2f} translations, x{nc.scale[1]:.2f} rotations): "
+                     "selecting again at that scale")
+        source = f"{s.weights.source}, x{nc.scale[0]:.3g} translations, x{nc.scale[1]:.3g} rotations (see noise)"
+        s = with_weights(s, terms, s.weights.scaled(nc.scale[0], nc.scale[1], source))
+        cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, progress)
+        nc = check_stated(s, chosen.sel.final, alpha, nc.scale)
     lev = level_check(s, chosen, fit)
     if lev is not None:  # reported with the lack of fit it completes
         fit.lack_of_fit["load_levels"] = lev
@@ -79,14 +89,16 @@ def run_stages(model, data, alpha, effects, folds, max_effects, progress, model_
     table = candidates(s, obs, chosen)
     conf = confounding(s.prob, chosen.sel, obs.sens, cal.cols, table.entries, alpha, chosen.rivals)
     v = verdict(s, cal, chosen, fit, lev, weak_design(s, chosen))
+    v = dataclasses.replace(v, flags=v.flags + (nc.flags if nc is not None else []))
     rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, v, model_name=model_name, alpha=alpha, folds=folds)
+    rep = dataclasses.replace(rep, noise=nc.record() if nc is not None else estimated(s, fit.scales))
     return Pass(s, chosen, fit, loc, rep)
 
 
 @renamed_progress("log")
 def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int = 5, max_effects: int = 3,
              model_name: str | None = None, progress=None, suggest: int = 0, forces_only: bool = False,
-             outliers: bool = True) -> Diagnosis:
+             outliers: bool = True, noise: TrackerNoise | None = None) -> Diagnosis:
     """Run the workflow on a model (loaded, or a YAML path) and a data set (:func:`read_csv` output, or a path).
 
     Parameters
@@ -98,6 +110,8 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     forces_only : suggest force loads only (a rig that cannot apply torques).
     outliers : set aside the rows holding a gross outlier and diagnose the others
         (:mod:`~vjm.discrepancy.stages.outliers`); False: every row is used as it is.
+    noise : the translations' sigmas of a laser tracker (:class:`~vjm.discrepancy.tracker.TrackerNoise`:
+        growing with the distance from it, per axis) for deflection data whose file states none.
     progress : called with a line per selection round (``log``: its deprecated name).
     """
     alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
@@ -106,6 +120,10 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         model = load_model(model)
     if isinstance(data, (str, os.PathLike)):
         data = read_csv(data)
+    if noise is not None:
+        if not isinstance(data, Deflections):
+            raise VjmError("noise: a tracker noise model applies to deflection data (x,y,z,Fx..Mz,dx..rz)")
+        data = noise.apply(data)
 
     def run(rows) -> Pass:
         return run_stages(model, rows, alpha, effects, folds, max_effects, progress, model_name or "<model>")
@@ -119,7 +137,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
     if found is not None:
         if progress:
             progress(f"outliers: {len(found.positions)} rows beyond the threshold after {found.passes} diagnoses; "
-                f"{'set aside' if found.accepted else 'kept (part of the gap)'}")
+                     f"{'set aside' if found.accepted else 'kept (part of the gap)'}")
         base = chosen.sel.baseline
         rep = with_outliers(rep, found, base.values(s.prob))
         if found.accepted and found.untrusted:
@@ -130,3 +148,11 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         rows = sg.rows
     rep = dataclasses.replace(rep, summary=summary(rep))
     return Diagnosis(rep, upd, s.U, p.loc.per_before, p.loc.per_after, rows, cov)
+
+
+def _name(s, alpha, max_effects, folds, progress):
+    """Stages 1-4: calibration, observability, selection, goodness of fit."""
+    cal = calibrate(s, progress)
+    obs = observability(s, cal, progress)
+    chosen = select(s, cal, obs, alpha, max_effects, folds, progress)
+    return cal, obs, chosen, goodness(s, obs, chosen, alpha)

@@ -21,8 +21,20 @@ parameter:
 * F test: ``F = ((RSS_0 - RSS_1)/q) / (RSS_1/(n - k_1)) ~ F(q, n - k_1)``;
 * ``BIC = n ln(RSS/n) + k ln n``.
 
+With unknown sigmas and several variance components (``Problem.components``:
+translations and rotations, each with its own unknown variance) every fit is a
+maximum-likelihood fit with the variances profiled out (least squares
+reweighted by each component's ``RSS_g/n_g`` until they settle), and
+
+* likelihood ratio test: ``sum_g n_g ln(RSS_g0 / RSS_g1) ~ chi2(q)``;
+* ``BIC = sum_g n_g ln(RSS_g/n_g) + k ln n``,
+
+so that naming an effect that changes one component's scatter does not move
+the yardstick of the next test.
+
 Parameter covariance is ``s^2 (J^T J)^-1`` at the optimum (``s^2 = 1`` with
-known sigmas, ``RSS/(n-k)`` otherwise); intervals are ``theta +- 1.96 se``.
+known sigmas, ``RSS/(n-k)`` otherwise, J and RSS reweighted by the components'
+variances); intervals are ``theta +- 1.96 se``.
 """
 from __future__ import annotations
 
@@ -34,6 +46,8 @@ import numpy as np
 from scipy import optimize, stats
 
 from linkfea.progress import renamed_progress
+
+from .components import REWEIGHT_ROUNDS, REWEIGHT_TOL, component_labels, group_fields, group_var
 
 Z95 = 1.959963984540054
 
@@ -75,6 +89,8 @@ class Problem:
     groups : (m,) int posture label of each residual (cross-validation unit).
     sigma_known : whether residuals are whitened by known sigmas.
     baseline : names of the always-fitted terms.
+    components : (m,) int variance component of each residual (0, 1, ...), or None for one;
+        used with unknown sigmas only (each component's variance is then fitted apart).
     """
 
     residuals: Callable
@@ -82,6 +98,14 @@ class Problem:
     groups: np.ndarray
     sigma_known: bool
     baseline: tuple = ()
+    components: np.ndarray | None = None
+
+    @property
+    def n_components(self) -> int:
+        """Number of variance components fitted apart (1 with known sigmas)."""
+        if self.sigma_known or self.components is None:
+            return 1
+        return int(np.unique(self.components).size)
 
     @property
     def n(self) -> int:
@@ -109,16 +133,32 @@ class FitResult:
     message: str = ""
     #: parameter covariance ``s^2 (J^T J)^-1`` (k, k); None where no fit was made
     cov: np.ndarray | None = field(repr=False, default=None)
+    #: unknown sigmas with several variance components: RSS (in ``residuals``' units), count and
+    #: fitted variance (RSS_g / n_g) of each component; empty otherwise
+    group_rss: tuple = ()
+    group_n: tuple = ()
 
     @property
     def dof(self) -> int:
         return self.n - self.k
 
     @property
+    def group_var(self) -> tuple:
+        """Fitted variance of each component (RSS_g / n_g, maximum likelihood)."""
+        return tuple(r / max(m, 1) for r, m in zip(self.group_rss, self.group_n))
+
+    @property
+    def log_rss(self) -> float:
+        """``sum_g n_g ln(RSS_g / n_g)`` (one component: ``n ln(RSS/n)``): -2 x the profiled log-likelihood."""
+        if self.group_rss:
+            return float(sum(m * np.log(max(r, 1e-300) / max(m, 1)) for r, m in zip(self.group_rss, self.group_n)))
+        return float(self.n * np.log(max(self.chi2, 1e-300) / self.n))
+
+    @property
     def bic(self) -> float:
         if self.sigma_known:
             return float(self.chi2 + self.k * np.log(self.n))
-        return float(self.n * np.log(max(self.chi2, 1e-300) / self.n) + self.k * np.log(self.n))
+        return float(self.log_rss + self.k * np.log(self.n))
 
     @property
     def reduced_chi2(self) -> float:
@@ -169,6 +209,11 @@ def _start_vector(problem, names, warm):
 def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None) -> FitResult:
     """Fit the parameters of ``names`` by nonlinear least squares.
 
+    With unknown sigmas and several variance components (``problem.components``), each
+    component's residuals are weighted by its fitted variance ``RSS_g/n_g``, refitted until
+    the variances settle (the maximum-likelihood fit with the variances profiled out; ``warm``'s
+    variances start it).
+
     Parameters
     ----------
     mask : optional bool (m,) selecting the residuals used (cross-validation).
@@ -183,22 +228,48 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
     # strictly feasible start for trf: nudge off a bound by a small fraction of the scale
     x0 = np.where(x0 <= lo, lo + 1e-3 * xs, x0)
     x0 = np.where(x0 >= hi, hi - 1e-3 * xs, x0)
+    comp = component_labels(problem, mask)
 
-    # optimise u = theta / scale so that finite-difference steps and tolerances are
-    # relative to each parameter's typical magnitude (compliances are ~1e-7)
-    def fun(u):
+    def raw(u):
         r = problem.residuals(names, u * xs)
         return r if mask is None else r[mask]
 
     if len(params) == 0:
-        r = problem.residuals(names, x0)
-        r = r if mask is None else r[mask]
-        return FitResult(names, x0, np.zeros(0), float(r @ r), r.size, 0, problem.sigma_known, True, r)
-    sol = optimize.least_squares(fun, x0 / xs, bounds=(lo / xs, hi / xs), diff_step=1e-6,
-                                 method="trf", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=100)
-    r = sol.fun
+        r = raw(x0)
+        return FitResult(names, x0, np.zeros(0), float(r @ r), r.size, 0, problem.sigma_known, True, r,
+                         **group_fields(r, comp))
+    # per-component weights 1/sd (relative): from the warm fit's variances, else equal
+    wg = None
+    if comp is not None:
+        wg = np.ones(comp[1])
+        if warm is not None and len(warm.group_rss) == comp[1]:
+            wg = 1.0 / np.sqrt(np.maximum(warm.group_var, 1e-300))
+
+    # optimise u = theta / scale so that finite-difference steps and tolerances are
+    # relative to each parameter's typical magnitude (compliances are ~1e-7)
+    u0 = x0 / xs
+    for _ in range(REWEIGHT_ROUNDS if comp is not None else 1):
+        w = None if wg is None else wg[comp[0]]
+
+        def fun(u, w=w):
+            r = raw(u)
+            return r if w is None else r * w
+
+        sol = optimize.least_squares(fun, u0, bounds=(lo / xs, hi / xs), diff_step=1e-6,
+                                     method="trf", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=100)
+        if comp is None:
+            break
+        u0 = sol.x
+        new = 1.0 / np.sqrt(group_var(raw(sol.x), *comp)[2])
+        # settled: the components' relative weights are those the fit's own residuals give
+        ratio = new / wg
+        wg = new
+        if np.all(np.abs(ratio / ratio[0] - 1.0) <= REWEIGHT_TOL):
+            break
+    r = raw(sol.x) if comp is not None else sol.fun
     n, k = r.size, len(params)
     chi2 = float(r @ r)
+    chi2w = float(sol.fun @ sol.fun)
     # covariance in u (well-conditioned columns), mapped back to theta; the
     # pseudo-inverse gives a parameter the data cannot see a huge (honest) standard error
     Js = sol.jac
@@ -207,7 +278,7 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
         cov = np.linalg.pinv(JtJ, rcond=1e-12, hermitian=True) * np.outer(xs, xs)
     except np.linalg.LinAlgError:
         cov = np.full((k, k), np.inf)
-    s2 = 1.0 if problem.sigma_known else chi2 / max(n - k, 1)
+    s2 = 1.0 if problem.sigma_known else chi2w / max(n - k, 1)
     se = np.sqrt(np.maximum(np.diag(cov) * s2, 0.0))
     zero = np.diag(JtJ) <= 0
     se[zero] = np.inf
@@ -217,11 +288,12 @@ def fit_terms(problem: Problem, names, mask=None, warm: FitResult | None = None)
     tol = 1e-4 * xs
     at = (sol.active_mask != 0) | (theta - lo <= tol) | (hi - theta <= tol)
     return FitResult(names, theta, se, chi2, n, k, problem.sigma_known, bool(sol.success), r,
-                     tuple(int(i) for i in np.flatnonzero(at)), str(sol.message), cov * s2)
+                     tuple(int(i) for i in np.flatnonzero(at)), str(sol.message), cov * s2, **group_fields(r, comp))
 
 
 def compare(problem: Problem, small: FitResult, big: FitResult) -> tuple[float, float]:
-    """(delta_bic, p_value) of ``big`` against the nested ``small``."""
+    """(delta_bic, p_value) of ``big`` against the nested ``small``: chi-square test (known sigmas),
+    F test (one unknown variance) or likelihood-ratio test (several variance components profiled)."""
     q = big.k - small.k
     dbic = big.bic - small.bic
     if q <= 0:
@@ -229,6 +301,9 @@ def compare(problem: Problem, small: FitResult, big: FitResult) -> tuple[float, 
     if problem.sigma_known:
         stat = max(small.chi2 - big.chi2, 0.0)
         p = stats.chi2.sf(stat, q)
+    elif big.group_rss and len(big.group_rss) == len(small.group_rss):
+        # likelihood ratio with each component's variance profiled out
+        p = stats.chi2.sf(max(small.log_rss - big.log_rss, 0.0), q)
     else:
         d2 = big.dof
         if d2 <= 0 or big.chi2 <= 0:
@@ -308,7 +383,7 @@ def lack_of_fit(fr: FitResult, pure_error: tuple | None = None) -> dict:
 
     Known sigmas: ``chi2 ~ chi2(n - k)`` (``chi2_red`` = chi2 / dof).  Unknown
     sigmas: with ``pure_error = (ss_pe, dof_pe)`` from repeated measurements
-    (whitened by the same common guess), ``F = (SS_lof / dof_lof) / (SS_pe /
+    (whitened by the same common guess, or by each component's fitted variance), ``F = (SS_lof / dof_lof) / (SS_pe /
     dof_pe)`` ~ F(dof_lof, dof_pe), reported as ``chi2_red`` (the lack-of-fit
     variance in units of the pure-error variance); without repeats the test
     cannot be made (``p_value`` None and a note).
@@ -321,8 +396,11 @@ def lack_of_fit(fr: FitResult, pure_error: tuple | None = None) -> dict:
     if pure_error is not None:
         ss_pe, dof_pe = pure_error
         dof_lof = dof - dof_pe
+        # several variance components: both in units of each component's fitted variance (pure_error's
+        # ``var``), where the final model's RSS is the number of residuals
+        chi2 = float(sum(fr.group_n)) if fr.group_rss else fr.chi2
         if dof_pe > 0 and dof_lof > 0 and ss_pe > 0:
-            F = max(fr.chi2 - ss_pe, 0.0) / dof_lof / (ss_pe / dof_pe)
+            F = max(chi2 - ss_pe, 0.0) / dof_lof / (ss_pe / dof_pe)
             return {"chi2_red": float(F), "dof": int(dof_lof), "dof_pure_error": int(dof_pe),
                     "p_value": float(stats.f.sf(F, dof_lof, dof_pe)),
                     "test": "F test of lack of fit against pure error from repeated measurements"}

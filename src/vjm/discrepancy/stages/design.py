@@ -14,7 +14,7 @@ def next_measurements(s: Setup, chosen: Selected, fit: Goodness, rep: Report, n:
                       forces_only: bool) -> tuple[Suggestion, Report]:
     """``n`` (posture, load) rows that best separate what this data could not; the report with its
     ``suggest`` entry.  Stiffness observations have no loads to design (VjmError)."""
-    scales = s.kind.design_scales(s.data, s.weights, fit.s2)
+    scales = s.kind.design_scales(s.data, s.weights, fit.scales)
     prob, final = s.prob, chosen.sel.final
     first = chosen.first_round
     vals = {nm: first[nm]["fit"].term_theta(prob, nm) for nm in s.candidates if nm in first}

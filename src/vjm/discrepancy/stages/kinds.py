@@ -25,14 +25,24 @@ from .norms import per_pose, rms, robust_scale
 class Weights:
     """The standard deviations of the observations and where they come from.
 
-    ``sig_t``/``sig_r`` (deflections, mm and rad per row) or ``sig_rel`` (stiffness, relative);
-    with ``sigma_known`` False they are relative weights and the common variance is fitted."""
+    ``sig`` (deflections, (n, 6) mm and rad per row and component; ``sig_t``/``sig_r`` its
+    translation / rotation row medians) or ``sig_rel`` (stiffness, relative); with ``sigma_known``
+    False they are relative weights and the variance of each component group (translations,
+    rotations) is fitted apart."""
 
     sigma_known: bool
     source: str
     sig_t: np.ndarray | None = None
     sig_r: np.ndarray | None = None
     sig_rel: np.ndarray | None = None
+    sig: np.ndarray | None = None
+
+    def scaled(self, factor_t: float, factor_r: float, source: str) -> "Weights":
+        """The deflection weights with the translation and rotation sigmas multiplied by these factors."""
+        f = np.where(np.arange(6) < 3, factor_t, factor_r)
+        sig = self.sig * f
+        return Weights(self.sigma_known, source, np.median(sig[:, :3], axis=1), np.median(sig[:, 3:], axis=1),
+                       None, sig)
 
 
 @dataclass(frozen=True)
@@ -68,8 +78,9 @@ class DeflectionKind:
 
     def noise_t(self, data, model, U, idx, W) -> float:
         """Typical translation noise (mm): the file's sigma_t, else the nominal model's residual scatter."""
-        if data.sigma_t is not None:
-            return float(np.median(data.sigma_t))
+        st = data.stated_sigmas()[:, :3]
+        if np.isfinite(st).any():
+            return float(np.nanmedian(st))
         r0 = data.T[:, :3] - np.einsum("nij,nj->ni", mo.compliance_map(model, U)[idx][:, :3], W)
         return robust_scale(r0)
 
@@ -79,20 +90,29 @@ class DeflectionKind:
             raise _size_error(data, "columns dx..rz", "measured values", n_obs, k_max)
 
     def weights(self, data, pred) -> Weights:
-        has_t = data.mask[:, :3].any()
-        has_r = data.mask[:, 3:].any()
-        if data.sigma_t is not None and (data.sigma_r is not None or not has_r):
-            sig_r = data.sigma_r if data.sigma_r is not None else np.ones(data.n)
-            return Weights(True, "from the file (sigma_t, sigma_r)", data.sigma_t, sig_r)
-        # relative weights of translations and rotations from the nominal model's residual scatter;
-        # the common variance is then a nuisance parameter (F test, BIC with unknown variance)
+        """Known when the file states a sigma for every measured component (``sigma_t``/``sigma_r`` or
+        ``sigma_dx..sigma_rz``, per row); else relative weights: the stated ones where given, the
+        nominal model's robust residual scatter of the group (translations, rotations) where not,
+        and each group's variance is fitted (likelihood-ratio tests with the variances profiled)."""
+        mask = data.mask
+        stated = data.stated_sigmas()
+        if np.all(np.isfinite(stated) | ~mask):
+            sig = np.where(mask, stated, 1.0)
+            return Weights(True, "from the file (" + ("sigma_dx..sigma_rz" if data.sigma is not None
+                                                      else "sigma_t, sigma_r") + ")",
+                           np.median(sig[:, :3], axis=1), np.median(sig[:, 3:], axis=1), None, sig)
         r0 = data.T - pred.twists((), np.zeros(0))
-        st = data.sigma_t if data.sigma_t is not None else np.full(data.n, robust_scale(r0[:, :3]) if has_t else 1.0)
-        sr = data.sigma_r if data.sigma_r is not None else np.full(data.n, robust_scale(r0[:, 3:]) if has_r else 1.0)
-        return Weights(False, "estimated from the residuals (F test)", st, sr)
+        sig = stated.copy()
+        for g in (slice(0, 3), slice(3, 6)):
+            if not np.isfinite(stated[:, g][mask[:, g]]).all():
+                sig[:, g] = robust_scale(r0[:, g]) if mask[:, g].any() else 1.0
+        sig = np.where(np.isfinite(sig), sig, 1.0)
+        return Weights(False, "estimated from the residuals (translations and rotations apart; likelihood-ratio "
+                              "test with the variances profiled)",
+                       np.median(sig[:, :3], axis=1), np.median(sig[:, 3:], axis=1), None, sig)
 
     def problem(self, pred, data, w: Weights, cands):
-        return deflection_problem(pred, data, w.sig_t, w.sig_r, w.sigma_known, cands)
+        return deflection_problem(pred, data, w.sig, w.sigma_known, cands)
 
     def repeat_groups(self, data) -> np.ndarray:
         """Group id of each observation: same posture, same load, same component."""
@@ -103,8 +123,11 @@ class DeflectionKind:
         return np.broadcast_to(g.reshape(-1, 1), mask.shape)[mask] * 6 + comp
 
     def sigmas(self, w: Weights, s2) -> np.ndarray:
-        """(n, 6) standard deviation of each component (the fitted common scale included)."""
-        return np.where(np.arange(6) < 3, w.sig_t[:, None], w.sig_r[:, None]) * np.sqrt(s2)
+        """(n, 6) standard deviation of each component (the fitted scale included: ``s2`` one for all,
+        or (translations, rotations))."""
+        s2 = np.atleast_1d(np.asarray(s2, float))
+        f = np.where(np.arange(6) < 3, s2[0], s2[-1])
+        return w.sig * np.sqrt(f)
 
     def locate(self, data, pred, prob, w: Weights, s2, base, final, U, idx, q) -> Located:
         mask = data.mask

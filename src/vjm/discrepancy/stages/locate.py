@@ -14,5 +14,5 @@ from .select import Selected
 
 def locate(s: Setup, chosen: Selected, fit: Goodness) -> Located:
     """Stage 5: RMS nominal / calibrated / final and the localization of the gap before and after."""
-    return s.kind.locate(s.data, s.pred, s.prob, s.weights, fit.s2, chosen.sel.baseline, chosen.sel.final,
+    return s.kind.locate(s.data, s.pred, s.prob, s.weights, fit.scales, chosen.sel.baseline, chosen.sel.final,
                          s.U, s.idx, s.q)

@@ -106,7 +106,8 @@ def subset(data, keep: np.ndarray):
     return Deflections(data.P[keep], data.W[keep], data.T[keep],
                        None if data.sigma_t is None else data.sigma_t[keep],
                        None if data.sigma_r is None else data.sigma_r[keep], rows, data.source,
-                       {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.meta.items()})
+                       {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.meta.items()},
+                       None if data.sigma is None else data.sigma[keep])
 
 
 def _predictor(full, cur, names) -> Predictor | None:
@@ -132,7 +133,7 @@ def whitened(full, cur, final):
         r = (np.log(np.maximum(k, 1e-300)) - np.log(data.value)) / w.sig_rel
         return r, np.arange(data.n), [QUANTITIES[q] for q in data.quantity]
     mask = data.mask
-    sig = np.where(np.arange(6) < 3, w.sig_t[:, None], w.sig_r[:, None])
+    sig = w.sig  # (n, 6) per row and component
     r = ((data.T - pred.twists(final.names, final.theta)) / sig)[mask]
     pos, comp = np.nonzero(mask)
     return r, pos, [TWIST[c] for c in comp]

@@ -8,6 +8,7 @@ the calibration as baseline.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,3 +77,11 @@ def build_problem(model, data, kind: DataKind, effects=None) -> Setup:
     kind.check_size(data, k_max)
     w = kind.weights(data, pred)
     return Setup(model, data, kind, U, idx, q, ctx, cands, skipped, terms, pred, w, kind.problem(pred, data, w, cands))
+
+
+def with_weights(s: Setup, terms: dict, w: Weights) -> Setup:
+    """``s`` with other weights: a fresh predictor on the same data context (its precomputations kept) with
+    ``terms`` (the terms as :func:`build_problem` made them, before any stage held a parameter)."""
+    pred = Predictor(s.model, s.ctx, dict(terms))
+    return dataclasses.replace(s, terms=pred.terms, pred=pred, weights=w,
+                               prob=s.kind.problem(pred, s.data, w, s.candidates))

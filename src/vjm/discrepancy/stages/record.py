@@ -71,6 +71,8 @@ class Report(Mapping):
     suggest: dict | None = None  # present in report.json only when measurements were suggested
     summary: str = ""
     outliers: dict | None = None  # rows set aside as gross outliers (stages.outliers); None (null) when none were
+    #: the noise: stated sigmas checked against the final residuals (stages/noise.py), or the estimated ones
+    noise: dict = dataclasses.field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The report.json dictionary (keys in the file's order)."""
@@ -107,7 +109,9 @@ def build_report(s: Setup, cal: Calibration, obs: Observability, chosen: Selecte
         rms_before=loc.rms_before, rms_after=loc.rms_after, rms_nominal=loc.rms_nominal, rms_units=loc.units,
         chi2_before=fit.chi2_before, chi2_after=fit.chi2_after, chi2_nominal=fit.chi2_nominal,
         chi2_definition=CHI2_DEFINITION, sigma_source=w.source, sigma_known=bool(w.sigma_known),
-        test="likelihood-ratio chi2 test" if w.sigma_known else "F test",
+        test="likelihood-ratio chi2 test" if w.sigma_known else (
+            "likelihood-ratio test, variances of translations and rotations profiled" if prob.n_components > 1
+            else "F test"),
         alpha=alpha, cv_baseline=sel.cv_baseline, cv_folds=folds,
         calibration=final_vals[CALIBRATION], calibration_held=cal.held, final_params=final_vals,
         localization=loc.before, localization_after=loc.after, candidates=_candidate_entries(table, conf),
