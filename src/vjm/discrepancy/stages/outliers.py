@@ -133,7 +133,10 @@ def whitened(full, cur, final):
         r = (np.log(np.maximum(k, 1e-300)) - np.log(data.value)) / w.sig_rel
         return r, np.arange(data.n), [QUANTITIES[q] for q in data.quantity]
     mask = data.mask
-    sig = w.sig  # (n, 6) per row and component
+    # the file's own sigmas where it states them: the noise check may have widened the weights, and a
+    # share of gross values would then hide among them; the robust scale (flag) takes a misstated level
+    stated = data.stated_sigmas()
+    sig = np.where(np.isfinite(stated), stated, w.sig) if w.sigma_known else w.sig
     r = ((data.T - pred.twists(final.names, final.theta)) / sig)[mask]
     pos, comp = np.nonzero(mask)
     return r, pos, [TWIST[c] for c in comp]
