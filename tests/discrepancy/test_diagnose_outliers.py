@@ -26,7 +26,7 @@ def case(tmp_path_factory):
     """(folder, model path, clean measurements) of the hidden clearance."""
     d = tmp_path_factory.mktemp("outliers")
     given, truth = tr.hide(("clearance", 3e-3))
-    P, W = tr.design(16, 12, seed=11)
+    P, W = tr.design(12, 12, seed=11)
     return d, tr.write_model(given, d / "model.yaml"), tr.measure(truth, P, W, seed=5)
 
 
@@ -61,10 +61,10 @@ def test_three_percent_outliers_set_aside_and_the_clearance_named(three_percent)
     assert tr.names_exactly(rep, ["clearance"]), rep["summary"]
     o = rep["outliers"]
     assert o["rows"] == corrupted  # file row numbers, the comment line counted
-    assert o["n_rows"] == len(corrupted) and o["n_rows_total"] == 192
+    assert o["n_rows"] == len(corrupted) and o["n_rows_total"] == 144
     assert all(abs(e["z"]) > 15 for e in o["observations"])  # 20-60 sigma, standardized by the model without them
-    assert rep["n_observations"] == 6 * (192 - len(corrupted))  # the verdict is computed without them
-    assert f"{len(corrupted)} of 192 rows" in rep["summary"].split(". ")[0]  # the verdict sentence says so
+    assert rep["n_observations"] == 6 * (144 - len(corrupted))  # the verdict is computed without them
+    assert f"{len(corrupted)} of 144 rows" in rep["summary"].split(". ")[0]  # the verdict sentence says so
     assert any("gross outliers" in f for f in rep["flags"])
     html = (d / "robust" / "report.html").read_text(encoding="utf-8")
     assert "Rows set aside as gross outliers" in html and f"<td>{corrupted[0]}</td>" in html
@@ -104,7 +104,7 @@ def test_out_of_library_contact_is_not_turned_into_outliers(case):
     """A Hertz-like contact at the tool (deflection ~ |F|^(2/3) along the force), known sigmas: its largest
     residuals lie beyond the outlier threshold, but setting them aside leaves a gap: `unexplained`."""
     d, model, _ = case
-    P, W = tr.design(16, 12, seed=11)
+    P, W = tr.design(12, 12, seed=11)
     m = tr.measure(tr.Truth(tr.variant(tr.NOMINAL), contact=1.5e-3), P, W, seed=305)
     rep = vjm.diagnose(tr.write_model(tr.NOMINAL, d / "nominal.yaml"), m.write(d / "contact.csv"), alpha=ALPHA).report
     assert rep.verdict == "unexplained", rep.summary

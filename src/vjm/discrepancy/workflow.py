@@ -61,25 +61,29 @@ class Pass:
     fit: Goodness
     loc: Located
     rep: Report
+    scale: tuple | None = None  # the factors the stated sigmas were widened by (stages.noise), None: not stated
 
     @property
     def final(self):
         return self.chosen.sel.final
 
 
-def run_stages(model, data, alpha, effects, folds, max_effects, progress, model_name) -> Pass:
-    """Stages 0-8 and the report on the rows of ``data``."""
+def run_stages(model, data, alpha, effects, folds, max_effects, progress, model_name, scale=None) -> Pass:
+    """Stages 0-8 and the report on the rows of ``data``.  ``scale`` (translations, rotations): the
+    stated sigmas widened by these factors from the start and not looked at again (the outlier stage's
+    reruns keep the first pass's); None: widened only if the noise check finds them too small."""
     s = build_problem(model, data, kind_of(data), effects)
     terms = dict(s.terms)
+    if scale is not None and any(f != 1.0 for f in scale):
+        s = with_weights(s, terms, s.weights.scaled(scale[0], scale[1], _widened(s, scale)))
     cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, progress)
-    nc = check_stated(s, chosen.sel.final, alpha)
-    if nc is not None and nc.rescale:
+    nc = check_stated(s, chosen.sel.final, alpha, (1.0, 1.0) if scale is None else scale)
+    if nc is not None and nc.rescale and scale is None:
         # the stated sigmas look too small and the excess is noise-like: the tests again, at the residuals' scale
         if progress:
             progress(f"stated sigmas look too small (x{nc.scale[0]:.2f} translations, x{nc.scale[1]:.2f} rotations): "
                      "selecting again at that scale")
-        source = f"{s.weights.source}, x{nc.scale[0]:.3g} translations, x{nc.scale[1]:.3g} rotations (see noise)"
-        s = with_weights(s, terms, s.weights.scaled(nc.scale[0], nc.scale[1], source))
+        s = with_weights(s, terms, s.weights.scaled(nc.scale[0], nc.scale[1], _widened(s, nc.scale)))
         cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, progress)
         nc = check_stated(s, chosen.sel.final, alpha, nc.scale)
     lev = level_check(s, chosen, fit)
@@ -92,7 +96,7 @@ def run_stages(model, data, alpha, effects, folds, max_effects, progress, model_
     v = dataclasses.replace(v, flags=v.flags + (nc.flags if nc is not None else []))
     rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, v, model_name=model_name, alpha=alpha, folds=folds)
     rep = dataclasses.replace(rep, noise=nc.record() if nc is not None else estimated(s, fit.scales))
-    return Pass(s, chosen, fit, loc, rep)
+    return Pass(s, chosen, fit, loc, rep, nc.scale if nc is not None else None)
 
 
 @renamed_progress("log")
@@ -125,12 +129,12 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
             raise VjmError("noise: a tracker noise model applies to deflection data (x,y,z,Fx..Mz,dx..rz)")
         data = noise.apply(data)
 
-    def run(rows) -> Pass:
-        return run_stages(model, rows, alpha, effects, folds, max_effects, progress, model_name or "<model>")
+    def run(rows, scale=None) -> Pass:
+        return run_stages(model, rows, alpha, effects, folds, max_effects, progress, model_name or "<model>", scale)
 
     p, found = run(data), None
-    if outliers:
-        p, found = set_aside(p, run, p.s.weights.sigma_known)
+    if outliers:  # the reruns on the rows kept use the first pass's noise scale
+        p, found = set_aside(p, lambda rows, first=p: run(rows, first.scale), p.s.weights.sigma_known)
     s, chosen, rep = p.s, p.chosen, p.rep
     upd = updated_model(s, chosen)
     cov = covariance.record(s.prob, s.pred, chosen.sel.final)
@@ -156,3 +160,8 @@ def _name(s, alpha, max_effects, folds, progress):
     obs = observability(s, cal, progress)
     chosen = select(s, cal, obs, alpha, max_effects, folds, progress)
     return cal, obs, chosen, goodness(s, obs, chosen, alpha)
+
+
+def _widened(s, scale) -> str:
+    """The weights' source once the stated sigmas are widened by ``scale``."""
+    return f"{s.weights.source}, x{scale[0]:.3g} translations, x{scale[1]:.3g} rotations (see noise)"
