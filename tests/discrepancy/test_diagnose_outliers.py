@@ -109,3 +109,14 @@ def test_out_of_library_contact_is_not_turned_into_outliers(case):
     rep = vjm.diagnose(tr.write_model(tr.NOMINAL, d / "nominal.yaml"), m.write(d / "contact.csv"), alpha=ALPHA).report
     assert rep.verdict == "unexplained", rep.summary
     assert rep.outliers is None
+
+
+def test_without_sigmas_or_repeats_rows_are_flagged_but_kept(case):
+    """No sigma columns and no repeated rows: the lack of fit cannot be judged, so a row beyond the threshold
+    cannot be told from the worst part of a missing effect; it is reported, never set aside."""
+    d, model, clean = case
+    bare = tr.Measurements(clean.P, clean.W, clean.T, None, None)
+    m, rows = tr.with_outliers(bare, 0.15, np.random.default_rng(2), sigma_t=1e-3, sigma_r=1e-5)
+    rep = vjm.diagnose(model, m.write(d / "bare.csv"), alpha=ALPHA).report
+    assert rep.verdict != "untrusted_data" and rep.outliers is None
+    assert any("cannot be judged" in f and "every row is kept" in f for f in rep.flags), rep.flags

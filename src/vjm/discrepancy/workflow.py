@@ -134,7 +134,8 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
 
     p, found = run(data), None
     if outliers:  # the reruns on the rows kept use the first pass's noise scale
-        p, found = set_aside(p, lambda rows, first=p: run(rows, first.scale), p.s.weights.sigma_known)
+        p, found = set_aside(p, lambda rows, first=p: run(rows, first.scale), p.s.weights.sigma_known,
+                             judged=p.fit.lack_of_fit.get("p_value") is not None)
     s, chosen, rep = p.s, p.chosen, p.rep
     upd = updated_model(s, chosen)
     cov = covariance.record(s.prob, s.pred, chosen.sel.final)

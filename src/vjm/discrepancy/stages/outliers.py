@@ -60,6 +60,9 @@ class Outliers:
     passes: int  # diagnoses run
     settled: bool  # the set aside is the set the final model flags
     accepted: bool = True  # settled, and the other rows fit once they are set aside: gross errors
+    #: the lack of fit can be judged (stated sigmas, or repeated rows): without it a row beyond the threshold
+    #: cannot be told from the worst part of an effect the model lacks, so nothing is set aside
+    judged: bool = True
 
     @property
     def rows(self) -> list:
@@ -77,7 +80,7 @@ class Outliers:
         """report.json's ``outliers``."""
         return {"rows": self.rows, "n_rows": len(self.positions), "n_rows_total": self.n_rows,
                 "fraction": self.fraction, "limit_fraction": UNTRUSTED, "threshold": self.threshold,
-                "robust_scale": self.scale, "passes": self.passes, "settled": self.settled,
+                "robust_scale": self.scale, "passes": self.passes, "settled": self.settled, "judged": self.judged,
                 "observations": self.entries,
                 "definition": "z = residual of the final model / (sigma x robust scale); robust scale = "
                               "1.4826 MAD of the standardized residuals (at least 1 with stated sigmas); "
@@ -160,7 +163,7 @@ def flag(full, cur, final, sigma_known: bool):
     return tuple(sorted({int(pos[i]) for i in out})), entries, thr, float(scale)
 
 
-def set_aside(first, run, sigma_known: bool):
+def set_aside(first, run, sigma_known: bool, judged: bool = True):
     """(the pass to report, :class:`Outliers` or None) from the first, plain, pass.
 
     ``first`` and every pass ``run(data)`` returns have ``s`` (the stage-0 Setup), ``final`` (the
@@ -172,6 +175,10 @@ def set_aside(first, run, sigma_known: bool):
     got = flag(full, full, first.final, sigma_known)
     if got is None or not got[0]:
         return first, None
+    if not judged:  # flagged and reported, every row kept: the other rows' fit could not say what they are
+        rows = set(file_rows(full.data)[list(got[0])].tolist())
+        return first, Outliers(got[0], [e for e in got[1] if e["row"] in rows], full.data.n, got[2], got[3], 1,
+                               False, False, False)
     seen = {()}
     cur, aside, passes = first, (), 1
     while got is not None and got[0] != aside and got[0] not in seen and passes < MAX_PASSES:
@@ -198,6 +205,11 @@ def set_aside(first, run, sigma_known: bool):
 
 def flags(o: Outliers) -> list:
     """The warnings of the rows set aside (or of the rows beyond the threshold that were kept)."""
+    if not o.judged:
+        return [f"{len(o.positions)} of {o.n_rows} rows hold residuals beyond {o.threshold:.2f} robust sigmas; "
+                "without stated sigmas or repeated rows the lack of fit cannot be judged, so they cannot be told "
+                "from the worst part of an effect the model lacks: every row is kept (state sigma_t, sigma_r to "
+                "have gross errors set aside)"]
     if not o.accepted:
         return [f"{len(o.positions)} of {o.n_rows} rows hold residuals beyond {o.threshold:.2f} robust sigmas, but "
                 f"setting them aside {'does not make the other rows fit' if o.settled else 'uncovers more'} "
