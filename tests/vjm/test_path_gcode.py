@@ -166,3 +166,15 @@ def test_program_number_is_passed_through():
     prog = gc.parse_text(text)
     assert gc.write_text_of(prog) == text and prog.lines[1].words == {}
     assert [m.end.tolist() for m in gc.moves(prog)] == [[0, 0, 0], [5, 0, 0]]
+
+
+def test_toolpath_files_with_a_byte_order_mark_are_read(tmp_path):
+    """Files that start with a UTF-8 byte order mark (as editors and spreadsheets on Windows write them):
+    G-code and CSV toolpaths read as without it."""
+    from vjm.toolpath import points
+
+    (tmp_path / "p.nc").write_bytes(b"\xef\xbb\xbfG21 G90\r\nG1 X0 Y0 Z0 F100\nG1 X2\r\n")
+    (tmp_path / "p.csv").write_bytes(b"\xef\xbb\xbfx,y,z\n0,0,0\n2,0,0\n")
+    for name in ("p.nc", "p.csv"):
+        tp = points.read(str(tmp_path / name))
+        np.testing.assert_allclose(tp.points[[0, -1], :3], [[0, 0, 0], [2, 0, 0]])
