@@ -122,6 +122,27 @@ chains:
   - {name: cz, transforms: [Tz(q0) actuated]}
 """
 
+
+
+def _box(lo, hi) -> list:
+    """The 12 outward triangles of the box from ``lo`` to ``hi`` (mm)."""
+    v = [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    return [t for a, b, c, d in quads for t in ((v[a], v[b], v[c]), (v[a], v[c], v[d]))]
+
+
+def stl(triangles) -> str:
+    """An ASCII STL of the triangles (each three (x, y, z) corners)."""
+    facets = "".join("facet normal 0 0 0\n outer loop\n" + "".join(f"  vertex {p[0]} {p[1]} {p[2]}\n" for p in t)
+                     + " endloop\nendfacet\n" for t in triangles)
+    return f"solid s\n{facets}endsolid s\n"
+
+
+BAR = _box((0, 0, 0), (100, 20, 10))
+#: a flat square closed by four triangles in the plane z = 0 (watertight, no volume)
+FLAT = [((0, 0, 0), (100, 0, 0), (100, 20, 0)), ((0, 0, 0), (100, 20, 0), (0, 20, 0)),
+        ((0, 0, 0), (0, 20, 0), (100, 0, 0)), ((100, 0, 0), (0, 20, 0), (100, 20, 0))]
+STL = "linkfea compute s.stl --base plane:x=0 --tip plane:x=100 --out o/r.json"
 # ------------------------------------------------------------------ the cases
 D = "vjm diagnose {puu} m.csv --out rep"
 S = "vjm simulate {puu} --out s.csv"
@@ -275,6 +296,31 @@ CASES = [
     Case("22", "vjm path {puu} pocket.nc --out o --tolerance nan", "--tolerance must be a number > 0 (mm), got nan"),
     Case("22", "vjm path {puu} p.nc --out o --wrench 10,0,0,0,0,0", "line 3",
          {"p.nc": "G21 G90\nG0 X0 Y0 Z0\nG1 X5 Q3\n"}, "a G-code line with an unknown word Q"),
+    # 30.4: options and inputs that were accepted but should not be
+    Case("30.4", "vjm stiffness m.yaml --at 0,0,0", "m.yaml, line 9: the key 'geometry' is given twice (first on line 6)",
+         {"m.yaml": PLACES["puu"].read_text(encoding="utf-8").replace("actuator:", "geometry: {L: 200.0, r: 40.0}"
+                                                                      "\nactuator:", 1)},
+         "puu.yaml with a second geometry: {L: 200, r: 40} (YAML keeps the last one silently)"),
+    Case("30.4", "vjm map {puu} --orientation 0,0,0.1 --out map",
+         "--orientation 0,0,0.1 rad: the machine's platform only translates (3 dof)"),
+    Case("30.4", "vjm stiffness m.yaml --at 0,0,0", "'(-8)**(1/3)' has no real value ((-8) ** 0.333333",
+         {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "'Tx((-8)**(1/3))', Tz(q0) actuated")},
+         "linear_delta.yaml, first element Tx((-8)**(1/3))"),
+    Case("30.4", "linkfea compute bar --tolerance nan", "--tolerance must be a percentage in (0%, 100%) such as "
+                                                        "1%, or a fraction in (0, 1) such as 0.01; got 'nan'"),
+    Case("30.4", "linkfea compute bar --tolerance nan%", "; got 'nan%'"),
+    Case("30.4", "linkfea compute bar --tolerance 200%", "--tolerance must be a percentage in (0%, 100%) such as "
+                                                         "1%, or a fraction in (0, 1) such as 0.01; got '200%'"),
+    Case("30.4", "linkfea compute bar --tolerance 0", "; got '0'"),
+    Case("30.4", "linkfea compute bar -p length=100 -p length=300", "--param length given twice (100 and 300)"),
+    Case("30.4", STL, "s.stl: expected one body, found 2 separate closed surfaces",
+         {"s.stl": stl(BAR + _box((200, 0, 0), (300, 20, 10)))}, "two disjoint boxes 100 x 20 x 10 mm"),
+    Case("30.4", STL, "s.stl: expected one body, found 2 separate closed surfaces",
+         {"s.stl": stl(BAR + _box((40, -40, 0), (60, 60, 10)))}, "two boxes that cross each other"),
+    Case("30.4", STL, "s.stl: the surface encloses no volume", {"s.stl": stl(FLAT)},
+         "four triangles closing a flat square (watertight, zero volume)"),
+    Case("30.4", STL, "s.stl: a vertex has a non-finite coordinate (nan, 0, 0), in triangle 1",
+         {"s.stl": stl([((float("nan"), 0, 0),) + BAR[0][1:]] + BAR[1:])}, "a box whose first vertex is nan"),
 ]
 
 
