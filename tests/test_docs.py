@@ -1,4 +1,4 @@
-"""The docs site's pages hold code that runs: every ```python block of docs/*.md, as tests/test_readme.py
+"""The docs site's pages hold code that runs: every ```python block of docs/ (any depth), as tests/test_readme.py
 does for the README.
 
 Each block runs in a fresh interpreter from a scratch folder (a block may register an effect or set a
@@ -32,13 +32,13 @@ from readme_sections import for_site, section  # noqa: E402
 
 
 def blocks():
-    """(page, number, code, norun reason or None) of every ```python block in docs/*.md."""
+    """(page, number, code, norun reason or None) of every ```python block of the pages under docs/."""
     out = []
-    for page in sorted(DOCS.glob("*.md")):
+    for page in sorted(DOCS.rglob("*.md")):
         text = page.read_text(encoding="utf-8")
         for k, m in enumerate(FENCE.finditer(text), 1):
             reason = NORUN.search(text[:m.start()][-300:])
-            out.append((page.name, k, m.group(1), reason.group(1) if reason else None))
+            out.append((page.relative_to(DOCS).as_posix(), k, m.group(1), reason.group(1) if reason else None))
     return out
 
 
@@ -74,7 +74,7 @@ def test_docs_block_runs(page, k, code, tmp_path):
 def test_site_pages_take_readme_sections_with_site_links():
     """The site shows the README's own sections (one copy); their links are made site links."""
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    marks = [t for p in DOCS.glob("*.md") for t in re.findall(r"^<!-- README: (.+?) -->$", p.read_text(), re.M)]
+    marks = [t for p in DOCS.rglob("*.md") for t in re.findall(r"^<!-- README: (.+?) -->$", p.read_text(), re.M)]
     assert {"Conventions", "Your files", "Documentation"} <= set(marks)
     for title in marks:
         body = for_site(section(readme, title))
