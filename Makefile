@@ -38,10 +38,12 @@ demo: $(STAMP)
 	$(BIN)/vjm path $(PUU) data/toolpaths/pocket.nc $(LINKS) --leg $(OUT)/leg/result.json --tool 0,0,-60 \
 	    --kc 700 --feed-per-tooth 0.05 --depth 1 --width 8 --split-moves --workers 2 --out $(OUT)/path
 
-# Lint and type-check first (seconds), then the suite.
+# Lint and type-check first (seconds), build the docs site (strict: a broken link or a stale reference
+# fails; output in .cache/site), then the suite.
 test: $(STAMP)
-	$(BIN)/ruff check src tests docs/examples
+	$(BIN)/ruff check src tests docs/examples docs/tools
 	$(BIN)/mypy src
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
 	$(PY) -m pytest -n 2 --dist loadfile
 
 clean:

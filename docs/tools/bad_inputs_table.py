@@ -33,6 +33,11 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
+def _text(text: str) -> str:
+    """A cell of plain markdown text (not code): brackets escaped, so that ``[+ ox,oy,oz]`` is no link."""
+    return _cell(text).replace("[", "\\[").replace("]", "\\]")
+
+
 def _files(case) -> str:
     if case.note:
         return case.note
@@ -53,7 +58,7 @@ def main() -> int:
         with tempfile.TemporaryDirectory() as d:
             res = run(case, Path(d))
         rows.append(f"| {i} | {case.issue} | `{_cell(case.command)}` | {_cell(_files(case))} | {res.status} | "
-                    f"{_cell(res.stderr.strip())} |")
+                    f"{_text(res.stderr.strip())} |")
     out = ROOT / "docs" / "bad_inputs.md"
     out.write_text(HEAD + "\n".join(rows) + "\n", encoding="utf-8")
     print(f"wrote {out} ({len(rows)} cases)")

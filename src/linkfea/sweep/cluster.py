@@ -2,16 +2,18 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 from .. import checks
 
 
 def worker_env() -> dict:
-    """Environment of local worker processes: this package first on the path, one thread each."""
-    here = str(Path(__file__).resolve().parents[2])
-    path = os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH", "")) if p)
-    return {"PYTHONPATH": path, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    """Environment of local worker processes: one thread each for the numerical libraries.
+
+    No path is set here: the workers are processes started by multiprocessing from this one (spawn,
+    the Dask default, and forkserver hand the child this process's ``sys.path``; fork copies it), so
+    they import the very ``linkfea`` the caller imported, and the caller's ``PYTHONPATH`` is left alone.
+    """
+    return {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
 #: Dask settings of a local cluster (read by the scheduler at start and handed to each worker).
@@ -34,7 +36,6 @@ def local_cluster(n_workers: int | None = None, memory_limit="auto"):
     import dask
     from distributed import LocalCluster
 
-    os.environ["PYTHONPATH"] = worker_env()["PYTHONPATH"]  # spawned workers inherit it
     n = checks.integer(n_workers or os.cpu_count() or 1, "workers", checks.Bounds(1))
     # the workers and the scheduler share the machine's cores: with one worker per core, every CPU
     # second the cluster spends on its own bookkeeping is taken from a design.  A design is seconds

@@ -54,7 +54,7 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
         of ``workers`` processes is started for the run and closed after it.
     cache_dir : path, optional
         Mesh cache.  Default: for a local cluster the client's (``$LINKFEA_CACHE_DIR`` or
-        ``.cache/meshes``, made absolute); with ``scheduler`` each worker's own.
+        the platform's cache folder, made absolute); with ``scheduler`` each worker's own.
     plot : entries ``dy_Fy`` ... for ``sweep.png`` (default the diagonal)
     progress : True for a progress bar on stderr, or a callable called with a line per finished design
         (and, first, the expected time of a long run)
