@@ -252,12 +252,18 @@ def test_a_result_json_refuses_a_vtu_that_is_not_its_own(tmp_path):
 
 def test_results_written_outside_a_manifest_are_recognised_as_the_tools_own(tmp_path):
     """A folder holding `linkfea compute` and `vjm simulate` outputs takes a report without --force;
-    a JSON of another schema beside them is of other origin."""
-    (tmp_path / "foot.json").write_text(json.dumps({"schema": "linkfea.result/1"}))
+    a JSON of another schema beside them is of other origin, and so is a .vtu or .png whose bytes the
+    result JSON does not record."""
     (tmp_path / "foot.vtu").write_text("mesh")
     (tmp_path / "foot.png").write_text("picture")
+    files = {k: {"name": f"foot.{k}", "sha256": sha256(tmp_path / f"foot.{k}")} for k in ("vtu", "png")}
+    (tmp_path / "foot.json").write_text(json.dumps({"schema": "linkfea.result/1", "files": files}))
     (tmp_path / "m.csv").write_text("# simulated by vjm simulate from puu.yaml\nx,y,z\n")
     check_folder(tmp_path, ["report.json"])
+    (tmp_path / "foot.png").write_text("my own picture")
+    with pytest.raises(LinkFeaError, match="foot.png"):
+        check_folder(tmp_path, ["report.json"])
+    (tmp_path / "foot.png").write_text("picture")
     (tmp_path / "other.json").write_text(json.dumps({"schema": "someone/1"}))
     with pytest.raises(LinkFeaError, match="other.json"):
         check_folder(tmp_path, ["report.json"])
