@@ -184,11 +184,12 @@ def read_user_file(path, what: str, limit: int = READ_MAX_BYTES, error: type[Exc
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))  # a FIFO must not block the open
     except OSError as exc:
         raise error(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode):
+        os.close(fd)
+        kind = "a folder" if stat.S_ISDIR(st.st_mode) else "not a regular file (a device, pipe or socket)"
+        raise error(f"cannot read {what} {path}: it is {kind}")
     with os.fdopen(fd, "rb") as fh:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            kind = "a folder" if stat.S_ISDIR(st.st_mode) else "not a regular file (a device, pipe or socket)"
-            raise error(f"cannot read {what} {path}: it is {kind}")
         try:
             data = fh.read(limit + 1) if st.st_size <= limit else b""
         except OSError as exc:
