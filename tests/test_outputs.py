@@ -408,3 +408,26 @@ def test_the_vtu_writer_reports_a_full_disk_instead_of_crashing(tmp_path):
     with pytest.raises(OSError) as err:
         write_vtu(tmp_path / "full.vtu", res)
     assert err.value.errno == errno.ENOSPC and err.value.filename == str(tmp_path / "full.vtu")
+
+
+def test_a_full_disk_at_the_journal_leaves_the_old_set_and_no_temporary(tmp_path, monkeypatch):
+    """The members fit but the journal does not: the old set stays, and neither the members' temporaries nor
+    the new manifest's or journal's are left to keep the disk full."""
+    import errno
+
+    with OutputSet(tmp_path, "a") as s:
+        Path(s.path("x.txt")).write_text("old")
+    before = _tree(tmp_path)
+    real = json.dump
+
+    def dump(doc, fh, **kw):
+        if "renames" in doc:
+            fh.write("{")
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real(doc, fh, **kw)
+
+    monkeypatch.setattr(json, "dump", dump)
+    with pytest.raises(LinkFeaError, match="no space left on"):
+        with OutputSet(tmp_path, "a") as s:
+            Path(s.path("x.txt")).write_text("new")
+    assert _tree(tmp_path) == before

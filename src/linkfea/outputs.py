@@ -438,20 +438,27 @@ class OutputSet:
         fault("members-written")
         renames = [(t.name, n) for n, t in self.tmps.items()]
         remove = list(self.remove)
-        if self.manifest:
-            man = read_manifest(self.folder)
-            before = (man["sets"].get(self.name) or {}).get("files") or {}
-            others = {n for k, s in man["sets"].items() if k != self.name for n in (s.get("files") or {})}
-            # only files whose bytes are still those recorded: one the user edited is theirs now
-            remove += sorted(n for n in set(before) - set(self.tmps) - others
-                             if not n.endswith("/") and unchanged(self.folder / n, before[n]))
-            man["sets"][self.name] = {"files": self.digests(), "run": self.run,
-                                      "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-            renames.append((_write_temp(self.folder / MANIFEST, man).name, MANIFEST))
         journal = journal_path(self.folder, self.name, self.run)
-        jt = _write_temp(journal, {"schema": JOURNAL_SCHEMA, "set": self.name, "run": self.run,
-                                   "renames": renames, "remove": remove})
-        os.replace(jt, journal)
+        manifest_tmp = None
+        try:
+            if self.manifest:
+                man = read_manifest(self.folder)
+                before = (man["sets"].get(self.name) or {}).get("files") or {}
+                others = {n for k, s in man["sets"].items() if k != self.name for n in (s.get("files") or {})}
+                # only files whose bytes are still those recorded: one the user edited is theirs now
+                remove += sorted(n for n in set(before) - set(self.tmps) - others
+                                 if not n.endswith("/") and unchanged(self.folder / n, before[n]))
+                man["sets"][self.name] = {"files": self.digests(), "run": self.run,
+                                          "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+                manifest_tmp = _write_temp(self.folder / MANIFEST, man)
+                renames.append((manifest_tmp.name, MANIFEST))
+            jt = _write_temp(journal, {"schema": JOURNAL_SCHEMA, "set": self.name, "run": self.run,
+                                       "renames": renames, "remove": remove})
+            os.replace(jt, journal)
+        except OSError:  # before the commit point (a full disk): nothing of this run may stay
+            if manifest_tmp is not None:
+                manifest_tmp.unlink(missing_ok=True)
+            raise
         fsync_dir(self.folder)
         fault("journal-written")
         for k, (tname, name) in enumerate(renames):
@@ -487,10 +494,14 @@ def claim(folder, names: Iterable[str], set_name: str) -> None:
 
 def _write_temp(target: Path, doc: dict) -> Path:
     tmp = temp_beside(target)
-    with open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(doc, fh, indent=1)
-        fh.flush()
-        os.fsync(fh.fileno())
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(doc, fh, indent=1)
+            fh.flush()
+            os.fsync(fh.fileno())
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        raise
     return tmp
 
 
