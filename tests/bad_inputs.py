@@ -306,7 +306,7 @@ CASES = [
          _report_folder("next_measurements.csv"), "rep/ of an earlier run; the user edited rep/next_measurements.csv"),
     Case("30.1", D, "cannot read measurement file m.csv: it is not a regular file", links={"m.csv": "/dev/zero"},
          note="m.csv -> /dev/zero"),
-    Case("30.1", S + " --poses p.csv", "cannot read file p.csv: it is not a regular file", links={"p.csv": "/dev/zero"},
+    Case("30.1", S + " --poses p.csv", "cannot read CSV file p.csv: it is not a regular file", links={"p.csv": "/dev/zero"},
          note="p.csv -> /dev/zero"),
     Case("30.1", "linkfea compute bar --out r.json", "r.json is a symbolic link to elsewhere/r.json, which does not exist",
          links={"r.json": "elsewhere/r.json"}, note="r.json -> elsewhere/r.json (dangling)"),

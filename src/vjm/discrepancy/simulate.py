@@ -79,7 +79,7 @@ def _read_cols(path, cols, optional=()):
     """Columns ``cols`` (n, k) of a CSV, and ``optional`` after them when the header has them all."""
     from linkfea.atomic import read_user_file
 
-    raw = read_user_file(path, "file", error=VjmError)  # a regular file of bounded size only
+    raw = read_user_file(path, "CSV file", error=VjmError)  # a regular file of bounded size only
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
