@@ -103,29 +103,32 @@ def unchanged(path, digest) -> bool:
         return False
 
 
-def _recorded(folder: Path) -> dict[str, str | None]:
-    """Every name the manifest of ``folder`` records, with its sha256 (None: a sub-folder claimed by name)."""
-    out: dict[str, str | None] = {}
+def _recorded(folder: Path) -> dict[str, set]:
+    """Every name the manifest of ``folder`` records, with the sha256 each set recorded for it (None: a
+    sub-folder claimed by name)."""
+    out: dict[str, set] = {}
     for s in read_manifest(folder)["sets"].values():
         for n, digest in (s.get("files") or {}).items():
-            if out.get(n) is None:
-                out[n] = digest if isinstance(digest, str) else None
+            out.setdefault(n, set()).add(digest if isinstance(digest, str) else None)
     return out
+
+
+def _as_recorded(path: Path, digests: set) -> bool:
+    return None in digests or any(unchanged(path, d) for d in digests)
 
 
 def owned(folder) -> set[str]:
     """Top-level names in ``folder`` that the tools wrote: in its manifest with the bytes recorded there
     (sub-folders such as ``results`` by their name), or recognised by content (:func:`recognised`)."""
     folder = Path(folder)
-    names = {n.split("/", 1)[0] for n, d in _recorded(folder).items() if d is None or unchanged(folder / n, d)}
+    names = {n.split("/", 1)[0] for n, d in _recorded(folder).items() if _as_recorded(folder / n, d)}
     return names | recognised(folder)
 
 
 def changed(folder) -> set[str]:
     """Files the manifest of ``folder`` records whose bytes changed since (edited by the user: theirs now)."""
     folder = Path(folder)
-    return {n for n, d in _recorded(folder).items()
-            if d is not None and (folder / n).exists() and not unchanged(folder / n, d)}
+    return {n for n, d in _recorded(folder).items() if (folder / n).exists() and not _as_recorded(folder / n, d)}
 
 
 def _regular(path) -> bool:
