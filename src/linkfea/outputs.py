@@ -155,11 +155,11 @@ def _schema(path) -> str:
     return str(_doc(path).get("schema", ""))
 
 
-def own_companions(path) -> set[str]:
-    """Names of the files beside result JSON ``path`` that are its own: recorded under ``files`` with
-    the sha256 of their present bytes.  A ``.vtu`` or ``.png`` the JSON does not record, or whose
-    bytes differ, is someone else's."""
-    files = _doc(path).get("files")
+def own_companions(path, doc: dict | None = None) -> set[str]:
+    """Names of the files beside result JSON ``path`` (its document ``doc``, if read already) that are its
+    own: recorded under ``files`` with the sha256 of their present bytes.  A ``.vtu`` or ``.png`` the
+    JSON does not record, or whose bytes differ, is someone else's."""
+    files = (_doc(path) if doc is None else doc).get("files")
     out = set()
     for rec in (files.values() if isinstance(files, dict) else ()):
         name = rec.get("name") if isinstance(rec, dict) else None
@@ -193,9 +193,10 @@ def recognised(folder) -> set[str]:
     names = set()
     for e in os.listdir(folder):
         p = folder / e
-        schema = _schema(p) if e.endswith(".json") and p.is_file() and not p.is_symlink() else ""
+        doc = _doc(p) if e.endswith(".json") else {}
+        schema = str(doc.get("schema", ""))
         if schema.startswith(RESULT_SCHEMA_PREFIX):
-            names |= {e} | own_companions(p)
+            names |= {e} | own_companions(p, doc)
         elif e in LEGACY_SETS and schema.startswith(LEGACY_SETS[e][0]):
             names |= set(LEGACY_SETS[e][1])  # a folder written before manifests existed
         elif e.endswith(".csv") and is_simulated_csv(p):
