@@ -9,10 +9,12 @@ bad_inputs_table.py`` writes ``docs/bad_inputs.md`` from the same list.
 Placeholders in the command: ``{puu}``, ``{prpar}``, ``{delta}``, ``{linear}``, ``{hexapod}`` (bundled model
 files).
 Adding a case is one line: ``Case("18.x", "vjm ... --flag value", "fragment", {"file.csv": TEXT})``.
+A file name may hold a folder (``rep/report.json``); ``links`` makes symbolic links (name -> target).
 """
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import io
 import json
 import os
@@ -33,6 +35,7 @@ class Case:
     expect: str     # a fragment of the error line
     files: dict = field(default_factory=dict)  # name -> text written before the run ("encoding": its codec)
     note: str = ""  # what the files hold, for the table (default: their first lines)
+    links: dict = field(default_factory=dict)  # name -> target of a symbolic link made before the run
 
     @property
     def argv(self) -> list[str]:
@@ -143,6 +146,22 @@ BAR = _box((0, 0, 0), (100, 20, 10))
 FLAT = [((0, 0, 0), (100, 0, 0), (100, 20, 0)), ((0, 0, 0), (100, 20, 0), (0, 20, 0)),
         ((0, 0, 0), (0, 20, 0), (100, 0, 0)), ((100, 0, 0), (0, 20, 0), (100, 20, 0))]
 STL = "linkfea compute s.stl --base plane:x=0 --tip plane:x=100 --out o/r.json"
+
+
+def _sha(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _report_folder(edited: str) -> dict:
+    """A report folder of `vjm diagnose --suggest` whose manifest records the files as written, with
+    ``edited`` (one of them) changed by the user since."""
+    written = {"model_updated.yaml": "# vjm model file.\nname: as written\n", "next_measurements.csv": "x,y,z\n0,0,0\n"}
+    man = {"schema": "linkfea.outputs/1", "sets": {"vjm diagnose": {"files": {n: _sha(t) for n, t in written.items()},
+                                                                    "run": "0" * 32}}}
+    files = {f"rep/{n}": t + ("# my edit\n" if n == edited else "") for n, t in written.items()}
+    return {"m.csv": GOOD, "rep/.linkfea-outputs.json": json.dumps(man), **files}
+
+
 # ------------------------------------------------------------------ the cases
 D = "vjm diagnose {puu} m.csv --out rep"
 S = "vjm simulate {puu} --out s.csv"
@@ -321,20 +340,51 @@ CASES = [
          "four triangles closing a flat square (watertight, zero volume)"),
     Case("30.4", STL, "s.stl: a vertex has a non-finite coordinate (nan, 0, 0), in triangle 1",
          {"s.stl": stl([((float("nan"), 0, 0),) + BAR[0][1:]] + BAR[1:])}, "a box whose first vertex is nan"),
+
+
+    # 30.1: the user's files (checked before any work)
+    Case("30.1", "linkfea compute bar --out r.json", "r.vtu exists and r.json does not record its bytes",
+         {"r.json": _result(), "r.vtu": "<my own mesh/>"}, "a result written with --no-picture, and the user's r.vtu"),
+    Case("30.1", "linkfea compute bar --out r.json", "r.png exists and r.json does not record its bytes",
+         {"r.json": _result(), "r.png": "my picture"}, "a result written with --no-picture, and the user's r.png"),
+    Case("30.1", "linkfea compute bar --out r.json", "r.vtu exists and r.json does not record its bytes",
+         {"r.json": _result(files={"vtu": {"name": "r.vtu", "sha256": _sha("<its mesh/>")}}), "r.vtu": "<my mesh/>"},
+         "a result JSON copied beside the user's r.vtu (it records another r.vtu's sha256)"),
+    Case("30.1", D + " --suggest 3", "model_updated.yaml was changed since linkfea or vjm wrote it",
+         _report_folder("model_updated.yaml"), "rep/ of an earlier run; the user edited rep/model_updated.yaml"),
+    Case("30.1", D + " --suggest 3", "next_measurements.csv was changed since linkfea or vjm wrote it",
+         _report_folder("next_measurements.csv"), "rep/ of an earlier run; the user edited rep/next_measurements.csv"),
+    Case("30.1", D, "cannot read measurement file m.csv: it is not a regular file", links={"m.csv": "/dev/zero"},
+         note="m.csv -> /dev/zero"),
+    Case("30.1", S + " --poses p.csv", "cannot read CSV file p.csv: it is not a regular file", links={"p.csv": "/dev/zero"},
+         note="p.csv -> /dev/zero"),
+    Case("30.1", "linkfea compute bar --out r.json", "r.json is a symbolic link to elsewhere/r.json, which does not exist",
+         links={"r.json": "elsewhere/r.json"}, note="r.json -> elsewhere/r.json (dangling)"),
+    Case("30.1", S, "s.csv is a symbolic link to gone.csv, which does not exist", links={"s.csv": "gone.csv"},
+         note="s.csv -> gone.csv (dangling)"),
+    Case("30.1", D, "rep is a symbolic link to gone, which does not exist", {"m.csv": GOOD}, links={"rep": "gone"},
+         note="m.csv; rep -> gone (dangling)"),
+    Case("30.1", "linkfea sweep bar -p length=100,120 --scheduler tcp://127.0.0.1:1 --out sw",
+         "cannot reach the Dask scheduler at tcp://127.0.0.1:1"),
 ]
 
 
 # ------------------------------------------------------------------ running a case
 
 def _snapshot(folder: Path) -> dict:
-    return {str(p.relative_to(folder)): (p.stat().st_size, p.stat().st_mtime_ns) for p in folder.rglob("*")}
+    """Size and time of each file and link; a folder's presence only (a probe for writability touches its time)."""
+    return {str(p.relative_to(folder)): "folder" if p.is_dir() and not p.is_symlink()
+            else (p.lstat().st_size, p.lstat().st_mtime_ns) for p in folder.rglob("*")}
 
 
 def write_files(case: Case, folder: Path) -> None:
     enc = case.files.get("encoding", "utf-8")
     for name, text in case.files.items():
         if name != "encoding":
+            (folder / name).parent.mkdir(parents=True, exist_ok=True)
             (folder / name).write_bytes(text.encode(enc))
+    for name, target in case.links.items():
+        (folder / name).symlink_to(target)
 
 
 def run(case: Case, folder: Path) -> Outcome:

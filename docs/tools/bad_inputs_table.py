@@ -49,6 +49,7 @@ def _files(case) -> str:
         lines = text.strip("\ufeff").splitlines()
         head = "<br>".join(f"`{ln[:70]}{'...' if len(ln) > 70 else ''}`" for ln in lines[:4])
         out.append(f"`{name}`{' (' + enc + ')' if enc != 'utf-8' else ''}:<br>{head}{'<br>...' if len(lines) > 4 else ''}")
+    out += [f"`{name}` -> `{target}`" for name, target in case.links.items()]
     return "<br>".join(out)
 
 

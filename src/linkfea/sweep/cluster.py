@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 
 from .. import checks
+from ..errors import LinkFeaError
 
 
 def worker_env() -> dict:
@@ -46,3 +47,36 @@ def local_cluster(n_workers: int | None = None, memory_limit="auto"):
                             dashboard_address=":0", silence_logs=logging.ERROR, env=worker_env())
 
 
+
+
+def check_scheduler(address: str, timeout: float = 5.0) -> None:
+    """Refuse a ``tcp://`` (or ``tls://``) scheduler address where nothing answers, in seconds at most:
+    a quick connect before anything is written (Dask's own client waits 20 s before it gives up)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    u = urlsplit(address if "://" in address else f"tcp://{address}")
+    if u.scheme not in ("tcp", "tls"):
+        return  # other transports: the client's own connect tells
+    try:
+        host, port = u.hostname, u.port or 8786
+    except ValueError:
+        host, port = None, 0
+    if not host:
+        raise LinkFeaError(f"--scheduler {address}: not an address such as tcp://host:8786")
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        raise LinkFeaError(f"cannot reach the Dask scheduler at {address}: {exc.strerror or exc}; nothing was "
+                           f"written") from None
+
+
+def connect(address: str):
+    """A client of the Dask scheduler at ``address`` (checked first: :func:`check_scheduler`)."""
+    from distributed import Client
+
+    check_scheduler(address)
+    try:
+        return Client(address, timeout="20s")
+    except (OSError, TimeoutError) as exc:
+        raise LinkFeaError(f"cannot reach the Dask scheduler at {address}: {exc}; nothing was written") from None
