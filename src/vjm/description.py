@@ -146,8 +146,11 @@ def evaluate(expr: str, geometry: dict, where: str) -> float:
         if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow)):
             a, b = ev(node.left), ev(node.right)
             op = type(node.op)
-            return {ast.Add: a + b, ast.Sub: a - b, ast.Mult: a * b,
-                    ast.Div: a / b if b != 0 else math.inf, ast.Pow: a ** b}[op]
+            # only the operation asked for (every one evaluated eagerly would overflow on a ** b
+            # for the operands of a harmless a - b)
+            ops = {ast.Add: lambda: a + b, ast.Sub: lambda: a - b, ast.Mult: lambda: a * b,
+                   ast.Div: lambda: a / b if b != 0 else math.inf, ast.Pow: lambda: a ** b}
+            return ops[op]()
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FUNCS \
                 and not node.keywords:
             return float(_FUNCS[node.func.id](*[ev(a) for a in node.args]))

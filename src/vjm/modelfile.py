@@ -166,7 +166,7 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
     from .robot.robotfile import is_robot, robot_from_dict
 
     if is_robot(d):  # a serial or tree robot: a URDF or a DH table beside its springs (vjm.robot)
-        return robot_from_dict(d, base_dir, path)  # type: ignore[return-value]
+        return robot_from_dict(d, base_dir, path, parse_link)  # type: ignore[return-value]
     described = "chains" in d or d.get("architecture") == DESCRIBED
     known = TOP_KEYS + DESCRIPTION_KEYS if described else TOP_KEYS
     extra = set(d) - set(known)

@@ -209,6 +209,15 @@ def _body_loads(ch: Chain, loads, n: int) -> tuple:
     return tuple(out)
 
 
+def _loaded(chains, n: int) -> np.ndarray:
+    """Pairs (n,) with a non-zero body load."""
+    out = np.zeros(n, bool)
+    for cd in chains:
+        for _, _, f in cd.loads:
+            out |= np.any(f != 0.0, axis=1)
+    return out
+
+
 def _chain_kinematics(cd: _ChainData, x, keep=()):
     """End frames T (n, 4, 4), joint twist matrices X (n, nJ, 4, 4) and dT = X T (n, nJ, 4, 4);
     with ``keep`` (factor indices), also {index: the frame just after that factor}."""
@@ -371,11 +380,9 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
         or mm, in the spring's variables; applied together with the load (same ramp).  The
         twist returned is then measured from the unloaded posture *without* the offsets.
         ``info["springs"]`` gives every spring's deformation at equilibrium.
-    body_loads : optional, per chain, a list of ``(i, c, F)``: a force ``F`` (world axes, N; (3,) or
-        (n, 3)) at the point ``c`` (mm; (3,) or (n, 3)) of the frame just after factor ``i`` of the
-        chain -- the weight of a body that moves with the chain (a serial robot's links, a payload:
-        :meth:`vjm.robot.RobotModel.self_weight`).  Its direction stays fixed in the world as the
-        chain deflects (a dead load); it is ramped with the wrench.
+    body_loads : optional, per chain, a list of ``(i, c, F)``: a dead load ``F`` (world axes, N; (3,)
+        or (n, 3)) at the point ``c`` (mm) of the frame just after factor ``i`` of the chain, ramped
+        with the wrench: a robot's weight (:meth:`vjm.robot.RobotModel.self_weight`).
 
     Returns
     -------
@@ -409,11 +416,7 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     iters = np.zeros(n, int)
     steps = np.zeros(n, int)
     prev = np.full(n, np.inf)
-    loaded = np.zeros(n, bool)
-    for cd in chains:
-        for _, _, f in cd.loads:
-            loaded |= np.any(f != 0.0, axis=1)
-    done = np.all(W == 0.0, axis=1) & np.all(x_rest == 0.0, axis=1) & ~loaded
+    done = np.all(W == 0.0, axis=1) & np.all(x_rest == 0.0, axis=1) & ~_loaded(chains, n)
     failed = np.zeros(n, bool)
     cap = max(1, int(max_iter))
     while True:

@@ -302,6 +302,6 @@ class RobotModel:
 
     def save(self, path) -> None:
         """Write this model's file (its mapping as read; a URDF path is kept absolute)."""
-        from .robotfile import save_robot
+        from .robotwrite import save_robot
 
         save_robot(self, path)

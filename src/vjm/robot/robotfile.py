@@ -73,9 +73,7 @@ def _joint_spring(spec, where: str) -> JointSpring:
     return JointSpring(stiffness=k)
 
 
-def _joints(d, base_dir: str, tree: Tree):
-    from ..modelfile import parse_link
-
+def _joints(d, base_dir: str, tree: Tree, parse_link):
     if not isinstance(d, dict):
         raise VjmError("joints must be a mapping joint name -> {stiffness: ..., spring6: <link>}")
     names = [j.name for j in tree.joints]
@@ -93,9 +91,7 @@ def _joints(d, base_dir: str, tree: Tree):
     return springs, six
 
 
-def _links(d, base_dir: str, tree: Tree) -> dict:
-    from ..modelfile import parse_link
-
+def _links(d, base_dir: str, tree: Tree, parse_link) -> dict:
     if not isinstance(d, dict):
         raise VjmError("links must be a mapping name -> {at: frame, <link>}")
     out = {}
@@ -143,8 +139,9 @@ def _payload(d, tree: Tree) -> Payload:
     return Payload(str(d["frame"]), m, _vec3(d.get("com", [0, 0, 0]), "payload.com"))
 
 
-def robot_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> RobotModel:
-    """A validated :class:`RobotModel` from the mapping of a robot model file."""
+def robot_from_dict(d: dict, base_dir: str, path: str | None, parse_link) -> RobotModel:
+    """A validated :class:`RobotModel` from the mapping of a robot model file (read through
+    :func:`vjm.modelfile.model_from_dict`, which passes its ``<link>`` reader ``parse_link``)."""
     extra = set(d) - set(ROBOT_KEYS)
     if extra:
         raise VjmError(f"unknown top-level keys {sorted(extra)} for a robot; known: {list(ROBOT_KEYS)}")
@@ -165,8 +162,8 @@ def robot_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Ro
         tree = tree_from_dh(d["dh"], str(d.get("name", "")))
         if tools:
             tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies, tuple(tools), tree.source)
-    springs, six = _joints(d.get("joints") or {}, base_dir, tree)
-    links = _links(d.get("links") or {}, base_dir, tree)
+    springs, six = _joints(d.get("joints") or {}, base_dir, tree, parse_link)
+    links = _links(d.get("links") or {}, base_dir, tree, parse_link)
     if d.get("masses"):
         tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies + _masses(d["masses"], tree), tree.tools,
                     tree.source)
@@ -181,19 +178,3 @@ def robot_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Ro
 def is_robot(d) -> bool:
     """Whether a model file's mapping describes a serial or tree robot (it names a URDF or a DH table)."""
     return isinstance(d, dict) and ("urdf" in d or "dh" in d)
-
-
-def save_robot(model: RobotModel, path) -> None:
-    """Write a robot's model file: its mapping as read, with the URDF path made absolute (atomic)."""
-    import yaml
-
-    from linkfea.atomic import write_text
-
-    from ..modelwrite import HEADER
-
-    if model.raw is None:
-        raise VjmError("this robot model was not read from a file; write its YAML by hand (see vjm.robot.robotfile)")
-    d = dict(model.raw)
-    if "urdf" in d:
-        d["urdf"] = model.tree.source
-    write_text(os.path.abspath(os.fspath(path)), HEADER + yaml.safe_dump(d, sort_keys=False))

@@ -148,18 +148,18 @@ def _check_xml(path: str) -> None:
             raise VjmError(f"{path}: link {c!r} is the child of two joints ({child_of[c]!r} and {name!r}): a "
                            f"kinematic loop, which a URDF tree cannot describe")
         child_of[c] = name
-    for ln in root.findall("link"):
-        inert = ln.find("inertial")
+    for link in root.findall("link"):
+        inert = link.find("inertial")
         if inert is None:
             continue
-        m = inert.find("mass")
-        val = None if m is None else m.get("value")
+        me = inert.find("mass")
+        val = None if me is None else me.get("value")
         try:
             mass = float(val) if val is not None else None
         except ValueError:
             mass = None
         if mass is None or not np.isfinite(mass) or mass < 0:
-            raise VjmError(f"{path}: link {ln.get('name')!r}: inertial mass must be a number >= 0 (kg), got {val!r}")
+            raise VjmError(f"{path}: link {link.get('name')!r}: inertial mass must be a number >= 0 (kg), got {val!r}")
         if mass > 0 and inert.find("origin") is None:
-            raise VjmError(f"{path}: link {ln.get('name')!r}: a mass of {mass:g} kg without a centre of mass "
+            raise VjmError(f"{path}: link {link.get('name')!r}: a mass of {mass:g} kg without a centre of mass "
                            f"(<origin xyz=...> in <inertial>)")
