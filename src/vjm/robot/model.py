@@ -179,19 +179,24 @@ class RobotModel:
         single = a.ndim == 1
         a = np.atleast_2d(a)
         if a.ndim != 2 or a.shape[1] != self.nq:
-            raise VjmError(f"q must have {self.nq} values ({', '.join(self.q_names)}), got shape {np.shape(q)}")
+            raise VjmError(f"{self._where}q must have {self.nq} values ({', '.join(self.q_names)}), got shape "
+                           f"{np.shape(q)}")
         if not np.all(np.isfinite(a)):
             raise VjmError("q must be finite numbers (rad, mm for prismatic joints)")
         lo, hi = self.tree.limits
         out = (a < lo - 1e-12) | (a > hi + 1e-12)
         if np.any(out):
             i, j = np.argwhere(out)[0]
-            msg = (f"q[{j}] = {a[i, j]:g} of joint {self.q_names[j]!r} is outside its limits "
+            msg = (f"{self._where}q[{j}] = {a[i, j]:g} of joint {self.q_names[j]!r} is outside its limits "
                    f"[{lo[j]:g}, {hi[j]:g}] ({int(out.any(axis=1).sum())} of {len(a)} configurations)")
             if self.strict_limits:
                 raise VjmError(msg)
             warnings.warn(msg, VjmWarning, stacklevel=3)
         return a, single
+
+    @property
+    def _where(self) -> str:
+        return f"{self.path}: " if self.path else ""
 
     def compliances(self, kin: Kinematics) -> list[dict]:
         """Per chain of ``kin``, {spring name: compliance (k, k) or (n, k, k)} (rigid springs omitted)."""

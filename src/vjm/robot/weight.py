@@ -52,7 +52,7 @@ def check_inertials(model) -> None:
     massive = {b.joint for b in model.tree.bodies if b.mass > 0}
     for i, j in enumerate(model.tree.joints):
         if i not in massive:
-            raise VjmError(f"self-weight: link {j.child or j.name!r} (moved by joint {j.name!r}) has no inertial "
+            raise VjmError(f"{model._where}self-weight: link {j.child or j.name!r} (moved by joint {j.name!r}) has no inertial "
                            f"(mass and centre of mass); give them in the URDF or under masses: in the model file")
 
 
