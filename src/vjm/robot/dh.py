@@ -7,16 +7,16 @@
       base: {xyz: [0, 0, 0], rpy: [0, 0, 0]}   # optional, mm and rad
       tool: {xyz: [0, 0, 100], rpy: [0, 0, 0]} # optional: the tool frame in the last link's frame
       joints:
-        - {name: a1, type: revolute, a: 175, alpha: -90 deg, d: 495, theta: 0, limits: [-185 deg, 185 deg],
+        - {name: a1, type: revolute, a: 175, alpha: -90*deg, d: 495, theta: 0, limits: [-185*deg, 185*deg],
            mass: 20, com: [0, 0, 100]}
-        - {name: a2, type: revolute, a: 900, alpha: 0, d: 0, theta: -90 deg, beta: 0}
+        - {name: a2, type: revolute, a: 900, alpha: 0, d: 0, theta: -90*deg, beta: 0}
 
 Standard: ``A_i = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i) Ry(beta_i)``; modified (Craig):
 ``A_i = Rx(alpha_i) Ry(beta_i) Tx(a_i) Rz(theta_i + q_i) Tz(d_i)`` (alpha, a of the row are
 those between the previous axis and this one).  ``beta`` is Hayati's parameter: for nearly
 parallel consecutive axes DH's ``d`` is ill-conditioned, and the row writes ``beta`` (the
 rotation about y) with ``d = 0`` instead.  A prismatic joint's value adds to ``d``.  Lengths in
-mm, angles in rad; a value may be an expression (``-90 deg``, ``pi/2``).  ``mass`` (kg) and
+mm, angles in rad; a value may be an expression (``-90*deg``, ``pi/2``).  ``mass`` (kg) and
 ``com`` (mm, in the frame of the joint's link, i.e. after ``A_i``) give the link's inertial.
 """
 from __future__ import annotations
@@ -120,7 +120,8 @@ def tree_from_dh(spec, name: str = "", where: str = "dh") -> Tree:
     # the DH frame after A_i is named after its joint's link: link1 ... linkN
     frames = (Frame("tool", len(joints) - 1, tool),) + tuple(
         Frame(f"link{i + 1}", i, T) for i, T in enumerate(posts))
-    return Tree(name or "dh", tuple(joints), frames, tuple(bodies), ("tool",), where)
+    return Tree(name or "dh", tuple(joints), frames, tuple(bodies), ("tool",), where,
+                frozenset(b.joint for b in bodies))
 
 
 def _body(r: dict, w: str, jname: str, i: int, post: np.ndarray) -> Body:

@@ -161,12 +161,13 @@ def robot_from_dict(d: dict, base_dir: str, path: str | None, parse_link) -> Rob
 
         tree = tree_from_dh(d["dh"], str(d.get("name", "")))
         if tools:
-            tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies, tuple(tools), tree.source)
+            tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies, tuple(tools), tree.source, tree.declared)
     springs, six = _joints(d.get("joints") or {}, base_dir, tree, parse_link)
     links = _links(d.get("links") or {}, base_dir, tree, parse_link)
     if d.get("masses"):
-        tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies + _masses(d["masses"], tree), tree.tools,
-                    tree.source)
+        extra = _masses(d["masses"], tree)
+        tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies + extra, tree.tools, tree.source,
+                    tree.declared | {b.joint for b in extra})
     payload = _payload(d["payload"], tree) if d.get("payload") is not None else None
     g = tuple(_vec3(d["gravity"], "gravity")) if "gravity" in d else GRAVITY
     strict = d.get("strict_limits", False)

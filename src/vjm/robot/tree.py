@@ -78,6 +78,8 @@ class Tree:
     bodies: tuple[Body, ...]
     tools: tuple[str, ...]
     source: str = ""
+    #: joints whose body has a declared inertial (a mass of 0 declared is one): see weight.check_inertials
+    declared: frozenset = frozenset()
 
     def __post_init__(self):
         for i, j in enumerate(self.joints):

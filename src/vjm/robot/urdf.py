@@ -68,7 +68,7 @@ def read_urdf(path, tools=None) -> Tree:
     path = os.path.abspath(os.fspath(path))
     if not os.path.isfile(path):
         raise VjmError(f"urdf: file not found: {path}")
-    _check_xml(path)
+    with_inertial = _check_xml(path)
     import pinocchio as pin
 
     plain = _build(pin, path, False)
@@ -103,7 +103,8 @@ def read_urdf(path, tools=None) -> Tree:
     tools = tuple(tools) if tools else tuple(leaves)
     if not tools:
         raise VjmError(f"{path}: the URDF has no link without a child to serve as a tool frame; name one under tools:")
-    return Tree(str(plain.name), tuple(joints), tuple(frames), tuple(bodies), tools, path)
+    declared = frozenset(f.joint for f in frames if f.name in with_inertial)
+    return Tree(str(plain.name), tuple(joints), tuple(frames), tuple(bodies), tools, path, declared)
 
 
 def _frames(pin, model):
@@ -121,10 +122,10 @@ def _frames(pin, model):
     return frames, leaves
 
 
-def _check_xml(path: str) -> None:
+def _check_xml(path: str) -> set:
     """What urdfdom reports badly or not at all, named here: a link with two parents (a kinematic loop),
     a joint whose parent or child link does not exist, a joint of unknown type, a mass without an
-    origin or a negative one."""
+    origin or a negative one.  Returns the names of the links that declare an inertial."""
     import xml.etree.ElementTree as ET
 
     try:
@@ -148,10 +149,12 @@ def _check_xml(path: str) -> None:
             raise VjmError(f"{path}: link {c!r} is the child of two joints ({child_of[c]!r} and {name!r}): a "
                            f"kinematic loop, which a URDF tree cannot describe")
         child_of[c] = name
+    declared = set()
     for link in root.findall("link"):
         inert = link.find("inertial")
         if inert is None:
             continue
+        declared.add(link.get("name"))
         me = inert.find("mass")
         val = None if me is None else me.get("value")
         try:
@@ -163,3 +166,4 @@ def _check_xml(path: str) -> None:
         if mass > 0 and inert.find("origin") is None:
             raise VjmError(f"{path}: link {link.get('name')!r}: a mass of {mass:g} kg without a centre of mass "
                            f"(<origin xyz=...> in <inertial>)")
+    return declared

@@ -48,8 +48,8 @@ def _attach(model, marks: dict, joint: int, point: np.ndarray, q: np.ndarray, ow
 
 
 def check_inertials(model) -> None:
-    """Every moving link carries a mass, or VjmError naming the first that does not."""
-    massive = {b.joint for b in model.tree.bodies if b.mass > 0}
+    """Every moving link declares its inertial (a mass of 0 included), or VjmError naming the first that does not."""
+    massive = set(model.tree.declared) | {b.joint for b in model.tree.bodies if b.mass > 0}
     for i, j in enumerate(model.tree.joints):
         if i not in massive:
             raise VjmError(f"{model._where}self-weight: link {j.child or j.name!r} (moved by joint {j.name!r}) has no inertial "

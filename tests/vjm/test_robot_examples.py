@@ -1,0 +1,62 @@
+"""The bundled robots (UR10 from its URDF, PUMA 560 from a DH table): batches, gravity direction,
+payload, model files written and read back."""
+import numpy as np
+import pytest
+
+import vjm
+from vjm.robot.model import Payload
+
+ROBOTS = ["data/robots/ur10/ur10.yaml", "data/robots/puma560/puma560.yaml"]
+
+
+def _configs(m, n, seed=1):
+    lo, hi = m.tree.limits
+    lo, hi = np.maximum(lo, -2.0), np.minimum(hi, 2.0)
+    return lo + (hi - lo) * np.random.default_rng(seed).random((n, m.nq))
+
+
+@pytest.mark.parametrize("path", ROBOTS)
+def test_a_batch_of_configurations_is_each_configuration_alone(path):
+    m = vjm.load_model(path)
+    Q = _configs(m, 5)
+    batch = m.stiffness(Q)
+    for i, q in enumerate(Q):
+        one = m.stiffness(q)
+        assert np.allclose(one.K, batch.K[i], rtol=1e-12, atol=0) and np.allclose(one.C, batch.C[i], rtol=1e-12, atol=0)
+    w = np.array([10.0, -20.0, 30.0, 1e3, 0.0, -2e3])
+    assert np.allclose(m.deflection(Q, w), np.einsum("nij,j->ni", batch.C, w), rtol=1e-14, atol=0)
+
+
+@pytest.mark.parametrize("path", ROBOTS)
+def test_ceiling_mount_reverses_the_sag_to_first_order(path):
+    m = vjm.load_model(path)
+    Q = _configs(m, 4, seed=2)
+    g = np.asarray(m.gravity)
+    down = m.self_weight(Q, gravity=g)
+    up = m.self_weight(Q, gravity=-g)
+    # the linear parts cancel; what remains is second order in the (sub-millimetre) sag
+    assert np.max(np.abs(down + up)) < 0.05 * np.max(np.abs(down))
+    assert np.max(np.abs(down[:, :3])) > 1e-3  # mm: a sag worth the name
+
+
+def test_a_payload_adds_its_weight_at_its_frame():
+    m = vjm.load_model(ROBOTS[0])
+    q = np.array([0.0, -1.0, 1.2, -1.7, -1.57, 0.0])
+    heavy = m.self_weight(q, payload=Payload("tool0", 10.0))
+    light = m.self_weight(q, payload=Payload("tool0", 0.0))
+    w = np.r_[10.0 * np.asarray(m.gravity), 0, 0, 0]
+    # the payload as a body load is its weight as a dead load at the tool point (another path of the solver)
+    assert heavy == pytest.approx(m.self_weight(q, payload=Payload("tool0", 0.0), wrench=w), rel=1e-9, abs=1e-12)
+    # and to first order its share is C w
+    lin = m.deflection(q, w)
+    assert np.linalg.norm(heavy[:3] - light[:3] - lin[:3]) < 0.01 * np.linalg.norm(lin[:3])
+
+
+@pytest.mark.parametrize("path", ROBOTS)
+def test_model_file_written_and_read_back(path, tmp_path):
+    m = vjm.load_model(path)
+    out = tmp_path / "robot.yaml"
+    m.save(out)
+    back = vjm.load_model(out)
+    q = _configs(m, 2)
+    assert np.array_equal(back.stiffness(q).K, m.stiffness(q).K)
