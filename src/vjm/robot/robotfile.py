@@ -165,9 +165,9 @@ def robot_from_dict(d: dict, base_dir: str, path: str | None, parse_link) -> Rob
     springs, six = _joints(d.get("joints") or {}, base_dir, tree, parse_link)
     links = _links(d.get("links") or {}, base_dir, tree, parse_link)
     if d.get("masses"):
-        extra = _masses(d["masses"], tree)
-        tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies + extra, tree.tools, tree.source,
-                    tree.declared | {b.joint for b in extra})
+        added = _masses(d["masses"], tree)
+        tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies + added, tree.tools, tree.source,
+                    tree.declared | {b.joint for b in added})
     payload = _payload(d["payload"], tree) if d.get("payload") is not None else None
     g = tuple(_vec3(d["gravity"], "gravity")) if "gravity" in d else GRAVITY
     strict = d.get("strict_limits", False)
