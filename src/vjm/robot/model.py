@@ -23,7 +23,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..chain import forward, jacobian
+from ..chain import _jacobian_soa, forward, frame_matrix, jacobian
 from ..errors import VjmError, VjmWarning
 from ..kinematics import Kinematics
 from ..linalg import psd_rank_inverse_soa, sym3_max_eig_soa
@@ -34,6 +34,8 @@ from .tree import ChainSprings, Tree, chain_values, path_chain
 
 #: standard gravity, m/s^2, along -z of the base frame unless the model or the call says otherwise
 GRAVITY = (0.0, 0.0, -9.80665)
+#: configurations per block of :meth:`RobotModel.stiffness` (a block's arrays stay in cache)
+BLOCK = 2048
 #: tolerance of the self-weight equilibrium: Newton step of the tool pose below this x its size
 SAG_TOL = 1e-11
 
@@ -269,20 +271,50 @@ class RobotModel:
     # -- stiffness --------------------------------------------------------
     def stiffness(self, q, tool: str | None = None) -> StiffnessResult:
         """Stiffness at the tool (world axes, at the tool point) for configurations q: (nq,) gives a
-        result without leading axis, (n, nq) a batch (every array with a leading axis n)."""
-        kin = self.kinematics(q, tool)
-        single = np.ndim(q) == 1
-        ch = kin.chains[0]
-        J = jacobian(ch, kin.values[0])[1]
-        C = spring_compliance(ch, J, self.compliances(kin)[0])
-        Ct = np.ascontiguousarray(C.transpose(1, 2, 0))
-        K, rank, inv = psd_rank_inverse_soa(Ct)
-        kt = sym3_max_eig_soa(Ct[:3, :3])
-        kr = sym3_max_eig_soa(Ct[3:, 3:])
-        n = kin.n
-        res = StiffnessResult(kin.points, np.ascontiguousarray(K.transpose(2, 0, 1)), C, kt, kr, rank, inv,
-                              np.zeros((n, 1), dtype=int), rotation_vector(kin.frames[:, :3, :3]))
+        result without leading axis, (n, nq) a batch (every array with a leading axis n).
+
+        Computed in blocks of ``BLOCK`` configurations with the configuration axis last (the
+        chain's closed-form Jacobian, ``C = sum_s J_s C_s J_s^T`` and its inverse stay in cache)."""
+        a, single = self.check_q(q)
+        ch, _ = self.chain(self._tool(tool))
+        n = len(a)
+        out = (np.empty((n, 3)), np.empty((n, 6, 6)), np.empty((n, 6, 6)), np.empty(n), np.empty(n),
+               np.empty(n, dtype=int), np.empty(n, dtype=bool), np.empty((n, 3)))
+        for a0 in range(0, n, BLOCK):
+            self._stiffness_block(ch, a[a0:a0 + BLOCK], out, a0)
+        pts, K, C, kt, kr, rank, inv, rot = out
+        res = StiffnessResult(pts, K, C, kt, kr, rank, inv, np.zeros((n, 1), dtype=int), rot)
         return res.pose(0) if single else res
+
+    def _stiffness_block(self, ch, qb: np.ndarray, out, a0: int) -> None:
+        """Configurations ``a0 : a0 + len(qb)`` of :meth:`stiffness`, written into ``out``."""
+        b0 = a0 + len(qb)
+        vt = np.ascontiguousarray(chain_values(ch, self.tree, qb).T)
+        cols, Jt = _jacobian_soa(ch, vt)
+        kin = Kinematics(("robot", ch.name), (ch,), np.empty((len(qb), 4, 4)), qb, (vt.T,))
+        Ct = np.zeros((6, 6, len(qb)))
+        comp = self.compliances(kin)[0]
+        for s in ch.springs:
+            c = comp.get(s.name)
+            if c is None:
+                continue
+            Z = Jt[list(s.vars)]  # (k, 6, n)
+            if len(s.vars) == 1:
+                cz = Z[0] * np.reshape(c, (-1,))[None, :]
+                Ct += cz[:, None, :] * Z[0][None, :, :]
+            else:
+                Y = np.tensordot(np.asarray(c), Z, axes=(1, 0))  # C_s Z, one BLAS product
+                Ct += np.einsum("ain,ajn->ijn", Z, Y)
+        Ct = 0.5 * (Ct + Ct.transpose(1, 0, 2))
+        K, rank, inv = psd_rank_inverse_soa(Ct)
+        pts, K_, C_, kt, kr, rk, iv, rot = out
+        pts[a0:b0] = cols[3].T
+        K_[a0:b0] = K.transpose(2, 0, 1)
+        C_[a0:b0] = Ct.transpose(2, 0, 1)
+        kt[a0:b0] = sym3_max_eig_soa(Ct[:3, :3])
+        kr[a0:b0] = sym3_max_eig_soa(Ct[3:, 3:])
+        rk[a0:b0], iv[a0:b0] = rank, inv
+        rot[a0:b0] = rotation_vector(frame_matrix(cols)[:, :3, :3])
 
     def stiffness_tools(self, q) -> dict:
         """{tool frame: :meth:`stiffness`} for every tool frame of the tree."""
