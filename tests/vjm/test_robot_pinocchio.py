@@ -107,7 +107,15 @@ def test_kinematics_jacobians_and_gravity_match_pinocchio(path):
 def test_vjm_stiffness_matches_the_jacobian_formula_with_link_springs_by_adjoint():
     """UR10 with joint springs and two beam link springs: K from vjm against (J C J^T)^-1 built from
     pinocchio's joint Jacobian and each link spring's frame, moved to the tool by the adjoint map."""
-    model = vjm.load_model(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
+    from vjm.modelfile import model_from_dict
+    from vjm.yamldata import read_yaml
+
+    d = read_yaml(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
+    rng = np.random.default_rng(11)
+    A = rng.standard_normal((6, 6))
+    C6 = A @ A.T * 1e-7 + np.diag([1e-4, 2e-4, 1e-4, 1e-7, 2e-7, 1e-7])  # a bearing's 6x6 spring
+    d["joints"]["elbow_joint"]["spring6"] = {"compliance": C6.tolist()}
+    model = model_from_dict(d, os.path.dirname(UR10))
     tree = model.tree
     pm = _pin_model(UR10)
     pd = pm.createData()
@@ -126,11 +134,12 @@ def test_vjm_stiffness_matches_the_jacobian_formula_with_link_springs_by_adjoint
         kq = np.array([model.joint_springs[name].stiffness for name in tree.q_names])
         C = J @ np.diag(1.0 / kq) @ J.T
         p_tool = 1000.0 * np.asarray(pd.oMf[tool].translation)
-        for ps in model.links.values():
-            f = pd.oMf[pm.getFrameId(ps.at)]
+        placed = [(pd.oMf[pm.getFrameId(ps.at)], ps.offset, ps.spring.compliance) for ps in model.links.values()]
+        placed.append((pd.oMi[pm.getJointId("elbow_joint")], np.eye(4), C6))
+        for f, offset, Cs in placed:
             S = np.eye(4)
             S[:3, :3], S[:3, 3] = f.rotation, 1000.0 * np.asarray(f.translation)
-            S = S @ ps.offset
+            S = S @ offset
             R, o = S[:3, :3], S[:3, 3]
             # twist of the spring (local axes at its origin) -> tool twist (world axes at the tool point)
             r = p_tool - o
@@ -139,7 +148,7 @@ def test_vjm_stiffness_matches_the_jacobian_formula_with_link_springs_by_adjoint
             Ad[:3, :3] = R
             Ad[:3, 3:] = -rx @ R
             Ad[3:, 3:] = R
-            C += Ad @ ps.spring.compliance @ Ad.T
+            C += Ad @ Cs @ Ad.T
         K = np.linalg.inv(C)
         assert _rel(res.C[n], C) <= 1e-10
         assert _rel(res.K[n], K) <= 1e-8  # through one inversion of a matrix of condition ~1e6
@@ -160,3 +169,20 @@ def test_tree_has_a_stiffness_for_every_tool_and_a_rigid_urdf_has_zero_complianc
     left = m.stiffness(q, "l_tool").C
     only_left = RobotModel(tree, {k: v for k, v in springs.items() if not k.startswith("r")}).stiffness(q, "l_tool").C
     assert np.allclose(left, only_left, rtol=1e-12, atol=0)
+
+
+def test_masses_from_the_model_file_add_to_the_urdf_inertials():
+    """A point mass under masses: against pinocchio with the same mass appended to the joint's body."""
+    from vjm.modelfile import model_from_dict
+
+    d = {"urdf": UR10, "masses": {"forearm_link": {"mass": 3.5, "com": [20.0, -10.0, 300.0]}}}
+    model = model_from_dict(d)
+    pm = _pin_model(UR10)
+    jid = pm.frames[pm.getFrameId("forearm_link")].parentJoint
+    place = pm.frames[pm.getFrameId("forearm_link")].placement
+    com = place.act(np.array([0.020, -0.010, 0.300]))
+    pm.appendBodyToJoint(jid, pin.Inertia(3.5, com, np.eye(3) * 1e-3), pin.SE3.Identity())
+    pd = pm.createData()
+    for q in _random_q(model.tree, 5, np.random.default_rng(2)):
+        g = np.asarray(pin.computeGeneralizedGravity(pm, pd, _pin_q(pm, model.tree, q))) * 1000.0
+        assert _rel(model.gravity_torques(q), g) <= RTOL
