@@ -60,3 +60,18 @@ def test_model_file_written_and_read_back(path, tmp_path):
     back = vjm.load_model(out)
     q = _configs(m, 2)
     assert np.array_equal(back.stiffness(q).K, m.stiffness(q).K)
+
+
+def test_joint_map_is_the_stiffness_and_sag_at_its_grid_points(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    m = vjm.load_model(ROBOTS[0])
+    q0 = np.array([0.0, -1.0, 1.2, -1.7, -1.57, 0.0])
+    jm = m.joint_map(q0, ("shoulder_lift_joint", "elbow_joint"), ((-2.0, -0.5), (0.5, 2.0)), n=4, self_weight=True)
+    i, j = 2, 1
+    q = q0.copy()
+    q[1], q[2] = jm.a[i], jm.b[j]
+    assert jm.k_tran[i, j] == pytest.approx(m.stiffness(q).k_tran, rel=1e-12)
+    assert jm.sag[i, j] == pytest.approx(m.self_weight(q), rel=1e-9, abs=1e-12)
+    jm.plot("sag").figure.savefig(tmp_path / "sag.png")
