@@ -7,7 +7,6 @@ import pytest
 
 pin = pytest.importorskip("pinocchio")
 
-import vjm  # noqa: E402
 from vjm.robot.model import GRAVITY, JointSpring, RobotModel  # noqa: E402
 from vjm.robot.urdf import read_urdf  # noqa: E402
 

@@ -28,7 +28,7 @@ from ..errors import VjmError, VjmWarning
 from ..kinematics import Kinematics
 from ..linalg import psd_rank_inverse_soa, sym3_max_eig_soa
 from ..links import LinkSpring
-from ..stiffness import StiffnessResult, spring_compliance
+from ..stiffness import StiffnessResult
 from ..transforms import rotation_vector
 from .tree import ChainSprings, Tree, chain_values, path_chain
 
