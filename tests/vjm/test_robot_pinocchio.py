@@ -185,3 +185,23 @@ def test_masses_from_the_model_file_add_to_the_urdf_inertials():
     for q in _random_q(model.tree, 5, np.random.default_rng(2)):
         g = np.asarray(pin.computeGeneralizedGravity(pm, pd, _pin_q(pm, model.tree, q))) * 1000.0
         assert _rel(model.gravity_torques(q), g) <= RTOL
+
+
+def test_a_mimic_joint_moves_with_its_master_and_has_its_own_spring():
+    """r_finger_b mimics r_finger_a (prismatic, axes -y and y): at the finger's tool the axial compliance
+    is the master's spring seen through the multiplier plus the mimic joint's own."""
+    tree = read_urdf(TREE)
+    ka, kb = 2.0e3, 5.0e3  # N/mm
+    m = RobotModel(tree, {"r_finger_a": JointSpring(ka), "r_finger_b": JointSpring(kb)})
+    q = np.zeros(tree.nq)
+    q[0], q[-1] = 100.0, 12.0
+    Jb = m.jacobian(q, "r_fb")
+    axis = Jb[:3, tree.q_names.index("r_finger_a")]  # the finger's direction of motion (mimic: -1 x master)
+    assert np.linalg.norm(axis) == pytest.approx(1.0, rel=1e-12)
+    u = axis / np.linalg.norm(axis)
+    C = m.stiffness(q, "r_fb").C
+    assert u @ C[:3, :3] @ u == pytest.approx(1.0 / ka + 1.0 / kb, rel=1e-12)
+    # the master's tool sees its own spring only
+    Ca = m.stiffness(q, "r_fa").C
+    ua = m.jacobian(q, "r_fa")[:3, tree.q_names.index("r_finger_a")]
+    assert ua @ Ca[:3, :3] @ ua == pytest.approx(1.0 / ka, rel=1e-12)
