@@ -205,3 +205,23 @@ def test_a_mimic_joint_moves_with_its_master_and_has_its_own_spring():
     Ca = m.stiffness(q, "r_fa").C
     ua = m.jacobian(q, "r_fa")[:3, tree.q_names.index("r_finger_a")]
     assert ua @ Ca[:3, :3] @ ua == pytest.approx(1.0 / ka, rel=1e-12)
+
+
+@pytest.mark.parametrize("path", [UR10, TREE], ids=["ur10", "torso_two_arms"])
+def test_small_self_weight_sag_is_pinocchios_linear_sag(path):
+    """Stiff joint springs: the equilibrium sag tends to -J K^-1 g(q), with pinocchio's generalized gravity
+    g(q) (every body, the other arm of the tree included) and frame Jacobian."""
+    tree = read_urdf(path)
+    k = {n: (4e12 if tree.joints[tree.joint_index(n)].type != "prismatic" else 4e6) for n in tree.q_names}
+    model = RobotModel(tree, {n: JointSpring(v) for n, v in k.items()})
+    pm = _pin_model(path)
+    pd = pm.createData()
+    kv = np.array([k[n] for n in tree.q_names])
+    for q in _random_q(tree, 3, np.random.default_rng(4)):
+        tool = tree.tools[0]
+        qp = _pin_q(pm, tree, q)
+        g = _pin_columns(pm, tree, np.asarray(pin.computeGeneralizedGravity(pm, pd, qp))[None])[0]
+        g *= np.array([1000.0 if tree.joints[tree.joint_index(n)].type != "prismatic" else 1.0 for n in tree.q_names])
+        lin = model.jacobian(q, tool) @ (-g / kv)
+        sag = model.self_weight(q, tool)
+        assert np.linalg.norm(sag - lin) <= 1e-5 * np.linalg.norm(lin)
