@@ -320,6 +320,8 @@ CASES = [
          {"r.yaml": ROBOT, "r.urdf": ARM}, "three joint values for a two-joint arm"),
     Case("26.7", "vjm stiffness r.yaml --q 0,2.5 --strict-limits", "q[1] = 2.5 of joint 'j2' is outside its limits "
          "[-2, 2]", {"r.yaml": ROBOT, "r.urdf": ARM}, "a joint value beyond the URDF's limit"),
+    Case("26", "vjm map r.yaml --out m", "r.yaml: a serial robot model; 'map' belongs to parallel machines",
+         {"r.yaml": ROBOT, "r.urdf": ARM}, "a robot given to a command of parallel machines"),
     Case("26.7", "vjm stiffness r.yaml --q 0,0", "r.urdf has no joint 'elbow'; its joints: j1, j2",
          {"r.yaml": "urdf: r.urdf\njoints:\n  j1: {stiffness: 1.0e+8}\n  elbow: {stiffness: 1.0e+8}\n", "r.urdf": ARM}, "a stiffness for a joint the URDF "
          "does not have"),

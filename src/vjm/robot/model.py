@@ -85,6 +85,11 @@ class Payload:
     com: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
+class ParallelOnly(VjmError, AttributeError):
+    """A parallel machine's attribute asked of a robot (``vjm map``, ``diagnose``, ``path`` ... on a robot
+    file): one line naming the file (an AttributeError too, so that ``hasattr`` stays False)."""
+
+
 @dataclass(frozen=True, eq=False)
 class RobotModel:
     """Immutable VJM model of a serial or tree robot (see the module docstring).
@@ -134,6 +139,14 @@ class RobotModel:
     # -- the interface shared with vjm.Model ------------------------------
     architecture = "robot"
     dof = 6
+
+    def __getattr__(self, name: str):
+        # only reached for a name this class lacks: a parallel machine's (map, effects, grid ...)
+        if name.startswith("_"):
+            raise AttributeError(name)
+        raise ParallelOnly(f"{self.path or self.name}: a serial robot model; {name!r} belongs to parallel "
+                           f"machines (this command does not run on robots yet): evaluate a robot in joint "
+                           f"space with vjm stiffness --q, RobotModel.stiffness, self_weight or joint_map")
 
     @property
     def q_names(self) -> tuple[str, ...]:
