@@ -356,6 +356,28 @@ class RobotModel:
 
         return joint_map(self, q0, joints, ranges, n, tool, self_weight)
 
+    def inverse(self, poses, seed, tool: str | None = None, tol: float = 1e-8):
+        """Joint values reaching tool poses (n, 4, 4) in the configuration of ``seed`` (:mod:`vjm.robot.ik`):
+        an :class:`~vjm.robot.ik.IKResult` with ``q``, ``reached``, ``singular``, ``residual``."""
+        from .ik import solve
+
+        return solve(self, np.asarray(poses, dtype=float).reshape(-1, 4, 4), self.check_q(seed)[0][0], tool, tol)
+
+    def cartesian_map(self, points, seed, orientation=None, tool: str | None = None, self_weight: bool = False):
+        """k_tran, k_rot (and the sag) at tool points (n, 3) mm with one orientation (rotation vector), through
+        the IK in the configuration of ``seed``, carried from point to point (:func:`vjm.robot.ik.solve_path`).
+
+        Returns ``(IKResult, StiffnessResult or None, sag or None)``: the stiffness and sag of the reached
+        points only (``ik.reached`` says which); unreachable and singular points are flagged in ``ik``."""
+        from .ik import pose_targets, solve_path
+
+        ik = solve_path(self, pose_targets(points, orientation), self.check_q(seed)[0][0], tool)
+        ok = ik.reached
+        if not np.any(ok):
+            return ik, None, None
+        r = self.stiffness(ik.q[ok], tool)
+        return ik, r, (self.self_weight(ik.q[ok], tool) if self_weight else None)
+
     def save(self, path) -> None:
         """Write this model's file (its mapping as read; a URDF path is kept absolute)."""
         from .robotwrite import save_robot
