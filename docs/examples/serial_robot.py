@@ -13,11 +13,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-import vjm  # noqa: E402
-from vjm.transforms import rotation_vector  # noqa: E402
+import vjm
+from vjm.transforms import rotation_vector
 
 OUT = Path("out/examples/serial_robot")
 OUT.mkdir(parents=True, exist_ok=True)
