@@ -44,7 +44,8 @@ SAG_TOL = 1e-11
 class JointSpring:
     """A joint's 1-dof spring: ``stiffness`` (N mm/rad, or N/mm for a prismatic joint), or a
     ``table`` (q, stiffness) interpolated linearly (held constant beyond its ends), or an
-    ``expression`` of ``q`` (the joint's value, rad or mm) read by vjm's safe expression reader."""
+    ``expression`` of ``q`` (the joint's value, rad or mm) read by vjm's safe expression reader (one
+    configuration at a time: over a large batch, a table is much faster)."""
 
     stiffness: float | None = None
     table: tuple | None = None
