@@ -99,3 +99,30 @@ def test_a_mass_read_from_a_linkfea_result(tmp_path):
     (tmp_path / "arm.json").write_text(json.dumps(doc))
     with pytest.raises(vjm.VjmError, match="states no mass"):
         model_from_dict({"urdf": urdf, "masses": {"forearm_link": {"linkfea": "arm.json", "com": com}}}, str(tmp_path))
+
+
+@pytest.mark.parametrize("path", ROBOTS)
+def test_compiled_stiffness_equals_the_chain_jacobian_formula(path):
+    """The kernel's C and K against C = sum_s J_s C_s J_s^T from vjm.chain.jacobian (numpy) and its inverse."""
+    from vjm.chain import jacobian
+    from vjm.robot.tree import chain_values
+    from vjm.stiffness import spring_compliance
+
+    m = vjm.load_model(path)
+    Q = _configs(m, 50, seed=9)
+    r = m.stiffness(Q)
+    kin = m.kinematics(Q)
+    ch = kin.chains[0]
+    C = spring_compliance(ch, jacobian(ch, chain_values(ch, m.tree, Q))[1], m.compliances(kin)[0])
+    assert np.allclose(r.C, C, rtol=1e-12, atol=1e-14 * np.abs(C).max())
+    # K: the inverse of the same LDL^T as vjm.linalg's (some configurations are close to singular: the
+    # wrist's, where K reaches 1e13 and an inverse by another route differs in its last digits)
+    from vjm.linalg import psd_rank_inverse
+
+    Kref, rank, inv = psd_rank_inverse(C)
+    assert np.array_equal(r.rank, rank) and np.array_equal(r.invertible, inv)
+    scale = np.sqrt(np.einsum("nii->ni", Kref))
+    rel = (np.abs(r.K - Kref) / (scale[:, :, None] * scale[:, None, :])).max(axis=(1, 2))
+    d = np.sqrt(np.einsum("nii->ni", C))
+    cond = np.linalg.cond(C / (d[:, :, None] * d[:, None, :]))
+    assert np.all(rel <= 1e-14 * cond)  # round-off of two orderings of the same LDL^T
