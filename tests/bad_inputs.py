@@ -305,6 +305,9 @@ CASES = [
     Case("26.7", "vjm stiffness r.yaml --q 0,0", "joint 'j1' is floating",
          {"r.yaml": "urdf: r.urdf\n", "r.urdf": _urdf(_joint("j1", "base", "l1", "floating")
                                                        + _joint("j2", "l1", "l2"))}, "a URDF with a floating joint"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0", "joint 'j2' is planar",
+         {"r.yaml": "urdf: r.urdf\n", "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2", "planar"))},
+         "a URDF with a planar joint"),
     Case("26.7", "vjm stiffness r.yaml --q 0,0", "link 'l1': a mass of 2 kg without a centre of mass",
          {"r.yaml": ROBOT, "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2"),
                                            inertial='<inertial><mass value="2"/></inertial>')},
