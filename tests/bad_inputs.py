@@ -167,6 +167,24 @@ D = "vjm diagnose {puu} m.csv --out rep"
 S = "vjm simulate {puu} --out s.csv"
 HD = "vjm diagnose {hexapod} m.csv --out rep"
 HEX_HDR = "x,y,z,ox,oy,oz,Fx,Fy,Fz,Mx,My,Mz,dx,dy,dz,rx,ry,rz"
+
+# ------------------------------------------------------------------ robots (issue 26)
+
+def _urdf(joints: str, links=("base", "l1", "l2"), inertial='<inertial><mass value="2"/><origin xyz="0.1 0 0"/>'
+          '<inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial>') -> str:
+    body = "".join(f'<link name="{n}">{inertial if n != "base" else ""}</link>' for n in links)
+    return f'<?xml version="1.0"?><robot name="r">{body}{joints}</robot>\n'
+
+
+def _joint(name, parent, child, jtype="revolute", axis="0 0 1"):
+    lim = '<limit lower="-2" upper="2" effort="1" velocity="1"/>' if jtype in ("revolute", "prismatic") else ""
+    return (f'<joint name="{name}" type="{jtype}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="0 0 0.3"/><axis xyz="{axis}"/>{lim}</joint>')
+
+
+ARM = _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2"))
+ROBOT = "urdf: r.urdf\njoints: {j1: {stiffness: 1.0e+8}, j2: {stiffness: 5.0e+7}}\n"
+
 CASES = [
     # 18.2: numeric options, vjm
     Case("18.2", D + " --alpha 0", "--alpha must be in (0, 1), got 0", {"m.csv": GOOD}),
@@ -366,6 +384,41 @@ CASES = [
          note="m.csv; rep -> gone (dangling)"),
     Case("30.1", "linkfea sweep bar -p length=100,120 --scheduler tcp://127.0.0.1:1 --out sw",
          "cannot reach the Dask scheduler at tcp://127.0.0.1:1"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0", "r.urdf: link 'l1' is the child of two joints ('j1' and 'j2'): a "
+         "kinematic loop", {"r.yaml": ROBOT, "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l2", "l1"))},
+         "a URDF whose link l1 has two parents"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0", "joint 'j2': its parent link 'arm' is not defined in the file",
+         {"r.yaml": ROBOT, "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "arm", "l2"))},
+         "a URDF joint whose parent link does not exist"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0", "joint 'j2': unknown type 'hinge'",
+         {"r.yaml": ROBOT, "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2", "hinge"))},
+         "a URDF joint of type hinge"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0", "joint 'j1' is floating",
+         {"r.yaml": "urdf: r.urdf\n", "r.urdf": _urdf(_joint("j1", "base", "l1", "floating")
+                                                       + _joint("j2", "l1", "l2"))}, "a URDF with a floating joint"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0", "joint 'j2' is planar",
+         {"r.yaml": "urdf: r.urdf\n", "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2", "planar"))},
+         "a URDF with a planar joint"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0", "link 'l1': a mass of 2 kg without a centre of mass",
+         {"r.yaml": ROBOT, "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2"),
+                                           inertial='<inertial><mass value="2"/></inertial>')},
+         "a URDF inertial with a mass and no origin"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0", "link 'l1': inertial mass must be a number >= 0 (kg), got '-2'",
+         {"r.yaml": ROBOT, "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2"),
+                                           inertial='<inertial><mass value="-2"/><origin xyz="0 0 0"/></inertial>')},
+         "a URDF link of mass -2 kg"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0 --self-weight", "self-weight: link 'l1' (moved by joint 'j1') has no "
+         "inertial", {"r.yaml": ROBOT, "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2"),
+                                                      inertial="")}, "self-weight of a URDF without inertials"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0,0", "--q expects 2 numbers q1,...,q2",
+         {"r.yaml": ROBOT, "r.urdf": ARM}, "three joint values for a two-joint arm"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,2.5 --strict-limits", "q[1] = 2.5 of joint 'j2' is outside its limits "
+         "[-2, 2]", {"r.yaml": ROBOT, "r.urdf": ARM}, "a joint value beyond the URDF's limit"),
+    Case("26", "vjm map r.yaml --out m", "r.yaml: a serial robot model; 'map' belongs to parallel machines",
+         {"r.yaml": ROBOT, "r.urdf": ARM}, "a robot given to a command of parallel machines"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0", "r.urdf has no joint 'elbow'; its joints: j1, j2",
+         {"r.yaml": "urdf: r.urdf\njoints:\n  j1: {stiffness: 1.0e+8}\n  elbow: {stiffness: 1.0e+8}\n", "r.urdf": ARM}, "a stiffness for a joint the URDF "
+         "does not have"),
 ]
 
 

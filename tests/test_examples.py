@@ -36,7 +36,7 @@ def _png(path):
 
 def test_all_examples_are_tested():
     assert sorted(p.stem for p in EXAMPLES.glob("*.py")) == sorted(
-        ["beam_vs_fea", "cad_to_compliance", "diagnose", "machine_map_from_fea"])
+        ["beam_vs_fea", "cad_to_compliance", "diagnose", "machine_map_from_fea", "serial_robot"])
 
 
 def test_cad_to_compliance(workdir, monkeypatch):
@@ -87,3 +87,15 @@ def test_diagnose(workdir, monkeypatch):
     assert lo < 15.0 < hi  # the hidden weight
     out = workdir / ns["OUT"]
     assert (out / "report.html").stat().st_size > 0 and (out / "model_updated.yaml").exists()
+
+
+def test_serial_robot(workdir, monkeypatch):
+    ns = _run("serial_robot", workdir, monkeypatch)
+    robot, jmap, q0 = ns["robot"], ns["jmap"], ns["q0"]
+    i, j = 4, 9
+    q = q0.copy()
+    q[1], q[2] = jmap.a[i], jmap.b[j]
+    assert jmap.sag[i, j] == pytest.approx(robot.self_weight(q), rel=1e-9, abs=1e-12)
+    assert np.all(np.isfinite(jmap.sag)) and np.max(np.abs(jmap.sag[..., 2])) > 0.1  # mm: a visible sag
+    assert all(_png(workdir / ns["OUT"] / f"{k}.png")[0] > 100 for k in ("sag", "k_tran"))
+    assert np.all(ns["ik"].reached)

@@ -135,6 +135,21 @@ class ChainBuilder:
         """Ideal passive joint; reuse ``name`` with ``coef=-1`` for coupled rotations."""
         self._joint(kind, self._var(name, "passive"), coef)
 
+    @property
+    def size(self) -> int:
+        """Factors written so far (the index the next one will have)."""
+        return len(self._factors)
+
+    def coupled(self, kind: str, name: str, coef: float, spring: str | None = None) -> None:
+        """Another factor ``kind(coef * q)`` of the actuated variable ``name`` (a URDF mimic joint
+        following its master): the variable and its spring ``spring`` are written here if the
+        chain has not met them yet (a master on another branch of a tree)."""
+        new = name not in self._names
+        i = self._var(name, "actuated")
+        self._joint(kind, i, coef)
+        if new and spring is not None:
+            self._springs.append(Spring(spring, (i,)))
+
     def spring1(self, kind: str, name: str) -> None:
         """1-dof virtual spring ``kind(theta)`` (e.g. the compliance of a joint)."""
         i = self._var(name, "spring")

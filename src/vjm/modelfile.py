@@ -168,6 +168,10 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
     """Build a validated Model from the mapping of a model file."""
     if not isinstance(d, dict):
         raise VjmError("a model file must be a YAML mapping")
+    from .robot.robotfile import is_robot, robot_from_dict
+
+    if is_robot(d):  # a serial or tree robot: a URDF or a DH table beside its springs (vjm.robot)
+        return robot_from_dict(d, base_dir, path, parse_link)  # type: ignore[return-value]
     described = "chains" in d or d.get("architecture") == DESCRIBED
     known = TOP_KEYS + DESCRIPTION_KEYS if described else TOP_KEYS
     extra = set(d) - set(known)
@@ -305,6 +309,11 @@ def load_model(path, foot=None, leg=None, links: dict | None = None) -> Model:
 
     d = read_yaml(path, "model file")  # plain data: a YAML tag that builds objects is refused
     given = {k: v for k, v in {**(links or {}), "foot": foot, "leg": leg}.items() if v is not None}
+    from .robot.robotfile import is_robot
+
+    if is_robot(d) and given:
+        raise VjmError(f"{path}: a robot's link springs are replaced in its model file (links:), not by "
+                       f"foot/leg/links arguments")
     later = {}
     if isinstance(d, dict):
         d = dict(d)

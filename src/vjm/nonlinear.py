@@ -98,10 +98,12 @@ class _ChainData:
     D: np.ndarray       # (n, m, n_joints): d(joint factor angle)/dx
     joints: tuple       # factor indices of the non-constant factors
     x0: np.ndarray      # (n, m) rest values of x: imposed spring deformations (0 without offsets)
+    loads: tuple = ()   # body loads: (factor index, point (n, 3) in the frame after it, world force (n, 3))
 
     def take(self, idx):
         return _ChainData(self.chain, self.v0[idx], self.R0[idx], self.S[idx], self.kappa[idx],
-                          self.fixed[idx], self.D[idx], self.joints, self.x0[idx])
+                          self.fixed[idx], self.D[idx], self.joints, self.x0[idx],
+                          tuple((i, c[idx], f[idx]) for i, c, f in self.loads))
 
 
 def _spring_basis(C):
@@ -135,10 +137,11 @@ def _rest_coordinates(ch, name, theta0, B, rigid, n):
     return np.where(rigid, 0.0, xi)
 
 
-def _setup(model, P, offsets=None):
+def _setup(model, P, offsets=None, body_loads=None):
     """The chains' unknowns, springs and nominal values at poses P (or a Kinematics); returns (points, chains).
 
-    ``offsets``: {spring name: (n, n_chains, k) or broadcastable} rest deformations of springs."""
+    ``offsets``: {spring name: (n, n_chains, k) or broadcastable} rest deformations of springs.
+    ``body_loads``: per chain, a list of (factor index, point, force): see :func:`deflection_map`."""
     kin = model.kinematics(P)
     P = kin.points
     n = P.shape[0]
@@ -187,21 +190,49 @@ def _setup(model, P, offsets=None):
         for jj, i in enumerate(joints):
             Fm[ch.factors[i].var, jj] += ch.factors[i].coef
         T0 = forward(ch, v)
-        out.append(_ChainData(ch, v, T0[:, :3, :3].copy(), S, kappa, fixed, S @ Fm, joints, rest))
+        loads = _body_loads(ch, (body_loads or [()] * len(kin.chains))[ci], n)
+        out.append(_ChainData(ch, v, T0[:, :3, :3].copy(), S, kappa, fixed, S @ Fm, joints, rest, loads))
     return P, out
 
 
-def _chain_kinematics(cd: _ChainData, x):
-    """End frames T (n, 4, 4), joint twist matrices X (n, nJ, 4, 4) and dT = X T (n, nJ, 4, 4)."""
+def _body_loads(ch: Chain, loads, n: int) -> tuple:
+    """A chain's body loads as (factor index, point (n, 3), force (n, 3)), checked."""
+    out = []
+    for i, c, f in loads:
+        if not 0 <= int(i) < len(ch.factors):
+            raise VjmError(f"body load on factor {i} of chain {ch.name!r}, which has {len(ch.factors)}")
+        c = np.array(np.broadcast_to(np.asarray(c, dtype=float), (n, 3)))
+        f = np.array(np.broadcast_to(np.asarray(f, dtype=float), (n, 3)))
+        if not (np.all(np.isfinite(c)) and np.all(np.isfinite(f))):
+            raise VjmError(f"body loads of chain {ch.name!r} must be finite numbers")
+        out.append((int(i), c, f))
+    return tuple(out)
+
+
+def _loaded(chains, n: int) -> np.ndarray:
+    """Pairs (n,) with a non-zero body load."""
+    out = np.zeros(n, bool)
+    for cd in chains:
+        for _, _, f in cd.loads:
+            out |= np.any(f != 0.0, axis=1)
+    return out
+
+
+def _chain_kinematics(cd: _ChainData, x, keep=()):
+    """End frames T (n, 4, 4), joint twist matrices X (n, nJ, 4, 4) and dT = X T (n, nJ, 4, 4);
+    with ``keep`` (factor indices), also {index: the frame just after that factor}."""
     ch = cd.chain
     v = cd.v0 + np.einsum("nm,nmv->nv", x, cd.S)
     n = v.shape[0]
     F = np.broadcast_to(np.eye(4), (n, 4, 4))
     X = np.zeros((n, len(cd.joints), 4, 4))
+    kept = {}
     jj = 0
-    for f in ch.factors:
+    for fi, f in enumerate(ch.factors):
         if f.kind == "const":
             F = F @ f.T
+            if fi in keep:
+                kept[fi] = F
             continue
         F = F @ elementary(f.kind, f.coef * v[:, f.var])
         e = F[:, :3, AXIS[f.kind]]
@@ -210,13 +241,42 @@ def _chain_kinematics(cd: _ChainData, x):
             X[:, jj, :3, 3] = np.cross(F[:, :3, 3], e)
         else:
             X[:, jj, :3, 3] = e
+        if fi in keep:
+            kept[fi] = F
         jj += 1
-    return F, X, X @ F[:, None]
+    return (F, X, X @ F[:, None], kept) if keep else (F, X, X @ F[:, None])
+
+
+def _body_terms(cd: _ChainData, X, kept, hessian: bool):
+    """Gradient (n, m) and Hessian (n, m, m) of the body loads' work ``sum F . p(x)``.
+
+    A point ``p`` fixed after factor ``i`` moves with the joint factors ``f <= i`` as
+    ``dp/da_f = X_f p`` and ``d2p/da_f da_h = X_f X_h p`` (``f`` proximal to ``h``)."""
+    n, nJ = X.shape[0], X.shape[1]
+    gf = np.zeros((n, nJ))
+    Q = np.zeros((n, nJ, nJ))
+    jidx = np.asarray(cd.joints)
+    for i, c, force in cd.loads:
+        Fi = kept[i]
+        p = np.einsum("nij,nj->ni", Fi[:, :3, :3], c) + Fi[:, :3, 3]
+        on = (jidx <= i).astype(float)  # the joint factors proximal to the point
+        dp = (np.einsum("nfij,nj->nfi", X[:, :, :3, :3], p) + X[:, :, :3, 3]) * on[None, :, None]
+        gf += np.einsum("nfi,ni->nf", dp, force)
+        if hessian:
+            A = np.einsum("nfji,nj->nfi", X[:, :, :3, :3], force) * on[None, :, None]
+            Q += A @ np.swapaxes(dp, 1, 2)  # Q[f, h] = F . (w_f x dp_h), valid for f <= h
+    Dm = np.where(cd.fixed[:, :, None], 0.0, cd.D)
+    Hb = None
+    if hessian:
+        Hf = np.triu(Q) + np.swapaxes(np.triu(Q, 1), 1, 2)
+        Hb = Dm @ Hf @ np.swapaxes(Dm, 1, 2)
+    return np.einsum("nmf,nf->nm", Dm, gf), Hb
 
 
 def _linearize(chains, x, u, lam, p0, hessian=True):
     """Closure residual g (n, nc), its gradient G (n, nc, nx + 6) and, with ``hessian``,
-    the Hessian of ``lam . g`` (n, nx + 6, nx + 6), at unknowns x (n, nx), u (n, 6)."""
+    the Hessian of ``lam . g`` (n, nx + 6, nx + 6), at unknowns x (n, nx), u (n, 6); then the
+    gradient (n, nx) and Hessian (n, nx, nx) of the body loads' work (None without body loads)."""
     n = x.shape[0]
     nx = x.shape[1]
     nc = 6 * len(chains)
@@ -224,12 +284,21 @@ def _linearize(chains, x, u, lam, p0, hessian=True):
     g = np.zeros((n, nc))
     G = np.zeros((n, nc, nx + 6))
     Hs = np.zeros((n, nx + 6, nx + 6)) if hessian else None
+    loaded = any(cd.loads for cd in chains)
+    gB = np.zeros((n, nx)) if loaded else None
+    HB = np.zeros((n, nx, nx)) if loaded and hessian else None
     col = 0
     for k, cd in enumerate(chains):
         m = cd.S.shape[1]
         xs = slice(col, col + m)
         rows = slice(6 * k, 6 * k + 6)
-        T, X, dT = _chain_kinematics(cd, x[:, xs])
+        if cd.loads:
+            T, X, dT, kept = _chain_kinematics(cd, x[:, xs], {i for i, _, _ in cd.loads})
+            gB[:, xs], Hb = _body_terms(cd, X, kept, hessian)
+            if hessian:
+                HB[:, xs, xs] = Hb
+        else:
+            T, X, dT = _chain_kinematics(cd, x[:, xs])
         Rp = Rxyz @ cd.R0
         Rc = T[:, :3, :3]
         RcRpT = Rc @ np.swapaxes(Rp, 1, 2)
@@ -263,7 +332,7 @@ def _linearize(chains, x, u, lam, p0, hessian=True):
             SlD2 = Sl[:, None, None] @ D2 @ cd.R0[:, None, None]
             Hs[:, nx + 3:, nx + 3:] += np.einsum("nijab,nab->nij", SlD2, Rc)
         col += m
-    return g, G, Hs
+    return g, G, Hs, gB, HB
 
 
 def _solve(A, b):
@@ -287,7 +356,7 @@ def _describe(P, W, idx):
 
 
 def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_info: bool = False,
-                   strict: bool = True, offsets=None):
+                   strict: bool = True, offsets=None, body_loads=None):
     """Nonlinear platform deflections (n, 6) for points P (n, 3) and wrenches W (n, 6) or (6,).
 
     All (pose, wrench) pairs are solved together (see the module docstring).
@@ -311,6 +380,9 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
         or mm, in the spring's variables; applied together with the load (same ramp).  The
         twist returned is then measured from the unloaded posture *without* the offsets.
         ``info["springs"]`` gives every spring's deformation at equilibrium.
+    body_loads : optional, per chain, a list of ``(i, c, F)``: a dead load ``F`` (world axes, N; (3,)
+        or (n, 3)) at the point ``c`` (mm) of the frame just after factor ``i`` of the chain, ramped
+        with the wrench: a robot's weight (:meth:`vjm.robot.RobotModel.self_weight`).
 
     Returns
     -------
@@ -325,7 +397,7 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
         raise VjmError(f"wrenches must have shape (6,) or ({n}, 6), got {np.shape(W)}") from None
     if not np.all(np.isfinite(W)):
         raise VjmError("wrenches must be finite numbers")
-    P, chains = _setup(model, P, offsets)
+    P, chains = _setup(model, P, offsets, body_loads)
     nx = sum(cd.S.shape[1] for cd in chains)
     nc = 6 * len(chains)
     kappa = np.concatenate([cd.kappa for cd in chains], axis=1)
@@ -344,7 +416,7 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     iters = np.zeros(n, int)
     steps = np.zeros(n, int)
     prev = np.full(n, np.inf)
-    done = np.all(W == 0.0, axis=1) & np.all(x_rest == 0.0, axis=1)
+    done = np.all(W == 0.0, axis=1) & np.all(x_rest == 0.0, axis=1) & ~_loaded(chains, n)
     failed = np.zeros(n, bool)
     cap = max(1, int(max_iter))
     while True:
@@ -409,12 +481,15 @@ def _newton_step(ch_a, za, s, W, P, kappa, kd, x_rest, nx: int, nc: int) -> np.n
     (x, u, lam) under the load fraction ``s`` of the wrenches ``W`` and of the imposed offsets."""
     x, u, lam = za[:, :nx], za[:, nx:nx + 6], za[:, nx + 6:]
     w = W * s[:, None]
-    g, G, Hs = _linearize(ch_a, x, u, lam, P)
+    g, G, Hs, gB, HB = _linearize(ch_a, x, u, lam, P)
     r = np.concatenate([kappa * (x - s[:, None] * x_rest) - np.einsum("nci,nc->ni", G[:, :, :nx], lam),
                         -w - np.einsum("nci,nc->ni", G[:, :, nx:], lam), g], axis=1)
     N = nx + 6 + nc
     A = np.zeros((len(za), N, N))
     A[:, :nx + 6, :nx + 6] = -Hs
+    if gB is not None:  # the body loads' work, ramped with the load: - s F . p(x)
+        r[:, :nx] -= s[:, None] * gB
+        A[:, :nx, :nx] -= s[:, None, None] * HB
     A[:, np.arange(nx), np.arange(nx)] += kd
     A[:, :nx + 6, nx + 6:] = -np.swapaxes(G, 1, 2)
     A[:, nx + 6:, :nx + 6] = G

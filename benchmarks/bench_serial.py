@@ -1,0 +1,89 @@
+"""Configurations per second of a 6R arm (the bundled UR10 with joint and link springs), side by side with
+pinocchio's compiled kinematics in the same run.
+
+* joint-space stiffness (K, C at the tool): ``RobotModel.stiffness(Q)`` batched, against a per-configuration
+  loop of pinocchio (``computeJointJacobians`` + ``getFrameJacobian``, then C = J diag(c) J^T and its inverse
+  in numpy: the compiled kinematics as an anchor, the joint springs only);
+* self-weight deflection (equilibrium on the deflected geometry): ``RobotModel.self_weight(Q)``, against
+  pinocchio's ``computeGeneralizedGravity`` per configuration plus the linear sag ``J K^-1 g(q)`` (no
+  equilibrium iteration: what the compiled library gives for the linear answer).
+
+Each is timed ``REPEAT`` times and the best kept (as ``timeit``).  One core: run with
+``OMP_NUM_THREADS=1``.  Usage: ``python benchmarks/bench_serial.py [N]``.
+"""
+import os
+import platform
+import sys
+import time
+
+import numpy as np
+
+import vjm
+
+REPEAT = 3
+#: issue 26 item 6 targets, configurations per second on one core
+TARGET_STIFFNESS, TARGET_SAG = 200_000, 50_000
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def best(fn):
+    t = np.inf
+    for _ in range(REPEAT):
+        t0 = time.perf_counter()
+        fn()
+        t = min(t, time.perf_counter() - t0)
+    return t
+
+
+def pin_stiffness(pm, pd, tool, Q, c):
+    import pinocchio as pin
+
+    out = np.empty((len(Q), 6, 6))
+    for i, q in enumerate(Q):
+        pin.computeJointJacobians(pm, pd, q)
+        pin.updateFramePlacements(pm, pd)
+        J = pin.getFrameJacobian(pm, pd, tool, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        C = (J * c) @ J.T
+        out[i] = np.linalg.inv(C)
+    return out
+
+
+def pin_sag(pm, pd, tool, Q, c):
+    import pinocchio as pin
+
+    out = np.empty((len(Q), 6))
+    for i, q in enumerate(Q):
+        g = pin.computeGeneralizedGravity(pm, pd, q)
+        pin.computeJointJacobians(pm, pd, q)
+        pin.updateFramePlacements(pm, pd)
+        J = pin.getFrameJacobian(pm, pd, tool, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        out[i] = J @ (-c * g)
+    return out
+
+
+def main(n: int = 20_000) -> None:
+    import pinocchio as pin
+
+    m = vjm.load_model(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
+    rng = np.random.default_rng(0)
+    Q = rng.uniform(-2.0, 2.0, (n, m.nq))
+    pm = pin.buildModelFromUrdf(m.tree.source)
+    pd = pm.createData()
+    tool = pm.getFrameId("tool0")
+    c = np.array([1.0 / m.joint_springs[j].stiffness for j in m.q_names]) * 1e3  # rad/(N m)
+    m.stiffness(Q[:10])
+    t_vjm = best(lambda: m.stiffness(Q))
+    t_pin = best(lambda: pin_stiffness(pm, pd, tool, Q, c))
+    ns = max(50, n // 40)
+    t_sag = best(lambda: m.self_weight(Q[:ns]))
+    t_pin_sag = best(lambda: pin_sag(pm, pd, tool, Q[:ns], c))
+    print(f"{platform.processor() or platform.machine()}, numpy {np.__version__}, pinocchio {pin.__version__}, "
+          f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}")
+    print(f"joint-space stiffness, {n} configurations: vjm {n / t_vjm:,.0f} /s (target {TARGET_STIFFNESS:,}), "
+          f"pinocchio loop {n / t_pin:,.0f} /s")
+    print(f"self-weight, {ns} configurations: vjm equilibrium {ns / t_sag:,.0f} /s (target {TARGET_SAG:,}), "
+          f"pinocchio linear sag loop {ns / t_pin_sag:,.0f} /s")
+
+
+if __name__ == "__main__":
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 20_000)
