@@ -303,7 +303,8 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     return_info : also return a dict: ``converged`` (n,) bool, ``iterations`` (n,) total Newton
         iterations, ``load_steps`` (n,) load increments used (1 = full load at once),
         ``chain_wrench`` (n, n_chains, 6) closure multipliers (the share of the applied
-        wrench each chain carries, world axes at the platform point)
+        wrench each chain carries, world axes at the platform point), ``state`` (n, nx + 6 + 6
+        n_chains) the final unknowns (spring coordinates, platform pose, multipliers)
     strict : raise VjmError naming the poses whose equilibrium was not found; with
         ``strict=False`` their rows are NaN and ``info["converged"]`` is False
     offsets : optional {spring name: (n, n_chains, k) or (n_chains, k)} imposed deformations
@@ -399,7 +400,7 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     if return_info:
         info = {"converged": ~failed, "iterations": iters, "load_steps": steps,
                 "chain_wrench": z[:, nx + 6:].reshape(n, len(chains), 6),
-                "springs": _spring_deformations(chains, z[:, :nx])}
+                "springs": _spring_deformations(chains, z[:, :nx]), "state": z}
         return t, info
     return t
 
