@@ -225,7 +225,7 @@ def _deflect_and_compensate(m, tp: Toolpath, W, t, method: str, workers: int, co
         return d, None, None, 0
     d_nl = np.empty((n, 6))
     cmd, res, resvec = np.empty_like(tp.poses), np.empty(n), np.empty((n, 3))
-    iters = cold = 0
+    iters = cold = cold_c = 0
     t0 = time.perf_counter()
     for a in range(0, n, CHUNK):
         sl = slice(a, min(n, a + CHUNK))
@@ -236,11 +236,11 @@ def _deflect_and_compensate(m, tp: Toolpath, W, t, method: str, workers: int, co
         if compensate:
             c = _compensate(m, tp.poses[sl], W[sl], t, s.twist, workers, lambda i, a=a: tp.where(i + a), s.state)
             cmd[sl], res[sl], resvec[sl] = c.commanded, c.residual, c.residual_vector
-            iters, cold = max(iters, c.iterations), cold + c.cold
+            iters, cold_c = max(iters, c.iterations), cold_c + c.cold
         _eta(progress, sl.stop, n, t0)
     if method == "nonlinear":
         d = d_nl
-    return d, d_nl, (Compensation(cmd, res, iters, resvec, cold) if compensate else None), cold
+    return d, d_nl, (Compensation(cmd, res, iters, resvec, cold_c) if compensate else None), cold + cold_c
 
 
 def _all_vertices(tp: Toolpath, linearize_arcs: bool, split: bool) -> Toolpath:
