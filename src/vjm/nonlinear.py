@@ -191,6 +191,15 @@ def _setup(model, P, offsets=None):
     return P, out
 
 
+def _cross(a, b):
+    """Row-wise cross product of (n, 3) arrays (np.cross's axis handling costs more than the arithmetic)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
 def _chain_kinematics(cd: _ChainData, x):
     """End frames T (n, 4, 4), joint twist matrices X (n, nJ, 4, 4) and dT = X T (n, nJ, 4, 4)."""
     ch = cd.chain
@@ -207,7 +216,7 @@ def _chain_kinematics(cd: _ChainData, x):
         e = F[:, :3, AXIS[f.kind]]
         if ROTATION[f.kind]:  # world twist of a revolute factor: omega = e, v = o x e
             X[:, jj, :3, :3] = _skew(e)
-            X[:, jj, :3, 3] = np.cross(F[:, :3, 3], e)
+            X[:, jj, :3, 3] = _cross(F[:, :3, 3], e)
         else:
             X[:, jj, :3, 3] = e
         jj += 1

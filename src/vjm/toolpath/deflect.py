@@ -37,8 +37,8 @@ from .equilibrium import equilibria
 
 #: the effects this module knows how to apply (the additive effects of vjm diagnose)
 EFFECTS = ("gravity", "clearance", "passive_clearance", "geometric_nonlinearity")
-#: (pose, wrench) pairs per block of the nonlinear solver (its KKT matrices stay ~100 MB)
-BLOCK = 1024
+#: (pose, wrench) pairs per block of the nonlinear solver (marched in SEGMENTS runs: KKT matrices of 128 pairs)
+BLOCK = 4096
 
 
 def check_effects(model) -> None:

@@ -32,7 +32,7 @@ from ..transforms import rotation_vector
 #: relative residual of every equation block at an accepted equilibrium
 RTOL = 1e-5
 #: runs of consecutive points per block, each started cold at its first point
-SEGMENTS = 32
+SEGMENTS = 128
 #: Newton steps from a warm start before the point is solved cold
 WARM_STEPS = 3
 
