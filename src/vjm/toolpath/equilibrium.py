@@ -33,6 +33,8 @@ from ..transforms import rotation_vector
 RTOL = 1e-5
 #: runs of consecutive points per block, each started cold at its first point
 SEGMENTS = 128
+#: pairs solved together from given starts (their KKT matrices: ~45 kB each on the 3-PUU)
+BATCH = 256
 #: Newton steps from a warm start before the point is solved cold
 WARM_STEPS = 3
 
@@ -113,6 +115,9 @@ class _Block:
 
     def cold(self, idx):
         """Equilibria of points idx by the reference solver; returns (twists, x-states)."""
+        if idx.size > BATCH:
+            parts = [self.cold(idx[a:a + BATCH]) for a in range(0, idx.size, BATCH)]
+            return np.vstack([p[0] for p in parts]), np.vstack([p[1] for p in parts])
         off = None if self.offsets is None else {k: np.asarray(v)[idx] if np.ndim(v) == 3 else v
                                                  for k, v in self.offsets.items()}
         t, info = nl.deflection_map(self.model, self.P_in[idx], self.W[idx], strict=False, offsets=off,
@@ -170,13 +175,13 @@ def equilibria(model, P, W, offsets=None, start=None) -> Solved:
             twist[bad] = t
 
     if start is not None:
-        idx = np.flatnonzero(~trivial)
-        zs = np.asarray(start, dtype=float)[idx]
-        nv = zs.shape[1] - 6 - b.nc
-        ch = [cd.take(idx) for cd in b.chains]
-        z0 = np.concatenate([_to_x(ch, zs[:, :nv]), zs[:, nv:]], axis=1)
-        if idx.size:
-            settle(idx, z0)
+        todo = np.flatnonzero(~trivial)
+        for a in range(0, todo.size, BATCH):  # KKT matrices of BATCH pairs at a time
+            idx = todo[a:a + BATCH]
+            zs = np.asarray(start, dtype=float)[idx]
+            nv = zs.shape[1] - 6 - b.nc
+            ch = [cd.take(idx) for cd in b.chains]
+            settle(idx, np.concatenate([_to_x(ch, zs[:, :nv]), zs[:, nv:]], axis=1))
     else:
         L = max(1, -(-n // SEGMENTS))
         heads = np.arange(0, n, L)
