@@ -111,6 +111,11 @@ def _spring_basis(C):
     ``C = s E diag(c) E^T s``; coordinates ``theta = s E xi`` carry the energy
     ``1/2 sum xi^2 / c`` (= ``theta^T C^+ theta``); directions with ``c ~ 0`` are rigid.
     """
+    if len(C) > 1 and np.array_equal(C, np.broadcast_to(C[:1], C.shape)):  # one spring at every pose (a link)
+        B, kappa, rigid = _spring_basis(C[:1])
+        n = len(C)
+        return (np.broadcast_to(B, (n,) + B.shape[1:]), np.broadcast_to(kappa, (n,) + kappa.shape[1:]),
+                np.broadcast_to(rigid, (n,) + rigid.shape[1:]))
     d = np.einsum("nii->ni", C)
     s = np.sqrt(np.where(d > 0, d, 1.0))
     Cs = C / (s[:, :, None] * s[:, None, :])
@@ -277,10 +282,11 @@ def _linearize(chains, x, u, lam, p0, hessian=True):
 
 def _solve(A, b):
     """Batched solve after row and column equilibration (units mix mm, rad, N, N mm)."""
-    rs = 1.0 / np.maximum(np.max(np.abs(A), axis=2), 1e-300)
+    mag = np.abs(A)
+    rs = 1.0 / np.maximum(np.max(mag, axis=2), 1e-300)
     As = A * rs[:, :, None]
-    cs = 1.0 / np.maximum(np.max(np.abs(As), axis=1), 1e-300)
-    As = As * cs[:, None, :]
+    cs = 1.0 / np.maximum(np.max(np.abs(As, out=mag), axis=1), 1e-300)
+    As *= cs[:, None, :]
     bs = b * rs
     try:
         y = np.linalg.solve(As, bs[:, :, None])[:, :, 0]
