@@ -111,3 +111,25 @@ def test_compensated_continuous_path_checked_by_a_separate_equilibrium(tmp_path)
     assert np.all(err <= 1e-3 * d0)
     assert any("cold starts" in n for n in res.notes)
     assert res.compensation.cold == 0  # the check equilibria all started from the deflection's
+
+
+def test_passes_report_the_time_left_and_give_the_one_pass_result(tmp_path, monkeypatch):
+    """A program longer than one pass (CHUNK made small here) reports progress with the rate and the
+    time left, and its deflection and commands agree with a single pass (to the solvers' tolerance)."""
+    from vjm.toolpath import run
+
+    m = vjm.load_model(PUU)
+    P = _line_with_corner(120)
+    f = tmp_path / "p.csv"
+    W = _wrenches(P)
+    f.write_text("x,y,z,Fx,Fy,Fz,Mx,My,Mz\n" + "\n".join(",".join(repr(float(v)) for v in r)
+                                                        for r in np.hstack([P, W])) + "\n")
+    one = vjm.path(m, f)
+    monkeypatch.setattr(run, "CHUNK", 50)
+    lines = []
+    three = vjm.path(m, f, progress=lines.append)
+    left = [s for s in lines if "points/s" in s and "s left" in s]
+    assert [s.split(" of ")[0].strip() for s in left] == ["50", "100"]
+    scale = np.abs(one.deflection[:, :3]).max()
+    np.testing.assert_allclose(three.deflection, one.deflection, rtol=0, atol=1e-6 * scale)
+    np.testing.assert_allclose(three.compensation.commanded, one.compensation.commanded, rtol=0, atol=1e-6 * scale)
