@@ -14,8 +14,10 @@ the reference and the cold start), organised for a sequence of nearby (pose, wre
 * the compensation's check equilibria start from the deflection's equilibrium at the same
   point (``start=``): the commanded pose differs from the programmed one by a deflection.
 
-Every returned equilibrium passes the residual check, relative to each equation block's own
-scale (``RTOL``): the springs' balance against the spring forces, the platform's balance
+Every equilibrium reached by these Newton steps (warm, or cold from the unloaded posture) passes
+the residual check before it is accepted; a point handed to the reference solver is accepted by
+that solver's own, stricter test (its Newton step below 1e-11 of the pose).  The check is relative
+to each equation block's own scale (``RTOL``): the springs' balance against the spring forces, the platform's balance
 against the applied wrench and the chain wrenches (moments over the machine's length), the
 loop closure against the platform's deflection (plus a round-off floor of the machine's
 size).  Rows where no equilibrium was found are NaN, as in ``deflection_map(strict=False)``.
