@@ -179,7 +179,8 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
     d, d_nl, comp, cold = _deflect_and_compensate(m, tp, W, t, method, workers, compensate, progress)
     if d_nl is not None:
         notes.append(f"nonlinear equilibria warm-started from the neighbouring point, each checked to a residual "
-                     f"of {RTOL:g} of its equations' scale: {cold:,} cold starts")
+                     f"of {RTOL:g} of its equations' scale: {cold:,} cold starts over {tp.n:,} points (the first "
+                     f"point of each run of consecutive points, and warm starts that failed)")
     band = None
     cal = unc.read(m) if uncertainty else None
     if cal is not None:
