@@ -113,6 +113,11 @@ def _spring_basis(C):
     ``C = s E diag(c) E^T s``; coordinates ``theta = s E xi`` carry the energy
     ``1/2 sum xi^2 / c`` (= ``theta^T C^+ theta``); directions with ``c ~ 0`` are rigid.
     """
+    if len(C) > 1 and np.array_equal(C, np.broadcast_to(C[:1], C.shape)):  # one spring at every pose (a link)
+        B, kappa, rigid = _spring_basis(C[:1])
+        n = len(C)
+        return (np.broadcast_to(B, (n,) + B.shape[1:]), np.broadcast_to(kappa, (n,) + kappa.shape[1:]),
+                np.broadcast_to(rigid, (n,) + rigid.shape[1:]))
     d = np.einsum("nii->ni", C)
     s = np.sqrt(np.where(d > 0, d, 1.0))
     Cs = C / (s[:, :, None] * s[:, None, :])
@@ -218,6 +223,15 @@ def _loaded(chains, n: int) -> np.ndarray:
     return out
 
 
+def _cross(a, b):
+    """Row-wise cross product of (n, 3) arrays (np.cross's axis handling costs more than the arithmetic)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
 def _chain_kinematics(cd: _ChainData, x, keep=()):
     """End frames T (n, 4, 4), joint twist matrices X (n, nJ, 4, 4) and dT = X T (n, nJ, 4, 4);
     with ``keep`` (factor indices), also {index: the frame just after that factor}."""
@@ -238,7 +252,7 @@ def _chain_kinematics(cd: _ChainData, x, keep=()):
         e = F[:, :3, AXIS[f.kind]]
         if ROTATION[f.kind]:  # world twist of a revolute factor: omega = e, v = o x e
             X[:, jj, :3, :3] = _skew(e)
-            X[:, jj, :3, 3] = np.cross(F[:, :3, 3], e)
+            X[:, jj, :3, 3] = _cross(F[:, :3, 3], e)
         else:
             X[:, jj, :3, 3] = e
         if fi in keep:
@@ -337,10 +351,11 @@ def _linearize(chains, x, u, lam, p0, hessian=True):
 
 def _solve(A, b):
     """Batched solve after row and column equilibration (units mix mm, rad, N, N mm)."""
-    rs = 1.0 / np.maximum(np.max(np.abs(A), axis=2), 1e-300)
+    mag = np.abs(A)
+    rs = 1.0 / np.maximum(np.max(mag, axis=2), 1e-300)
     As = A * rs[:, :, None]
-    cs = 1.0 / np.maximum(np.max(np.abs(As), axis=1), 1e-300)
-    As = As * cs[:, None, :]
+    cs = 1.0 / np.maximum(np.max(np.abs(As, out=mag), axis=1), 1e-300)
+    As *= cs[:, None, :]
     bs = b * rs
     try:
         y = np.linalg.solve(As, bs[:, :, None])[:, :, 0]
@@ -372,7 +387,8 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     return_info : also return a dict: ``converged`` (n,) bool, ``iterations`` (n,) total Newton
         iterations, ``load_steps`` (n,) load increments used (1 = full load at once),
         ``chain_wrench`` (n, n_chains, 6) closure multipliers (the share of the applied
-        wrench each chain carries, world axes at the platform point)
+        wrench each chain carries, world axes at the platform point), ``state`` (n, nx + 6 + 6
+        n_chains) the final unknowns (spring coordinates, platform pose, multipliers)
     strict : raise VjmError naming the poses whose equilibrium was not found; with
         ``strict=False`` their rows are NaN and ``info["converged"]`` is False
     offsets : optional {spring name: (n, n_chains, k) or (n_chains, k)} imposed deformations
@@ -471,7 +487,7 @@ def deflection_map(model, P, W, tol: float = 1e-11, max_iter: int = 60, return_i
     if return_info:
         info = {"converged": ~failed, "iterations": iters, "load_steps": steps,
                 "chain_wrench": z[:, nx + 6:].reshape(n, len(chains), 6),
-                "springs": _spring_deformations(chains, z[:, :nx])}
+                "springs": _spring_deformations(chains, z[:, :nx]), "state": z}
         return t, info
     return t
 

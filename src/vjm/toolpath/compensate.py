@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import EquilibriumError, VjmError
 from ..kinematics import rotation_matrix
 from ..transforms import rotation_vector
-from .deflect import linear, nonlinear_tcp
+from .deflect import linear, nonlinear_tcp_solved
 
 #: a point has converged when its loaded TCP is this fraction of its deflection from the programmed one ...
 REL_TOL = 1e-4
@@ -45,6 +45,8 @@ class Compensation:
     iterations: int
     #: (n, 3) loaded TCP minus programmed point at the commands, mm
     residual_vector: np.ndarray | None = None
+    #: check equilibria that could not start from the deflection's (solved by the reference solver)
+    cold: int = 0
 
 
 def compose(poses, rot) -> np.ndarray:
@@ -53,10 +55,11 @@ def compose(poses, rot) -> np.ndarray:
     return np.hstack([poses[:, :3], rotation_vector(R)])
 
 
-def loaded_error(model, cmd, programmed, W, tool, workers=1) -> tuple[np.ndarray, np.ndarray]:
-    """(position error (n, 3), deflection twist (n, 6)) of the loaded TCP of commands ``cmd`` from ``programmed``."""
-    t = nonlinear_tcp(model, cmd, W, tool, workers)
-    return programmed[:, :3] - (cmd[:, :3] + t[:, :3]), t
+def loaded_error(model, cmd, programmed, W, tool, workers=1, start=None):
+    """(position error (n, 3), deflection twist (n, 6), :class:`~.deflect.NonlinearTcp`) of the loaded TCP
+    of commands ``cmd`` from ``programmed``; ``start``: equilibrium states at nearby poses to start from."""
+    s = nonlinear_tcp_solved(model, cmd, W, tool, workers, start=start)
+    return programmed[:, :3] - (cmd[:, :3] + s.twist[:, :3]), s.twist, s
 
 
 def _update(cmd, programmed, t, six):
@@ -68,11 +71,12 @@ def _update(cmd, programmed, t, six):
     return step
 
 
-def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None) -> Compensation:
+def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None, start=None) -> Compensation:
     """Commanded TCP poses for ``programmed`` (n, 3|6) under TCP wrenches W (n, 6).
 
     ``d0`` (n, 6): the nonlinear deflection at the programmed poses; ``where(i)`` names point i
-    in messages (its file and line).  Between two nonlinear equilibria the deflection is taken as
+    in messages (its file and line); ``start`` (n, ns): the deflection's equilibrium states
+    (:func:`~.deflect.nonlinear_tcp_solved`), from which the check equilibria start.  Between two nonlinear equilibria the deflection is taken as
     the last equilibrium's plus the change of the linear ``C w`` (cheap stiffness maps), whose
     fixed point is found first; the next equilibrium then checks it.  The nonlinear remainder
     varies over a deflection by a tiny fraction of itself, so one or two equilibria suffice.
@@ -87,7 +91,8 @@ def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None) -> 
     ref_lin = linear(model, programmed, W, tool)
     res = np.full(n, np.inf)
     resvec = np.zeros((n, 3))
-    evals = 0
+    evals = cold = 0
+    state = None if start is None else np.array(start)
     while evals < MAX_ITER:
         evals += 1
         a = active
@@ -100,7 +105,11 @@ def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None) -> 
             if np.all(np.linalg.norm(step, axis=1) <= 1e-3 * target[a]):
                 break
         _reachable(model, cmd[a], tool, a, where, programmed[a])
-        err, t = loaded_error(model, cmd[a], programmed[a], W[a], tool, workers)
+        err, t, sol = loaded_error(model, cmd[a], programmed[a], W[a], tool, workers,
+                                   None if state is None else state[a])
+        cold += sol.cold
+        if state is not None:
+            state[a] = sol.state
         bad = ~np.all(np.isfinite(t), axis=1)
         if bad.any():
             i = int(a[np.argmax(bad)])
@@ -122,7 +131,7 @@ def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None) -> 
         i = int(active[0])
         raise EquilibriumError(f"{where(i) if where else f'point {i}'}: compensation did not converge in "
                                f"{MAX_ITER} equilibria (residual {res[i]:.3g} mm)")
-    return Compensation(cmd, res, evals, resvec)
+    return Compensation(cmd, res, evals, resvec, cold)
 
 
 def _rot_error(cmd, programmed, t):

@@ -7,7 +7,8 @@ The TCP's deflection counts the platform rotation times the tool lever:
 
 * ``linear``: ``t = C(p) w`` (the model's springs, :meth:`vjm.Model.stiffness_map`),
   TCP translation ``t_p + t_r x R tool``.  The model's ``effects:`` are left out.
-* ``nonlinear``: :func:`vjm.nonlinear.deflection_map` (finite rotations), TCP
+* ``nonlinear``: the equilibrium of :mod:`vjm.nonlinear` (finite rotations; along a path warm-started
+  from the neighbouring point, :mod:`vjm.toolpath.equilibrium`), TCP
   translation ``u + (Exp(t_r) - I) R tool``, with the model's ``effects:``
   (what ``vjm diagnose`` writes into model_updated.yaml):
 
@@ -26,17 +27,18 @@ Every function takes the commanded poses of the TCP (not of the platform).
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 import numpy as np
 
-from .. import nonlinear
 from ..errors import VjmError
 from ..kinematics import rotation_matrix
+from .equilibrium import equilibria
 
 #: the effects this module knows how to apply (the additive effects of vjm diagnose)
 EFFECTS = ("gravity", "clearance", "passive_clearance", "geometric_nonlinearity")
-#: (pose, wrench) pairs per block of the nonlinear solver (its KKT matrices stay ~100 MB)
-BLOCK = 1024
+#: (pose, wrench) pairs per block of the nonlinear solver (marched in SEGMENTS runs: KKT matrices of 128 pairs)
+BLOCK = 4096
 
 
 def check_effects(model) -> None:
@@ -90,9 +92,20 @@ def _actuator_springs(model) -> str:
     return names.pop()
 
 
-def _nonlinear_block(model, P, Wp):
+@dataclass(frozen=True)
+class NonlinearTcp:
+    """TCP twists (n, 6) (NaN rows where no equilibrium was found), the equilibrium states (n, ns) to
+    warm-start nearby solves from, the cold starts and the points that needed the reference solver."""
+
+    twist: np.ndarray
+    state: np.ndarray
+    cold: int = 0
+    fallback: int = 0
+
+
+def _nonlinear_block(model, P, Wp, start=None):
     """Nonlinear platform twists of one block, with gravity and actuator clearance; NaN rows where
-    the equilibrium was not found."""
+    the equilibrium was not found; and the :class:`~.equilibrium.Solved` of the equilibria."""
     from ..discrepancy import modelops as mo
 
     W = np.array(Wp)
@@ -108,7 +121,8 @@ def _nonlinear_block(model, P, Wp):
         tau = np.asarray(model.joint_forces(P, W)["actuator"]).reshape(len(P), -1)
         tol = 1e-9 * max(float(np.max(np.abs(tau), initial=0.0)), 1e-300)
         offsets = {_actuator_springs(model): (b * np.where(np.abs(tau) > tol, np.sign(tau), 0.0))[:, :, None]}
-    t = nonlinear.deflection_map(model, P, W, strict=False, offsets=offsets)
+    solved = equilibria(model, P, W, offsets=offsets, start=start)
+    t = solved.twist
     s = model.effects.get("geometric_nonlinearity")
     if s is not None or _effect(model, "passive_clearance", "backlash"):
         lin = np.einsum("nij,nj->ni", model.stiffness_map(P).C, W)
@@ -119,12 +133,13 @@ def _nonlinear_block(model, P, Wp):
             from ..discrepancy.predict import _slip_toward
 
             t = t + bp * _slip_toward(mo.joint_spring_influence(model, P), W)
-    return t
+    return t, solved
 
 
-def nonlinear_tcp(model, tcp_poses, W_tcp, tool, workers: int = 1) -> np.ndarray:
-    """TCP deflection twists (n, 6) by the nonlinear equilibrium with the model's effects; NaN rows
-    where the equilibrium was not found (the caller names them)."""
+def nonlinear_tcp_solved(model, tcp_poses, W_tcp, tool, workers: int = 1, start=None) -> NonlinearTcp:
+    """TCP deflection twists by the nonlinear equilibrium with the model's effects (see
+    :func:`nonlinear_tcp`), with the states to warm-start nearby solves: ``start`` (n, ns) the states
+    of a previous call at nearby poses (e.g. the programmed poses of compensated commands)."""
     from .wrench import at_platform
 
     check_effects(model)
@@ -134,17 +149,25 @@ def nonlinear_tcp(model, tcp_poses, W_tcp, tool, workers: int = 1) -> np.ndarray
     blocks = [slice(a, min(n, a + BLOCK)) for a in range(0, n, BLOCK)]
 
     def run(sl):
-        return _nonlinear_block(model, P[sl], Wp[sl])
+        return _nonlinear_block(model, P[sl], Wp[sl], None if start is None else start[sl])
 
     if workers > 1 and len(blocks) > 1:
         with ThreadPoolExecutor(workers) as ex:
             parts = list(ex.map(run, blocks))
     else:
         parts = [run(sl) for sl in blocks]
-    t = np.vstack(parts)
+    t = np.vstack([p[0] for p in parts])
     R = rotation_matrix(t[:, 3:])
     t[:, :3] += np.einsum("nij,nj->ni", R - np.eye(3), lever)
-    return t
+    return NonlinearTcp(t, np.vstack([p[1].state for p in parts]), sum(p[1].cold for p in parts),
+                        sum(p[1].warm_failed for p in parts))
+
+
+def nonlinear_tcp(model, tcp_poses, W_tcp, tool, workers: int = 1) -> np.ndarray:
+    """TCP deflection twists (n, 6) by the nonlinear equilibrium with the model's effects; NaN rows
+    where the equilibrium was not found (the caller names them).  Consecutive points are solved
+    warm-started from their neighbours (:mod:`vjm.toolpath.equilibrium`)."""
+    return nonlinear_tcp_solved(model, tcp_poses, W_tcp, tool, workers).twist
 
 
 def tcp_deflection(model, tcp_poses, W_tcp, tool, method: str = "nonlinear", workers: int = 1) -> np.ndarray:

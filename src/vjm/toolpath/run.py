@@ -9,6 +9,7 @@ the input's own format.  Nothing is written here (see :mod:`vjm.toolpath.output`
 from __future__ import annotations
 
 import os
+import time
 
 import numpy as np
 
@@ -17,8 +18,10 @@ from linkfea.progress import or_quiet
 from ..errors import VjmError
 from . import gcode as gc
 from . import uncertainty as unc
+from .compensate import Compensation
 from .compensate import compensate as _compensate
-from .deflect import check_effects, platform_poses, tcp_deflection
+from .deflect import check_effects, nonlinear_tcp_solved, platform_poses, tcp_deflection
+from .equilibrium import RTOL
 from .points import Toolpath, csv_text
 from .points import read as read_toolpath
 from .result import PathResult
@@ -172,9 +175,12 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
     if method == "linear" and m.effects:
         notes.append(f"linear deflection: the model's effects ({', '.join(m.effects)}) are left out "
                      f"(they enter the nonlinear deflection and the compensation)")
-    progress(f"{method} deflection at {len(tp.poses):,} points")
-    d = tcp_deflection(m, tp.poses, W, t, method, workers)
-    _named_nan(tp, d)
+    progress(f"{method} deflection at {len(tp.poses):,} points" + (" and compensation" if compensate else ""))
+    d, d_nl, comp, cold = _deflect_and_compensate(m, tp, W, t, method, workers, compensate, progress)
+    if d_nl is not None:
+        notes.append(f"nonlinear equilibria warm-started from the neighbouring point, each checked to a residual "
+                     f"of {RTOL:g} of its equations' scale: {cold:,} cold starts over {tp.n:,} points (the first "
+                     f"point of each run of consecutive points, and warm starts that failed)")
     band = None
     cal = unc.read(m) if uncertainty else None
     if cal is not None:
@@ -183,12 +189,8 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
         band = unc.band(d, G, cal.cov)
         notes.append(f"uncertainty from the calibration covariance of {os.path.basename(m.path or '')} "
                      f"({', '.join(cal.names)})")
-    comp = after = text = None
-    if compensate:
-        progress("compensation")
-        d_nl = d if method == "nonlinear" else tcp_deflection(m, tp.poses, W, t, "nonlinear", workers)
-        _named_nan(tp, d_nl)
-        comp = _compensate(m, tp.poses, W, t, d_nl, workers, tp.where)
+    after = text = None
+    if comp is not None and d_nl is not None:
         after = blend_after(_all_vertices(tp, linearize_arcs, split_moves), comp.commanded, comp.residual_vector)
         text = compensated_text(tp, comp.commanded, linearize_arcs, split_moves)
         worse = np.flatnonzero(np.linalg.norm(after[:, :3], axis=1) > np.linalg.norm(d_nl[:, :3], axis=1))
@@ -201,6 +203,45 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
                          "corner, the next move starts with the previous one's correction (see the 'compensated "
                          "program' curve): --split-moves writes feed moves in --step pieces")
     return PathResult(tp, W, d, method, tolerance, comp, band, after, tuple(notes), text)
+
+
+#: points per pass of deflection then compensation (their equilibrium states are kept for one pass only)
+CHUNK = 8192
+
+
+def _eta(progress, done: int, n: int, t0: float) -> None:
+    """A progress line with the rate and the time left (programs of more than one pass)."""
+    if n <= CHUNK or done >= n:
+        return
+    rate = done / max(time.perf_counter() - t0, 1e-9)
+    progress(f"  {done:,} of {n:,} points, {rate:,.0f} points/s, about {(n - done) / rate:,.0f} s left")
+
+
+def _deflect_and_compensate(m, tp: Toolpath, W, t, method: str, workers: int, compensate: bool, progress):
+    """(deflection (n, 6) by ``method``, nonlinear deflection or None, Compensation or None, cold starts), in
+    passes of CHUNK points: the compensation's check equilibria start from the deflection's at the same points."""
+    n = len(tp.poses)
+    d = tcp_deflection(m, tp.poses, W, t, "linear") if method == "linear" else np.empty((n, 6))
+    if method == "linear" and not compensate:
+        return d, None, None, 0
+    d_nl = np.empty((n, 6))
+    cmd, res, resvec = np.empty_like(tp.poses), np.empty(n), np.empty((n, 3))
+    iters = cold = cold_c = 0
+    t0 = time.perf_counter()
+    for a in range(0, n, CHUNK):
+        sl = slice(a, min(n, a + CHUNK))
+        s = nonlinear_tcp_solved(m, tp.poses[sl], W[sl], t, workers)
+        cold += s.cold
+        d_nl[sl] = s.twist
+        _named_nan(tp, s.twist, a)
+        if compensate:
+            c = _compensate(m, tp.poses[sl], W[sl], t, s.twist, workers, lambda i, a=a: tp.where(i + a), s.state)
+            cmd[sl], res[sl], resvec[sl] = c.commanded, c.residual, c.residual_vector
+            iters, cold_c = max(iters, c.iterations), cold_c + c.cold
+        _eta(progress, sl.stop, n, t0)
+    if method == "nonlinear":
+        d = d_nl
+    return d, d_nl, (Compensation(cmd, res, iters, resvec, cold_c) if compensate else None), cold + cold_c
 
 
 def _all_vertices(tp: Toolpath, linearize_arcs: bool, split: bool) -> Toolpath:
@@ -218,11 +259,11 @@ def _all_vertices(tp: Toolpath, linearize_arcs: bool, split: bool) -> Toolpath:
     return replace(tp, vertex=v)
 
 
-def _named_nan(tp: Toolpath, d) -> None:
+def _named_nan(tp: Toolpath, d, offset: int = 0) -> None:
     from ..errors import EquilibriumError
 
     bad = ~np.all(np.isfinite(d), axis=1)
     if bad.any():
-        i = int(np.argmax(bad))
+        i = int(np.argmax(bad)) + offset
         raise EquilibriumError(f"{tp.where(i)}: no equilibrium of the loaded machine (load too large for the "
                                f"model, or past a buckling load?)")
