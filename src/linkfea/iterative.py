@@ -58,7 +58,7 @@ ITERATIVE_PEAK_BYTES_PER_DOF = 4.1e3
 0.71 GB, assembly included; docs/benchmarks.md); it grows linearly with the size."""
 
 
-def iterative_peak_bytes(n_dofs: int) -> float:
+def iterative_peak_bytes(n_dofs: float) -> float:
     """Estimated peak memory (bytes) of assembling and solving ``n_dofs`` with the P1-multigrid CG."""
     return ITERATIVE_PEAK_BYTES_PER_DOF * n_dofs
 
