@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Callable
 
 from . import checks, mesh_gmsh
+from .child import run_in_child
 from .errors import LinkFeaError
 from .link import interface_faces
 from .linkmesh import (  # noqa: F401  (re-exported)
@@ -175,8 +176,9 @@ def _mesh_with_gmsh(link, H, block_solid, progress, area_gate, size_at=None) -> 
         raise LinkFeaError(f"mesh size {H:g} mm exceeds the part size ({diag:.3g} mm bounding-box diagonal)")
     base_faces, tip_faces = interface_faces(link)
     progress(f"meshing with gmsh (edge {H:.3g} mm)")
-    g = mesh_gmsh.mesh_gmsh(link.name, link.body, block_solid, base_faces, tip_faces, H, curved=CURVED,
-                            size_at=size_at)
+    # In a child process: gmsh does not return to Python until done, and Ctrl-C must stop it now.
+    g = run_in_child(mesh_gmsh.mesh_gmsh, link.name, link.body, block_solid, base_faces, tip_faces, H,
+                     curved=CURVED, size_at=size_at)
     progress("checking interfaces")
     m = finish_mesh(link, g.points, g.tets, g.block, g.base_facets, g.tip_facets, block_solid, H, 0.0, "",
                     "gmsh", mesh_gmsh.version(), area_gate)

@@ -117,3 +117,40 @@ def test_broken_step_via_cli(env, tmp_path):
     p = _linkfea(["compute", str(step), "--base", "plane:x=0", "--tip", "plane:x=100", "--out", str(out)], env)
     assert p.returncode == 2 and p.stderr.strip().startswith("error: ") and "closed solid" in p.stderr
     assert not out.exists() and not out.with_suffix(".png").exists()
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        with open(f"/proc/{pid}/task/{pid}/children") as fh:
+            return [int(x) for x in fh.read().split()]
+    except OSError:
+        return []
+
+
+@pytest.mark.skipif(not os.path.exists(f"/proc/{os.getpid()}/task/{os.getpid()}/children"), reason="needs Linux /proc")
+def test_ctrl_c_during_meshing_stops_at_once(env, tmp_path):
+    """SIGINT while gmsh meshes (a 1 mm bar: 20 s of meshing) ends the command within seconds: status 130,
+    one ``error:`` line, nothing written, and no mesher left running (it ran in a child process)."""
+    import signal
+    import time
+
+    e = dict(env, LINKFEA_MEMORY="100")  # the estimate must let this mesh through on any machine
+    p = subprocess.Popen([sys.executable, "-m", "linkfea", "compute", "bar", "--mesh-size", "1", "--out",
+                          str(tmp_path / "r.json")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=e,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # even if we ignore it
+    try:
+        t0 = time.monotonic()
+        while not _children(p.pid) and p.poll() is None and time.monotonic() - t0 < 120:
+            time.sleep(0.05)
+        mesher = _children(p.pid)
+        assert mesher, "the mesher did not start in a child process"
+        time.sleep(1.0)
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=10)
+    finally:
+        p.kill()
+        p.wait()
+    assert p.returncode == 130, err
+    assert err.strip().splitlines() == ["error: interrupted (Ctrl-C)"], err
+    assert list(tmp_path.iterdir()) == []
+    assert not os.path.exists(f"/proc/{mesher[0]}") or open(f"/proc/{mesher[0]}/stat").read().split()[2] == "Z"
