@@ -176,11 +176,12 @@ def plan(what: str, n: int, bytes_per_item: float, seconds_per_item: float = SEC
     ``limit`` defaults to :data:`MEMORY_FRACTION` of the memory available now; the error names
     the estimate, the limit and what to do (``hint``).
     """
-    p = Plan(what, int(n), float(n) * bytes_per_item, float(n) * seconds_per_item)
+    memory = float(n) * bytes_per_item
     lim = MEMORY_FRACTION * available_memory() if limit is None else float(limit)
-    if p.memory > lim:
-        raise VjmError(f"{what} would need about {_gb(p.memory)} of memory for {float(n):.3g} {unit}, more than "
+    if memory > lim:  # before int(n): a count may be astronomically large (or inf)
+        raise VjmError(f"{what} would need about {_gb(memory)} of memory for {float(n):.3g} {unit}, more than "
                        f"the {_gb(lim)} this machine can give it; {hint}")
+    p = Plan(what, int(n), memory, float(n) * seconds_per_item)
     return p
 
 

@@ -372,3 +372,32 @@ def test_passive_clearance_against_truths_joint_slips_in_the_equilibrium(tmp_pat
     diff = dfl.nonlinear_tcp(m, P, W, np.zeros(3)) - dfl.nonlinear_tcp(base, P, W, np.zeros(3))
     ref = tr.joint_slip_twist(tr.Truth(joint_backlash=b), P, W)
     np.testing.assert_allclose(diff, ref, rtol=1e-3, atol=1e-3 * np.abs(ref).max())
+
+
+def test_a_long_path_says_how_long_before_it_starts(monkeypatch):
+    """A path estimated to take more than a minute reports the estimate first, then its stages; a short one
+    is quiet."""
+    import vjm.toolpath.points as points
+    from vjm.toolpath.run import path
+    from vjm.toolpath.wrench import Constant
+
+    said: list = []
+    path("puu", "data/toolpaths/pocket.nc", wrench=Constant((10.0, 0, 0, 0, 0, 0)), compensate=False,
+         method="linear", progress=said.append)
+    assert said == []
+    monkeypatch.setattr(points, "PATH_SECONDS", 100.0)
+    path("puu", "data/toolpaths/pocket.nc", wrench=Constant((10.0, 0, 0, 0, 0, 0)), compensate=False,
+         method="linear", progress=said.append)
+    assert said[0].startswith("vjm path: ") and "points, about" in said[0] and "progress follows" in said[0]
+    assert any("deflection at" in s for s in said[1:])
+
+
+def test_a_wrench_far_beyond_the_model_is_refused_at_once():
+    """``--wrench 1e300,...`` spent 80 s in failing equilibria: the linear deflection at the most loaded point
+    answers first (inf mm here; 1e5 N on the 3-PUU deflects it by more than a tenth of its workspace)."""
+    from vjm.toolpath.run import path
+    from vjm.toolpath.wrench import Constant
+
+    for w in (1e300, 1e7):
+        with pytest.raises(VjmError, match="deflects the tool by .* beyond 0.1 x the workspace"):
+            path("puu", "data/toolpaths/pocket.nc", wrench=Constant((w, 0, 0, 0, 0, 0)))

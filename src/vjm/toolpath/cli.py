@@ -85,7 +85,8 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
         res = path(model, toolpath, wrench=src, tool=_numbers(tool, "--tool", 3), method=method,
                    compensate=not no_compensate, tolerance=tolerance, linearize_arcs=linearize_arcs,
                    split_moves=split_moves,
-                   chord_tol=chord_tol, step=step, passed=passed, workers=workers, foot=foot, leg=leg)
+                   chord_tol=chord_tol, step=step, passed=passed, workers=workers, foot=foot, leg=leg,
+                   progress=lambda msg: typer.echo(msg, err=True))  # only a long run reports (vjm.grid.Plan.long)
         names = write_outputs(res, out)
     except user_errors() as exc:
         typer.echo(f"error: {one_line(exc)}", err=True)
