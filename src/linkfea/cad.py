@@ -12,6 +12,7 @@ faces) and :mod:`linkfea.params` (script parameters).
 from __future__ import annotations
 
 import importlib.util
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -81,7 +82,11 @@ def load_script(path: str | Path):
     modname = f"linkfea_cad_{path.stem}"
     spec = importlib.util.spec_from_file_location(modname, path)
     mod = importlib.util.module_from_spec(spec)
-    _run_script(path, "loading the script", spec.loader.exec_module, mod)
+    writes, sys.dont_write_bytecode = sys.dont_write_bytecode, True  # no __pycache__ in the user's folder
+    try:
+        _run_script(path, "loading the script", spec.loader.exec_module, mod)
+    finally:
+        sys.dont_write_bytecode = writes
     if not (hasattr(mod, "PARAMS") and callable(getattr(mod, "build", None))):
         raise LinkFeaError(f"{path}: a link script must define PARAMS and build(**params)")
     return mod

@@ -35,7 +35,7 @@ def _child(fn: Callable, args, kwargs, w: int) -> None:  # pragma: no cover (run
     signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C at a terminal reaches the whole group: die at once
     try:
         payload = (True, fn(*args, **kwargs))
-    except BaseException as exc:  # noqa: BLE001 (everything goes back to the parent)
+    except BaseException as exc:  # everything goes back to the parent, Ctrl-C included
         payload = (False, exc)
     try:
         data = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)

@@ -6,7 +6,6 @@ import math
 from .errors import LinkFeaError
 from .materials import get_material
 
-
 MAX_LENGTH = 1e8
 """Largest length a script parameter may give, mm (100 km).  OpenCASCADE compares points to an
 absolute tolerance of 1e-7 mm; the spacing of float64 numbers near ``x`` is ``2.2e-16 x``, which

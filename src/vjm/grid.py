@@ -168,7 +168,7 @@ class Plan:
         return f"{self.what}: {self.n:,} points, about {_gb(self.memory)} of memory and {_duration(self.seconds)}"
 
 
-def plan(what: str, n: int, bytes_per_item: float, seconds_per_item: float = SECONDS_PER_POINT,
+def plan(what: str, n: float, bytes_per_item: float, seconds_per_item: float = SECONDS_PER_POINT,
          limit: Optional[float] = None, unit: str = "points",
          hint: str = "use fewer points (a coarser grid or a slice)") -> Plan:
     """The memory and time of a run over ``n`` items (``unit``), or VjmError if it cannot fit in memory.

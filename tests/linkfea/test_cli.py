@@ -154,3 +154,22 @@ def test_ctrl_c_during_meshing_stops_at_once(env, tmp_path):
     assert err.strip().splitlines() == ["error: interrupted (Ctrl-C)"], err
     assert list(tmp_path.iterdir()) == []
     assert not os.path.exists(f"/proc/{mesher[0]}") or open(f"/proc/{mesher[0]}/stat").read().split()[2] == "Z"
+
+
+def test_traceback_shows_the_scripts_own_frames(tmp_path, monkeypatch, capsys):
+    """A failing link script: one ``error:`` line naming the script, line and exception (exit 2); with
+    ``--traceback`` the script's own frames come before it, and no frame of linkfea."""
+    from linkfea.cli import main
+
+    (tmp_path / "s.py").write_text("PARAMS = {}\n\n\ndef helper():\n    raise ValueError('no such bore')\n\n\n"
+                                   "def build(**p):\n    return helper()\n")
+    monkeypatch.chdir(tmp_path)
+    assert main(["compute", "s.py", "--out", "r.json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and "s.py, line 5: ValueError: no such bore" in err[0]
+    assert main(["compute", "s.py", "--out", "r.json", "--traceback"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0] == "Traceback (most recent call last):" and err[-1].startswith("error: ")
+    frames = [ln for ln in err if ln.lstrip().startswith("File ")]
+    assert [f.split(", in ")[-1] for f in frames] == ["build", "helper"] and all("s.py" in f for f in frames)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.py"]  # no r.json, no __pycache__

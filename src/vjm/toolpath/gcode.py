@@ -20,7 +20,6 @@ True
 from __future__ import annotations
 
 import math
-
 import re
 from dataclasses import dataclass, field
 
