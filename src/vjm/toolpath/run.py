@@ -47,9 +47,13 @@ def check_machine(model, tp: Toolpath, tool) -> None:
 
 
 LARGE_DEFLECTION = 0.1
-"""A wrench whose linear deflection passes this share of the workspace diagonal (or 0.1 rad) is refused at
-once: the models are small-deflection models, and the nonlinear equilibrium spent 80 s failing on
+"""A wrench whose linear deflection passes this share of the workspace diagonal (or :data:`LARGE_ROTATION`)
+is refused at once: the models are small-deflection models, and the nonlinear equilibrium spent 80 s failing on
 ``--wrench 1e300,...`` before saying so."""
+
+
+LARGE_ROTATION = 1.0
+"""Largest linear rotation of the platform (rad) accepted from a wrench (a test of large loads reaches 0.1)."""
 
 
 def check_load(model, tp: Toolpath, W: np.ndarray, tool) -> None:
@@ -64,10 +68,11 @@ def check_load(model, tp: Toolpath, W: np.ndarray, tool) -> None:
         t, r = float(np.linalg.norm(d[:3])), float(np.linalg.norm(d[3:]))
     ws = model.workspace
     size = float(np.linalg.norm(np.asarray(ws.hi, float) - np.asarray(ws.lo, float)))
-    if not (t <= LARGE_DEFLECTION * size and r <= 0.1):
+    if not (t <= LARGE_DEFLECTION * size and r <= LARGE_ROTATION):
         raise VjmError(f"{tp.where(i)}: the wrench {','.join(f'{v:g}' for v in W[i])} (N, N mm) "
                        f"deflects the tool by {t:.3g} mm and {r:.3g} rad in the linear model, beyond "
-                       f"{LARGE_DEFLECTION:g} x the workspace ({size:.3g} mm) or 0.1 rad, where the model holds; "
+                       f"{LARGE_DEFLECTION:g} x the workspace ({size:.3g} mm) or {LARGE_ROTATION:g} rad, where the model "
+                       "holds; "
                        "check the wrench and its units")
 
 
@@ -191,9 +196,9 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
     W = (wrench or PerPoint()).wrenches(tp)
     check_load(m, tp, W, t)
     plan = path_plan(len(tp.poses))  # a CSV's points, or a program's samples (checked before sampling)
-    # A run of more than a minute says so before it starts and reports its stages; a short one is quiet.
-    progress = or_quiet(progress if plan.long else None)
-    progress(f"{plan.describe()}; progress follows")
+    progress = or_quiet(progress)
+    if plan.long:  # a run of more than a minute says so before it starts
+        progress(f"{plan.describe()}; progress follows")
     notes = []
     if m.dof == 6 and not tp.has_orientation:
         notes.append("6-dof platform, toolpath without orientations: the platform keeps a zero rotation and "
