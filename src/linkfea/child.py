@@ -51,7 +51,12 @@ def run_in_child(fn: Callable[..., T], *args, **kwargs) -> T:
     if not interruptible_here():
         return fn(*args, **kwargs)
     r, w = os.pipe()
-    pid = os.fork()
+    try:
+        pid = os.fork()
+    except OSError:  # no memory for the fork's page tables (strict overcommit): run here, as before
+        os.close(r)
+        os.close(w)
+        return fn(*args, **kwargs)
     if pid == 0:  # pragma: no cover (the child)
         try:
             os.close(r)

@@ -173,3 +173,20 @@ def test_traceback_shows_the_scripts_own_frames(tmp_path, monkeypatch, capsys):
     frames = [ln for ln in err if ln.lstrip().startswith("File ")]
     assert [f.split(", in ")[-1] for f in frames] == ["build", "helper"] and all("s.py" in f for f in frames)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.py"]  # no r.json, no __pycache__
+
+
+def test_the_mesher_child_returns_its_result_and_raises_its_errors():
+    """``run_in_child`` runs in another process (its pid differs) where Ctrl-C can reach the caller, and gives
+    back the value or the exception (type and message) of the function."""
+    from linkfea.child import interruptible_here, run_in_child
+
+    if not interruptible_here():
+        pytest.skip("SIGINT is not Python's here (a worker thread or an ignored signal)")
+    assert run_in_child(os.getpid) != os.getpid()
+    assert run_in_child(np.arange, 3).tolist() == [0, 1, 2]
+
+    def fails():
+        raise LinkFeaError("the mesher said no")
+
+    with pytest.raises(LinkFeaError, match="the mesher said no"):
+        run_in_child(fails)
