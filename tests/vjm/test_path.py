@@ -387,10 +387,14 @@ def test_a_long_path_says_how_long_before_it_starts(monkeypatch):
     assert said and not any(s.startswith("vjm path: ") for s in said)
     said.clear()
     monkeypatch.setattr(points, "PATH_SECONDS", 100.0)
-    path("puu", "data/toolpaths/pocket.nc", wrench=Constant((10.0, 0, 0, 0, 0, 0)), compensate=False,
-         method="linear", progress=said.append)
-    assert said[0].startswith("vjm path: ") and "points, about" in said[0] and "progress follows" in said[0]
-    assert any("deflection at" in s for s in said[1:])
+    monkeypatch.setattr(dfl, "BLOCK", 64)  # several blocks of the nonlinear equilibrium, each reported
+    monkeypatch.setattr(vjm.grid, "PROGRESS_EVERY", 0.0)
+    res = path("puu", "data/toolpaths/pocket.nc", wrench=Constant((10.0, 0, 0, 0, 0, 0)), compensate=False,
+               progress=said.append)
+    n = len(res.deflection)
+    assert said[0].startswith(f"vjm path: {n:,} points, about") and "progress follows" in said[0]
+    assert said[1] == f"nonlinear deflection at {n:,} points"
+    assert said[2] == f"nonlinear deflection: 64 of {n:,} points ({100 * 64 / n:.0f}%)" and len(said) >= 3
 
 
 def test_a_wrench_far_beyond_the_model_is_refused_at_once():

@@ -122,9 +122,14 @@ def _nonlinear_block(model, P, Wp):
     return t
 
 
-def nonlinear_tcp(model, tcp_poses, W_tcp, tool, workers: int = 1) -> np.ndarray:
+def nonlinear_tcp(model, tcp_poses, W_tcp, tool, workers: int = 1, progress=None) -> np.ndarray:
     """TCP deflection twists (n, 6) by the nonlinear equilibrium with the model's effects; NaN rows
-    where the equilibrium was not found (the caller names them)."""
+    where the equilibrium was not found (the caller names them).  ``progress``: a line every
+    :data:`vjm.grid.PROGRESS_EVERY` seconds at most, as blocks of points finish."""
+    import threading
+    import time
+
+    from ..grid import PROGRESS_EVERY
     from .wrench import at_platform
 
     check_effects(model)
@@ -133,8 +138,17 @@ def nonlinear_tcp(model, tcp_poses, W_tcp, tool, workers: int = 1) -> np.ndarray
     n = len(P)
     blocks = [slice(a, min(n, a + BLOCK)) for a in range(0, n, BLOCK)]
 
+    done, last, lock = [0], [time.monotonic()], threading.Lock()
+
     def run(sl):
-        return _nonlinear_block(model, P[sl], Wp[sl])
+        out = _nonlinear_block(model, P[sl], Wp[sl])
+        if progress is not None:
+            with lock:
+                done[0] += sl.stop - sl.start
+                if time.monotonic() - last[0] >= PROGRESS_EVERY and done[0] < n:
+                    last[0] = time.monotonic()
+                    progress(f"nonlinear deflection: {done[0]:,} of {n:,} points ({100 * done[0] / n:.0f}%)")
+        return out
 
     if workers > 1 and len(blocks) > 1:
         with ThreadPoolExecutor(workers) as ex:
@@ -147,10 +161,11 @@ def nonlinear_tcp(model, tcp_poses, W_tcp, tool, workers: int = 1) -> np.ndarray
     return t
 
 
-def tcp_deflection(model, tcp_poses, W_tcp, tool, method: str = "nonlinear", workers: int = 1) -> np.ndarray:
+def tcp_deflection(model, tcp_poses, W_tcp, tool, method: str = "nonlinear", workers: int = 1,
+                   progress=None) -> np.ndarray:
     """TCP deflection twists (n, 6): ``method`` "linear" or "nonlinear" (see the module docstring)."""
     if method == "linear":
         return linear(model, tcp_poses, W_tcp, tool)
     if method == "nonlinear":
-        return nonlinear_tcp(model, tcp_poses, W_tcp, tool, workers)
+        return nonlinear_tcp(model, tcp_poses, W_tcp, tool, workers, progress)
     raise VjmError(f"--method must be linear or nonlinear, got {method!r}")

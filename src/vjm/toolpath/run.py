@@ -207,7 +207,7 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
         notes.append(f"linear deflection: the model's effects ({', '.join(m.effects)}) are left out "
                      f"(they enter the nonlinear deflection and the compensation)")
     progress(f"{method} deflection at {len(tp.poses):,} points")
-    d = tcp_deflection(m, tp.poses, W, t, method, workers)
+    d = tcp_deflection(m, tp.poses, W, t, method, workers, progress if plan.long else None)
     _named_nan(tp, d)
     band = None
     cal = unc.read(m) if uncertainty else None
