@@ -310,8 +310,10 @@ CASES = [
     Case("30.3", "vjm path {puu} p.nc --out o --wrench 1e300,0,0,0,0,0", "deflects the tool by inf mm",
          {"p.nc": LINE_NC}, "a 100 mm straight move"),
     Case("30.3", "vjm stiffness m.yaml --at 0,0,0", "the alias *c is inside the value &c names (a recursive anchor",
-         {"m.yaml": _linear("geometry:\n", "extra:\n  compliance: &c [*c, *c, *c]\ngeometry:\n")},
-         "linear_delta.yaml with compliance: &c [*c, *c, *c]"),
+         {"m.yaml": PLACES["puu"].read_text(encoding="utf-8").replace(
+             "  beam: {section: rect, width: 30.0, height: 10.0, length: 310.0, material: aluminium}",
+             "  compliance: &c [*c, *c, *c, *c, *c, *c]")},
+         "puu.yaml whose leg is compliance: &c [*c, *c, *c, *c, *c, *c]"),
     Case("30.3", "vjm stiffness m.yaml --at 0,0,0", "it holds 1.23e+09 values once its aliases are expanded",
          {"m.yaml": _linear("geometry:\n", LAUGHS + "geometry:\n")},
          "linear_delta.yaml with nine levels of ten aliases each (10^9 values)"),
