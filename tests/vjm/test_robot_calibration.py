@@ -123,3 +123,21 @@ def test_a_new_set_up_is_registered_with_the_robot_frozen(model, hidden_fit):
     assert cal2.robot_values() == cal.robot_values()
     assert np.mean(position_errors(cal2, rest)) < 4 * SIGMA
     assert predict_points(cal2, rest).shape == (48, 3)
+
+
+def test_one_pass_jacobian_matches_central_differences(model):
+    from vjm.robot import calibration as cm
+    from vjm.robot.absolute import full_layout, jacobian, jacobian_fast
+
+    rng = np.random.default_rng(11)
+    q = _q(40, 12)
+    d = AbsolutePoses(tuple(model.q_names), q, {"tool0": np.zeros((40, 3))},
+                      group=np.array(["A"] * 20 + ["B"] * 20, dtype=object))
+    frames = {"A": (rotation_matrix([0.1, 0.2, 0.3]), np.ones(3)), "B": (np.eye(3), np.zeros(3))}
+    prob = cm._problem(model, d, "tool0", frames, MARKER)
+    lay = full_layout(model, "tool0", prob.groups)
+    x = rng.normal(size=lay.size) * 1e-2
+    x[[i for i, u in enumerate(lay.units) if u == "c"]] = 1e-8   # rad/(N mm): 1e-3 rad at 100 N m
+    J1, J2 = jacobian(prob, lay, x), jacobian_fast(prob, lay, x)
+    scale = np.linalg.norm(J1, axis=0) / np.sqrt(len(J1)) + 1e-3   # per column rms (1e-3: the columns that vanish)
+    assert np.max(np.abs(J1 - J2) / scale) < 1e-5

@@ -195,3 +195,95 @@ def jacobian(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = 
         e[i] = h[i]
         J[:, i] = (predict(prob, layout, x + e, fixed) - predict(prob, layout, x - e, fixed)).ravel() / (2 * h[i])
     return J
+
+
+def _axis_column(kind: str, A: np.ndarray, pb: np.ndarray) -> np.ndarray:
+    """d pb / d (joint value) for a joint of ``kind`` whose axis frame is A (n, 4, 4)."""
+    a = A[:, :3, "xyz".index(kind[1])]
+    return np.cross(a, pb - A[:, :3, 3]) if kind[0] == "r" else a
+
+
+def _origin_columns(G: np.ndarray, d: np.ndarray, pb: np.ndarray) -> np.ndarray:
+    """d pb / d (dx..ez) (6, n, 3) of an origin error d applied after the frames G (n, 4, 4): pb is
+    ``G Delta(d) s`` with s fixed, differentiated by central differences of the constant Delta only."""
+    D = _delta(d)
+    Gi = np.linalg.inv(G)
+    s = np.einsum("ij,nj->ni", np.linalg.inv(D)[:3, :3], np.einsum("nij,nj->ni", Gi[:, :3, :3], pb) + Gi[:, :3, 3])
+    s = s + np.linalg.inv(D)[:3, 3]
+    out = np.empty((6, len(pb), 3))
+    for k in range(6):
+        h = _STEP["mm" if k < 3 else "rad"]
+        e = np.zeros(6)
+        e[k] = h
+        Dp, Dm = _delta(d + e), _delta(d - e)
+        dl = (s @ (Dp[:3, :3] - Dm[:3, :3]).T + (Dp[:3, 3] - Dm[:3, 3])) / (2 * h)
+        out[k] = np.einsum("nij,nj->ni", G[:, :3, :3], dl)
+    return out
+
+
+def _base_columns(prob: Problem, vals: dict) -> tuple[np.ndarray, dict]:
+    """The marker point pb (n, 3) in the base frame and {parameter name: d pb / d parameter (n, 3)} of the
+    robot's parameters and the marker offset."""
+    tree = prob.model.tree
+    qn = list(tree.q_names)
+    q = prob.q
+    dq = np.zeros_like(q)
+    for i, name in enumerate(qn):
+        c = vals.get(f"{name}.compliance", 0.0)
+        if c:
+            dq[:, i] = -c * prob.torques[:, i]
+    T = np.broadcast_to(np.eye(4), (len(q), 4, 4))
+    saved = []
+    for ji in tree.path(tree.frame(prob.frame).joint):
+        j = tree.joints[ji]
+        d = np.array([vals.get(f"{j.name}.{k}", 0.0) for k in GEOMETRY])
+        G = T @ j.placement
+        A = G @ _delta(d[1:])
+        if j.align is not None:
+            A = A @ j.align
+        if j.mimic is None:
+            k, mult, off = qn.index(j.name), 1.0, 0.0
+        else:
+            k, mult, off = qn.index(j.mimic[0]), float(j.mimic[1]), float(j.mimic[2])
+        T = A @ elementary(j.kind, mult * (q[:, k] + dq[:, k]) + off + d[0])
+        if j.align is not None:
+            T = T @ _rigid_inverse(j.align)
+        saved.append((j, G, A, d, k, mult))
+    T = T @ tree.frame(prob.frame).placement
+    p = prob.p0 + np.array([vals.get(f"{prob.frame}.p{c}", 0.0) for c in "xyz"])
+    pb = np.einsum("nij,j->ni", T[:, :3, :3], p) + T[:, :3, 3]
+    cols = {f"{prob.frame}.p{c}": T[:, :3, i] for i, c in enumerate("xyz")}
+    for j, G, A, d, k, mult in saved:
+        ax = _axis_column(j.kind, A, pb)
+        cols[f"{j.name}.offset"] = ax
+        comp = f"{qn[k]}.compliance"
+        cols[comp] = cols.get(comp, 0.0) + mult * ax * (-prob.torques[:, k:k + 1])
+        for kk, col in zip(GEOMETRY[1:], _origin_columns(G, d[1:], pb)):
+            cols[f"{j.name}.{kk}"] = col
+    return pb, cols
+
+
+def jacobian_fast(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = None) -> np.ndarray:
+    """:func:`jacobian` from one pass along the chain: joint axes for offsets and compliances, the frame
+    columns for the marker, and differences of the small constant transforms only for the origin errors
+    and the registration rotations (the same values to about 1e-9, some twenty times faster)."""
+    vals = dict(fixed or {})
+    vals.update(zip(layout.names, x))
+    pb, cols = _base_columns(prob, vals)
+    J = np.zeros((len(pb), 3, layout.size))
+    h = _STEP["rad"]
+    for gi, g in enumerate(prob.groups):
+        rows = prob.gidx == gi
+        w = np.array([vals.get(f"reg[{g}].r{c}", 0.0) for c in "xyz"])
+        R = rotation_matrix(w) @ prob.R0[gi]
+        for i, name in enumerate(layout.names):
+            if name.startswith(f"reg[{g}].t"):
+                J[rows, "xyz".index(name[-1]), i] = 1.0
+            elif name.startswith(f"reg[{g}].r"):
+                e = np.zeros(3)
+                e["xyz".index(name[-1])] = h
+                dR = (rotation_matrix(w + e) - rotation_matrix(w - e)) @ prob.R0[gi] / (2 * h)
+                J[rows, :, i] = pb[rows] @ dR.T
+            elif name in cols:
+                J[rows, :, i] = np.broadcast_to(cols[name], pb.shape)[rows] @ R.T
+    return J.reshape(-1, layout.size)

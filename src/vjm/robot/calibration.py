@@ -29,7 +29,7 @@ from scipy.optimize import least_squares
 from scipy.stats import f as f_dist
 
 from ..errors import VjmError
-from .absolute import Layout, Problem, full_layout, jacobian, kabsch, predict, rotation_matrix
+from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
 
 STAGES = ("registration", "geometry", "compliance")
 
@@ -119,7 +119,7 @@ def _residual_fn(prob: Problem, layout: Layout, meas: np.ndarray, fixed: dict):
         return (predict(prob, layout, x, fixed) - meas).ravel()
 
     def jac(x):
-        return jacobian(prob, layout, x, fixed)
+        return jacobian_fast(prob, layout, x, fixed)
 
     return fun, jac
 
@@ -206,7 +206,7 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
     meas = data.points[frame]
     full = full_layout(model, frame, prob.groups)
     base = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
-    J = jacobian(prob, full, np.zeros(full.size))
+    J = jacobian_fast(prob, full, np.zeros(full.size))
     active = list(base)
     x_all = np.zeros(full.size)
     lay = full.pick(active)
