@@ -195,7 +195,7 @@ def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float) -> tup
 
 
 def calibrate(model, data, frame: str | None = None, effects=("geometry", "compliance"), alpha: float = 1e-3,
-              tol: float = 1e-4, flat: float = 0.05, p0=None) -> Calibration:
+              tol: float = 1e-3, flat: float = 0.05, p0=None) -> Calibration:
     """Fit registration, then the ``effects`` stages (see the module docstring) on ``data``."""
     frame = frame or _only_frame(data)
     bad = set(effects) - set(STAGES[1:])
