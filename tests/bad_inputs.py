@@ -9,10 +9,12 @@ bad_inputs_table.py`` writes ``docs/bad_inputs.md`` from the same list.
 Placeholders in the command: ``{puu}``, ``{prpar}``, ``{delta}``, ``{linear}``, ``{hexapod}`` (bundled model
 files).
 Adding a case is one line: ``Case("18.x", "vjm ... --flag value", "fragment", {"file.csv": TEXT})``.
+A file name may hold a folder (``rep/report.json``); ``links`` makes symbolic links (name -> target).
 """
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import io
 import json
 import os
@@ -33,6 +35,7 @@ class Case:
     expect: str     # a fragment of the error line
     files: dict = field(default_factory=dict)  # name -> text written before the run ("encoding": its codec)
     note: str = ""  # what the files hold, for the table (default: their first lines)
+    links: dict = field(default_factory=dict)  # name -> target of a symbolic link made before the run
 
     @property
     def argv(self) -> list[str]:
@@ -121,6 +124,43 @@ chains:
   - {name: cy, transforms: [Ty(q0) actuated]}
   - {name: cz, transforms: [Tz(q0) actuated]}
 """
+
+
+
+def _box(lo, hi) -> list:
+    """The 12 outward triangles of the box from ``lo`` to ``hi`` (mm)."""
+    v = [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    return [t for a, b, c, d in quads for t in ((v[a], v[b], v[c]), (v[a], v[c], v[d]))]
+
+
+def stl(triangles) -> str:
+    """An ASCII STL of the triangles (each three (x, y, z) corners)."""
+    facets = "".join("facet normal 0 0 0\n outer loop\n" + "".join(f"  vertex {p[0]} {p[1]} {p[2]}\n" for p in t)
+                     + " endloop\nendfacet\n" for t in triangles)
+    return f"solid s\n{facets}endsolid s\n"
+
+
+BAR = _box((0, 0, 0), (100, 20, 10))
+#: a flat square closed by four triangles in the plane z = 0 (watertight, no volume)
+FLAT = [((0, 0, 0), (100, 0, 0), (100, 20, 0)), ((0, 0, 0), (100, 20, 0), (0, 20, 0)),
+        ((0, 0, 0), (0, 20, 0), (100, 0, 0)), ((100, 0, 0), (0, 20, 0), (100, 20, 0))]
+STL = "linkfea compute s.stl --base plane:x=0 --tip plane:x=100 --out o/r.json"
+
+
+def _sha(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _report_folder(edited: str) -> dict:
+    """A report folder of `vjm diagnose --suggest` whose manifest records the files as written, with
+    ``edited`` (one of them) changed by the user since."""
+    written = {"model_updated.yaml": "# vjm model file.\nname: as written\n", "next_measurements.csv": "x,y,z\n0,0,0\n"}
+    man = {"schema": "linkfea.outputs/1", "sets": {"vjm diagnose": {"files": {n: _sha(t) for n, t in written.items()},
+                                                                    "run": "0" * 32}}}
+    files = {f"rep/{n}": t + ("# my edit\n" if n == edited else "") for n, t in written.items()}
+    return {"m.csv": GOOD, "rep/.linkfea-outputs.json": json.dumps(man), **files}
+
 
 # ------------------------------------------------------------------ the cases
 D = "vjm diagnose {puu} m.csv --out rep"
@@ -293,6 +333,57 @@ CASES = [
     Case("22", "vjm path {puu} pocket.nc --out o --tolerance nan", "--tolerance must be a number > 0 (mm), got nan"),
     Case("22", "vjm path {puu} p.nc --out o --wrench 10,0,0,0,0,0", "line 3",
          {"p.nc": "G21 G90\nG0 X0 Y0 Z0\nG1 X5 Q3\n"}, "a G-code line with an unknown word Q"),
+    # 30.4: options and inputs that were accepted but should not be
+    Case("30.4", "vjm stiffness m.yaml --at 0,0,0", "m.yaml, line 9: the key 'geometry' is given twice (first on line 6)",
+         {"m.yaml": PLACES["puu"].read_text(encoding="utf-8").replace("actuator:", "geometry: {L: 200.0, r: 40.0}"
+                                                                      "\nactuator:", 1)},
+         "puu.yaml with a second geometry: {L: 200, r: 40} (YAML keeps the last one silently)"),
+    Case("30.4", "vjm map {puu} --orientation 0,0,0.1 --out map",
+         "--orientation 0,0,0.1 rad: the machine's platform only translates (3 dof)"),
+    Case("30.4", "vjm stiffness m.yaml --at 0,0,0", "'(-8)**(1/3)' has no real value ((-8) ** 0.333333",
+         {"m.yaml": _linear("Tx(R), Tz(q0) actuated", "'Tx((-8)**(1/3))', Tz(q0) actuated")},
+         "linear_delta.yaml, first element Tx((-8)**(1/3))"),
+    Case("30.4", "linkfea compute bar --tolerance nan", "--tolerance must be a percentage in (0%, 100%) such as "
+                                                        "1%, or a fraction in (0, 1) such as 0.01; got 'nan'"),
+    Case("30.4", "linkfea compute bar --tolerance nan%", "; got 'nan%'"),
+    Case("30.4", "linkfea compute bar --tolerance 200%", "--tolerance must be a percentage in (0%, 100%) such as "
+                                                         "1%, or a fraction in (0, 1) such as 0.01; got '200%'"),
+    Case("30.4", "linkfea compute bar --tolerance 0", "; got '0'"),
+    Case("30.4", "linkfea compute bar -p length=100 -p length=300", "--param length given twice (100 and 300)"),
+    Case("30.4", STL, "s.stl: expected one body, found 2 separate closed surfaces",
+         {"s.stl": stl(BAR + _box((200, 0, 0), (300, 20, 10)))}, "two disjoint boxes 100 x 20 x 10 mm"),
+    Case("30.4", STL, "s.stl: expected one body, found 2 separate closed surfaces",
+         {"s.stl": stl(BAR + _box((40, -40, 0), (60, 60, 10)))}, "two boxes that cross each other"),
+    Case("30.4", STL, "s.stl: the surface encloses no volume", {"s.stl": stl(FLAT)},
+         "four triangles closing a flat square (watertight, zero volume)"),
+    Case("30.4", STL, "s.stl: a vertex has a non-finite coordinate (nan, 0, 0), in triangle 1",
+         {"s.stl": stl([((float("nan"), 0, 0),) + BAR[0][1:]] + BAR[1:])}, "a box whose first vertex is nan"),
+
+
+    # 30.1: the user's files (checked before any work)
+    Case("30.1", "linkfea compute bar --out r.json", "r.vtu exists and r.json does not record its bytes",
+         {"r.json": _result(), "r.vtu": "<my own mesh/>"}, "a result written with --no-picture, and the user's r.vtu"),
+    Case("30.1", "linkfea compute bar --out r.json", "r.png exists and r.json does not record its bytes",
+         {"r.json": _result(), "r.png": "my picture"}, "a result written with --no-picture, and the user's r.png"),
+    Case("30.1", "linkfea compute bar --out r.json", "r.vtu exists and r.json does not record its bytes",
+         {"r.json": _result(files={"vtu": {"name": "r.vtu", "sha256": _sha("<its mesh/>")}}), "r.vtu": "<my mesh/>"},
+         "a result JSON copied beside the user's r.vtu (it records another r.vtu's sha256)"),
+    Case("30.1", D + " --suggest 3", "model_updated.yaml was changed since linkfea or vjm wrote it",
+         _report_folder("model_updated.yaml"), "rep/ of an earlier run; the user edited rep/model_updated.yaml"),
+    Case("30.1", D + " --suggest 3", "next_measurements.csv was changed since linkfea or vjm wrote it",
+         _report_folder("next_measurements.csv"), "rep/ of an earlier run; the user edited rep/next_measurements.csv"),
+    Case("30.1", D, "cannot read measurement file m.csv: it is not a regular file", links={"m.csv": "/dev/zero"},
+         note="m.csv -> /dev/zero"),
+    Case("30.1", S + " --poses p.csv", "cannot read CSV file p.csv: it is not a regular file", links={"p.csv": "/dev/zero"},
+         note="p.csv -> /dev/zero"),
+    Case("30.1", "linkfea compute bar --out r.json", "r.json is a symbolic link to elsewhere/r.json, which does not exist",
+         links={"r.json": "elsewhere/r.json"}, note="r.json -> elsewhere/r.json (dangling)"),
+    Case("30.1", S, "s.csv is a symbolic link to gone.csv, which does not exist", links={"s.csv": "gone.csv"},
+         note="s.csv -> gone.csv (dangling)"),
+    Case("30.1", D, "rep is a symbolic link to gone, which does not exist", {"m.csv": GOOD}, links={"rep": "gone"},
+         note="m.csv; rep -> gone (dangling)"),
+    Case("30.1", "linkfea sweep bar -p length=100,120 --scheduler tcp://127.0.0.1:1 --out sw",
+         "cannot reach the Dask scheduler at tcp://127.0.0.1:1"),
     Case("26.7", "vjm stiffness r.yaml --q 0,0", "r.urdf: link 'l1' is the child of two joints ('j1' and 'j2'): a "
          "kinematic loop", {"r.yaml": ROBOT, "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l2", "l1"))},
          "a URDF whose link l1 has two parents"),
@@ -305,6 +396,9 @@ CASES = [
     Case("26.7", "vjm stiffness r.yaml --q 0,0", "joint 'j1' is floating",
          {"r.yaml": "urdf: r.urdf\n", "r.urdf": _urdf(_joint("j1", "base", "l1", "floating")
                                                        + _joint("j2", "l1", "l2"))}, "a URDF with a floating joint"),
+    Case("26.7", "vjm stiffness r.yaml --q 0,0", "joint 'j2' is planar",
+         {"r.yaml": "urdf: r.urdf\n", "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2", "planar"))},
+         "a URDF with a planar joint"),
     Case("26.7", "vjm stiffness r.yaml --q 0,0", "link 'l1': a mass of 2 kg without a centre of mass",
          {"r.yaml": ROBOT, "r.urdf": _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2"),
                                            inertial='<inertial><mass value="2"/></inertial>')},
@@ -331,14 +425,19 @@ CASES = [
 # ------------------------------------------------------------------ running a case
 
 def _snapshot(folder: Path) -> dict:
-    return {str(p.relative_to(folder)): (p.stat().st_size, p.stat().st_mtime_ns) for p in folder.rglob("*")}
+    """Size and time of each file and link; a folder's presence only (a probe for writability touches its time)."""
+    return {str(p.relative_to(folder)): "folder" if p.is_dir() and not p.is_symlink()
+            else (p.lstat().st_size, p.lstat().st_mtime_ns) for p in folder.rglob("*")}
 
 
 def write_files(case: Case, folder: Path) -> None:
     enc = case.files.get("encoding", "utf-8")
     for name, text in case.files.items():
         if name != "encoding":
+            (folder / name).parent.mkdir(parents=True, exist_ok=True)
             (folder / name).write_bytes(text.encode(enc))
+    for name, target in case.links.items():
+        (folder / name).symlink_to(target)
 
 
 def run(case: Case, folder: Path) -> Outcome:

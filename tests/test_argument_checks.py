@@ -34,6 +34,14 @@ def test_bounds_and_types():
     assert checks.cli_message(LinkFeaError("a\nb")) == "a b"
 
 
+@pytest.mark.parametrize("bounds", [checks.Bounds(), checks.Bounds(0), checks.Bounds(hi=1.0), checks.POSITIVE,
+                                    checks.Bounds(0, 1, lo_open=True, hi_open=True), checks.Bounds(0, 1)])
+def test_no_bounds_contain_nan(bounds):
+    """Every comparison with NaN is false: a range test written as "below lo or above hi" lets it through."""
+    assert not bounds.contains(float("nan")) and not bounds.contains(np.float64("nan"))
+    assert bounds.contains(0.5)
+
+
 @pytest.mark.parametrize("call, message", [
     (lambda: vjm.discrepancy.diagnose.diagnose(PUU, None, alpha=0.0), r"^alpha must be in \(0, 1\), got 0$"),
     (lambda: vjm.discrepancy.diagnose.diagnose(PUU, None, alpha=float("nan")), r"^alpha must be a finite number"),
@@ -63,6 +71,8 @@ def test_vjm_api_names_the_argument(call, message):
     ({"mesh_size": float("nan")}, r"^mesh_size must be a finite number > 0 mm"),
     ({"block_ratio": 1.0, "mode": "block"}, r"^block_ratio must be > 1, got 1$"),
     ({"envelope": 0.5}, r"^envelope must be in \(0, 0.1\), got 0.5$"),
+    ({"tolerance": float("nan")}, r"^tolerance must be a finite number in \(0, 1\)"),
+    ({"tolerance": 2.0}, r"^tolerance must be in \(0, 1\) \(a fraction: 0.01 = 1%\), got 2$"),
 ])
 def test_linkfea_api_names_the_argument_before_any_work(kw, message):
     import linkfea

@@ -46,6 +46,10 @@ def no_work(monkeypatch):
     def started(*args, **kwargs):
         raise AssertionError("work started before the output path was checked")
 
+    # modules that bind these functions by name at import: imported first, so that they keep the real ones
+    for name in ("vjm.discrepancy.workflow", "vjm.discrepancy.diagnose", "vjm.sweep", "vjm.maps"):
+        mod(name)
+
     for name, attr in [("linkfea.pipeline", "compute"), ("linkfea.compare", "fea_compliance"),
                        ("linkfea.sweep", "make_sweep"), ("vjm.modelfile", "load_model"),
                        ("vjm.discrepancy.modelops", "load_model")]:
@@ -252,12 +256,18 @@ def test_a_result_json_refuses_a_vtu_that_is_not_its_own(tmp_path):
 
 def test_results_written_outside_a_manifest_are_recognised_as_the_tools_own(tmp_path):
     """A folder holding `linkfea compute` and `vjm simulate` outputs takes a report without --force;
-    a JSON of another schema beside them is of other origin."""
-    (tmp_path / "foot.json").write_text(json.dumps({"schema": "linkfea.result/1"}))
+    a JSON of another schema beside them is of other origin, and so is a .vtu or .png whose bytes the
+    result JSON does not record."""
     (tmp_path / "foot.vtu").write_text("mesh")
     (tmp_path / "foot.png").write_text("picture")
+    files = {k: {"name": f"foot.{k}", "sha256": sha256(tmp_path / f"foot.{k}")} for k in ("vtu", "png")}
+    (tmp_path / "foot.json").write_text(json.dumps({"schema": "linkfea.result/1", "files": files}))
     (tmp_path / "m.csv").write_text("# simulated by vjm simulate from puu.yaml\nx,y,z\n")
     check_folder(tmp_path, ["report.json"])
+    (tmp_path / "foot.png").write_text("my own picture")
+    with pytest.raises(LinkFeaError, match="foot.png"):
+        check_folder(tmp_path, ["report.json"])
+    (tmp_path / "foot.png").write_text("picture")
     (tmp_path / "other.json").write_text(json.dumps({"schema": "someone/1"}))
     with pytest.raises(LinkFeaError, match="other.json"):
         check_folder(tmp_path, ["report.json"])
@@ -270,3 +280,158 @@ def test_a_sweep_folder_of_an_earlier_version_is_still_the_tools_own(tmp_path):
     (tmp_path / "sweep.json").write_text(json.dumps({"schema": "linkfea.sweep-table/1"}))
     (tmp_path / "sweep.csv").write_text("index\n")
     check_folder(tmp_path, ["sweep.csv", "results/"])
+
+
+# --------------------------------------------------------------------------- bytes decide, not names
+def test_a_file_of_the_set_edited_since_is_the_users_and_never_removed(tmp_path):
+    """A rerun removes the files of its previous run that it no longer writes, but only while their bytes are
+    the ones recorded: an edited one is the user's now (kept, and refused as a target)."""
+    with OutputSet(tmp_path, "a") as s:
+        for n in ("x.txt", "y.txt"):
+            Path(s.path(n)).write_text(f"a {n}")
+    (tmp_path / "y.txt").write_text("a y.txt, with my notes")
+    with pytest.raises(LinkFeaError, match="y.txt was changed since linkfea or vjm wrote it"):
+        check_folder(tmp_path, ["x.txt", "y.txt"], force=True)
+    with OutputSet(tmp_path, "a") as s:
+        Path(s.path("x.txt")).write_text("a again")
+    assert (tmp_path / "y.txt").read_text() == "a y.txt, with my notes"
+    with pytest.raises(LinkFeaError, match="y.txt is there and was not written by linkfea or vjm"):
+        check_folder(tmp_path, ["x.txt", "y.txt"], force=True)
+
+
+def test_a_rerun_without_pictures_keeps_a_picture_the_json_does_not_record(tmp_path):
+    """`linkfea compute --no-picture` removes the .vtu/.png of the earlier result only if their bytes are the
+    ones that result recorded: a picture the user put there instead stays."""
+    from linkfea.outputs import own_companions
+
+    (tmp_path / "r.vtu").write_text("the tool's mesh")
+    (tmp_path / "r.png").write_text("the user's picture")
+    doc = {"schema": "linkfea.result/1", "files": {k: {"name": f"r.{k}", "sha256": sha256(tmp_path / "r.vtu")}
+                                                   for k in ("vtu", "png")}}
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    assert own_companions(tmp_path / "r.json") == {"r.vtu"}
+
+
+# --------------------------------------------------------------------------- model files
+def _saves(diagnosis):
+    import vjm
+
+    m = vjm.load_model(PUU)
+    return {"Model.save": m.save, "vjm.save_model": lambda p: vjm.save_model(m, p),
+            "Diagnosis.updated_model.save": diagnosis.updated_model.save}
+
+
+@pytest.mark.parametrize("how", ["Model.save", "vjm.save_model", "Diagnosis.updated_model.save"])
+def test_saving_a_model_never_replaces_a_file_vjm_did_not_write(how, tmp_path, diagnosis):
+    """A user's analysis.py is not turned into YAML; a model file vjm wrote is replaced; once edited, it is
+    the user's and refused; a dangling link is refused, not replaced.  Nothing else is left in the folder."""
+    import vjm
+
+    save = _saves(diagnosis)[how]
+    mine = tmp_path / "analysis.py"
+    mine.write_text("import vjm\n")
+    with pytest.raises(ValueError, match="analysis.py exists and is not a model file vjm wrote"):
+        save(mine)
+    assert mine.read_text() == "import vjm\n"
+    own = tmp_path / "m.yaml"
+    save(own)
+    save(own)  # its own file: replaced
+    assert vjm.load_model(own).name == vjm.load_model(PUU).name
+    with open(own, "a", encoding="utf-8") as fh:
+        fh.write("# calibrated on Monday\n")
+    edited = own.read_bytes()
+    with pytest.raises(ValueError, match="changed since"):
+        save(own)
+    assert own.read_bytes() == edited
+    (tmp_path / "link.yaml").symlink_to("elsewhere/m.yaml")
+    with pytest.raises(ValueError, match="symbolic link to elsewhere/m.yaml, which does not exist"):
+        save(tmp_path / "link.yaml")
+    assert sorted(os.listdir(tmp_path)) == ["analysis.py", "link.yaml", "m.yaml"]
+
+
+def test_the_report_model_file_is_recognised_as_vjms_own(tmp_path, diagnosis):
+    """model_updated.yaml of a report carries the checksum line, so `updated_model.save` may replace it."""
+    from vjm.discrepancy.diagnose import write_diagnosis
+    from vjm.modelwrite import own_model_file
+
+    write_diagnosis(diagnosis, tmp_path / "rep")
+    assert own_model_file(tmp_path / "rep" / "model_updated.yaml")
+    text = (tmp_path / "rep" / "model_updated.yaml").read_text()
+    (tmp_path / "copy.yaml").write_text(text.replace("name:", "name: x", 1))
+    assert not own_model_file(tmp_path / "copy.yaml")
+
+
+# --------------------------------------------------------------------------- input files, full disks
+def test_input_files_are_read_only_when_regular_and_bounded(tmp_path):
+    from linkfea.atomic import read_user_file
+
+    (tmp_path / "m.csv").write_text("x,y,z\n" * 100)
+    assert len(read_user_file(tmp_path / "m.csv", "measurement file")) == 600
+    with pytest.raises(LinkFeaError, match="larger than"):
+        read_user_file(tmp_path / "m.csv", "measurement file", limit=500)
+    os.mkfifo(tmp_path / "fifo.csv")  # a pipe nobody writes to must not block the read
+    with pytest.raises(LinkFeaError, match="not a regular file"):
+        read_user_file(tmp_path / "fifo.csv", "measurement file")
+    with pytest.raises(LinkFeaError, match="it is a folder"):
+        read_user_file(tmp_path, "measurement file")
+
+
+def test_a_full_disk_while_writing_a_set_is_one_line_naming_the_device_and_leaves_nothing(tmp_path):
+    import errno
+
+    with pytest.raises(LinkFeaError) as err:
+        with OutputSet(tmp_path / "out", "a") as s:
+            Path(s.path("x.txt")).write_text("x")
+            tmp = s.path("r.vtu")
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), tmp)
+    line = str(err.value)
+    assert "\n" not in line and "no space left on" in line and "mounted at /" in line
+    assert line.startswith(f"cannot write {tmp_path / 'out' / 'r.vtu'}:"), line
+    assert os.listdir(tmp_path / "out") == []
+
+
+def test_the_vtu_writer_reports_a_full_disk_instead_of_crashing(tmp_path):
+    """VTK's own file writer dies with SIGSEGV on a full disk: the mesh is written by Python, which raises.
+    (/dev/full fails every write with ENOSPC; the writer follows the link as it would a temporary file.)"""
+    import errno
+    from types import SimpleNamespace
+
+    from linkfea.post import write_vtu
+
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, 0, 0], [.5, .5, 0], [0, .5, 0], [0, 0, .5],
+                    [.5, 0, .5], [0, .5, .5]], float)
+    sol = SimpleNamespace(points=pts, cells=np.arange(10)[None, :], displacements=[np.ones((10, 3))] * 6)
+    res = SimpleNamespace(name="t", solution=sol, mesh=SimpleNamespace(block=np.zeros(1, np.int8)))
+    write_vtu(tmp_path / "ok.vtu", res)
+    import pyvista as pv
+
+    assert np.allclose(pv.read(tmp_path / "ok.vtu").point_data["u_Mz"], 1.0)
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full here")
+    (tmp_path / "full.vtu").symlink_to("/dev/full")
+    with pytest.raises(OSError) as err:
+        write_vtu(tmp_path / "full.vtu", res)
+    assert err.value.errno == errno.ENOSPC and err.value.filename == str(tmp_path / "full.vtu")
+
+
+def test_a_full_disk_at_the_journal_leaves_the_old_set_and_no_temporary(tmp_path, monkeypatch):
+    """The members fit but the journal does not: the old set stays, and neither the members' temporaries nor
+    the new manifest's or journal's are left to keep the disk full."""
+    import errno
+
+    with OutputSet(tmp_path, "a") as s:
+        Path(s.path("x.txt")).write_text("old")
+    before = _tree(tmp_path)
+    real = json.dump
+
+    def dump(doc, fh, **kw):
+        if "renames" in doc:
+            fh.write("{")
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real(doc, fh, **kw)
+
+    monkeypatch.setattr(json, "dump", dump)
+    with pytest.raises(LinkFeaError, match="no space left on"):
+        with OutputSet(tmp_path, "a") as s:
+            Path(s.path("x.txt")).write_text("new")
+    assert _tree(tmp_path) == before

@@ -135,3 +135,17 @@ def test_a_local_copy_of_the_bundled_file_needs_no_warning(tmp_path, monkeypatch
         warnings.simplefilter("error")
         assert find_script("bar") == (tmp_path / "cad" / "bar.py").resolve()
         assert data_file("puu").resolve() == (tmp_path / "puu.yaml").resolve()
+
+
+def test_shipped_files_have_one_place_decided_by_where_the_package_runs(tmp_path, monkeypatch):
+    """From this source tree: the top-level cad/ and data/.  An installed package (here a stand-in in a
+    site folder, without its _cad folder): its own folder, never the checkout's files beside it."""
+    from linkfea.resources import CHECKOUT, shipped_dir
+
+    assert cad_dir() == CHECKOUT / "cad" and data_dir() == CHECKOUT / "data"
+    site = tmp_path / "site"
+    (site / "standin_pkg").mkdir(parents=True)
+    (site / "standin_pkg" / "__init__.py").write_text("")
+    monkeypatch.syspath_prepend(str(site))
+    assert (CHECKOUT / "cad").is_dir()
+    assert shipped_dir("standin_pkg", "_cad", "cad") == (site / "standin_pkg" / "_cad").resolve()

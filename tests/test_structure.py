@@ -1,4 +1,8 @@
-"""The shape of the packages: no import circle inside src/, and only the public names in dir().
+"""The shape of the packages: short functions and files, no import circle inside src/, and only the
+public names in dir().
+
+The limits: a function (or method, nested ones included) is at most 120 lines from its ``def`` to its
+last line, decorators aside; a file of src/ at most 600 lines.  A longer one is split, not exempted.
 
 Every import counts, module-level and function-level (and ``if TYPE_CHECKING:`` ones): a lazy
 import hides a circle, it does not remove it.
@@ -12,6 +16,38 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src"
+MAX_FUNCTION_LINES = 120
+MAX_FILE_LINES = 600
+
+
+def sizes(src: Path) -> tuple[dict[str, int], dict[str, int]]:
+    """(file -> its lines, "file:line name" -> the function's lines) of every .py file under ``src``."""
+    files: dict[str, int] = {}
+    functions: dict[str, int] = {}
+    for path in sorted(src.rglob("*.py")):
+        text = path.read_text(encoding="utf-8")
+        rel = path.relative_to(src).as_posix()
+        files[rel] = len(text.splitlines())
+        for node in ast.walk(ast.parse(text, str(path))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                assert node.end_lineno is not None
+                functions[f"{rel}:{node.lineno} {node.name}"] = node.end_lineno - node.lineno + 1
+    return files, functions
+
+
+def test_functions_and_files_are_short():
+    files, functions = sizes(SRC)
+    assert "linkfea/pipeline.py" in files and any(k.endswith(" compute") for k in functions)  # the walk sees src/
+    assert {k: n for k, n in functions.items() if n > MAX_FUNCTION_LINES} == {}
+    assert {k: n for k, n in files.items() if n > MAX_FILE_LINES} == {}
+
+
+def test_sizes_count_def_to_last_line(tmp_path):
+    (tmp_path / "m.py").write_text("@decorator\ndef f(x):\n    if x:\n        return 1\n\n    return 2\n\n\n"
+                                   "class A:\n    def g(self):\n        def h():\n            pass\n        return h\n")
+    files, functions = sizes(tmp_path)
+    assert files == {"m.py": 13}
+    assert functions == {"m.py:2 f": 5, "m.py:10 g": 4, "m.py:11 h": 2}
 
 
 def import_graph(src: Path) -> dict[str, set[str]]:

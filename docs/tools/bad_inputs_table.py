@@ -33,6 +33,11 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
+def _text(text: str) -> str:
+    """A cell of plain markdown text (not code): brackets escaped, so that ``[+ ox,oy,oz]`` is no link."""
+    return _cell(text).replace("[", "\\[").replace("]", "\\]")
+
+
 def _files(case) -> str:
     if case.note:
         return case.note
@@ -44,6 +49,7 @@ def _files(case) -> str:
         lines = text.strip("\ufeff").splitlines()
         head = "<br>".join(f"`{ln[:70]}{'...' if len(ln) > 70 else ''}`" for ln in lines[:4])
         out.append(f"`{name}`{' (' + enc + ')' if enc != 'utf-8' else ''}:<br>{head}{'<br>...' if len(lines) > 4 else ''}")
+    out += [f"`{name}` -> `{target}`" for name, target in case.links.items()]
     return "<br>".join(out)
 
 
@@ -53,7 +59,7 @@ def main() -> int:
         with tempfile.TemporaryDirectory() as d:
             res = run(case, Path(d))
         rows.append(f"| {i} | {case.issue} | `{_cell(case.command)}` | {_cell(_files(case))} | {res.status} | "
-                    f"{_cell(res.stderr.strip())} |")
+                    f"{_text(res.stderr.strip())} |")
     out = ROOT / "docs" / "bad_inputs.md"
     out.write_text(HEAD + "\n".join(rows) + "\n", encoding="utf-8")
     print(f"wrote {out} ({len(rows)} cases)")

@@ -11,8 +11,10 @@ for JSON and YAML.
 """
 from __future__ import annotations
 
+import errno
 import hashlib
 import os
+import stat
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -114,16 +116,88 @@ def atomic_path(path, suffix: str | None = None):
     try:
         if path.is_dir():
             raise IsADirectoryError(21, "is a folder", str(path))
+        refuse_link(path, "")
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = str(temp_beside(path if suffix is None else path.with_suffix(suffix)))
         yield tmp
         fsync_file(tmp)
         os.replace(tmp, path)
     except OSError as exc:
-        raise LinkFeaError(f"cannot write {path}: {exc.strerror or exc}") from None
+        raise LinkFeaError(write_error(path, exc)) from None
     finally:
         if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def _mount_of(path: Path) -> tuple[str, str]:
+    """The mount point holding ``path`` and the device mounted there (its name in /proc/self/mounts)."""
+    p = path.absolute()
+    while not p.exists():
+        p = p.parent
+    try:
+        dev = p.stat().st_dev
+        while p.parent != p and p.parent.stat().st_dev == dev:
+            p = p.parent
+    except OSError:
+        pass
+    device = ""
+    try:
+        with open("/proc/self/mounts", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                f = line.split()
+                if len(f) > 2 and f[1].replace("\\040", " ") == str(p):
+                    device = f[0]  # the last mount at a point is the one in effect
+    except OSError:
+        pass
+    return str(p), device
+
+
+def write_error(path, exc: OSError) -> str:
+    """The one line for a write of ``path`` that failed with ``exc``: a full disk (or quota) names the device."""
+    path = Path(path)
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        mount, device = _mount_of(path)
+        on = f"device {device} (mounted at {mount})" if device else f"the device mounted at {mount}"
+        what = "no space left" if exc.errno == errno.ENOSPC else "disk quota exceeded"
+        return f"cannot write {path}: {what} on {on}; nothing was written: free some space or choose another place"
+    return f"cannot write {path}: {exc.strerror or exc}"
+
+
+def refuse_link(path, option: str = "--out") -> None:
+    """Refuse a symbolic link at an output path: the tools neither replace a link nor write through it."""
+    p = Path(path)
+    if p.is_symlink():
+        target = os.readlink(p)
+        state = "" if p.exists() else ", which does not exist"
+        raise LinkFeaError(f"{option + ' ' if option else ''}{p} is a symbolic link to {target}{state}: linkfea and vjm neither replace a "
+                           f"link nor write through one; give the real path or remove the link")
+
+
+#: largest input file read whole (measurement and pose CSVs): far above any measured data set
+READ_MAX_BYTES = 200_000_000
+
+
+def read_user_file(path, what: str, limit: int = READ_MAX_BYTES, error: type[Exception] = LinkFeaError) -> bytes:
+    """The bytes of input file ``path``: only a regular file (not a device, pipe or folder, even through a
+    link: a link to /dev/zero would fill the memory) of at most ``limit`` bytes; else ``error`` naming it."""
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))  # a FIFO must not block the open
+    except OSError as exc:
+        raise error(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode):
+        os.close(fd)
+        kind = "a folder" if stat.S_ISDIR(st.st_mode) else "not a regular file (a device, pipe or socket)"
+        raise error(f"cannot read {what} {path}: it is {kind}")
+    with os.fdopen(fd, "rb") as fh:
+        try:
+            data = fh.read(limit + 1) if st.st_size <= limit else b""
+        except OSError as exc:
+            raise error(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+        if st.st_size > limit or len(data) > limit:
+            raise error(f"{what} {path} is larger than {limit / 1e6:.0f} MB, more than any such file should be: "
+                        f"is it the right file?")
+        return data
 
 
 def file_sha256(path) -> str:

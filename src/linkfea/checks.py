@@ -66,6 +66,10 @@ class Bounds:
         return f"any finite value{u}"
 
     def contains(self, v: float) -> bool:
+        """Whether ``v`` is in the range; NaN never is (every comparison with it is false, so the
+        ends below would let it through)."""
+        if v != v:
+            return False
         if self.lo is not None and (v <= self.lo if self.lo_open else v < self.lo):
             return False
         if self.hi is not None and (v >= self.hi if self.hi_open else v > self.hi):

@@ -107,15 +107,26 @@ def compute(
         con = Console(width=max(Console().width, 100))
         show(res, con)
         con.print(f"wrote {', '.join(str(p) for p in written)}")
+    if not res.diagnostics.get("refinement", {"reached": True})["reached"]:
+        raise typer.Exit(code=TOLERANCE_NOT_REACHED)  # written, with the warning line the pipeline gave
+
+
+TOLERANCE_NOT_REACHED = 3
+"""Exit status of ``compute --tolerance`` when the DOF budget stopped the refinement first: the result set
+is written, but its estimated error is above what was asked (as ``vjm diagnose``'s 3: written, not conclusive)."""
 
 
 def _fraction(text: str) -> float:
-    """``"1%"`` or ``"0.01"`` -> 0.01."""
+    """``"1%"`` or ``"0.01"`` -> 0.01, checked against the options' range; the message echoes ``text``."""
+    from .checks import ArgumentError, number
+    from .options import TOLERANCE
+
     t = text.strip()
     try:
-        return float(t[:-1]) / 100.0 if t.endswith("%") else float(t)
-    except ValueError:
-        raise LinkFeaError(f"--tolerance must be a percentage such as 1% or a fraction such as 0.01, got {text!r}") from None
+        return number(float(t[:-1]) / 100.0 if t.endswith("%") else float(t), "tolerance", TOLERANCE)
+    except (ValueError, ArgumentError):
+        raise LinkFeaError("--tolerance must be a percentage in (0%, 100%) such as 1%, or a fraction in (0, 1) "
+                           f"such as 0.01; got {text!r}") from None
 
 
 def _convergence_text(solver: dict) -> str:

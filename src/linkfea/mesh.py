@@ -77,7 +77,7 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
     epsilon : float
         fTetWild envelope relative to the bounding-box diagonal (pytetwild only).
     cache_dir : path, optional
-        Mesh cache folder (default ``$LINKFEA_CACHE_DIR`` or ``.cache/meshes``; pytetwild only,
+        Mesh cache folder (default ``$LINKFEA_CACHE_DIR``, else the platform's cache folder; pytetwild only,
         gmsh is deterministic and fast).
     use_cache : bool
         Read and write the cache.

@@ -13,7 +13,7 @@ tolerance) and by their normal, never with a tight tolerance: a tight one
 silently drops much of the clamp.
 
 pytetwild is not deterministic from run to run, so the raw mesh (points, tets)
-is cached under ``.cache/meshes/`` (or ``$LINKFEA_CACHE_DIR``) keyed by the
+is cached (:func:`linkfea.meshcache.cache_dir_default`) keyed by the
 SHA-256 of the input surfaces, the meshing parameters and
 :data:`MESH_VERSION`; a repeated run reuses it bit for bit, concurrent runs of one key
 share one mesh (the first meshes, the others wait and read) and a damaged entry is
@@ -32,7 +32,7 @@ import numpy as np
 from .errors import LinkFeaError, SolverError
 from .link import interface_faces
 from .linkmesh import LinkMesh, check_interface_areas, finish_mesh, tet_faces, tet_volumes, tri_areas_normals
-from .meshcache import cached_mesh
+from .meshcache import cache_dir_default, cached_mesh
 
 MESH_VERSION = "linkfea-mesh-2"
 """Bumped whenever the meshing code changes the cached arrays."""
@@ -43,10 +43,6 @@ ANGULAR_TOL = 0.1
 
 NORMAL_COS = 0.8
 """Minimum |cos| between a mesh facet normal and the CAD face normal to count as on the face."""
-
-
-def cache_dir_default() -> Path:
-    return Path(os.environ.get("LINKFEA_CACHE_DIR", ".cache/meshes"))
 
 
 def _surface(shape, tol: float) -> tuple[np.ndarray, np.ndarray]:

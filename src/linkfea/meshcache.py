@@ -14,6 +14,10 @@ pytetwild is not deterministic from run to run, so a key must stand for exactly 
 
 Lock files are empty and stay in the cache folder (removing one while another run waits on it
 would let a third run take a second lock on a new file).
+
+**Where.** ``$LINKFEA_CACHE_DIR`` if set (and not empty), else ``meshes`` in the platform's cache folder
+for linkfea (``platformdirs``: ``~/.cache/linkfea/meshes`` on Linux, under ``$XDG_CACHE_HOME`` if set), so
+runs from any folder share one cache and none litters the folder it runs in.
 """
 from __future__ import annotations
 
@@ -31,6 +35,19 @@ from .atomic import atomic_path
 from .errors import LinkFeaError, LinkFeaWarning
 
 Mesh = tuple[np.ndarray, np.ndarray]
+
+#: the environment variable that names the cache folder (a sweep's local workers get the client's)
+CACHE_ENV = "LINKFEA_CACHE_DIR"
+
+
+def cache_dir_default() -> Path:
+    """The mesh cache folder when none is given: ``$LINKFEA_CACHE_DIR``, else the platform's cache folder."""
+    chosen = os.environ.get(CACHE_ENV)
+    if chosen:
+        return Path(chosen)
+    from platformdirs import user_cache_path
+
+    return user_cache_path("linkfea", appauthor=False) / "meshes"
 
 
 class DamagedEntry(Exception):

@@ -19,7 +19,7 @@ from .errors import LinkFeaError
 MESH_SIZE = checks.Bounds(0, lo_open=True, unit="mm")
 BLOCK_RATIO = checks.Bounds(1, lo_open=True)
 ENVELOPE = checks.Bounds(0, 0.1, lo_open=True, hi_open=True)
-TOLERANCE = checks.Bounds(0, 1, lo_open=True, hi_open=True)
+TOLERANCE = checks.Bounds(0, 1, lo_open=True, hi_open=True, unit="(a fraction: 0.01 = 1%)")
 MAX_DOFS_BOUNDS = checks.Bounds(1)
 
 MODES = ("rigid", "block")
@@ -77,10 +77,8 @@ class ComputeOptions:
             _one_of(self.mesher, "mesher", MESHERS)
         put("convergence", bool(self.convergence))
         put("max_dofs", checks.integer(self.max_dofs, "max_dofs", MAX_DOFS_BOUNDS))
+        put("tolerance", checks.optional_number(self.tolerance, "tolerance", TOLERANCE))
         if self.tolerance is not None:
-            if isinstance(self.tolerance, bool) or not isinstance(self.tolerance, (int, float)) \
-                    or not TOLERANCE.contains(self.tolerance):
-                raise LinkFeaError(f"tolerance must be a fraction in (0, 1) (0.01 = 1%), got {self.tolerance}")
             if self.convergence:
                 raise LinkFeaError("--tolerance and --convergence do not go together: choose one")
             if self.mesher not in (None, "gmsh"):

@@ -5,11 +5,14 @@ Every command of linkfea and vjm that writes goes through this module.
 **Ownership.**  A folder a command writes into holds a small manifest,
 ``.linkfea-outputs.json``, listing the files each command (a *set*, such as
 ``vjm diagnose``) wrote there, with their sha256 and a run id.  A file not in
-it is of other origin: it is never overwritten and never deleted.  A single
-result file in the user's own folder (``linkfea compute --out r.json``,
-``vjm simulate --out d.csv``) gets no manifest; there the tool recognises its
-own files by their content (a ``linkfea.result`` JSON and the ``.vtu``/``.png``
-of the same name beside it; a CSV whose first line says vjm simulate wrote it).
+it, or whose bytes are no longer those recorded (the user edited it), is of
+other origin: it is never overwritten and never deleted.  A single result file
+in the user's own folder (``linkfea compute --out r.json``, ``vjm simulate
+--out d.csv``) gets no manifest; there the tool recognises its own files by
+their content (a ``linkfea.result`` JSON, and the ``.vtu``/``.png`` beside it
+whose sha256 the JSON records; a CSV whose first line says vjm simulate wrote
+it).  A symbolic link is never the tool's own: an output path that is one is
+refused.
 
 **Complete sets.**  Members are written to temporaries beside their targets
 (:func:`linkfea.atomic.temp_beside`) and flushed to disk; then a journal
@@ -29,12 +32,13 @@ import json
 import os
 import shutil
 import signal
+import stat
 import time
 import uuid
 from pathlib import Path
 from typing import Callable, Iterable
 
-from .atomic import TMP_PREFIX, fsync_dir, fsync_file, stale_temporary, temp_beside
+from .atomic import TMP_PREFIX, fsync_dir, fsync_file, refuse_link, stale_temporary, temp_beside, write_error
 from .atomic import file_sha256 as sha256
 from .errors import LinkFeaError
 
@@ -90,25 +94,78 @@ def read_manifest(folder) -> dict:
     return doc
 
 
-def owned(folder) -> set[str]:
-    """Top-level names in ``folder`` that the tools wrote: in its manifest (sub-folders such as
-    ``results`` by their name), or recognised by content (:func:`recognised`)."""
-    names = set()
+def unchanged(path, digest) -> bool:
+    """Are the bytes at ``path`` still those the tool wrote (sha256 ``digest``)?  A link never is."""
+    p = Path(path)
+    try:
+        return isinstance(digest, str) and not p.is_symlink() and p.is_file() and sha256(p) == digest
+    except OSError:
+        return False
+
+
+def _recorded(folder: Path) -> dict[str, set]:
+    """Every name the manifest of ``folder`` records, with the sha256 each set recorded for it (None: a
+    sub-folder claimed by name)."""
+    out: dict[str, set] = {}
     for s in read_manifest(folder)["sets"].values():
-        for n in (s.get("files") or {}):
-            names.add(n.split("/", 1)[0])
+        for n, digest in (s.get("files") or {}).items():
+            out.setdefault(n, set()).add(digest if isinstance(digest, str) else None)
+    return out
+
+
+def _as_recorded(path: Path, digests: set) -> bool:
+    return None in digests or any(unchanged(path, d) for d in digests)
+
+
+def owned(folder) -> set[str]:
+    """Top-level names in ``folder`` that the tools wrote: in its manifest with the bytes recorded there
+    (sub-folders such as ``results`` by their name), or recognised by content (:func:`recognised`)."""
+    folder = Path(folder)
+    names = {n.split("/", 1)[0] for n, d in _recorded(folder).items() if _as_recorded(folder / n, d)}
     return names | recognised(folder)
 
 
-def _schema(path) -> str:
+def changed(folder) -> set[str]:
+    """Files the manifest of ``folder`` records whose bytes changed since (edited by the user: theirs now)."""
+    folder = Path(folder)
+    return {n for n, d in _recorded(folder).items() if (folder / n).exists() and not _as_recorded(folder / n, d)}
+
+
+def _regular(path) -> bool:
+    """A regular file, not a link (a link to /dev/zero must not be read), of bounded size."""
     try:
-        if Path(path).stat().st_size > RECOGNISE_MAX_BYTES:
-            return ""
+        st = os.lstat(path)
+    except OSError:
+        return False
+    return stat.S_ISREG(st.st_mode) and st.st_size <= RECOGNISE_MAX_BYTES
+
+
+def _doc(path) -> dict:
+    try:
+        if not _regular(path):
+            return {}
         with open(path, encoding="utf-8") as fh:
             doc = json.load(fh)
     except (OSError, ValueError, UnicodeDecodeError):
-        return ""
-    return str(doc.get("schema", "")) if isinstance(doc, dict) else ""
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def _schema(path) -> str:
+    return str(_doc(path).get("schema", ""))
+
+
+def own_companions(path, doc: dict | None = None) -> set[str]:
+    """Names of the files beside result JSON ``path`` (its document ``doc``, if read already) that are its
+    own: recorded under ``files`` with the sha256 of their present bytes.  A ``.vtu`` or ``.png`` the
+    JSON does not record, or whose bytes differ, is someone else's."""
+    files = (_doc(path) if doc is None else doc).get("files")
+    out = set()
+    for rec in (files.values() if isinstance(files, dict) else ()):
+        name = rec.get("name") if isinstance(rec, dict) else None
+        if isinstance(name, str) and _plain_name(name) and unchanged(Path(path).with_name(name), rec.get("sha256")):
+            out.add(name)
+    return out
 
 
 def is_result_json(path) -> bool:
@@ -119,23 +176,27 @@ def is_result_json(path) -> bool:
 def is_simulated_csv(path) -> bool:
     """Was ``path`` written by vjm simulate (its first line says so)?"""
     try:
-        with open(path, encoding="utf-8") as fh:
-            return fh.readline().startswith(SIMULATED_CSV_MARK)
-    except (OSError, UnicodeDecodeError):
+        if not _regular(path):
+            return False
+        with open(path, "rb") as fh:
+            return fh.read(len(SIMULATED_CSV_MARK)) == SIMULATED_CSV_MARK.encode()
+    except OSError:
         return False
 
 
 def recognised(folder) -> set[str]:
     """Files in ``folder`` that the tools wrote outside any manifest, known by their content: link
-    results (``linkfea compute``, ``LinkResult.save``) with the ``.vtu`` and ``.png`` of the same
-    name, CSVs of ``vjm simulate``, and the sweep folders of earlier versions (:data:`LEGACY_SETS`)."""
+    results (``linkfea compute``, ``LinkResult.save``) with the companions whose sha256 they record
+    (:func:`own_companions`), CSVs of ``vjm simulate``, and the sweep folders of earlier versions
+    (:data:`LEGACY_SETS`)."""
     folder = Path(folder)
     names = set()
     for e in os.listdir(folder):
         p = folder / e
-        schema = _schema(p) if e.endswith(".json") and p.is_file() else ""
+        doc = _doc(p) if e.endswith(".json") else {}
+        schema = str(doc.get("schema", ""))
         if schema.startswith(RESULT_SCHEMA_PREFIX):
-            names |= {e, p.with_suffix(".vtu").name, p.with_suffix(".png").name}
+            names |= {e} | own_companions(p, doc)
         elif e in LEGACY_SETS and schema.startswith(LEGACY_SETS[e][0]):
             names |= set(LEGACY_SETS[e][1])  # a folder written before manifests existed
         elif e.endswith(".csv") and is_simulated_csv(p):
@@ -165,6 +226,15 @@ def _roll_forward(folder: Path, journal: Path) -> None:
     fsync_dir(folder)
     journal.unlink(missing_ok=True)
     fsync_dir(folder)
+
+
+def _target(path: Path) -> Path:
+    """The output a temporary stands for (``.linkfea-tmp.<pid>.<random>.r.vtu`` -> ``r.vtu``)."""
+    if path.name.startswith(TMP_PREFIX):
+        parts = path.name[len(TMP_PREFIX):].split(".", 2)
+        if len(parts) == 3:
+            return path.with_name(parts[2])
+    return path
 
 
 def _plain_name(name: str) -> bool:
@@ -252,6 +322,8 @@ def check_folder(out, names: Iterable[str], force: bool = False, option: str = "
     A killed earlier run's journal is rolled forward and its temporaries removed first.
     """
     out = Path(out)
+    if out.is_symlink() and not out.exists():
+        refuse_link(out, option)
     if out.exists() and not out.is_dir():
         raise LinkFeaError(f"{option} {out} exists and is not a directory: this command writes a folder")
     check_writable(out, option)
@@ -262,6 +334,10 @@ def check_folder(out, names: Iterable[str], force: bool = False, option: str = "
     own = owned(out)
     foreign = sorted(e for e in os.listdir(out) if e not in own and not _internal(e))
     clash = sorted({n.split("/", 1)[0] for n in names} & set(foreign))
+    if clash and clash[0] in changed(out):
+        raise LinkFeaError(f"{option} {out}: {clash[0]} was changed since linkfea or vjm wrote it (its sha256 is not "
+                           f"the one recorded), so it is yours now and never overwritten, not even with --force: "
+                           f"choose another folder or move it")
     if clash:
         raise LinkFeaError(f"{option} {out}: {clash[0]} is there and was not written by linkfea or vjm; it is never "
                            f"overwritten, not even with --force: choose another folder or move it")
@@ -272,15 +348,17 @@ def check_folder(out, names: Iterable[str], force: bool = False, option: str = "
 
 
 def check_file(path, owner: Callable[[Path], bool], what: str, companions: Iterable = (),
-               option: str = "--out") -> Path:
+               option: str = "--out", own_companions: Callable[[Path], set[str]] | None = None) -> Path:
     """Check an output file (and its companions, written with it) before any work.
 
-    Refused: a folder where the file should be; a place that cannot be written; an existing
-    file that ``owner`` does not recognise as the tool's own ``what``; an existing companion
-    beside a file that is not the tool's.
+    Refused: a symbolic link (dangling or not); a folder where the file should be; a place that
+    cannot be written; an existing file that ``owner`` does not recognise as the tool's own
+    ``what``; an existing companion that is not among ``own_companions(path)`` (the names whose
+    bytes the file records), or beside a file that is not the tool's.
     """
     path = Path(path)
     for p in (path, *map(Path, companions)):
+        refuse_link(p, option)
         if p.is_dir():
             raise LinkFeaError(f"{option} {path}: {p} is a folder, not a file")
     check_writable(path.parent, option)
@@ -289,7 +367,11 @@ def check_file(path, owner: Callable[[Path], bool], what: str, companions: Itera
     if path.exists() and not ours:
         raise LinkFeaError(f"{option} {path} exists and is not {what}; it is never overwritten: "
                            f"choose another name or move it")
+    mine = own_companions(path) if ours and own_companions is not None else set()
     for c in map(Path, companions):
+        if c.exists() and ours and c.name not in mine and own_companions is not None:
+            raise LinkFeaError(f"{option} {path}: {c} exists and {path.name} does not record its bytes (your file, or "
+                               f"changed since linkfea wrote it); it is never overwritten: choose another name or move it")
         if c.exists() and not ours:
             raise LinkFeaError(f"{option} {path}: {c} exists and is not part of {what}; it is never "
                                f"overwritten: choose another name or move it")
@@ -321,8 +403,11 @@ class OutputSet:
     def __exit__(self, exc_type, exc, tb) -> None:
         if exc_type is None:
             self.commit()
-        else:
-            self.abort()
+            return
+        self.abort()
+        if isinstance(exc, OSError):  # a writer that failed (a full disk): one line, no temporary left
+            where = exc.filename if isinstance(exc.filename, str) else self.folder
+            raise LinkFeaError(write_error(_target(Path(where)), exc)) from None
 
     def path(self, name: str) -> str:
         """A temporary path for member ``name`` (same suffix, so matplotlib and VTK pick the format)."""
@@ -330,7 +415,7 @@ class OutputSet:
             self.folder.mkdir(parents=True, exist_ok=True)
             tmp = temp_beside(self.folder / name)
         except OSError as exc:
-            raise LinkFeaError(f"cannot write {self.folder / name}: {exc.strerror or exc}") from None
+            raise LinkFeaError(write_error(self.folder / name, exc)) from None
         self.tmps[name] = tmp
         return str(tmp)
 
@@ -349,7 +434,7 @@ class OutputSet:
             return self._commit()
         except OSError as exc:
             self.abort()
-            raise LinkFeaError(f"cannot write {self.folder}: {exc.strerror or exc}") from None
+            raise LinkFeaError(write_error(self.folder, exc)) from None
 
     def _commit(self) -> list[Path]:
         for tmp in self.tmps.values():
@@ -357,18 +442,27 @@ class OutputSet:
         fault("members-written")
         renames = [(t.name, n) for n, t in self.tmps.items()]
         remove = list(self.remove)
-        if self.manifest:
-            man = read_manifest(self.folder)
-            before = set((man["sets"].get(self.name) or {}).get("files") or {})
-            others = {n for k, s in man["sets"].items() if k != self.name for n in (s.get("files") or {})}
-            remove += sorted(n for n in before - set(self.tmps) - others if not n.endswith("/"))
-            man["sets"][self.name] = {"files": self.digests(), "run": self.run,
-                                      "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-            renames.append((_write_temp(self.folder / MANIFEST, man).name, MANIFEST))
         journal = journal_path(self.folder, self.name, self.run)
-        jt = _write_temp(journal, {"schema": JOURNAL_SCHEMA, "set": self.name, "run": self.run,
-                                   "renames": renames, "remove": remove})
-        os.replace(jt, journal)
+        manifest_tmp = None
+        try:
+            if self.manifest:
+                man = read_manifest(self.folder)
+                before = (man["sets"].get(self.name) or {}).get("files") or {}
+                others = {n for k, s in man["sets"].items() if k != self.name for n in (s.get("files") or {})}
+                # only files whose bytes are still those recorded: one the user edited is theirs now
+                remove += sorted(n for n in set(before) - set(self.tmps) - others
+                                 if not n.endswith("/") and unchanged(self.folder / n, before[n]))
+                man["sets"][self.name] = {"files": self.digests(), "run": self.run,
+                                          "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+                manifest_tmp = _write_temp(self.folder / MANIFEST, man)
+                renames.append((manifest_tmp.name, MANIFEST))
+            jt = _write_temp(journal, {"schema": JOURNAL_SCHEMA, "set": self.name, "run": self.run,
+                                       "renames": renames, "remove": remove})
+            os.replace(jt, journal)
+        except OSError:  # before the commit point (a full disk): nothing of this run may stay
+            if manifest_tmp is not None:
+                manifest_tmp.unlink(missing_ok=True)
+            raise
         fsync_dir(self.folder)
         fault("journal-written")
         for k, (tname, name) in enumerate(renames):
@@ -404,10 +498,14 @@ def claim(folder, names: Iterable[str], set_name: str) -> None:
 
 def _write_temp(target: Path, doc: dict) -> Path:
     tmp = temp_beside(target)
-    with open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(doc, fh, indent=1)
-        fh.flush()
-        os.fsync(fh.fileno())
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(doc, fh, indent=1)
+            fh.flush()
+            os.fsync(fh.fileno())
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        raise
     return tmp
 
 

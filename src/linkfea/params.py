@@ -51,5 +51,7 @@ def parse_param_args(items) -> dict:
         k, eq, v = str(it).partition("=")
         if not eq or not k.strip():
             raise LinkFeaError(f"parameter {it!r}: expected NAME=VALUE")
+        if k.strip() in out:  # not the last one silently winning
+            raise LinkFeaError(f"--param {k.strip()} given twice ({out[k.strip()]} and {v.strip()}); give it once")
         out[k.strip()] = v.strip()
     return out

@@ -7,7 +7,7 @@ import warnings
 from pathlib import Path
 from typing import Callable
 
-from .errors import LinkFeaError
+from .errors import LinkFeaError, LinkFeaWarning
 from .materials import get_material
 from .options import BLOCK_RATIO as BLOCK_RATIO  # the options' ranges, also importable from here
 from .options import ENVELOPE as ENVELOPE
@@ -86,6 +86,9 @@ def _refine(run, tolerance, max_dofs, solve_with, progress):
                             f"the budget of {max_dofs} DOF")
     record = {"tolerance": float(tolerance), "reached": reached, "steps": steps, "max_dofs": int(max_dofs),
               "seconds": float(sum(st["seconds"] for st in steps)), "note": note}
+    if not reached:  # the result is usable, but not what was asked: say so beside the JSON's reached: false
+        warnings.warn(f"tolerance {100 * tolerance:.2g}% not reached: {note} (max_dofs, --max-dofs); the result "
+                      f"keeps its larger estimated error", LinkFeaWarning, stacklevel=3)
     return mesh, sol, comp, timing, est, record
 
 

@@ -31,8 +31,23 @@ def solution_grid(res):
 def write_vtu(path, res) -> Path:
     """Write the P2 mesh with the 6 unit-load displacement fields to ``path`` (written as part of
     the result's set by :mod:`linkfea.resultset`, which hands in a temporary path)."""
+    from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridWriter
+
+    # VTK's own file output crashes the process (SIGSEGV) when the disk fills up: the XML is made in
+    # memory (the bytes pyvista's save writes: binary, zlib) and written by Python, which reports the error.
+    w = vtkXMLUnstructuredGridWriter()
+    w.SetInputData(solution_grid(res))
+    w.SetDataModeToBinary()
+    w.SetCompressorTypeToZLib()
+    w.SetWriteToOutputString(True)
+    if not w.Write():
+        raise OSError(f"VTK could not write the mesh of {res.name}")
     path = Path(path)
-    solution_grid(res).save(str(path))
+    try:
+        with open(path, "wb") as fh:
+            fh.write(w.GetOutputString().encode("ascii"))
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(path)) from None  # name the file (a full disk names none)
     return path
 
 

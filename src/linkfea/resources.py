@@ -1,9 +1,10 @@
 """Files shipped with the packages: the bundled link scripts (``cad/``) and vjm's data (``data/``).
 
-The source tree keeps them at its top (``cad/``, ``data/``); the wheel installs them inside
-the packages, as ``linkfea/_cad`` and ``vjm/_data`` (``setup.py`` maps the folders).  They are
-found with :mod:`importlib.resources` in an installed package, and in the checkout otherwise
-(a source tree on ``PYTHONPATH`` or an editable install), so both ways run the same commands.
+Their one home is the top of the source tree (``cad/``, ``data/``); the wheel copies them inside
+the packages, as ``linkfea/_cad`` and ``vjm/_data`` (``setup.py`` maps the folders).  Where a
+package runs from decides, once, which of the two it reads (:func:`shipped_dir`): the source
+tree's folders for a tree on ``PYTHONPATH`` or an editable install, the package's own for a wheel,
+so both ways run the same commands.
 """
 from __future__ import annotations
 
@@ -15,16 +16,18 @@ CHECKOUT = Path(__file__).resolve().parents[2]
 
 
 def shipped_dir(package: str, inside: str, checkout: str) -> Path:
-    """The folder ``inside`` of an installed ``package``, else ``checkout`` at the top of the source tree.
+    """The folder of files shipped with ``package``: one place, decided by where the package runs from.
 
-    Returns the installed folder even if neither exists, so that a missing file is reported
-    against the place an installed package looks in.
+    A package imported from the ``src/`` of this source tree (``PYTHONPATH=src`` or an editable install)
+    uses the tree's top-level folder ``checkout`` (``cad/``, ``data/``: their one home, which the wheel
+    copies); an installed package uses its folder ``inside`` (``linkfea/_cad``, ``vjm/_data``), even if that
+    is missing, so that a missing file is reported against the place it looks in and an installed package
+    never picks up the files of a checkout that happens to lie around it.
     """
-    installed = Path(str(resources.files(package) / inside))
-    if installed.is_dir():
-        return installed
-    source = CHECKOUT / checkout
-    return source if source.is_dir() else installed
+    here = Path(str(resources.files(package))).resolve()
+    if here.parent == CHECKOUT / "src":
+        return CHECKOUT / checkout
+    return here / inside
 
 
 def cad_dir() -> Path:

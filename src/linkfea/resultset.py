@@ -5,8 +5,8 @@ The three files come from one run or are the old ones, untouched (see
 companions under ``files``, so a ``.vtu`` that is not the JSON's own (copied
 over, or left by a different run) is detected when it is read
 (:func:`companion_mismatch`).  An existing ``X.json`` that is not a linkfea
-result, and an ``X.vtu``/``X.png`` beside something that is not one, are never
-overwritten.
+result, and an ``X.vtu``/``X.png`` whose sha256 the JSON beside it does not
+record (the user's own, or edited since), are never overwritten or removed.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import json
 from pathlib import Path
 
 from .errors import LinkFeaError
-from .outputs import OutputSet, check_file, file_set_name, is_result_json, sha256
+from .outputs import OutputSet, check_file, file_set_name, is_result_json, own_companions, sha256
 
 SUFFIXES = {"vtu": ".vtu", "png": ".png"}
 
@@ -33,15 +33,16 @@ def check_result_out(path, vtu: bool = True, png: bool = True, option: str = "--
     """Check ``--out`` of a result before any work (see :func:`linkfea.outputs.check_file`)."""
     comp = companions(path)
     want = [comp[k] for k, on in (("vtu", vtu), ("png", png)) if on]
-    return check_file(path, is_result, "a linkfea result", companions=want, option=option)
+    return check_file(path, is_result, "a linkfea result", companions=want, option=option,
+                      own_companions=own_companions)
 
 
 def write_result_set(path, res, vtu: bool = True, png: bool = True) -> list[Path]:
     """Write result ``res`` as ``path`` (JSON) with ``.vtu`` and ``.png`` beside it, as one set.
 
     The pictures need the FEA solution at hand; without it only the JSON is written.  Companions
-    of an earlier result at ``path`` that this one does not have are removed with the commit,
-    so a JSON never sits beside another run's mesh.
+    of an earlier result at ``path`` that this one does not have are removed with the commit (those
+    whose bytes it recorded only), so a JSON never sits beside another run's mesh.
     """
     from .atomic import plain
 
@@ -50,9 +51,10 @@ def write_result_set(path, res, vtu: bool = True, png: bool = True) -> list[Path
     vtu, png = vtu and has, png and has
     check_result_out(path, vtu, png)
     comp = companions(path)
-    old = [c.name for k, c in comp.items() if c.exists() and not {"vtu": vtu, "png": png}[k]]
+    mine = own_companions(path) if is_result(path) else set()
+    old = [c.name for k, c in comp.items() if c.name in mine and not {"vtu": vtu, "png": png}[k]]
     doc = res.to_dict()
-    with OutputSet(path.parent, file_set_name(path), manifest=False, remove=old if is_result(path) else []) as s:
+    with OutputSet(path.parent, file_set_name(path), manifest=False, remove=old) as s:
         files = {}
         if vtu:
             from .post import write_vtu

@@ -159,6 +159,9 @@ def validate_solid(solid, label: str = "solid") -> None:
         raise LinkFeaError(f"{label}: the solid has no volume (open or inside-out shell)")
     v, f = tessellate(solid, 1e-3 * _size(solid))
     tm = trimesh.Trimesh(v, f, process=True)
+    # A sphere's pole is one point but the triangulation's fan ends there in a zero-area triangle
+    # (two corners on the pole once merged), which leaves its edges used once or thrice: drop it.
+    tm.update_faces(tm.nondegenerate_faces())
     if not tm.is_watertight:
         raise LinkFeaError(f"{label}: the surface is not watertight (open shell or gaps between faces)")
 

@@ -37,12 +37,14 @@ def read_surface(path) -> tuple[np.ndarray, np.ndarray]:
     path = Path(path)
     if not path.is_file():
         raise LinkFeaError(f"surface file {str(path)!r} not found")
-    try:
-        tm = trimesh.load(str(path), force="mesh", process=True)
+    try:  # unprocessed first: processing drops the triangles of a NaN vertex, which then reads as a hole
+        tm = trimesh.load(str(path), force="mesh", process=False)
     except Exception as exc:  # trimesh raises various errors on unreadable files
         raise LinkFeaError(f"cannot read surface file {str(path)!r}: {exc}") from None
     if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
         raise LinkFeaError(f"{path.name}: no triangles in the file")
+    _check_finite(tm, path.name)
+    tm.process()
     tm.update_faces(tm.nondegenerate_faces())
     tm.update_faces(tm.unique_faces())
     tm.remove_unreferenced_vertices()
@@ -51,11 +53,45 @@ def read_surface(path) -> tuple[np.ndarray, np.ndarray]:
         _, counts = np.unique(edges, axis=0, return_counts=True)
         raise LinkFeaError(f"{path.name}: the surface is not watertight ({int(np.sum(counts == 1))} open edges); "
                            "close it in the tool that made it and export again")
+    _check_one_body(tm, path.name)
     trimesh.repair.fix_winding(tm)
     trimesh.repair.fix_inversion(tm)
     if not (tm.is_winding_consistent and tm.volume > 0):
         raise LinkFeaError(f"{path.name}: the surface has no consistent outward orientation (self-intersecting?)")
     return np.asarray(tm.vertices, dtype=float), np.asarray(tm.faces, dtype=np.int64)
+
+
+def _check_finite(tm, name: str) -> None:
+    """Refuse a vertex with a NaN or infinite coordinate, naming it and its first triangle."""
+    V = np.asarray(tm.vertices, dtype=float)
+    bad = np.flatnonzero(~np.all(np.isfinite(V), axis=1))
+    if len(bad):
+        tri = np.flatnonzero(np.any(np.isin(np.asarray(tm.faces), bad[:1]), axis=1))
+        where = f", in triangle {int(tri[0]) + 1}" if len(tri) else ""
+        more = f" (and {len(bad) - 1} more vertices)" if len(bad) > 1 else ""
+        raise LinkFeaError(f"{name}: a vertex has a non-finite coordinate ({', '.join(f'{v:g}' for v in V[bad[0]])})"
+                           f"{where}{more}; export the surface again")
+
+
+def _check_one_body(tm, name: str) -> None:
+    """Refuse a surface that is not one closed body: several pieces, or none with a volume.
+
+    One closed piece per body: two bodies side by side, two that cross, or a body with a void are
+    several pieces, of which the solid would keep one.  The volume is the signed sum over the
+    triangles, computed here: trimesh's mass properties divide by it (a RuntimeWarning) first.
+    """
+    import trimesh
+
+    pieces = trimesh.graph.connected_components(tm.face_adjacency, nodes=np.arange(len(tm.faces)))
+    if len(pieces) > 1:
+        raise LinkFeaError(f"{name}: expected one body, found {len(pieces)} separate closed surfaces (several "
+                           "bodies, bodies that cross each other, or a body with a void); unite them into one "
+                           "body in the tool that made them and export again")
+    T = np.asarray(tm.triangles, dtype=float)
+    volume = abs(float(np.einsum("ij,ij->i", T[:, 0], np.cross(T[:, 1], T[:, 2])).sum())) / 6.0
+    if not volume > 1e-9 * float(np.ptp(tm.vertices, axis=0).max()) ** 3:
+        raise LinkFeaError(f"{name}: the surface encloses no volume (a flat or folded sheet of triangles); a link "
+                           "is a solid body")
 
 
 def solid_from_triangles(V: np.ndarray, F: np.ndarray, label: str):

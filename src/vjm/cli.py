@@ -170,7 +170,7 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
         rot = _point(orientation, "--orientation", (3,))
         check_folder(out, MAP_FILES, force=force)
         m = _load(model, foot, leg)
-        smap = m.map(grid, slice_, orientation=rot if m.dof == 6 else None, progress=_progress, spread=spread)
+        smap = m.map(grid, slice_, orientation=rot, progress=_progress, spread=spread)
         smap.save(out, force=force)
     except user_errors() as exc:
         _fail(exc)

@@ -125,6 +125,25 @@ def _refused(node: ast.AST) -> str:
             ast.JoinedStr: "a formatted string", ast.IfExp: "a conditional"}.get(type(node), type(node).__name__)
 
 
+def _binary(op, a: float, b: float, expr: str, where: str) -> float:
+    """``a op b``, only the one asked for (``a ** b`` of ``1000 * 200`` overflows); a power with no real
+    value is a VjmError, not Python's complex number."""
+    if op is ast.Add:
+        return a + b
+    if op is ast.Sub:
+        return a - b
+    if op is ast.Mult:
+        return a * b
+    if op is ast.Div:
+        return a / b if b != 0 else math.inf
+    if a < 0 and b != int(b):
+        raise VjmError(f"{where}: {expr!r} has no real value (({a:g}) ** {b:g}: a negative number to a fractional "
+                       f"power)")
+    if a == 0 and b < 0:
+        raise VjmError(f"{where}: {expr!r} has no value (0 ** {b:g} divides by zero)")
+    return a ** b
+
+
 def evaluate(expr: str, geometry: dict, where: str) -> float:
     """Value of an arithmetic expression on geometry names (VjmError naming ``where``)."""
     names = {"pi": math.pi, "deg": math.pi / 180.0, **{k: v for k, v in geometry.items()
@@ -144,13 +163,7 @@ def evaluate(expr: str, geometry: dict, where: str) -> float:
             v = ev(node.operand)
             return -v if isinstance(node.op, ast.USub) else v
         if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow)):
-            a, b = ev(node.left), ev(node.right)
-            op = type(node.op)
-            # only the operation asked for (every one evaluated eagerly would overflow on a ** b
-            # for the operands of a harmless a - b)
-            ops = {ast.Add: lambda: a + b, ast.Sub: lambda: a - b, ast.Mult: lambda: a * b,
-                   ast.Div: lambda: a / b if b != 0 else math.inf, ast.Pow: lambda: a ** b}
-            return ops[op]()
+            return _binary(type(node.op), ev(node.left), ev(node.right), expr, where)
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FUNCS \
                 and not node.keywords:
             return float(_FUNCS[node.func.id](*[ev(a) for a in node.args]))

@@ -265,6 +265,11 @@ def compute_map(model, P, axes, fixed=None, where: str = "grid", progress: Optio
 def grid_map(model, n: int, slice_: Optional[str] = None, orientation=None,
              progress: Optional[Progress] = None, spread: bool = False) -> StiffnessMap:
     """:meth:`vjm.Model.map`: the stiffness over an n-per-axis workspace grid, its memory checked first."""
+    if model.dof != 6 and orientation is not None and np.any(np.asarray(orientation, dtype=float) != 0):
+        # as vjm stiffness and vjm simulate --tilt: a setting the machine cannot take is not ignored
+        given = ",".join(f"{v:g}" for v in np.ravel(np.asarray(orientation, dtype=float)))
+        raise ArgumentError("orientation", f"{given} rad: the machine's platform only translates (3 dof); "
+                                           "its map has no orientation")
     p = grid_plan(n, slice_, "the stiffness map", MAP_BYTES)
     if p.long and progress is not None:
         progress(f"{p.describe()}; progress follows")

@@ -235,7 +235,8 @@ class Model:
         """The stiffness map over an n-point-per-axis workspace grid (:class:`vjm.maps.StiffnessMap`).
 
         ``slice="z=0"`` fixes one axis; ``orientation`` (rx, ry, rz, rad) is the fixed platform
-        rotation of a 6-dof platform's map.  The memory the map needs is checked first
+        rotation of a 6-dof platform's map (a 3-dof platform takes none: a non-zero one is an
+        ArgumentError).  The memory the map needs is checked first
         (VjmError if it cannot fit); a run longer than about a minute reports through
         ``progress`` (a callable taking one line of text).  ``spread=True`` adds the spread of
         k_tran and k_rot from the links' FEA error bars (:mod:`vjm.spread`).

@@ -34,6 +34,11 @@ the link) is taken as the spring frame, and kept with the link.
 ``foot`` and ``leg`` at the top level are short for ``links: {foot: ..., leg: ...}``;
 a machine description (``chains:``) names further links there.  Both forms load
 into :attr:`vjm.Model.links`.
+
+A file :func:`save_model` writes begins with the comment lines of ``HEADER`` and ends
+with ``# written by vjm; sha256 of the lines above: <hex>``: how a later save knows
+the file as its own, unchanged (:func:`vjm.modelwrite.own_model_file`).  Reading
+ignores both (comments).
 """
 from __future__ import annotations
 

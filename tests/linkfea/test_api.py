@@ -32,7 +32,11 @@ def bar(cache):
 
 
 def test_compute_gives_the_cli_matrix(bar, cache, tmp_path):
-    """`linkfea compute` in a subprocess (same mesh through the cache) writes the matrix compute() returns."""
+    """`linkfea compute` in a subprocess (same mesh through the cache) writes the matrix compute() returns.
+
+    To rounding, not bit for bit: PARDISO and BLAS sum in an order that depends on the number of
+    threads they get (1 or 2 MKL threads change the last digits; 1.4e-12 scaled was seen in a full
+    suite run on a loaded machine), and the rounding bound of the solve is about cond(K) eps."""
     out = tmp_path / "bar.json"
     env = dict(os.environ, LINKFEA_CACHE_DIR=str(cache))
     p = subprocess.run([sys.executable, "-m", "linkfea", "compute", "bar", "--mesh-size", str(H), "--no-picture",
@@ -40,7 +44,7 @@ def test_compute_gives_the_cli_matrix(bar, cache, tmp_path):
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
     assert doc["mesh"]["cache_key"] == bar.mesh_info["cache_key"]
-    assert _scaled(np.array(doc["compliance"]), bar.compliance) < 1e-12
+    assert _scaled(np.array(doc["compliance"]), bar.compliance) < 1e-9
     assert _scaled(np.array(doc["stiffness"]), bar.stiffness) < 1e-9 * np.max(np.abs(bar.stiffness))
     np.testing.assert_array_equal(doc["frame"]["origin"], bar.frame.origin)
 

@@ -171,6 +171,19 @@ def test_broken_step_files_are_rejected(tmp_path):
         load_step(bad, parse_selector("plane:x=0"), parse_selector("plane:x=100"))
 
 
+def test_step_solid_with_a_spherical_face_is_accepted(tmp_path):
+    """A cylinder (r 10, 50 long) with a hemispherical end: a valid solid whose triangulation has a
+    zero-area triangle at the sphere's pole; it loads, with the closed-form volume pi r^2 L + 2/3 pi r^3."""
+    import cadquery as cq
+
+    body = (cq.Workplane("XY").circle(10.0).extrude(50.0)
+            .union(cq.Workplane("XY").workplane(offset=50.0).sphere(10.0)).val())
+    step = _export(body, tmp_path / "rounded.step")
+    link = load_step(step, parse_selector("plane:z=0"), parse_selector("box:-11,-11,49.9,11,11,61"),
+                     with_block=False)
+    assert link.body.Volume() == pytest.approx(math.pi * 100.0 * 50.0 + 2.0 / 3.0 * math.pi * 1000.0, rel=1e-3)
+
+
 def test_self_intersecting_solid_is_rejected():
     """Two overlapping box shells put in one solid: valid-looking topology, intersecting faces."""
     import cadquery as cq

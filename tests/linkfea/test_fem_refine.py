@@ -40,3 +40,25 @@ def test_tolerance_options_are_checked():
         compute("bar", tolerance=0.01, convergence=True)
     with pytest.raises(LinkFeaError, match="gmsh"):
         compute("bar", tolerance=0.01, mesher="pytetwild")
+
+
+def test_tolerance_not_reached_is_a_warning_line_and_exit_status_3(tmp_path):
+    """A DOF budget that stops the refinement before the tolerance: the result set is written (reached: false),
+    stderr says so in one ``warning:`` line (the pipeline's LinkFeaWarning, which the Python API gives too), and
+    the exit status is 3, not 0 (a coarse bar: 441 DOF, whose first refinement would pass the budget of 1000)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    out = tmp_path / "o" / "r.json"
+    env = dict(os.environ, LINKFEA_CACHE_DIR=str(tmp_path / "cache"))
+    p = subprocess.run([sys.executable, "-m", "linkfea", "compute", "bar", "--mesh-size", "40", "--tolerance",
+                        "0.001%", "--max-dofs", "1000", "--no-picture", "-q", "--out", str(out)],
+                       capture_output=True, text=True, env=env, timeout=300)
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 3, p.stderr
+    assert len(lines) == 1 and lines[0].startswith("warning: tolerance 0.001% not reached: stopped at "), p.stderr
+    assert "budget of 1000 DOF" in lines[0]
+    ref = json.loads(out.read_text())["diagnostics"]["refinement"]
+    assert ref["reached"] is False and ref["steps"][-1]["error"] > 1e-5

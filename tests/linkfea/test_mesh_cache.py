@@ -16,7 +16,7 @@ import time
 import numpy as np
 import pytest
 
-from linkfea.meshcache import DamagedEntry, cached_mesh, key_lock, read_entry, write_entry
+from linkfea.meshcache import DamagedEntry, cache_dir_default, cached_mesh, key_lock, read_entry, write_entry
 
 COMPUTE = ["compute", "bar", "--mesher", "pytetwild", "--mesh-size", "8", "--no-picture", "-q"]
 
@@ -79,6 +79,44 @@ def test_truncated_entry_is_a_miss_warned_once_and_replaced(three_runs, tmp_path
     points, tets = read_entry(cache / entry.name)
     assert len(tets) == doc["mesh"]["n_tets"]
     assert sorted(q.name for q in cache.iterdir()) == [entry.name, entry.name + ".lock"]
+
+
+def test_default_folder_is_the_platform_cache(monkeypatch, tmp_path):
+    """Without $LINKFEA_CACHE_DIR (or with it empty) the cache is the platform's, not the current folder's."""
+    from platformdirs import user_cache_path
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("LINKFEA_CACHE_DIR", raising=False)
+    assert cache_dir_default() == user_cache_path("linkfea", appauthor=False) / "meshes"
+    assert cache_dir_default().is_absolute()
+    monkeypatch.setenv("LINKFEA_CACHE_DIR", "")
+    assert cache_dir_default() == user_cache_path("linkfea", appauthor=False) / "meshes"
+    monkeypatch.setenv("LINKFEA_CACHE_DIR", str(tmp_path / "mine"))
+    assert cache_dir_default() == tmp_path / "mine"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="XDG_CACHE_HOME places the cache on Linux only")
+def test_a_run_from_any_folder_reads_the_platform_cache(three_runs, tmp_path):
+    """The entry of a key, placed in the platform's cache folder, is what a run without $LINKFEA_CACHE_DIR
+    reads (same key, same matrix bit for bit: pytetwild would give another mesh), and the folder the run
+    starts from gets the result only."""
+    root, docs = three_runs
+    (entry,) = (root / "cache").glob("*.npz")
+    platform = tmp_path / "xdg" / "linkfea" / "meshes"
+    platform.mkdir(parents=True)
+    (platform / entry.name).write_bytes(entry.read_bytes())
+    work = tmp_path / "work"
+    work.mkdir()
+    env = {k: v for k, v in os.environ.items() if k != "LINKFEA_CACHE_DIR"}
+    env["XDG_CACHE_HOME"] = str(tmp_path / "xdg")
+    p = _start([*COMPUTE, "--out", "r.json"], env, work)
+    _, err = p.communicate(timeout=600)
+    assert p.returncode == 0, err
+    doc = json.loads((work / "r.json").read_text())
+    assert doc["mesh"]["cache_key"] == entry.name[:-4]
+    assert doc["compliance"] == docs[0]["compliance"]
+    assert sorted(q.name for q in platform.iterdir()) == [entry.name]  # a hit: no lock was needed
+    assert sorted(q.name for q in work.iterdir() if not q.name.startswith(".linkfea-outputs")) == ["r.json"]
 
 
 def test_read_entry_tells_missing_from_damaged(tmp_path):

@@ -68,3 +68,32 @@ def test_open_stl_is_one_error_line_and_no_file(bar_stl, tmp_path):
         lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
         assert p.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), p.stderr
         assert not out.parent.exists() or not any(out.parent.iterdir())
+
+
+@pytest.mark.parametrize("triangles, message", [
+    ("two", r"^s.stl: expected one body, found 2 separate closed surfaces"),
+    ("crossing", r"^s.stl: expected one body, found 2 separate closed surfaces"),
+    ("flat", r"^s.stl: the surface encloses no volume"),
+    ("nan", r"^s.stl: a vertex has a non-finite coordinate \(nan, 0, 0\), in triangle 1; "),
+])
+def test_surface_that_is_not_one_solid_body_is_refused_first(tmp_path, triangles, message):
+    """Two disjoint boxes (40,000 mm^3, of which one box would have been kept), two crossing boxes, a
+    watertight surface of no volume, a NaN vertex: each refused by what it is, before any other check
+    and without a warning from trimesh (warnings are errors here)."""
+    import warnings
+
+    from bad_inputs import BAR, FLAT, _box, stl
+
+    from linkfea.surface import read_surface
+
+    tris = {"two": BAR + _box((200, 0, 0), (300, 20, 10)), "crossing": BAR + _box((40, -40, 0), (60, 60, 10)),
+            "flat": FLAT, "nan": [((float("nan"), 0, 0),) + BAR[0][1:]] + BAR[1:]}[triangles]
+    path = tmp_path / "s.stl"
+    path.write_text(stl(tris))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(LinkFeaError, match=message):
+            read_surface(path)
+    path.write_text(stl(BAR))
+    V, F = read_surface(path)  # the box alone: 100 x 20 x 10 mm
+    assert abs(np.einsum("ij,ij->i", V[F[:, 0]], np.cross(V[F[:, 1]], V[F[:, 2]])).sum() / 6.0 - 2e4) < 1e-9

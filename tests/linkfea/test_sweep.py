@@ -201,6 +201,28 @@ def test_local_workers_run_without_the_dashboard_sampler(client):
     assert dask.config.get("distributed.worker.profile.enabled") is True  # the caller's own config untouched
 
 
+def test_local_workers_import_the_callers_package_and_leave_its_pythonpath(monkeypatch, tmp_path):
+    """A local cluster does not touch the caller's PYTHONPATH, and its workers still import the very
+    linkfea the caller imported, even when PYTHONPATH names another package of that name first."""
+    from distributed import Client
+
+    import linkfea
+    from linkfea.sweep import local_cluster
+
+    decoy = tmp_path / "decoy" / "linkfea"
+    decoy.mkdir(parents=True)
+    (decoy / "__init__.py").write_text("raise ImportError('the decoy linkfea, not the caller's')\n")
+    monkeypatch.setenv("PYTHONPATH", str(decoy.parent))
+    cluster = local_cluster(1, memory_limit="1GB")
+    try:
+        assert os.environ["PYTHONPATH"] == str(decoy.parent)
+        with Client(cluster) as c:
+            got = c.run(lambda: (__import__("linkfea").__file__, os.environ.get("OMP_NUM_THREADS")))
+    finally:
+        cluster.close()
+    assert list(got.values()) == [(linkfea.__file__, "1")]
+
+
 def test_lost_workers_keep_finished_results_and_rerun_completes(client, tmp_path):
     sw = make_sweep("bar", ["length=90,110,130,150"], {"mesh_size": 6.0})
     written = {}

@@ -139,3 +139,42 @@ def test_linearized_arcs_are_g1_chords_through_the_given_points():
     np.testing.assert_allclose(gc.sample(out)[0][-1], [0, 20, 0])
     p2 = np.vstack([m.end for m in gc.moves(out)])[1:-1]
     np.testing.assert_allclose(p2, pts[line == 2], atol=1e-5)
+
+
+def test_round_trip_keeps_a_bom_and_mixed_line_endings():
+    """A UTF-8 byte order mark and lines ending in LF, CRLF and CR (as files edited on two systems have):
+    read, and written back byte for byte, unchanged and after a rewrite or a linearization, which keep
+    every line's own ending."""
+    lines = ["%", "G21 G90", "G1 X10 Y0 Z0 F100", "G3 X0 Y10 I-10 J0 (quarter)", "G1 X0 Y20", "%"]
+    ends = ["\r\n", "\n", "\r\n", "\r", "\n", "\r\n"]
+    text = gc.BOM + "".join(a + b for a, b in zip(lines, ends))
+    prog = gc.parse_text(text)
+    assert gc.write_text_of(prog) == text and prog.lines[1].gcodes == (21, 90)
+    assert gc.write_text_of(gc.rewrite(prog, {m.line: m.end for m in gc.moves(prog)})) == text
+    pts, line, _, _ = gc.sample(prog, chord_tol=1e-3)
+    out = gc.write_text_of(gc.linearize(prog, {3: pts[line == 3]}))
+    assert out.startswith(gc.BOM + "%\r\nG21 G90\nG1 X10 Y0 Z0 F100\r\nG1 ") and out.endswith("\rG1 X0 Y20\n%\r\n")
+    k = len(pts[line == 3])
+    assert out.count("\r\n") == 3 and out.count("\r") - 3 == k  # the arc's k chords end as the arc line did
+    no_end = gc.parse_text("G1 X0 Y0 Z0\r\nG1 X1")  # no ending after the last line: none written
+    assert gc.write_text_of(no_end) == "G1 X0 Y0 Z0\r\nG1 X1"
+
+
+def test_program_number_is_passed_through():
+    """``O1000``, the program number most real programs start with, is kept verbatim, as ``%`` lines are."""
+    text = "%\nO1000 (POCKET)\nG21 G90\nG1 X0 Y0 Z0 F500\nG1 X5\nM30\n%\n"
+    prog = gc.parse_text(text)
+    assert gc.write_text_of(prog) == text and prog.lines[1].words == {}
+    assert [m.end.tolist() for m in gc.moves(prog)] == [[0, 0, 0], [5, 0, 0]]
+
+
+def test_toolpath_files_with_a_byte_order_mark_are_read(tmp_path):
+    """Files that start with a UTF-8 byte order mark (as editors and spreadsheets on Windows write them):
+    G-code and CSV toolpaths read as without it."""
+    from vjm.toolpath import points
+
+    (tmp_path / "p.nc").write_bytes(b"\xef\xbb\xbfG21 G90\r\nG1 X0 Y0 Z0 F100\nG1 X2\r\n")
+    (tmp_path / "p.csv").write_bytes(b"\xef\xbb\xbfx,y,z\n0,0,0\n2,0,0\n")
+    for name in ("p.nc", "p.csv"):
+        tp = points.read(str(tmp_path / name))
+        np.testing.assert_allclose(tp.points[[0, -1], :3], [[0, 0, 0], [2, 0, 0]])

@@ -75,3 +75,54 @@ def test_joint_map_is_the_stiffness_and_sag_at_its_grid_points(tmp_path):
     assert jm.k_tran[i, j] == pytest.approx(m.stiffness(q).k_tran, rel=1e-12)
     assert jm.sag[i, j] == pytest.approx(m.self_weight(q), rel=1e-9, abs=1e-12)
     jm.plot("sag").figure.savefig(tmp_path / "sag.png")
+
+
+def test_a_mass_read_from_a_linkfea_result(tmp_path):
+    """masses: {frame: {linkfea: result.json, com}} takes the result's CAD mass (mass_kg)."""
+    import json
+
+    from linkfea.frames import Frame
+    from vjm.modelfile import model_from_dict
+
+    C = np.diag([1e-4, 1e-4, 1e-4, 1e-8, 1e-8, 1e-8])
+    doc = {"schema": "linkfea.result/1", "compliance": C.tolist(), "frame": Frame(np.zeros(3), np.eye(3)).to_dict(),
+           "units": {"force": "N", "length": "mm", "angle": "rad", "moment": "N mm"}, "mass_kg": 2.5}
+    (tmp_path / "arm.json").write_text(json.dumps(doc))
+    urdf = vjm.load_model(ROBOTS[0]).tree.source
+    com = [10.0, 0.0, 250.0]
+    via = model_from_dict({"urdf": urdf, "masses": {"forearm_link": {"linkfea": "arm.json", "com": com}}},
+                          str(tmp_path))
+    plain = model_from_dict({"urdf": urdf, "masses": {"forearm_link": {"mass": 2.5, "com": com}}})
+    q = _configs(plain, 3)
+    assert np.array_equal(via.gravity_torques(q), plain.gravity_torques(q))
+    del doc["mass_kg"]
+    (tmp_path / "arm.json").write_text(json.dumps(doc))
+    with pytest.raises(vjm.VjmError, match="states no mass"):
+        model_from_dict({"urdf": urdf, "masses": {"forearm_link": {"linkfea": "arm.json", "com": com}}}, str(tmp_path))
+
+
+@pytest.mark.parametrize("path", ROBOTS)
+def test_compiled_stiffness_equals_the_chain_jacobian_formula(path):
+    """The kernel's C and K against C = sum_s J_s C_s J_s^T from vjm.chain.jacobian (numpy) and its inverse."""
+    from vjm.chain import jacobian
+    from vjm.robot.tree import chain_values
+    from vjm.stiffness import spring_compliance
+
+    m = vjm.load_model(path)
+    Q = _configs(m, 50, seed=9)
+    r = m.stiffness(Q)
+    kin = m.kinematics(Q)
+    ch = kin.chains[0]
+    C = spring_compliance(ch, jacobian(ch, chain_values(ch, m.tree, Q))[1], m.compliances(kin)[0])
+    assert np.allclose(r.C, C, rtol=1e-12, atol=1e-14 * np.abs(C).max())
+    # K: the inverse of the same LDL^T as vjm.linalg's (some configurations are close to singular: the
+    # wrist's, where K reaches 1e13 and an inverse by another route differs in its last digits)
+    from vjm.linalg import psd_rank_inverse
+
+    Kref, rank, inv = psd_rank_inverse(C)
+    assert np.array_equal(r.rank, rank) and np.array_equal(r.invertible, inv)
+    scale = np.sqrt(np.einsum("nii->ni", Kref))
+    rel = (np.abs(r.K - Kref) / (scale[:, :, None] * scale[:, None, :])).max(axis=(1, 2))
+    d = np.sqrt(np.einsum("nii->ni", C))
+    cond = np.linalg.cond(C / (d[:, :, None] * d[:, None, :]))
+    assert np.all(rel <= 1e-14 * cond)  # round-off of two orderings of the same LDL^T

@@ -190,3 +190,56 @@ def test_cli_bad_input_one_line_and_nothing_written(tmp_path, make_args):
     lines = r.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:") and "Traceback" not in r.output, r.output
     assert set(tmp_path.rglob("*")) == before
+
+
+def test_yaml_key_given_twice_is_refused_and_merge_overrides_are_not(tmp_path):
+    """A key twice in one mapping (block or flow style, nested or not; 1 and 1.0 are one key) names both
+    lines; a key that overrides one brought in by a ``<<`` merge is YAML's own rule and stays."""
+    from vjm.yamldata import read_yaml
+
+    for text, line, key, first in [("a: 1\nb: 2\na: 3\n", 3, "'a'", "first on line 1"),
+                                   ("g:\n  L: 1\n  r: 2\n  L: 3\n", 4, "'L'", "first on line 2"),
+                                   ("x: {a: 1, a: 2}\n", 1, "'a'", "both on this line"),
+                                   ("1: a\n1.0: b\n", 2, "1.0", "first on line 1")]:
+        p = tmp_path / "d.yaml"
+        p.write_text(text)
+        with pytest.raises(VjmError, match=rf"d.yaml, line {line}: the key {key} is given twice \({first}\)"):
+            read_yaml(p)
+    p.write_text("base: &b {x: 1, y: 2}\nd: &d\n  <<: *b\n  x: 5\no:\n  <<: *d\n  y: 7\nl: [{a: 1}, {a: 2}]\n")
+    assert read_yaml(p) == {"base": {"x": 1, "y": 2}, "d": {"x": 5, "y": 2}, "o": {"x": 5, "y": 7},
+                            "l": [{"a": 1}, {"a": 2}]}
+    # the model file of the issue: a second geometry would have made k_tran 0.1125 instead of 0.006 mm/N
+    text = open(PUU, encoding="utf-8").read().replace("actuator:", "geometry: {L: 200.0, r: 40.0}\nactuator:", 1)
+    p.write_text(text)
+    with pytest.raises(VjmError, match="the key 'geometry' is given twice"):
+        vjm.load_model(p)
+
+
+@pytest.mark.parametrize("expr, value", [("1000*200", 2e5), ("0*(-1)", 0.0), ("(-8)**2", 64.0),
+                                         ("2**0.5", 2 ** 0.5), ("(-2)**-1", -0.5), ("7/0.5", 14.0)])
+def test_expression_evaluates_only_the_operation_asked(expr, value):
+    """A product is not also raised to a power on the side (1000.0 ** 200.0 overflows, 0.0 ** -1.0 divides
+    by zero): each binary operation computes only itself."""
+    from vjm.description import evaluate
+
+    assert evaluate(expr, {}, "w") == value
+
+
+@pytest.mark.parametrize("expr, words", [("(-8)**(1/3)", "has no real value ((-8) ** 0.333333: a negative"),
+                                         ("0**-1", "has no value (0 ** -1 divides by zero)")])
+def test_expression_without_a_real_value_is_refused(expr, words):
+    from vjm.description import evaluate
+
+    with pytest.raises(VjmError) as e:
+        evaluate(expr, {}, "chain x, element 1")
+    assert str(e.value).startswith(f"chain x, element 1: {expr!r} ") and words in str(e.value)
+
+
+def test_map_orientation_on_a_3_dof_platform_is_refused(puu):
+    """As vjm stiffness and vjm simulate --tilt: the 3-PUU's platform only translates, so a map at an
+    orientation is refused (by its Python name here), not silently made at zero rotation."""
+    from vjm.errors import ArgumentError
+
+    with pytest.raises(ArgumentError, match=r"^orientation 0,0,0.1 rad: the machine's platform only translates"):
+        puu.map(2, "z=0", orientation=[0.0, 0.0, 0.1])
+    assert puu.map(2, "z=0", orientation=[0.0, 0.0, 0.0]).k_tran.shape == puu.map(2, "z=0").k_tran.shape

@@ -2,16 +2,19 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 from .. import checks
+from ..errors import LinkFeaError
 
 
 def worker_env() -> dict:
-    """Environment of local worker processes: this package first on the path, one thread each."""
-    here = str(Path(__file__).resolve().parents[2])
-    path = os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH", "")) if p)
-    return {"PYTHONPATH": path, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    """Environment of local worker processes: one thread each for the numerical libraries.
+
+    No path is set here: the workers are processes started by multiprocessing from this one (spawn,
+    the Dask default, and forkserver hand the child this process's ``sys.path``; fork copies it), so
+    they import the very ``linkfea`` the caller imported, and the caller's ``PYTHONPATH`` is left alone.
+    """
+    return {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
 #: Dask settings of a local cluster (read by the scheduler at start and handed to each worker).
@@ -34,7 +37,6 @@ def local_cluster(n_workers: int | None = None, memory_limit="auto"):
     import dask
     from distributed import LocalCluster
 
-    os.environ["PYTHONPATH"] = worker_env()["PYTHONPATH"]  # spawned workers inherit it
     n = checks.integer(n_workers or os.cpu_count() or 1, "workers", checks.Bounds(1))
     # the workers and the scheduler share the machine's cores: with one worker per core, every CPU
     # second the cluster spends on its own bookkeeping is taken from a design.  A design is seconds
@@ -45,3 +47,36 @@ def local_cluster(n_workers: int | None = None, memory_limit="auto"):
                             dashboard_address=":0", silence_logs=logging.ERROR, env=worker_env())
 
 
+
+
+def check_scheduler(address: str, timeout: float = 5.0) -> None:
+    """Refuse a ``tcp://`` (or ``tls://``) scheduler address where nothing answers, in seconds at most:
+    a quick connect before anything is written (Dask's own client waits 20 s before it gives up)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    u = urlsplit(address if "://" in address else f"tcp://{address}")
+    if u.scheme not in ("tcp", "tls"):
+        return  # other transports: the client's own connect tells
+    try:
+        host, port = u.hostname, u.port or 8786
+    except ValueError:
+        host, port = None, 0
+    if not host:
+        raise LinkFeaError(f"--scheduler {address}: not an address such as tcp://host:8786")
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        raise LinkFeaError(f"cannot reach the Dask scheduler at {address}: {exc.strerror or exc}; nothing was "
+                           f"written") from None
+
+
+def connect(address: str):
+    """A client of the Dask scheduler at ``address`` (checked first: :func:`check_scheduler`)."""
+    from distributed import Client
+
+    check_scheduler(address)
+    try:
+        return Client(address, timeout="20s")
+    except (OSError, TimeoutError) as exc:
+        raise LinkFeaError(f"cannot reach the Dask scheduler at {address}: {exc}; nothing was written") from None

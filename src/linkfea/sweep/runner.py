@@ -54,7 +54,7 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
         of ``workers`` processes is started for the run and closed after it.
     cache_dir : path, optional
         Mesh cache.  Default: for a local cluster the client's (``$LINKFEA_CACHE_DIR`` or
-        ``.cache/meshes``, made absolute); with ``scheduler`` each worker's own.
+        the platform's cache folder, made absolute); with ``scheduler`` each worker's own.
     plot : entries ``dy_Fy`` ... for ``sweep.png`` (default the diagonal)
     progress : True for a progress bar on stderr, or a callable called with a line per finished design
         (and, first, the expected time of a long run)
@@ -73,28 +73,26 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
     rep.skipped = [d.key for d in sweep.designs if d.key not in todo_keys]
     if plot:
         check_entries(plot)
+    own_cluster = own_client = None
+    if todo and client is None and scheduler is not None:
+        own_client = client = cluster.connect(scheduler)  # a scheduler that is not there: before anything is written
     try:
         claim(out, ["results/"], "linkfea sweep results")  # owned before a kill can leave it half made
     except OSError as exc:
+        if own_client is not None:
+            own_client.close()
         raise LinkFeaError(f"cannot write {out}: {exc.strerror or exc}") from None
     if cache_dir is None and scheduler is None:
         cache_dir = cache_dir_default()
     cache = None if cache_dir is None else str(Path(cache_dir).absolute())
-    own_cluster = own_client = None
     try:
         if todo:
             src_bytes = Path(sweep.spec).read_bytes()
             if client is None:
                 from distributed import Client
 
-                if scheduler is None:
-                    own_cluster = cluster.local_cluster(workers, memory_limit)
-                    own_client = client = Client(own_cluster)
-                else:
-                    try:
-                        own_client = client = Client(scheduler, timeout="20s")
-                    except (OSError, TimeoutError) as exc:
-                        raise LinkFeaError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+                own_cluster = cluster.local_cluster(workers, memory_limit)
+                own_client = client = Client(own_cluster)
             _compute(client, sweep, todo, out, src_bytes, cache, rep, progress, on_result,
                      median_seconds(read_design_result(out, k) for k in rep.skipped + [d.key for d in todo]))
     except KeyboardInterrupt:

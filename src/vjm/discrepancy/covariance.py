@@ -10,7 +10,6 @@ from __future__ import annotations
 import os
 
 import numpy as np
-import yaml
 
 from linkfea.atomic import plain, write_text
 
@@ -37,10 +36,10 @@ def record(prob, pred, final) -> dict | None:
 
 def save_model_with(model, calibration: dict | None, path) -> None:
     """Write ``model`` as the model file does, with the ``calibration:`` block appended (atomic)."""
-    from ..modelfile import HEADER, model_to_dict
+    from ..modelwrite import model_file_text, model_to_dict
 
     path = os.path.abspath(os.fspath(path))
     d = model_to_dict(model, os.path.dirname(path))
     if calibration is not None:
         d["calibration"] = calibration
-    write_text(path, HEADER + yaml.safe_dump(d, sort_keys=False, default_flow_style=None))
+    write_text(path, model_file_text(d))

@@ -53,7 +53,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from linkfea.atomic import write_text
+from linkfea.atomic import read_user_file, write_text
 from linkfea.checks import did_you_mean
 from linkfea.compliance import TWIST, WRENCH
 
@@ -176,11 +176,7 @@ def _float(text, source, row, col, required):
 
 
 def _read_text(path) -> str:
-    try:
-        with open(path, "rb") as fh:
-            raw = fh.read()
-    except OSError as exc:
-        raise VjmError(f"cannot read measurement file {path}: {exc.strerror}") from None
+    raw = read_user_file(path, "measurement file", error=VjmError)  # a regular file of bounded size only
     name = os.path.basename(str(path))
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
         raise VjmError(f"{name}: the file is UTF-16 text; save it as UTF-8 (CSV UTF-8 in a spreadsheet)")

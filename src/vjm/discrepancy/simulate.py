@@ -31,6 +31,7 @@ data, the common case).  The sigmas are written in ``sigma_t``/``sigma_r``.
 from __future__ import annotations
 
 import csv
+import io
 import os
 
 import numpy as np
@@ -76,11 +77,14 @@ def _effect_theta(model, name, vals):
 
 def _read_cols(path, cols, optional=()):
     """Columns ``cols`` (n, k) of a CSV, and ``optional`` after them when the header has them all."""
+    from linkfea.atomic import read_user_file
+
+    raw = read_user_file(path, "CSV file", error=VjmError)  # a regular file of bounded size only
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith("#")]
-    except OSError as exc:
-        raise VjmError(f"cannot read {path}: {exc.strerror}") from None
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise VjmError(f"{os.path.basename(path)}: not UTF-8 text; save it as UTF-8 (CSV UTF-8 in a spreadsheet)") from None
+    rows = [r for r in csv.reader(io.StringIO(text, newline="")) if r and not r[0].lstrip().startswith("#")]
     if not rows:
         raise VjmError(f"{path}: empty file")
     hdr = [h.strip() for h in rows[0]]
@@ -183,7 +187,7 @@ def design_poses(model, spec, rng=None, tilt: float = 0.0) -> np.ndarray:
         P = grid_poses(model, _int(arg, spec, "poses"), tilt, rng)
     elif kind == "random":
         P = random_poses(model, _int(arg, spec, "poses"), rng, tilt)
-    elif os.path.isfile(spec):
+    elif os.path.exists(spec):  # a file that is not a regular one is refused by the reader, by name
         P = file_poses(model, spec)
     else:
         raise ArgumentError("poses", f"{spec}: expected grid:N, random:N or a CSV file with columns x,y,z")
@@ -244,7 +248,7 @@ def design_loads(spec, n_poses: int, rng=None) -> np.ndarray:
         L = random_loads(n_poses, _int(parts[0], spec, "loads"), 1.0,
                          np.random.default_rng() if rng is None else rng)
         return np.concatenate([F * L for F in Fs], axis=1)
-    if os.path.isfile(spec):
+    if os.path.exists(spec):
         return _every_posture(_read_cols(spec, list(WRENCH)), n_poses)
     raise ArgumentError("loads", f"{spec}: expected axes:F[:M], random:N:F or a CSV file with columns Fx..Mz")
 

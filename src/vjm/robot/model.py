@@ -23,10 +23,10 @@ from functools import cached_property
 
 import numpy as np
 
-from ..chain import _jacobian_soa, forward, frame_matrix, jacobian
+from ..chain import forward, jacobian
 from ..errors import VjmError, VjmWarning
 from ..kinematics import Kinematics
-from ..linalg import psd_rank_inverse_soa, sym3_max_eig_soa
+from ..linalg import psd_rank_inverse, sym3_max_eig
 from ..links import LinkSpring
 from ..stiffness import StiffnessResult
 from ..transforms import rotation_vector
@@ -44,7 +44,8 @@ SAG_TOL = 1e-11
 class JointSpring:
     """A joint's 1-dof spring: ``stiffness`` (N mm/rad, or N/mm for a prismatic joint), or a
     ``table`` (q, stiffness) interpolated linearly (held constant beyond its ends), or an
-    ``expression`` of ``q`` (the joint's value, rad or mm) read by vjm's safe expression reader."""
+    ``expression`` of ``q`` (the joint's value, rad or mm) read by vjm's safe expression reader (one
+    configuration at a time: over a large batch, a table is much faster)."""
 
     stiffness: float | None = None
     table: tuple | None = None
@@ -300,34 +301,46 @@ class RobotModel:
         return res.pose(0) if single else res
 
     def _stiffness_block(self, ch, qb: np.ndarray, out, a0: int) -> None:
-        """Configurations ``a0 : a0 + len(qb)`` of :meth:`stiffness`, written into ``out``."""
+        """Configurations ``a0 : a0 + len(qb)`` of :meth:`stiffness`, written into ``out``: C and K from the
+        compiled kernel (:mod:`vjm.robot.kernel`); a configuration whose C it cannot invert (a direction no
+        spring deflects) is redone by the rank-revealing :func:`vjm.linalg.psd_rank_inverse`."""
+        from .kernel import stiffness_kernel
+
         b0 = a0 + len(qb)
+        n = len(qb)
         vt = np.ascontiguousarray(chain_values(ch, self.tree, qb).T)
-        cols, Jt = _jacobian_soa(ch, vt)
-        kin = Kinematics(("robot", ch.name), (ch,), np.empty((len(qb), 4, 4)), qb, (vt.T,))
-        Ct = np.zeros((6, 6, len(qb)))
+        kin = Kinematics(("robot", ch.name), (ch,), np.empty((n, 4, 4)), qb, (vt.T,))
         comp = self.compliances(kin)[0]
-        for s in ch.springs:
-            c = comp.get(s.name)
-            if c is None:
-                continue
-            Z = Jt[list(s.vars)]  # (k, 6, n)
-            if len(s.vars) == 1:
-                cz = Z[0] * np.reshape(c, (-1,))[None, :]
-                Ct += cz[:, None, :] * Z[0][None, :, :]
-            else:
-                Y = np.tensordot(np.asarray(c), Z, axes=(1, 0))  # C_s Z, one BLAS product
-                Ct += np.einsum("ain,ajn->ijn", Z, Y)
-        Ct = 0.5 * (Ct + Ct.transpose(1, 0, 2))
-        K, rank, inv = psd_rank_inverse_soa(Ct)
-        pts, K_, C_, kt, kr, rk, iv, rot = out
-        pts[a0:b0] = cols[3].T
-        K_[a0:b0] = K.transpose(2, 0, 1)
-        C_[a0:b0] = Ct.transpose(2, 0, 1)
-        kt[a0:b0] = sym3_max_eig_soa(Ct[:3, :3])
-        kr[a0:b0] = sym3_max_eig_soa(Ct[3:, 3:])
-        rk[a0:b0], iv[a0:b0] = rank, inv
-        rot[a0:b0] = rotation_vector(frame_matrix(cols)[:, :3, :3])
+        one = [(s.vars[0], np.broadcast_to(np.reshape(comp[s.name], (-1,)), (n,)))
+               for s in ch.springs if s.name in comp and len(s.vars) == 1]
+        six = [(s.vars, comp[s.name]) for s in ch.springs if s.name in comp and len(s.vars) == 6]
+        s1 = np.array([v for v, _ in one], dtype=np.int64)
+        c1 = np.array([c for _, c in one], dtype=float).reshape(len(one), n)
+        s6 = np.array([v for v, _ in six], dtype=np.int64).reshape(len(six), 6)
+        c6 = np.array([c for _, c in six], dtype=float).reshape(len(six), 6, 6)
+        pts, K, C, kt, kr, rk, iv, rot = out
+        ok = np.empty(n, dtype=bool)
+        R = np.empty((n, 3, 3))
+        stiffness_kernel(*self._encoded(ch), vt, s1, c1, s6, c6, 1e-10,  # type: ignore[call-arg]
+                         C[a0:b0], K[a0:b0], ok, pts[a0:b0], R)
+        rk[a0:b0], iv[a0:b0] = 6, True
+        bad = np.flatnonzero(~ok)
+        if bad.size:
+            Kb, rb, ib = psd_rank_inverse(C[a0 + bad])
+            K[a0 + bad], rk[a0 + bad], iv[a0 + bad] = Kb, rb, ib
+        kt[a0:b0] = sym3_max_eig(C[a0:b0, :3, :3])
+        kr[a0:b0] = sym3_max_eig(C[a0:b0, 3:, 3:])
+        rot[a0:b0] = rotation_vector(R)
+
+    def _encoded(self, ch):
+        """The chain's arrays for the kernel (:func:`vjm.robot.kernel.encode`), built once."""
+        key = ("encoded", ch.name)
+        hit = self._chains.get(key)
+        if hit is None:
+            from .kernel import encode
+
+            hit = self._chains[key] = encode(ch)
+        return hit
 
     def stiffness_tools(self, q) -> dict:
         """{tool frame: :meth:`stiffness`} for every tool frame of the tree."""

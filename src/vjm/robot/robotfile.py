@@ -19,6 +19,7 @@ Units N, mm, kg, rad (the URDF's metres are converted where it is read)::
         beam: {section: tube, diameter: 120, inner_diameter: 100, length: 612, material: aluminium}
     masses:                         # optional point masses (kg, centre of mass mm in the frame)
       upper_arm_link: {mass: 1.5, com: [0, 0, 300]}
+      forearm_link: {linkfea: forearm.json, com: [0, 0, 280]}   # the mass a linkfea result states
     payload: {frame: tool0, mass: 5.0, com: [0, 0, 50]}    # optional
 
 A URDF alone (no ``joints:``) is a valid, rigid model: kinematics and gravity work, its stiffness
@@ -108,18 +109,40 @@ def _links(d, base_dir: str, tree: Tree, parse_link) -> dict:
     return out
 
 
-def _masses(d, tree: Tree) -> tuple:
+def _linkfea_mass(path: str, where: str) -> float:
+    """The CAD mass (kg) a ``linkfea compute`` result states (``mass_kg``: volume times density)."""
+    from linkfea.errors import LinkFeaError
+    from linkfea.io import read_result
+
+    if not os.path.isfile(path):
+        raise VjmError(f"{where}: file not found: {path}")
+    try:
+        m = read_result(path).get("mass_kg")
+    except LinkFeaError as exc:
+        raise VjmError(f"{where}: {exc}") from None
+    if isinstance(m, bool) or not isinstance(m, (int, float)) or not np.isfinite(m) or m < 0:
+        raise VjmError(f"{where}: {path} states no mass (mass_kg {m!r}; its material needs a density)")
+    return float(m)
+
+
+def _masses(d, tree: Tree, base_dir: str) -> tuple:
     if not isinstance(d, dict):
         raise VjmError("masses must be a mapping frame -> {mass: kg, com: [x, y, z] mm}")
     out = []
     for name, spec in d.items():
         where = f"masses.{name}"
         f = tree.frame(str(name))
-        if not isinstance(spec, dict) or set(spec) - {"mass", "com"}:
-            raise VjmError(f"{where} must be a mapping {{mass: kg, com: [x, y, z] mm}}")
-        if "mass" not in spec:
+        if not isinstance(spec, dict) or set(spec) - {"mass", "com", "linkfea"} or ("mass" in spec and "linkfea" in spec):
+            raise VjmError(f"{where} must be a mapping {{mass: kg, com: [x, y, z] mm}} or "
+                           f"{{linkfea: result.json, com: [x, y, z] mm}} (the result's CAD mass)")
+        if "linkfea" in spec:
+            if not isinstance(spec["linkfea"], str):
+                raise VjmError(f"{where}.linkfea must be a file path")
+            m = _linkfea_mass(os.path.normpath(os.path.join(base_dir, spec["linkfea"])), f"{where}.linkfea")
+        elif "mass" in spec:
+            m = _num(spec["mass"], f"{where}.mass")
+        else:
             raise VjmError(f"{where}: a centre of mass without a mass")
-        m = _num(spec["mass"], f"{where}.mass")
         if m < 0:
             raise VjmError(f"{where}.mass must be >= 0 (kg), got {m:g}")
         if "com" not in spec:
@@ -165,7 +188,7 @@ def robot_from_dict(d: dict, base_dir: str, path: str | None, parse_link) -> Rob
     springs, six = _joints(d.get("joints") or {}, base_dir, tree, parse_link)
     links = _links(d.get("links") or {}, base_dir, tree, parse_link)
     if d.get("masses"):
-        added = _masses(d["masses"], tree)
+        added = _masses(d["masses"], tree, base_dir)
         tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies + added, tree.tools, tree.source,
                     tree.declared | {b.joint for b in added})
     payload = _payload(d["payload"], tree) if d.get("payload") is not None else None

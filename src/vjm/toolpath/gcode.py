@@ -2,8 +2,9 @@
 
 Accepted: G0, G1, G2/G3 arcs with centre offsets I, J, K (incremental, the
 usual G91.1 convention), G17/G18/G19 planes, G90/G91, G20/G21, F, N line
-numbers, comments ``( ... )`` and ``; ...``, ``%`` lines, and the words
-listed as passed through (default M, S, T), kept verbatim.  Anything else
+numbers, O program numbers, comments ``( ... )`` and ``; ...``, ``%`` lines, and
+the words listed as passed through (default M, S, T), kept verbatim.  A UTF-8 byte
+order mark and each line's own ending (LF, CRLF, mixed) are kept for the writer.  Anything else
 (an unknown word, ``R`` arcs, a word twice on a line, a number that does not
 parse) is refused with one line naming the line number.  Maintained PyPI
 parsers (``gcodeparser`` and the like) are lenient and do not keep a line's
@@ -34,6 +35,9 @@ CENTRE = "IJK"
 KNOWN = set("GXYZIJKFN")
 #: words passed through verbatim unless the caller lists others
 DEFAULT_PASS = "MST"
+#: words always passed through verbatim: the program number (``O1000``)
+ALWAYS_PASS = "O"
+BOM = "\ufeff"
 #: mm per inch (G20)
 INCH = 25.4
 
@@ -47,6 +51,7 @@ class Line:
 
     ``tokens`` is a list of strings whose concatenation is the line; ``word_at``
     maps a word letter to its token index, so that a writer can replace the number.
+    ``ending`` is the line's own line ending as read (``""``: the program's).
     """
 
     number: int
@@ -54,6 +59,7 @@ class Line:
     words: dict = field(default_factory=dict)
     gcodes: tuple = ()
     word_at: dict = field(default_factory=dict)
+    ending: str = ""
 
     @property
     def text(self) -> str:
@@ -62,12 +68,16 @@ class Line:
 
 @dataclass
 class Program:
-    """A parsed program: its lines (with their original line ending) and the pass-through letters."""
+    """A parsed program: its lines (with their original line ending) and the pass-through letters.
+
+    ``newline`` is the ending of lines without their own (written ones), ``bom`` the byte order mark
+    the text started with (kept, so that the text written back is the same)."""
 
     lines: list
     newline: str = "\n"
     trailing_newline: bool = True
     passed: str = DEFAULT_PASS
+    bom: str = ""
 
 
 def _fail(n: int, what: str):
@@ -90,7 +100,7 @@ def parse_line(text: str, n: int, passed: str = DEFAULT_PASS) -> Line:
         num = tok[1:]
         if not letter.isalpha() or not _NUMBER.match(num):
             _fail(n, f"{tok!r} is not a word (a letter and a number)")
-        if letter in passed.upper():
+        if letter in passed.upper() or letter in ALWAYS_PASS:
             continue
         if letter not in KNOWN:
             if letter == "R":
@@ -121,16 +131,25 @@ def parse_line(text: str, n: int, passed: str = DEFAULT_PASS) -> Line:
 
 def parse_text(text: str, passed: str = DEFAULT_PASS, name: str = "<G-code>") -> Program:
     """Parse a whole program (see the module docstring)."""
+    bom = BOM if text.startswith(BOM) else ""
+    text = text[len(bom):]
     newline = "\r\n" if "\r\n" in text else "\n"
     trailing = text.endswith(("\n", "\r"))
-    raw = text.splitlines()
-    return Program([parse_line(t, k + 1, passed) for k, t in enumerate(raw)], newline, trailing, passed)
+    lines = []
+    for k, t in enumerate(text.splitlines(keepends=True)):
+        body = t.splitlines()[0] if t.splitlines() else ""
+        ln = parse_line(body, k + 1, passed)
+        ln.ending = t[len(body):]
+        lines.append(ln)
+    return Program(lines, newline, trailing, passed, bom)
 
 
 def write_text_of(prog: Program) -> str:
-    """The program's text: its lines joined with its own line ending."""
-    body = prog.newline.join(ln.text for ln in prog.lines)
-    return body + (prog.newline if prog.trailing_newline and prog.lines else "")
+    """The program's text: each line with its own line ending (the program's for a written one)."""
+    n = len(prog.lines)
+    ends = [ln.ending or (prog.newline if k < n - 1 or prog.trailing_newline else "")
+            for k, ln in enumerate(prog.lines)]
+    return prog.bom + "".join(ln.text + e for ln, e in zip(prog.lines, ends))
 
 
 # ------------------------------------------------------------------ sampling the path
@@ -292,7 +311,7 @@ def rewrite(prog: Program, new_end: dict, new_centre: dict | None = None) -> Pro
     for i, ln in enumerate(prog.lines):
         m = mv.get(i)
         if m is None:
-            lines.append(Line(ln.number, list(ln.tokens), dict(ln.words), ln.gcodes, dict(ln.word_at)))
+            lines.append(Line(ln.number, list(ln.tokens), dict(ln.words), ln.gcodes, dict(ln.word_at), ln.ending))
             continue
         tokens = list(ln.tokens)
         end = new_end[i]
@@ -319,8 +338,9 @@ def rewrite(prog: Program, new_end: dict, new_centre: dict | None = None) -> Pro
             tokens[at:at] = [" " + e for e in extra]
         text = "".join(tokens)
         lines.append(parse_line(text, ln.number, prog.passed))
+        lines[-1].ending = ln.ending
         prev = end
-    return Program(lines, prog.newline, prog.trailing_newline, prog.passed)
+    return Program(lines, prog.newline, prog.trailing_newline, prog.passed, prog.bom)
 
 
 def linearize(prog: Program, arcs: dict) -> Program:
@@ -348,4 +368,5 @@ def linearize(prog: Program, arcs: dict) -> Program:
             if k == 0:  # the arc line's other words and comments ride on its first segment
                 text = (text + " " + "".join(keep).strip()).rstrip()
             out.append(parse_line(text, ln.number, prog.passed))
-    return Program(out, prog.newline, prog.trailing_newline, prog.passed)
+            out[-1].ending = ln.ending if k == len(pts) - 1 else (ln.ending or prog.newline)
+    return Program(out, prog.newline, prog.trailing_newline, prog.passed, prog.bom)

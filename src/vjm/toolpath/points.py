@@ -153,7 +153,7 @@ def read(path, chord_tol: float = 1e-3, step: float = 1.0, passed: str = gc.DEFA
         raise VjmError(f"cannot read toolpath {path}: {exc}") from None
     suffix = os.path.splitext(name)[1].lower()
     if suffix == ".csv":
-        return read_csv_text(text, name)
+        return read_csv_text(text.removeprefix(gc.BOM), name)  # spreadsheets write a byte order mark
     if suffix in GCODE_SUFFIXES:
         return from_gcode(gc.parse_text(text, passed, name), name, chord_tol, step)
     raise VjmError(f"toolpath {name}: unknown format {suffix or '(no suffix)'}; use .csv or a G-code suffix "

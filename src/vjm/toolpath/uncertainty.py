@@ -21,7 +21,6 @@ import os
 from dataclasses import dataclass
 
 import numpy as np
-import yaml
 
 from ..errors import VjmError
 
@@ -69,11 +68,9 @@ def read(model) -> Calibration | None:
     path = getattr(model, "path", None)
     if not path or not os.path.isfile(path):
         return None
-    try:
-        with open(path, encoding="utf-8") as fh:
-            d = yaml.safe_load(fh)
-    except (OSError, yaml.YAMLError):
-        return None
+    from ..yamldata import read_yaml
+
+    d = read_yaml(path)  # the model file, read once already: the same checks (tags, keys given twice)
     if not isinstance(d, dict) or d.get("calibration") is None:
         return None
     return from_mapping(d["calibration"], os.path.basename(path))
