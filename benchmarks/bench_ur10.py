@@ -8,7 +8,8 @@ frozen, and the errors are those of its other poses.  Four models, each held out
 1. nominal: the URDF, the T-Mac offset of ``Trafo_TM_F_init.txt``, only the instrument frame fitted;
 2. registration only: the URDF, the instrument frame and the T-Mac offset fitted on A;
 3. geometry: + the identifiable joint offsets and URDF-origin errors (vjm.robot.calibration);
-4. geometry + joint compliance under self-weight.
+4. geometry + joint compliance under self-weight (and the T-Mac's weight, a payload at the marker, if the
+   F test keeps it).
 
 Usage: ``python benchmarks/bench_ur10.py [--train 3000] [--register 30] [--out table.md]``.
 """
@@ -29,7 +30,7 @@ IPA = os.path.join(ROOT, "data", "realdata", "ur10_ipa")
 FILES = {"A": "Series_A/measurements_grid.csv", "C": "Series_C/measurements_random_poses.csv",
          "D": "Series_D/measurements_iso_cubes.csv"}
 MODELS = (("nominal", None), ("registration only", ()), ("geometry", ("geometry",)),
-          ("geometry + joint compliance", ("geometry", "compliance")))
+          ("geometry + joint compliance", ("geometry", "compliance", "payload")))
 
 
 def nominal_marker() -> np.ndarray:
@@ -82,7 +83,7 @@ def table(rows, args) -> str:
 
 
 def details(cal) -> str:
-    out = [f"stages: " + "; ".join(f"{s.name} {'kept' if s.kept else 'not kept'} ({s.n_params} parameters, "
+    out = ["stages: " + "; ".join(f"{s.name} {'kept' if s.kept else 'not kept'} ({s.n_params} parameters, "
                                    f"RMS {s.rms:.3f} mm)" for s in cal.stages)]
     for k, v in cal.robot_values().items():
         unit = "mm" if k.split(".")[-1].startswith("d") else ("rad/(N m)" if k.endswith("compliance") else "rad")

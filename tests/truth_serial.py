@@ -3,6 +3,7 @@
 A serial arm read by pinocchio from its URDF carries hidden effects:
 - joint offsets (added to the commanded joint values);
 - URDF-origin errors (each joint's placement times a small rigid motion);
+- a payload (a point mass at the marker);
 - joint compliance under self-weight: the link angles ``theta`` solve ``theta = q + offset - c g(theta)``
   with pinocchio's generalized gravity ``g`` of the *perturbed* arm (fixed point, to 1e-14 rad);
 - an unknown instrument frame (R, t) and a marker offset on the measured frame;
@@ -32,6 +33,7 @@ class Hidden:
     t: np.ndarray = field(default_factory=lambda: np.zeros(3))
     marker: np.ndarray = field(default_factory=lambda: np.zeros(3))
     sigma: float = 0.0
+    payload: float = 0.0   # kg, a point mass at the marker
 
 
 def _rotation(w) -> np.ndarray:
@@ -49,10 +51,20 @@ def perturbed_model(urdf: str, hidden: Hidden):
     return m
 
 
+def _add_payload(m, frame: str, hidden: Hidden) -> None:
+    """A point mass at the marker, on the body carrying ``frame``."""
+    if hidden.payload <= 0:
+        return
+    f = m.frames[m.getFrameId(frame)]
+    com = f.placement.rotation @ (hidden.marker / 1000.0) + f.placement.translation
+    m.appendBodyToJoint(f.parentJoint, pin.Inertia(hidden.payload, com, np.zeros((3, 3))), pin.SE3.Identity())
+
+
 def measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, rng=None) -> np.ndarray:
     """Marker positions (n, 3) mm in the instrument frame at commanded configurations q (n, len(names)),
     ``names`` the joints' order in q (revolute joints, rad)."""
     m = perturbed_model(urdf, hidden)
+    _add_payload(m, frame, hidden)
     d = m.createData()
     fid = m.getFrameId(frame)
     idx = [m.idx_qs[m.getJointId(nm)] for nm in names]

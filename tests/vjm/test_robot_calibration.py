@@ -104,7 +104,7 @@ def test_instrument_frame_and_marker_are_recovered(hidden_fit):
 
 def test_clean_data_give_registration_only(model):
     data = _data(model, CLEAN, _q(300, 6), 7)
-    cal = calibrate(model, data, "tool0")
+    cal = calibrate(model, data, "tool0", effects=("geometry", "compliance", "payload"))
     assert [s.name for s in cal.stages if s.kept] == ["registration"]
     assert set(cal.robot_values()) == set()
     for k, v in zip("xyz", cal.marker - MARKER):
@@ -141,3 +141,17 @@ def test_one_pass_jacobian_matches_central_differences(model):
     J1, J2 = jacobian(prob, lay, x), jacobian_fast(prob, lay, x)
     scale = np.linalg.norm(J1, axis=0) / np.sqrt(len(J1)) + 1e-3   # per column rms (1e-3: the columns that vanish)
     assert np.max(np.abs(J1 - J2) / scale) < 1e-5
+
+
+def test_a_payload_at_the_marker_is_weighed_through_the_compliances(model):
+    hidden = truth.Hidden(**{**HIDDEN.__dict__, "payload": 5.0})
+    data = _data(model, hidden, _q(300, 13), 14)
+    cal = calibrate(model, data, "tool0", effects=("geometry", "compliance", "payload"))
+    assert [s.kept for s in cal.stages] == [True, True, True, True]
+    m, s = cal.values["payload.mass"], cal.std["payload.mass"]
+    assert s < 0.5 and abs(m - 5.0) < 4 * s
+    for j in ("shoulder_lift_joint", "elbow_joint"):
+        c, sc = cal.values[f"{j}.compliance"] * 1000, cal.std[f"{j}.compliance"] * 1000
+        assert abs(c - HIDDEN.compliance[j]) < 4 * sc
+    exact = _data(model, truth.Hidden(**{**hidden.__dict__, "sigma": 0.0}), _q(100, 15), 16)
+    assert np.max(position_errors(cal, exact)) < 3 * SIGMA

@@ -9,11 +9,12 @@ The measured point ``p`` of frame ``F`` at configuration ``q``, in the instrumen
   offset** added to its value, and a **compliance** ``c`` (rad per N mm) turning the gravity torque
   ``g_j(q)`` of the nominal model (N mm, :meth:`RobotModel.gravity_torques`) into a joint deflection
   ``-c g_j(q)`` (the link sags the way its weight pulls);
+  with a fitted payload mass (kg) at the marker, its gravity torques add to the model's;
 - ``p``: the marker's offset on ``F`` (mm), ``R_g, t_g``: the instrument frame of the registration group
   (the nuisance parameters, fitted jointly and reported apart).
 
 Parameters are named ``reg[<group>].tx..rz``, ``<frame>.px..pz``, ``<joint>.offset``, ``<joint>.dx..ez`` and
-``<joint>.compliance``.  Jacobians are central differences with steps fitted to each kind (mm, rad,
+``<joint>.compliance`` and ``payload.mass``.  Jacobians are central differences with steps fitted to each kind (mm, rad,
 compliance scaled to a joint deflection), so that they are accurate to about 1e-9 relative.
 """
 from __future__ import annotations
@@ -28,7 +29,7 @@ from .tree import _rigid_inverse
 
 GEOMETRY = ("offset", "dx", "dy", "dz", "ex", "ey", "ez")
 _REG = ("tx", "ty", "tz", "rx", "ry", "rz")
-_STEP = {"mm": 1e-4, "rad": 1e-7}
+_STEP = {"mm": 1e-4, "rad": 1e-7, "kg": 1e-3}
 
 
 def rotation_matrix(w) -> np.ndarray:
@@ -80,7 +81,7 @@ class Layout:
                       tuple(self.units[i] for i in k))
 
 
-def full_layout(model, frame: str, groups) -> Layout:
+def full_layout(model, frame: str, groups, payload: bool = False) -> Layout:
     """Every parameter of the measurement model of a point on ``frame`` (registration of each group
     first, the marker offset, then per joint of the path its offset and origin error, then the compliances)."""
     names, kinds, units = [], [], []
@@ -104,6 +105,10 @@ def full_layout(model, frame: str, groups) -> Layout:
             names.append(f"{j.name}.compliance")
             kinds.append("compliance")
             units.append("c")
+    if payload:
+        names.append("payload.mass")
+        kinds.append("payload")
+        units.append("kg")
     return Layout(tuple(names), tuple(kinds), tuple(units))
 
 
@@ -122,6 +127,8 @@ class Problem:
     t0: tuple
     p0: np.ndarray
     torques: np.ndarray
+    #: the gravity torques (n, nq) N mm of 1 kg at the marker (the ``payload.mass`` parameter's), or None
+    unit_torques: np.ndarray | None = None
 
 
 def chain_frames(model, q: np.ndarray, frame: str, values: dict, dq: np.ndarray | None = None) -> np.ndarray:
@@ -154,13 +161,7 @@ def predict(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = N
     the values ``fixed`` of parameters not in it)."""
     vals = dict(fixed or {})
     vals.update(zip(layout.names, x))
-    qn = list(prob.model.tree.q_names)
-    dq = np.zeros_like(prob.q)
-    for i, name in enumerate(qn):
-        c = vals.get(f"{name}.compliance", 0.0)
-        if c:
-            dq[:, i] = -c * prob.torques[:, i]
-    T = chain_frames(prob.model, prob.q, prob.frame, vals, dq)
+    T = chain_frames(prob.model, prob.q, prob.frame, vals, deflections(prob, vals))
     p = prob.p0 + np.array([vals.get(f"{prob.frame}.p{k}", 0.0) for k in "xyz"])
     pb = np.einsum("nij,j->ni", T[:, :3, :3], p) + T[:, :3, 3]
     out = np.empty_like(pb)
@@ -171,6 +172,23 @@ def predict(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = N
         R = rotation_matrix(w) @ prob.R0[gi]
         out[rows] = pb[rows] @ R.T + prob.t0[gi] + t
     return out
+
+
+def total_torques(prob: Problem, vals: dict) -> np.ndarray:
+    """The gravity torques (n, nq) N mm: the model's masses, and the fitted payload at the marker."""
+    m = vals.get("payload.mass", 0.0)
+    return prob.torques if not m or prob.unit_torques is None else prob.torques + m * prob.unit_torques
+
+
+def deflections(prob: Problem, vals: dict) -> np.ndarray:
+    """The joints' deflections (n, nq) ``-c g(q)`` under the compliances of ``vals``."""
+    tau = total_torques(prob, vals)
+    dq = np.zeros_like(prob.q)
+    for i, name in enumerate(prob.model.tree.q_names):
+        c = vals.get(f"{name}.compliance", 0.0)
+        if c:
+            dq[:, i] = -c * tau[:, i]
+    return dq
 
 
 def steps(prob: Problem, layout: Layout) -> np.ndarray:
@@ -227,11 +245,8 @@ def _base_columns(prob: Problem, vals: dict) -> tuple[np.ndarray, dict]:
     tree = prob.model.tree
     qn = list(tree.q_names)
     q = prob.q
-    dq = np.zeros_like(q)
-    for i, name in enumerate(qn):
-        c = vals.get(f"{name}.compliance", 0.0)
-        if c:
-            dq[:, i] = -c * prob.torques[:, i]
+    tau = total_torques(prob, vals)
+    dq = deflections(prob, vals)
     T = np.broadcast_to(np.eye(4), (len(q), 4, 4))
     saved = []
     for ji in tree.path(tree.frame(prob.frame).joint):
@@ -257,7 +272,10 @@ def _base_columns(prob: Problem, vals: dict) -> tuple[np.ndarray, dict]:
         ax = _axis_column(j.kind, A, pb)
         cols[f"{j.name}.offset"] = ax
         comp = f"{qn[k]}.compliance"
-        cols[comp] = cols.get(comp, 0.0) + mult * ax * (-prob.torques[:, k:k + 1])
+        cols[comp] = cols.get(comp, 0.0) + mult * ax * (-tau[:, k:k + 1])
+        if prob.unit_torques is not None:
+            cu = -vals.get(comp, 0.0) * prob.unit_torques[:, k:k + 1]
+            cols["payload.mass"] = cols.get("payload.mass", 0.0) + mult * ax * cu
         for kk, col in zip(GEOMETRY[1:], _origin_columns(G, d[1:], pb)):
             cols[f"{j.name}.{kk}"] = col
     return pb, cols

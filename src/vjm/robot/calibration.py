@@ -14,6 +14,8 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
 3. **compliance**: a torsional compliance per joint, the deflection ``-c g_j(q)`` under the nominal model's
    gravity torque.  A joint whose gravity torque hardly varies over the data (its spread below
    ``flat`` of the largest joint's) cannot be told from an offset: it is reported not observable.
+4. **payload**: an unknown mass at the marker (a probe, a tool), weighed through the compliances kept: its
+   gravity torque ``-J_p^T g`` per kg adds to the robot's own.
 
 A stage is kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the
 registration only).  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
@@ -31,7 +33,7 @@ from scipy.stats import f as f_dist
 from ..errors import VjmError
 from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
 
-STAGES = ("registration", "geometry", "compliance")
+STAGES = ("registration", "geometry", "compliance", "payload")
 
 
 @dataclass(frozen=True)
@@ -72,7 +74,16 @@ class Calibration:
         return self.p0 + np.array([self.values.get(f"{self.frame}.p{k}", 0.0) for k in "xyz"])
 
 
-def _problem(model, data, frame: str, frames: dict, p0: np.ndarray) -> Problem:
+def unit_torques(model, q: np.ndarray, frame: str, p) -> np.ndarray:
+    """The gravity torques (n, nq) N mm of 1 kg at the point ``p`` (mm) of ``frame``, ``-J_p^T g``."""
+    T = model.forward(q, frame).reshape(-1, 4, 4)
+    J = model.jacobian(q, frame).reshape(len(q), 6, -1)
+    r = np.einsum("nij,j->ni", T[:, :3, :3], np.asarray(p, dtype=float))
+    Jp = J[:, :3, :] + np.cross(J[:, 3:, :], r[:, :, None], axis=1)
+    return -np.einsum("nik,i->nk", Jp, np.asarray(model.gravity, dtype=float))
+
+
+def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: bool = False) -> Problem:
     q = data.q_for(model.q_names)
     groups = tuple(sorted({str(g) for g in data.groups}))
     missing = [g for g in groups if g not in frames]
@@ -80,7 +91,8 @@ def _problem(model, data, frame: str, frames: dict, p0: np.ndarray) -> Problem:
         raise VjmError(f"{data.source}: group(s) {', '.join(missing)} not registered")
     gidx = np.array([groups.index(str(g)) for g in data.groups])
     return Problem(model, frame, q, gidx, groups, tuple(frames[g][0] for g in groups),
-                   tuple(frames[g][1] for g in groups), np.asarray(p0, dtype=float), model.gravity_torques(q))
+                   tuple(frames[g][1] for g in groups), np.asarray(p0, dtype=float), model.gravity_torques(q),
+                   unit_torques(model, q, frame, p0) if payload else None)
 
 
 def initial_registration(model, data, frame: str, p0=None, rounds: int = 8) -> tuple[dict, np.ndarray]:
@@ -202,22 +214,21 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
     if bad:
         raise VjmError(f"unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
     frames, p = initial_registration(model, data, frame, p0)
-    prob = _problem(model, data, frame, frames, p)
+    prob = _problem(model, data, frame, frames, p, "payload" in effects)
     meas = data.points[frame]
-    full = full_layout(model, frame, prob.groups)
-    base = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
-    J = jacobian_fast(prob, full, np.zeros(full.size))
-    active = list(base)
-    x_all = np.zeros(full.size)
-    lay = full.pick(active)
-    x, sd, rss = fit(prob, lay, meas, x_all[active])
+    full = full_layout(model, frame, prob.groups, "payload" in effects)
+    active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
+    x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
     m = meas.size
     stages = [Stage("registration", True, len(active), rss, float(np.sqrt(rss / len(meas))), float("nan"))]
     best = (active, x, sd, rss)
     removed: list = []
-    for name in ("geometry", "compliance"):
+    for name in STAGES[1:]:
         if name not in effects:
             continue
+        x_all = np.zeros(full.size)
+        x_all[best[0]] = best[1]
+        J = jacobian_fast(prob, full, x_all)   # at the stage's start: the payload acts through the compliances
         cands = [i for i, k in enumerate(full.kinds) if k == name]
         if name == "compliance":
             cands, flat_out = _flat_joints(prob, full, cands, flat)
@@ -248,7 +259,7 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
     """The calibration with the instrument frames of ``data``'s groups fitted on ``data`` (the robot's
     parameters frozen; the marker offset too unless ``marker``)."""
     frames, _ = initial_registration(cal.model, data, cal.frame, cal.marker)
-    prob = _problem(cal.model, data, cal.frame, frames, cal.marker)
+    prob = _problem(cal.model, data, cal.frame, frames, cal.marker, "payload.mass" in cal.values)
     full = full_layout(cal.model, cal.frame, prob.groups)
     keep = [i for i, k in enumerate(full.kinds) if k == "reg" or (marker and k == "marker")]
     lay = full.pick(keep)
@@ -267,7 +278,7 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
 
 def predict_points(cal: Calibration, data) -> np.ndarray:
     """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups."""
-    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0)
+    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0, "payload.mass" in cal.values)
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
     return predict(prob, lay, np.array(list(cal.values.values())))
 
