@@ -155,3 +155,37 @@ def test_a_payload_at_the_marker_is_weighed_through_the_compliances(model):
         assert abs(c - HIDDEN.compliance[j]) < 4 * sc
     exact = _data(model, truth.Hidden(**{**hidden.__dict__, "sigma": 0.0}), _q(100, 15), 16)
     assert np.max(position_errors(cal, exact)) < 3 * SIGMA
+
+
+def test_the_calibrated_urdf_reproduces_the_calibrated_positions_in_pinocchio(model, hidden_fit, tmp_path):
+    from vjm.errors import VjmError
+    from vjm.robot.calibwrite import write_calibrated
+
+    data, cal = hidden_fit
+    urdf, yml = tmp_path / "ur10_cal.urdf", tmp_path / "ur10_cal.yaml"
+    write_calibrated(cal, URDF, str(urdf), str(yml))
+    with pytest.raises(VjmError, match="exists"):
+        write_calibrated(cal, URDF, str(urdf), str(tmp_path / "other.yaml"))
+    q = data.q[:50]
+    # the joints' sag under self-weight, as the calibration models it (its compliances)
+    c = np.array([cal.values.get(f"{j}.compliance", 0.0) for j in model.q_names])
+    qd = q - c * model.gravity_torques(q)
+    R, t = instrument_frame(cal, "A")
+    sub = data.subset(np.arange(50))
+    base = (predict_points(cal, sub) - t) @ R     # the calibrated points in the robot's base frame, mm
+    pm = truth.pin.buildModelFromUrdf(str(urdf))
+    pd = pm.createData()
+    fid = pm.getFrameId("tool0_marker")
+    idx = [pm.idx_qs[pm.getJointId(n)] for n in model.q_names]
+    got = np.empty((50, 3))
+    for k, row in enumerate(qd):
+        qq = np.zeros(pm.nq)
+        qq[idx] = row
+        truth.pin.framesForwardKinematics(pm, pd, qq)
+        got[k] = pd.oMf[fid].translation * 1000.0
+    assert np.max(np.abs(got - base)) < 1e-6           # mm: 1e-9 m
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        back = vjm.load_model(str(yml))
+    assert np.max(np.abs(back.forward(qd, "tool0_marker")[:, :3, 3] - base)) < 1e-6
+    assert back.joint_springs["elbow_joint"].stiffness == pytest.approx(1 / cal.values["elbow_joint.compliance"])
