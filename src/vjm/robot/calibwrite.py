@@ -87,7 +87,7 @@ def robot_file(cal, urdf_name: str) -> str:
         c = cal.values.get(f"{name}.compliance")
         if c is not None and c > 0:
             joints[name] = {"stiffness": float(1.0 / c)}
-    d = {"name": f"{cal.model.name or 'robot'} (calibrated)", "urdf": urdf_name,
+    d: dict = {"name": f"{cal.model.name or 'robot'} (calibrated)", "urdf": urdf_name,
          "tools": [f"{cal.frame}_marker"], "gravity": [float(g) for g in cal.model.gravity]}
     if joints:
         d["joints"] = joints
