@@ -20,12 +20,12 @@ import warnings
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import bench_ur10 as b  # noqa: E402
+import bench_ur10 as b
 
-import vjm  # noqa: E402
-from vjm.robot.absolute import kabsch  # noqa: E402
-from vjm.robot.calibration import error_stats  # noqa: E402
-from vjm.robot.poses import read_column_map, read_poses  # noqa: E402
+import vjm
+from vjm.robot.absolute import kabsch
+from vjm.robot.calibration import error_stats
+from vjm.robot.poses import read_column_map, read_poses
 
 CONFIG = """tasks:
   calibration:
