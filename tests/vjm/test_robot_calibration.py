@@ -145,7 +145,7 @@ def test_one_pass_jacobian_matches_central_differences(model):
 
 def test_a_payload_at_the_marker_is_weighed_through_the_compliances(model):
     hidden = truth.Hidden(**{**HIDDEN.__dict__, "payload": 5.0})
-    data = _data(model, hidden, _q(300, 13), 14)
+    data = _data(model, hidden, _q(200, 13), 14)
     cal = calibrate(model, data, "tool0", effects=("geometry", "compliance", "payload"))
     assert [s.kept for s in cal.stages] == [True, True, True, True]
     m, s = cal.values["payload.mass"], cal.std["payload.mass"]
@@ -189,3 +189,15 @@ def test_the_calibrated_urdf_reproduces_the_calibrated_positions_in_pinocchio(mo
         back = vjm.load_model(str(yml))
     assert np.max(np.abs(back.forward(qd, "tool0_marker")[:, :3, 3] - base)) < 1e-6
     assert back.joint_springs["elbow_joint"].stiffness == pytest.approx(1 / cal.values["elbow_joint.compliance"])
+
+
+def test_cross_validation_keeps_what_predicts_held_out_rows(model):
+    clean = calibrate(model, _data(model, CLEAN, _q(150, 17), 18), "tool0", folds=3)
+    st = clean.stages[0]
+    # noise only: the held-out folds' RMS is the noise's (sigma sqrt(3) per point), a little above the fit's
+    assert st.rms < st.cv_rms < 1.15 * SIGMA * np.sqrt(3)
+    assert [s.name for s in clean.stages if s.kept] == ["registration"]
+    cal = calibrate(model, _data(model, HIDDEN, _q(150, 19), 20), "tool0", folds=3)
+    cv = [s.cv_rms for s in cal.stages]
+    assert [s.kept for s in cal.stages] == [True, True, True] and cv[0] > cv[1] > cv[2]
+    assert cv[2] < 1.3 * SIGMA * np.sqrt(3)

@@ -18,7 +18,7 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
    gravity torque ``-J_p^T g`` per kg adds to the robot's own.
 
 A stage is kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the
-registration only).  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
+registration only) and, with ``folds``, when its cross-validated error drops too.  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
 are unweighted (mm), the model's errors exceeding the instruments' stated sigmas on real data.
 """
 from __future__ import annotations
@@ -39,7 +39,8 @@ STAGES = ("registration", "geometry", "compliance", "payload")
 @dataclass(frozen=True)
 class Stage:
     """One stage of the fit: its name, whether it was kept, its parameter count, residual sum of squares
-    (mm^2), RMS position error (mm) and the F test's p-value against the stage before (nan for the first)."""
+    (mm^2), RMS position error (mm), the F test's p-value against the stage before (nan for the first)
+    and the cross-validated RMS (mm; nan without ``folds``)."""
 
     name: str
     kept: bool
@@ -47,6 +48,7 @@ class Stage:
     rss: float
     rms: float
     p_value: float
+    cv_rms: float = float("nan")
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,9 +208,33 @@ def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float) -> tup
     return keep, out
 
 
+def _rows(prob: Problem, mask: np.ndarray) -> Problem:
+    return replace(prob, q=prob.q[mask], gidx=prob.gidx[mask], torques=prob.torques[mask],
+                   unit_torques=None if prob.unit_torques is None else prob.unit_torques[mask])
+
+
+def cross_validated_rms(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, folds: int) -> float:
+    """RMS position error (mm) of ``layout``'s fit over ``folds`` interleaved folds, each predicted by the
+    fit on the others (started from ``x0``)."""
+    fold = np.arange(len(meas)) % folds
+    rss = 0.0
+    for f in range(folds):
+        tr = fold != f
+        x, _, _ = fit(_rows(prob, tr), layout, meas[tr], x0)
+        r = predict(_rows(prob, ~tr), layout, x) - meas[~tr]
+        rss += float(np.sum(r * r))
+    return float(np.sqrt(rss / len(meas)))
+
+
 def calibrate(model, data, frame: str | None = None, effects=("geometry", "compliance"), alpha: float = 1e-3,
-              tol: float = 1e-3, flat: float = 0.05, p0=None) -> Calibration:
-    """Fit registration, then the ``effects`` stages (see the module docstring) on ``data``."""
+              tol: float = 1e-3, flat: float = 0.05, p0=None, folds: int = 0) -> Calibration:
+    """Fit registration, then the ``effects`` stages (see the module docstring) on ``data``.
+
+    ``folds`` > 1: a stage is kept only if its cross-validated RMS (:func:`cross_validated_rms`) is also
+    below the stage before's -- an effect that improves the fitted rows but not the held-out ones is
+    not kept."""
+    if folds == 1 or folds < 0:
+        raise VjmError(f"folds must be 0 (no cross-validation) or at least 2, got {folds}")
     frame = frame or _only_frame(data)
     bad = set(effects) - set(STAGES[1:])
     if bad:
@@ -220,8 +246,9 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
     active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
     x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
     m = meas.size
-    stages = [Stage("registration", True, len(active), rss, float(np.sqrt(rss / len(meas))), float("nan"))]
-    best = (active, x, sd, rss)
+    cv = cross_validated_rms(prob, full.pick(active), meas, x, folds) if folds else float("nan")
+    stages = [Stage("registration", True, len(active), rss, float(np.sqrt(rss / len(meas))), float("nan"), cv)]
+    best = (active, x, sd, rss, cv)
     removed: list = []
     for name in STAGES[1:]:
         if name not in effects:
@@ -241,9 +268,11 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         xt, sdt, rsst = fit(prob, full.pick(trial), meas, x0)
         pv = _f_test(best[3], len(best[0]), rsst, len(trial), m)
         ok = bool(kept) and pv < alpha
-        stages.append(Stage(name, ok, len(trial), rsst, float(np.sqrt(rsst / len(meas))), pv))
+        cvt = cross_validated_rms(prob, full.pick(trial), meas, xt, folds) if folds and ok else float("nan")
+        ok = ok and not (folds and cvt >= best[4])
+        stages.append(Stage(name, ok, len(trial), rsst, float(np.sqrt(rsst / len(meas))), pv, cvt))
         if ok:
-            best = (trial, xt, sdt, rsst)
+            best = (trial, xt, sdt, rsst, cvt)
     lay = full.pick(best[0])
     return Calibration(model, frame, dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, p,
                        tuple((full.names[i], why) for i, why in removed), tuple(stages))
