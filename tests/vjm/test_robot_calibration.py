@@ -123,6 +123,8 @@ def test_a_new_set_up_is_registered_with_the_robot_frozen(model, hidden_fit):
     assert cal2.robot_values() == cal.robot_values()
     assert np.mean(position_errors(cal2, rest)) < 4 * SIGMA
     assert predict_points(cal2, rest).shape == (48, 3)
+    cal3 = register(cal, few, marker=True)   # the marker re-fitted too: the same (it did not move)
+    assert np.linalg.norm(cal3.marker - cal.marker) < 0.1 and np.mean(position_errors(cal3, rest)) < 4 * SIGMA
 
 
 def test_one_pass_jacobian_matches_central_differences(model):

@@ -23,7 +23,7 @@ are unweighted (mm), the model's errors exceeding the instruments' stated sigmas
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -65,7 +65,6 @@ class Calibration:
     p0: np.ndarray
     removed: tuple = ()
     stages: tuple = ()
-    not_observable: tuple = field(default=())
 
     def robot_values(self) -> dict:
         """The robot's fitted parameters (geometry and compliance), without the nuisance."""
