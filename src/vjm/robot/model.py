@@ -308,16 +308,7 @@ class RobotModel:
 
         b0 = a0 + len(qb)
         n = len(qb)
-        vt = np.ascontiguousarray(chain_values(ch, self.tree, qb).T)
-        kin = Kinematics(("robot", ch.name), (ch,), np.empty((n, 4, 4)), qb, (vt.T,))
-        comp = self.compliances(kin)[0]
-        one = [(s.vars[0], np.broadcast_to(np.reshape(comp[s.name], (-1,)), (n,)))
-               for s in ch.springs if s.name in comp and len(s.vars) == 1]
-        six = [(s.vars, comp[s.name]) for s in ch.springs if s.name in comp and len(s.vars) == 6]
-        s1 = np.array([v for v, _ in one], dtype=np.int64)
-        c1 = np.array([c for _, c in one], dtype=float).reshape(len(one), n)
-        s6 = np.array([v for v, _ in six], dtype=np.int64).reshape(len(six), 6)
-        c6 = np.array([c for _, c in six], dtype=float).reshape(len(six), 6, 6)
+        vt, s1, c1, s6, c6 = self.spring_arrays(ch, qb)
         pts, K, C, kt, kr, rk, iv, rot = out
         ok = np.empty(n, dtype=bool)
         R = np.empty((n, 3, 3))
@@ -331,6 +322,22 @@ class RobotModel:
         kt[a0:b0] = sym3_max_eig(C[a0:b0, :3, :3])
         kr[a0:b0] = sym3_max_eig(C[a0:b0, 3:, 3:])
         rot[a0:b0] = rotation_vector(R)
+
+    def spring_arrays(self, ch, qb: np.ndarray) -> tuple:
+        """The chain's values vt (n_vars, n) at configurations qb (n, nq) and its springs as the compiled
+        kernels take them: 1-dof variables s1 (m1,), compliances c1 (m1, n); 6-dof s6 (m6, 6), c6 (m6, 6, 6)."""
+        n = len(qb)
+        vt = np.ascontiguousarray(chain_values(ch, self.tree, qb).T)
+        kin = Kinematics(("robot", ch.name), (ch,), np.empty((n, 4, 4)), qb, (vt.T,))
+        comp = self.compliances(kin)[0]
+        one = [(s.vars[0], np.broadcast_to(np.reshape(comp[s.name], (-1,)), (n,)))
+               for s in ch.springs if s.name in comp and len(s.vars) == 1]
+        six = [(s.vars, comp[s.name]) for s in ch.springs if s.name in comp and len(s.vars) == 6]
+        s1 = np.array([v for v, _ in one], dtype=np.int64)
+        c1 = np.array([c for _, c in one], dtype=float).reshape(len(one), n)
+        s6 = np.array([v for v, _ in six], dtype=np.int64).reshape(len(six), 6)
+        c6 = np.array([c for _, c in six], dtype=float).reshape(len(six), 6, 6)
+        return vt, s1, c1, s6, c6
 
     def _encoded(self, ch):
         """The chain's arrays for the kernel (:func:`vjm.robot.kernel.encode`), built once."""

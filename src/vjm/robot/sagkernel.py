@@ -1,0 +1,297 @@
+"""Compiled (numba) self-weight equilibrium of a serial chain, one configuration at a time.
+
+The same equilibrium as :func:`vjm.nonlinear.deflection_map` with body loads: the stationary point of
+``1/2 sum theta_s^T K_s theta_s - sum F_b . p_b(theta)`` (the springs' deformations ``theta`` added to
+the chain's variables, dead loads ``F_b`` at points ``p_b`` fixed after a factor of the chain, a tool
+force being one of them), by Newton's method with its exact Hessian.  A joint factor ``f`` moves a
+point after it as ``dp/da_f = e_f x (p - o_f)`` (``e_f`` for a translation) and, for ``f`` proximal to
+``h``, ``d2p/da_f da_h = e_f x dp/da_h``; summed over the loads beyond ``h`` these need only the
+cumulative force ``sum F`` and ``sum F p^T`` at each factor, so a configuration costs O(factors^2).
+
+Newton starts from the undeflected chain, so its first step is the linear sag (with the geometric
+stiffness of the weights); steps that turn a rotational variable more than ``max_rot`` are shortened,
+as in :mod:`vjm.nonlinear`.  Convergence: a full Newton step whose tool twist ``J dtheta`` is below
+``tol`` times the tool's deflection (or below the round-off floor).  A configuration that does not
+converge within ``max_iter`` steps is
+flagged: the caller solves it with the general solver (load steps, rigid directions).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .kernel import CONST
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _springs(s1, c1, s6, k6, k, Kv, fixed):  # pragma: no cover - compiled
+    """Stiffness Kv (nv, nv) of the springs' variables at configuration k (1-dof compliances c1 (m1, n),
+    6-dof stiffnesses k6 (m6, 6, 6)); fixed: variables without a spring or with a rigid 1-dof one."""
+    Kv[:, :] = 0.0
+    fixed[:] = True
+    for m in range(s1.shape[0]):
+        c = c1[m, k]
+        if c > 0.0:
+            Kv[s1[m], s1[m]] += 1.0 / c
+            fixed[s1[m]] = False
+    for m in range(s6.shape[0]):
+        for i in range(6):
+            fixed[s6[m, i]] = False
+            for j in range(6):
+                Kv[s6[m, i], s6[m, j]] += k6[m, i, j]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _walk(kinds, var, coef, T, v, lidx, lpt, k, F, E, O, P):  # pragma: no cover - compiled
+    """End frame F (3, 4), each factor's axis E and origin O, each load's world point P (nl, 3)."""
+    for i in range(3):
+        for j in range(4):
+            F[i, j] = 1.0 if i == j else 0.0
+    ld = 0
+    nl = lidx.shape[0]
+    for f in range(kinds.shape[0]):
+        kd = kinds[f]
+        if kd == CONST:
+            for i in range(3):
+                r0, r1, r2, r3 = F[i, 0], F[i, 1], F[i, 2], F[i, 3]
+                for j in range(4):
+                    F[i, j] = r0 * T[f, 0, j] + r1 * T[f, 1, j] + r2 * T[f, 2, j]
+                F[i, 3] += r3
+        else:
+            a = coef[f] * v[var[f]]
+            ax = kd % 3
+            if a != 0.0:
+                if kd >= 3:
+                    ii, jj = (ax + 1) % 3, (ax + 2) % 3
+                    c, s = np.cos(a), np.sin(a)
+                    for r in range(3):
+                        ci, cj = F[r, ii], F[r, jj]
+                        F[r, ii] = ci * c + cj * s
+                        F[r, jj] = cj * c - ci * s
+                else:
+                    for r in range(3):
+                        F[r, 3] += F[r, ax] * a
+            for r in range(3):
+                E[f, r] = F[r, ax]
+                O[f, r] = F[r, 3]
+        while ld < nl and lidx[ld] == f:
+            for r in range(3):
+                P[ld, r] = F[r, 0] * lpt[ld, 0, k] + F[r, 1] * lpt[ld, 1, k] + F[r, 2] * lpt[ld, 2, k] + F[r, 3]
+            ld += 1
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _loads(kinds, var, coef, lidx, lforce, k, E, O, P, Fs, M, g, H):  # pragma: no cover - compiled
+    """Gradient g (nv,) and Hessian H (nv, nv) of the loads' work ``sum F . p`` in the chain's variables.
+
+    Fs (nf, 3), M (nf, 3, 3): the force and ``sum F p^T`` of the loads beyond each factor."""
+    nf = kinds.shape[0]
+    g[:] = 0.0
+    H[:, :] = 0.0
+    fs = np.zeros(3)
+    mm = np.zeros((3, 3))
+    ld = lidx.shape[0] - 1
+    for f in range(nf - 1, -1, -1):
+        while ld >= 0 and lidx[ld] == f:
+            for a in range(3):
+                fa = lforce[ld, a, k]
+                fs[a] += fa
+                for b in range(3):
+                    mm[a, b] += fa * P[ld, b]
+            ld -= 1
+        Fs[f] = fs
+        M[f] = mm
+    for h in range(nf):
+        kh = kinds[h]
+        if kh == CONST:
+            continue
+        vh, ch = var[h], coef[h]
+        eh, oh, fh, Mh = E[h], O[h], Fs[h], M[h]
+        fe = fh[0] * eh[0] + fh[1] * eh[1] + fh[2] * eh[2]
+        if kh >= 3:  # e . (sum p x F - o x sum F)
+            mx = Mh[2, 1] - Mh[1, 2] - (oh[1] * fh[2] - oh[2] * fh[1])
+            my = Mh[0, 2] - Mh[2, 0] - (oh[2] * fh[0] - oh[0] * fh[2])
+            mz = Mh[1, 0] - Mh[0, 1] - (oh[0] * fh[1] - oh[1] * fh[0])
+            g[vh] += ch * (eh[0] * mx + eh[1] * my + eh[2] * mz)
+            tr = Mh[0, 0] + Mh[1, 1] + Mh[2, 2] - (fh[0] * oh[0] + fh[1] * oh[1] + fh[2] * oh[2])
+        else:
+            g[vh] += ch * fe
+            tr = 0.0
+        for f in range(h + 1):  # f proximal to (or equal to) h; a translation f turns nothing
+            kf = kinds[f]
+            if kf == CONST or kf < 3:
+                continue
+            ef = E[f]
+            if kh >= 3:  # sum F . (e_f x (e_h x (p - o_h)))
+                ePe = 0.0
+                for a in range(3):
+                    for b in range(3):
+                        ePe += eh[a] * Mh[a, b] * ef[b]
+                eo = ef[0] * oh[0] + ef[1] * oh[1] + ef[2] * oh[2]
+                ee = ef[0] * eh[0] + ef[1] * eh[1] + ef[2] * eh[2]
+                q = ePe - fe * eo - tr * ee
+            else:  # sum F . (e_f x e_h)
+                q = (fh[0] * (ef[1] * eh[2] - ef[2] * eh[1]) + fh[1] * (ef[2] * eh[0] - ef[0] * eh[2])
+                     + fh[2] * (ef[0] * eh[1] - ef[1] * eh[0]))
+            w = coef[f] * ch * q
+            vf = var[f]
+            H[vf, vh] += w
+            if f != h:
+                H[vh, vf] += w
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _solve(A, b, x):  # pragma: no cover - compiled
+    """x = A^-1 b by symmetric (Jacobi) scaling and LU with partial pivoting; False if singular."""
+    n = b.shape[0]
+    d = np.empty(n)
+    for i in range(n):
+        d[i] = 1.0 / np.sqrt(abs(A[i, i])) if A[i, i] != 0.0 else 1.0
+    M = np.empty((n, n))
+    y = np.empty(n)
+    for i in range(n):
+        y[i] = b[i] * d[i]
+        for j in range(n):
+            M[i, j] = A[i, j] * d[i] * d[j]
+    for c in range(n):
+        p = c
+        for r in range(c + 1, n):
+            if abs(M[r, c]) > abs(M[p, c]):
+                p = r
+        if not abs(M[p, c]) > 1e-300:
+            return False
+        if p != c:
+            for j in range(n):
+                M[c, j], M[p, j] = M[p, j], M[c, j]
+            y[c], y[p] = y[p], y[c]
+        for r in range(c + 1, n):
+            t = M[r, c] / M[c, c]
+            if t != 0.0:
+                for j in range(c + 1, n):
+                    M[r, j] -= t * M[c, j]
+                y[r] -= t * y[c]
+    for i in range(n - 1, -1, -1):
+        t = y[i]
+        for j in range(i + 1, n):
+            t -= M[i, j] * x[j]
+        x[i] = t / M[i, i]
+    for i in range(n):
+        x[i] *= d[i]
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _tool_step(kinds, var, coef, F, E, O, dv, out):  # pragma: no cover - compiled
+    """The tool twist (6,) of a change dv of the chain's variables, linearized: ``J dv``."""
+    out[:] = 0.0
+    for f in range(kinds.shape[0]):
+        kd = kinds[f]
+        if kd == CONST:
+            continue
+        a = coef[f] * dv[var[f]]
+        e = E[f]
+        if kd >= 3:
+            dx, dy, dz = F[0, 3] - O[f, 0], F[1, 3] - O[f, 1], F[2, 3] - O[f, 2]
+            out[0] += a * (e[1] * dz - e[2] * dy)
+            out[1] += a * (e[2] * dx - e[0] * dz)
+            out[2] += a * (e[0] * dy - e[1] * dx)
+            out[3] += a * e[0]
+            out[4] += a * e[1]
+            out[5] += a * e[2]
+        else:
+            out[0] += a * e[0]
+            out[1] += a * e[1]
+            out[2] += a * e[2]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def sag_kernel(kinds, var, coef, T, vt, s1, c1, s6, k6, lidx, lpt, lforce, tol, max_iter, max_rot, floor_p,
+               floor_r, pts0, R0, pts, R, iters, ok):  # pragma: no cover - compiled
+    """Equilibrium of every configuration k of vt (n_vars, n): the undeflected tool point pts0 (n, 3) and
+    orientation R0 (n, 3, 3), the deflected ones pts, R, Newton iterations iters (n,), converged ok (n,).
+
+    Loads sorted by factor: lidx (nl,) factor indices, lpt (nl, 3, n) points in the frame after the
+    factor, lforce (nl, 3, n) world forces; springs as :func:`vjm.robot.kernel.stiffness_kernel`'s, the 6-dof
+    ones by their stiffnesses k6 (m6, 6, 6)."""
+    nf, nv = kinds.shape[0], vt.shape[0]
+    nl = lidx.shape[0]
+    rot = np.zeros(nv, dtype=np.bool_)
+    for f in range(nf):
+        if kinds[f] != CONST and kinds[f] >= 3:
+            rot[var[f]] = True
+    F = np.zeros((3, 4))
+    E = np.zeros((nf, 3))
+    O = np.zeros((nf, 3))
+    P = np.zeros((nl, 3))
+    Fs = np.zeros((nf, 3))
+    M = np.zeros((nf, 3, 3))
+    Kv = np.zeros((nv, nv))
+    H = np.zeros((nv, nv))
+    g = np.zeros(nv)
+    r = np.zeros(nv)
+    dv = np.zeros(nv)
+    th = np.zeros(nv)
+    v = np.zeros(nv)
+    tw = np.zeros(6)
+    step = np.zeros(6)
+    fixed = np.zeros(nv, dtype=np.bool_)
+    for k in range(vt.shape[1]):
+        ok[k] = False
+        iters[k] = 0
+        th[:] = 0.0
+        tw[:] = 0.0
+        _springs(s1, c1, s6, k6, k, Kv, fixed)
+        for it in range(max_iter + 1):
+            for i in range(nv):
+                v[i] = vt[i, k] + th[i]
+            _walk(kinds, var, coef, T, v, lidx, lpt, k, F, E, O, P)
+            if it == 0:
+                for i in range(3):
+                    pts0[k, i] = F[i, 3]
+                    for j in range(3):
+                        R0[k, i, j] = F[i, j]
+            if ok[k] or it == max_iter:
+                break
+            _loads(kinds, var, coef, lidx, lforce, k, E, O, P, Fs, M, g, H)
+            for i in range(nv):  # residual K theta - g and Hessian K - H_loads; fixed variables stay
+                t = 0.0
+                for j in range(nv):
+                    t += Kv[i, j] * th[j]
+                    H[i, j] = Kv[i, j] - H[i, j]
+                r[i] = g[i] - t
+            for i in range(nv):
+                if fixed[i]:
+                    r[i] = 0.0
+                    for j in range(nv):
+                        H[i, j] = 0.0
+                        H[j, i] = 0.0
+                    H[i, i] = 1.0
+            if not _solve(H, r, dv):
+                break
+            big = 0.0
+            for i in range(nv):
+                if rot[i] and abs(dv[i]) > big:
+                    big = abs(dv[i])
+            alpha = max_rot / big if big > max_rot else 1.0
+            if not np.isfinite(big):
+                break
+            _tool_step(kinds, var, coef, F, E, O, dv, step)
+            sp = 0.0
+            sr = 0.0
+            size = 0.0
+            for i in range(6):
+                tw[i] += alpha * step[i]
+                size = max(size, abs(tw[i]))
+                if i < 3:
+                    sp = max(sp, abs(step[i]))
+                else:
+                    sr = max(sr, abs(step[i]))
+            for i in range(nv):
+                th[i] += alpha * dv[i]
+            iters[k] = it + 1
+            if alpha == 1.0 and (max(sp, sr) <= tol * size or (sp <= floor_p and sr <= floor_r)):
+                ok[k] = True
+        for i in range(3):
+            pts[k, i] = F[i, 3]
+            for j in range(3):
+                R[k, i, j] = F[i, j]
