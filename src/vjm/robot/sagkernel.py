@@ -81,13 +81,15 @@ def _walk(kinds, var, coef, T, v, lidx, lpt, k, F, E, O, P):  # pragma: no cover
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _loads(kinds, var, coef, lidx, lforce, k, E, O, P, Fs, M, g, H):  # pragma: no cover - compiled
-    """Gradient g (nv,) and Hessian H (nv, nv) of the loads' work ``sum F . p`` in the chain's variables.
+def _loads(kinds, var, coef, lidx, lforce, k, E, O, P, Fs, M, g, H, hess):  # pragma: no cover - compiled
+    """Gradient g (nv,) and (with ``hess``) Hessian H (nv, nv) of the loads' work ``sum F . p`` in the
+    chain's variables.
 
     Fs (nf, 3), M (nf, 3, 3): the force and ``sum F p^T`` of the loads beyond each factor."""
     nf = kinds.shape[0]
     g[:] = 0.0
-    H[:, :] = 0.0
+    if hess:
+        H[:, :] = 0.0
     fs = np.zeros(3)
     mm = np.zeros((3, 3))
     ld = lidx.shape[0] - 1
@@ -117,6 +119,8 @@ def _loads(kinds, var, coef, lidx, lforce, k, E, O, P, Fs, M, g, H):  # pragma: 
         else:
             g[vh] += ch * fe
             tr = 0.0
+        if not hess:
+            continue
         for f in range(h + 1):  # f proximal to (or equal to) h; a translation f turns nothing
             kf = kinds[f]
             if kf == CONST or kf < 3:
@@ -138,46 +142,6 @@ def _loads(kinds, var, coef, lidx, lforce, k, E, O, P, Fs, M, g, H):  # pragma: 
             H[vf, vh] += w
             if f != h:
                 H[vh, vf] += w
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _solve(A, b, x):  # pragma: no cover - compiled
-    """x = A^-1 b by symmetric (Jacobi) scaling and LU with partial pivoting; False if singular."""
-    n = b.shape[0]
-    d = np.empty(n)
-    for i in range(n):
-        d[i] = 1.0 / np.sqrt(abs(A[i, i])) if A[i, i] != 0.0 else 1.0
-    M = np.empty((n, n))
-    y = np.empty(n)
-    for i in range(n):
-        y[i] = b[i] * d[i]
-        for j in range(n):
-            M[i, j] = A[i, j] * d[i] * d[j]
-    for c in range(n):
-        p = c
-        for r in range(c + 1, n):
-            if abs(M[r, c]) > abs(M[p, c]):
-                p = r
-        if not abs(M[p, c]) > 1e-300:
-            return False
-        if p != c:
-            for j in range(n):
-                M[c, j], M[p, j] = M[p, j], M[c, j]
-            y[c], y[p] = y[p], y[c]
-        for r in range(c + 1, n):
-            t = M[r, c] / M[c, c]
-            if t != 0.0:
-                for j in range(c + 1, n):
-                    M[r, j] -= t * M[c, j]
-                y[r] -= t * y[c]
-    for i in range(n - 1, -1, -1):
-        t = y[i]
-        for j in range(i + 1, n):
-            t -= M[i, j] * x[j]
-        x[i] = t / M[i, i]
-    for i in range(n):
-        x[i] *= d[i]
-    return True
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -205,6 +169,127 @@ def _tool_step(kinds, var, coef, F, E, O, dv, out):  # pragma: no cover - compil
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _factor(A, L, d):  # pragma: no cover - compiled
+    """A = diag(1/d) L D L^T diag(1/d) in place (Jacobi scaling d, unit L below the diagonal, D on it,
+    no pivoting: A is a stiffness); False if a pivot is not clear of zero."""
+    n = A.shape[0]
+    for i in range(n):
+        d[i] = 1.0 / np.sqrt(abs(A[i, i])) if A[i, i] != 0.0 else 1.0
+    for i in range(n):
+        for j in range(n):
+            L[i, j] = A[i, j] * d[i] * d[j]
+    for j in range(n):
+        s = L[j, j]
+        for m in range(j):
+            s -= L[j, m] * L[j, m] * L[m, m]
+        if not abs(s) > 1e-12:
+            return False
+        L[j, j] = s
+        for i in range(j + 1, n):
+            t = L[i, j]
+            for m in range(j):
+                t -= L[i, m] * L[j, m] * L[m, m]
+            L[i, j] = t / s
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _back(L, d, b, x):  # pragma: no cover - compiled
+    """x = A^-1 b from :func:`_factor`'s L, d."""
+    n = b.shape[0]
+    for i in range(n):
+        t = b[i] * d[i]
+        for m in range(i):
+            t -= L[i, m] * x[m]
+        x[i] = t
+    for i in range(n):
+        x[i] /= L[i, i]
+    for i in range(n - 1, -1, -1):
+        t = x[i]
+        for m in range(i + 1, n):
+            t -= L[m, i] * x[m]
+        x[i] = t
+    for i in range(n):
+        x[i] *= d[i]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _newton(kinds, var, coef, T, vt, lidx, lpt, lforce, k, Kv, fixed, rot, tol, max_iter, max_rot, floor_p,
+            floor_r, w):  # pragma: no cover - compiled
+    """Newton on configuration k; the frames of the last iterate are left in w's F; returns (iterations,
+    converged).  The Hessian's factorization is kept while the steps shrink tenfold or faster (the
+    chord method: the same equations, the same fixed point); it is rebuilt when they do not."""
+    F, E, O, P, Fs, M, H, L, sc, g, r, dv, th, v, tw, step, p0, R0 = w
+    nv = th.shape[0]
+    th[:] = 0.0
+    tw[:] = 0.0
+    fresh = False
+    prev = np.inf
+    for it in range(max_iter + 1):
+        for i in range(nv):
+            v[i] = vt[i, k] + th[i]
+        _walk(kinds, var, coef, T, v, lidx, lpt, k, F, E, O, P)
+        if it == 0:
+            for i in range(3):
+                p0[i] = F[i, 3]
+                for j in range(3):
+                    R0[i, j] = F[i, j]
+        if it == max_iter:
+            return it, False
+        hess = not fresh
+        _loads(kinds, var, coef, lidx, lforce, k, E, O, P, Fs, M, g, H, hess)
+        for i in range(nv):  # residual g - K theta, Hessian K - H_loads; fixed variables stay
+            t = 0.0
+            for j in range(nv):
+                t += Kv[i, j] * th[j]
+            r[i] = 0.0 if fixed[i] else g[i] - t
+        if hess:
+            for i in range(nv):
+                for j in range(nv):
+                    H[i, j] = Kv[i, j] - H[i, j]
+            for i in range(nv):
+                if fixed[i]:
+                    for j in range(nv):
+                        H[i, j] = 0.0
+                        H[j, i] = 0.0
+                    H[i, i] = 1.0
+            if not _factor(H, L, sc):
+                return it, False
+            fresh = True
+        _back(L, sc, r, dv)
+        big = 0.0
+        for i in range(nv):
+            if rot[i] and abs(dv[i]) > big:
+                big = abs(dv[i])
+        if not np.isfinite(big):
+            return it, False
+        alpha = max_rot / big if big > max_rot else 1.0
+        _tool_step(kinds, var, coef, F, E, O, dv, step)
+        sp = 0.0
+        sr = 0.0
+        size = 0.0
+        for i in range(6):
+            tw[i] += alpha * step[i]
+            size = max(size, abs(tw[i]))
+            if i < 3:
+                sp = max(sp, abs(step[i]))
+            else:
+                sr = max(sr, abs(step[i]))
+        for i in range(nv):
+            th[i] += alpha * dv[i]
+        cur = max(sp, sr)
+        if alpha < 1.0 or cur > 0.1 * prev:
+            fresh = False  # slow or damped: a new Hessian next time
+        prev = cur if alpha == 1.0 else np.inf
+        if alpha == 1.0 and (cur <= tol * size or (sp <= floor_p and sr <= floor_r)):
+            for i in range(nv):
+                v[i] = vt[i, k] + th[i]
+            _walk(kinds, var, coef, T, v, lidx, lpt, k, F, E, O, P)
+            return it + 1, True
+    return max_iter, False
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def sag_kernel(kinds, var, coef, T, vt, s1, c1, s6, k6, lidx, lpt, lforce, tol, max_iter, max_rot, floor_p,
                floor_r, pts0, R0, pts, R, iters, ok):  # pragma: no cover - compiled
     """Equilibrium of every configuration k of vt (n_vars, n): the undeflected tool point pts0 (n, 3) and
@@ -219,79 +304,19 @@ def sag_kernel(kinds, var, coef, T, vt, s1, c1, s6, k6, lidx, lpt, lforce, tol, 
     for f in range(nf):
         if kinds[f] != CONST and kinds[f] >= 3:
             rot[var[f]] = True
-    F = np.zeros((3, 4))
-    E = np.zeros((nf, 3))
-    O = np.zeros((nf, 3))
-    P = np.zeros((nl, 3))
-    Fs = np.zeros((nf, 3))
-    M = np.zeros((nf, 3, 3))
+    w = (np.zeros((3, 4)), np.zeros((nf, 3)), np.zeros((nf, 3)), np.zeros((nl, 3)), np.zeros((nf, 3)),
+         np.zeros((nf, 3, 3)), np.zeros((nv, nv)), np.zeros((nv, nv)), np.zeros(nv), np.zeros(nv), np.zeros(nv),
+         np.zeros(nv), np.zeros(nv), np.zeros(nv), np.zeros(6), np.zeros(6), np.zeros(3), np.zeros((3, 3)))
+    F, p0, r0 = w[0], w[16], w[17]
     Kv = np.zeros((nv, nv))
-    H = np.zeros((nv, nv))
-    g = np.zeros(nv)
-    r = np.zeros(nv)
-    dv = np.zeros(nv)
-    th = np.zeros(nv)
-    v = np.zeros(nv)
-    tw = np.zeros(6)
-    step = np.zeros(6)
     fixed = np.zeros(nv, dtype=np.bool_)
     for k in range(vt.shape[1]):
-        ok[k] = False
-        iters[k] = 0
-        th[:] = 0.0
-        tw[:] = 0.0
         _springs(s1, c1, s6, k6, k, Kv, fixed)
-        for it in range(max_iter + 1):
-            for i in range(nv):
-                v[i] = vt[i, k] + th[i]
-            _walk(kinds, var, coef, T, v, lidx, lpt, k, F, E, O, P)
-            if it == 0:
-                for i in range(3):
-                    pts0[k, i] = F[i, 3]
-                    for j in range(3):
-                        R0[k, i, j] = F[i, j]
-            if ok[k] or it == max_iter:
-                break
-            _loads(kinds, var, coef, lidx, lforce, k, E, O, P, Fs, M, g, H)
-            for i in range(nv):  # residual K theta - g and Hessian K - H_loads; fixed variables stay
-                t = 0.0
-                for j in range(nv):
-                    t += Kv[i, j] * th[j]
-                    H[i, j] = Kv[i, j] - H[i, j]
-                r[i] = g[i] - t
-            for i in range(nv):
-                if fixed[i]:
-                    r[i] = 0.0
-                    for j in range(nv):
-                        H[i, j] = 0.0
-                        H[j, i] = 0.0
-                    H[i, i] = 1.0
-            if not _solve(H, r, dv):
-                break
-            big = 0.0
-            for i in range(nv):
-                if rot[i] and abs(dv[i]) > big:
-                    big = abs(dv[i])
-            alpha = max_rot / big if big > max_rot else 1.0
-            if not np.isfinite(big):
-                break
-            _tool_step(kinds, var, coef, F, E, O, dv, step)
-            sp = 0.0
-            sr = 0.0
-            size = 0.0
-            for i in range(6):
-                tw[i] += alpha * step[i]
-                size = max(size, abs(tw[i]))
-                if i < 3:
-                    sp = max(sp, abs(step[i]))
-                else:
-                    sr = max(sr, abs(step[i]))
-            for i in range(nv):
-                th[i] += alpha * dv[i]
-            iters[k] = it + 1
-            if alpha == 1.0 and (max(sp, sr) <= tol * size or (sp <= floor_p and sr <= floor_r)):
-                ok[k] = True
+        iters[k], ok[k] = _newton(kinds, var, coef, T, vt, lidx, lpt, lforce, k, Kv, fixed, rot, tol, max_iter,
+                                  max_rot, floor_p, floor_r, w)
         for i in range(3):
+            pts0[k, i] = p0[i]
             pts[k, i] = F[i, 3]
             for j in range(3):
+                R0[k, i, j] = r0[i, j]
                 R[k, i, j] = F[i, j]
