@@ -4,9 +4,11 @@ pinocchio's compiled kinematics in the same run.
 * joint-space stiffness (K, C at the tool): ``RobotModel.stiffness(Q)`` batched, against a per-configuration
   loop of pinocchio (``computeJointJacobians`` + ``getFrameJacobian``, then C = J diag(c) J^T and its inverse
   in numpy: the compiled kinematics as an anchor, the joint springs only);
-* self-weight deflection (equilibrium on the deflected geometry): ``RobotModel.self_weight(Q)``, against
-  pinocchio's ``computeGeneralizedGravity`` per configuration plus the linear sag ``J K^-1 g(q)`` (no
-  equilibrium iteration: what the compiled library gives for the linear answer).
+* self-weight deflection (equilibrium on the deflected geometry): ``RobotModel.self_weight(Q)`` (the
+  compiled Newton of :mod:`vjm.robot.sagkernel`), the same equilibrium by the general solver
+  (``vjm.nonlinear.deflection_map`` with the body loads: the path every configuration took before, and
+  the fallback), and pinocchio's ``computeGeneralizedGravity`` per configuration plus the linear sag
+  ``J K^-1 g(q)`` (no equilibrium iteration: what the compiled library gives for the linear answer).
 
 Each is timed ``REPEAT`` times and the best kept (as ``timeit``).  One core: run with
 ``OMP_NUM_THREADS=1``.  Usage: ``python benchmarks/bench_serial.py [N]``.
@@ -61,6 +63,16 @@ def pin_sag(pm, pd, tool, Q, c):
     return out
 
 
+def general_sag(m, Q):
+    """The same equilibrium by vjm.nonlinear's general solver (the robot's weights as its body loads)."""
+    from vjm.nonlinear import deflection_map
+    from vjm.robot.weight import body_loads
+
+    kin = m.kinematics(Q)
+    loads = body_loads(m, kin.q, m.tools[0], np.asarray(m.gravity, dtype=float), m.payload)
+    return deflection_map(m, kin, np.zeros(6), body_loads=[loads])
+
+
 def main(n: int = 20_000) -> None:
     import pinocchio as pin
 
@@ -74,15 +86,20 @@ def main(n: int = 20_000) -> None:
     m.stiffness(Q[:10])
     t_vjm = best(lambda: m.stiffness(Q))
     t_pin = best(lambda: pin_stiffness(pm, pd, tool, Q, c))
-    ns = max(50, n // 40)
-    t_sag = best(lambda: m.self_weight(Q[:ns]))
+    m.self_weight(Q[:10])
+    t_sag = best(lambda: m.self_weight(Q))
+    _, info = m.self_weight(Q, return_info=True)
+    ng = max(50, n // 40)
+    t_gen = best(lambda: general_sag(m, Q[:ng]))
+    ns = max(50, n // 4)
     t_pin_sag = best(lambda: pin_sag(pm, pd, tool, Q[:ns], c))
     print(f"{platform.processor() or platform.machine()}, numpy {np.__version__}, pinocchio {pin.__version__}, "
           f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}")
     print(f"joint-space stiffness, {n} configurations: vjm {n / t_vjm:,.0f} /s (target {TARGET_STIFFNESS:,}), "
           f"pinocchio loop {n / t_pin:,.0f} /s")
-    print(f"self-weight, {ns} configurations: vjm equilibrium {ns / t_sag:,.0f} /s (target {TARGET_SAG:,}), "
-          f"pinocchio linear sag loop {ns / t_pin_sag:,.0f} /s")
+    print(f"self-weight, {n} configurations: vjm compiled equilibrium {n / t_sag:,.0f} /s (target {TARGET_SAG:,}; "
+          f"{int(info['fallback'].sum())} to the general solver, Newton iterations <= {info['iterations'].max()}), "
+          f"general solver ({ng}) {ng / t_gen:,.0f} /s, pinocchio linear sag loop ({ns}) {ns / t_pin_sag:,.0f} /s")
 
 
 if __name__ == "__main__":

@@ -3,7 +3,6 @@
 import os
 
 import numpy as np
-import pytest
 
 import vjm
 from vjm.nonlinear import deflection_map

@@ -26,7 +26,7 @@ import numpy as np
 from ..chain import forward, jacobian
 from ..errors import VjmError, VjmWarning
 from ..kinematics import Kinematics
-from ..linalg import psd_rank_inverse, sym3_max_eig
+from ..linalg import psd_rank_inverse
 from ..links import LinkSpring
 from ..stiffness import StiffnessResult
 from ..transforms import rotation_vector
@@ -313,14 +313,12 @@ class RobotModel:
         ok = np.empty(n, dtype=bool)
         R = np.empty((n, 3, 3))
         stiffness_kernel(*self._encoded(ch), vt, s1, c1, s6, c6, 1e-10,  # type: ignore[call-arg]
-                         C[a0:b0], K[a0:b0], ok, pts[a0:b0], R)
+                         C[a0:b0], K[a0:b0], ok, pts[a0:b0], R, kt[a0:b0], kr[a0:b0])
         rk[a0:b0], iv[a0:b0] = 6, True
         bad = np.flatnonzero(~ok)
         if bad.size:
             Kb, rb, ib = psd_rank_inverse(C[a0 + bad])
             K[a0 + bad], rk[a0 + bad], iv[a0 + bad] = Kb, rb, ib
-        kt[a0:b0] = sym3_max_eig(C[a0:b0, :3, :3])
-        kr[a0:b0] = sym3_max_eig(C[a0:b0, 3:, 3:])
         rot[a0:b0] = rotation_vector(R)
 
     def spring_arrays(self, ch, qb: np.ndarray) -> tuple:

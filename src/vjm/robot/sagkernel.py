@@ -214,6 +214,38 @@ def _back(L, d, b, x):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _assemble(Kv, fixed, H, L, sc):  # pragma: no cover - compiled
+    """The energy's Hessian ``K - H_loads`` in H (H_loads in, fixed variables as unit rows), factorized."""
+    nv = H.shape[0]
+    for i in range(nv):
+        for j in range(nv):
+            H[i, j] = Kv[i, j] - H[i, j]
+    for i in range(nv):
+        if fixed[i]:
+            for j in range(nv):
+                H[i, j] = 0.0
+                H[j, i] = 0.0
+            H[i, i] = 1.0
+    return _factor(H, L, sc)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _sizes(step, tw, alpha):  # pragma: no cover - compiled
+    """Adds ``alpha step`` to the tool twist tw; the step's largest translation and rotation, tw's size."""
+    sp = 0.0
+    sr = 0.0
+    size = 0.0
+    for i in range(6):
+        tw[i] += alpha * step[i]
+        size = max(size, abs(tw[i]))
+        if i < 3:
+            sp = max(sp, abs(step[i]))
+        else:
+            sr = max(sr, abs(step[i]))
+    return sp, sr, size
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _newton(kinds, var, coef, T, vt, lidx, lpt, lforce, k, Kv, fixed, rot, tol, max_iter, max_rot, floor_p,
             floor_r, w):  # pragma: no cover - compiled
     """Newton on configuration k; the frames of the last iterate are left in w's F; returns (iterations,
@@ -244,16 +276,7 @@ def _newton(kinds, var, coef, T, vt, lidx, lpt, lforce, k, Kv, fixed, rot, tol, 
                 t += Kv[i, j] * th[j]
             r[i] = 0.0 if fixed[i] else g[i] - t
         if hess:
-            for i in range(nv):
-                for j in range(nv):
-                    H[i, j] = Kv[i, j] - H[i, j]
-            for i in range(nv):
-                if fixed[i]:
-                    for j in range(nv):
-                        H[i, j] = 0.0
-                        H[j, i] = 0.0
-                    H[i, i] = 1.0
-            if not _factor(H, L, sc):
+            if not _assemble(Kv, fixed, H, L, sc):
                 return it, False
             fresh = True
         _back(L, sc, r, dv)
@@ -265,16 +288,7 @@ def _newton(kinds, var, coef, T, vt, lidx, lpt, lforce, k, Kv, fixed, rot, tol, 
             return it, False
         alpha = max_rot / big if big > max_rot else 1.0
         _tool_step(kinds, var, coef, F, E, O, dv, step)
-        sp = 0.0
-        sr = 0.0
-        size = 0.0
-        for i in range(6):
-            tw[i] += alpha * step[i]
-            size = max(size, abs(tw[i]))
-            if i < 3:
-                sp = max(sp, abs(step[i]))
-            else:
-                sr = max(sr, abs(step[i]))
+        sp, sr, size = _sizes(step, tw, alpha)
         for i in range(nv):
             th[i] += alpha * dv[i]
         cur = max(sp, sr)

@@ -118,7 +118,7 @@ def fast_sag(model, a: np.ndarray, tool: str, g: np.ndarray, pl, W, tol: float, 
     lref = sum(float(np.linalg.norm(f.T[:3, 3])) for f in ch.factors if f.kind == "const")
     out = (np.empty((n, 3)), np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3, 3)), np.zeros(n, dtype=np.int64),
            np.zeros(n, dtype=bool))
-    sag_kernel(kinds, var, coef, T, vt, s1, c1, s6, k6, lidx, lpt, lf, float(tol), int(max_iter),  # type: ignore[call-arg]
+    sag_kernel(kinds, var, coef, T, vt, s1, c1, s6, k6, lidx, lpt, lf, float(tol), int(max_iter),
                MAX_ROT_STEP, ROUNDOFF * lref, ROUNDOFF, *out)
     p0, R0, p, R, iters, ok = out
     t = np.concatenate([p - p0, rotation_vector(R @ np.swapaxes(R0, 1, 2))], axis=1)
