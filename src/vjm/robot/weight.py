@@ -4,7 +4,11 @@ The links' weights (and a payload's) are dead loads ``m g`` at their centres of 
 springs deflect, the centres of mass move and the gravity torques change.  The equilibrium is
 the stationary point of ``1/2 sum theta^T K theta - sum m g . p_com(theta) - w . tool``, solved
 by :func:`vjm.nonlinear.deflection_map` -- the same Newton solver (exact Hessian, load steps on
-failure) as a parallel machine's, the weights entering as its body loads.  It converges when the
+failure) as a parallel machine's, the weights entering as its body loads.  Each configuration is
+first solved by the compiled Newton of those same equations on the chain's own variables
+(:mod:`vjm.robot.sagkernel`, :func:`fast_sag`); what it does not converge, and what it does not
+cover (a tool moment, a passive joint, a spring with a rigid direction), goes to ``deflection_map``
+(``info["fallback"]``).  It converges when the
 Newton step of the tool pose is below ``tol`` (default 1e-11) times its size; where it does not,
 an :class:`~vjm.errors.EquilibriumError` names the configurations (``strict=False``: NaN rows
 and ``info["converged"]`` False).
