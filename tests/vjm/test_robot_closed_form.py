@@ -69,6 +69,7 @@ def test_large_sag_matches_a_scalar_solve(gamma):
     theta = brentq(lambda th: k1 * th + grad_potential(q[0] + th, q[1], g, F)[0], -1.5, 1.5, xtol=1e-15)
     assert abs(theta) > 0.03  # rad: 30 mm and more at the tip, far beyond the linear range
     t, info = m.self_weight(q, wrench=[F[0], F[1], 0, 0, 0, 0], return_info=True)
+    assert not info["fallback"]  # solved by the compiled Newton (vjm.robot.sagkernel)
     assert t[:2] == pytest.approx(tip(q[0] + theta, q[1]) - tip(*q), rel=1e-9)
     assert t[5] == pytest.approx(theta, rel=1e-9)
 
@@ -78,7 +79,8 @@ def test_large_sag_of_both_joints_matches_a_two_equation_solve():
     m = arm(k1, k2)
     Q = np.array([[0.1, 0.5], [-0.3, 1.2], [1.0, -0.8]])
     F = np.array([0.0, -80.0])
-    t = m.self_weight(Q, wrench=[0.0, -80.0, 0, 0, 0, 0])
+    t, info = m.self_weight(Q, wrench=[0.0, -80.0, 0, 0, 0, 0], return_info=True)
+    assert not np.any(info["fallback"])
     for q, tq in zip(Q, t):
         def res(th, q=q):
             return np.array([k1, k2]) * th + grad_potential(q[0] + th[0], q[1] + th[1], (0.0, -G), F)
@@ -93,7 +95,7 @@ def test_self_weight_that_does_not_converge_says_so():
     with pytest.raises(EquilibriumError, match="not found"):
         m.self_weight([0.0, 0.0], max_iter=1)
     t, info = m.self_weight(np.zeros((2, 2)), max_iter=1, strict=False, return_info=True)
-    assert np.all(np.isnan(t)) and not np.any(info["converged"])
+    assert np.all(np.isnan(t)) and not np.any(info["converged"]) and np.all(info["fallback"])
 
 
 def test_self_weight_needs_inertials_and_names_the_link():

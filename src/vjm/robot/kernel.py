@@ -137,8 +137,25 @@ def _inverse(C, K, rtol):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def stiffness_kernel(kinds, var, coef, T, vt, s1, c1, s6, c6, rtol, C, K, ok, pts, R):  # pragma: no cover
-    """Fill C, K (n, 6, 6), ok (n,) (K inverted here), tool points pts (n, 3) and orientations R (n, 3, 3).
+def _max_eig3(C, o):  # pragma: no cover - compiled
+    """Largest eigenvalue of the symmetric 3x3 block ``C[o:o+3, o:o+3]``: :func:`vjm.linalg.sym3_max_eig`'s
+    closed form (trigonometric)."""
+    q = (C[o, o] + C[o + 1, o + 1] + C[o + 2, o + 2]) / 3.0
+    a01, a02, a12 = C[o, o + 1], C[o, o + 2], C[o + 1, o + 2]
+    p1 = a01 * a01 + a02 * a02 + a12 * a12
+    b0, b1, b2 = C[o, o] - q, C[o + 1, o + 1] - q, C[o + 2, o + 2] - q
+    p = np.sqrt((b0 * b0 + b1 * b1 + b2 * b2 + 2.0 * p1) / 6.0)
+    if not p > 0.0:
+        return q
+    det = (b0 * (b1 * b2 - a12 * a12) - a01 * (a01 * b2 - a12 * a02) + a02 * (a01 * a12 - b1 * a02)) / p ** 3
+    r = min(max(det / 2.0, -1.0), 1.0)
+    return q + 2.0 * p * np.cos(np.arccos(r) / 3.0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def stiffness_kernel(kinds, var, coef, T, vt, s1, c1, s6, c6, rtol, C, K, ok, pts, R, ct, cr):  # pragma: no cover
+    """Fill C, K (n, 6, 6), ok (n,) (K inverted here), tool points pts (n, 3), orientations R (n, 3, 3) and
+    the largest eigenvalues ct, cr (n,) of C's translational and rotational blocks.
 
     vt (n_vars, n): variable values; s1 (m1,) the 1-dof springs' variables with compliances c1 (m1, n);
     s6 (m6, 6) the 6-dof springs' variables with compliances c6 (m6, 6, 6)."""
@@ -182,6 +199,8 @@ def stiffness_kernel(kinds, var, coef, T, vt, s1, c1, s6, c6, rtol, C, K, ok, pt
                 Ck[i, j] = h
                 Ck[j, i] = h
         ok[k] = _inverse(Ck, K[k], rtol)
+        ct[k] = _max_eig3(Ck, 0)
+        cr[k] = _max_eig3(Ck, 3)
         for i in range(3):
             pts[k, i] = F[i, 3]
             for j in range(3):

@@ -26,7 +26,7 @@ import numpy as np
 from ..chain import forward, jacobian
 from ..errors import VjmError, VjmWarning
 from ..kinematics import Kinematics
-from ..linalg import psd_rank_inverse, sym3_max_eig
+from ..linalg import psd_rank_inverse
 from ..links import LinkSpring
 from ..stiffness import StiffnessResult
 from ..transforms import rotation_vector
@@ -308,6 +308,23 @@ class RobotModel:
 
         b0 = a0 + len(qb)
         n = len(qb)
+        vt, s1, c1, s6, c6 = self.spring_arrays(ch, qb)
+        pts, K, C, kt, kr, rk, iv, rot = out
+        ok = np.empty(n, dtype=bool)
+        R = np.empty((n, 3, 3))
+        stiffness_kernel(*self._encoded(ch), vt, s1, c1, s6, c6, 1e-10,  # type: ignore[call-arg]
+                         C[a0:b0], K[a0:b0], ok, pts[a0:b0], R, kt[a0:b0], kr[a0:b0])
+        rk[a0:b0], iv[a0:b0] = 6, True
+        bad = np.flatnonzero(~ok)
+        if bad.size:
+            Kb, rb, ib = psd_rank_inverse(C[a0 + bad])
+            K[a0 + bad], rk[a0 + bad], iv[a0 + bad] = Kb, rb, ib
+        rot[a0:b0] = rotation_vector(R)
+
+    def spring_arrays(self, ch, qb: np.ndarray) -> tuple:
+        """The chain's values vt (n_vars, n) at configurations qb (n, nq) and its springs as the compiled
+        kernels take them: 1-dof variables s1 (m1,), compliances c1 (m1, n); 6-dof s6 (m6, 6), c6 (m6, 6, 6)."""
+        n = len(qb)
         vt = np.ascontiguousarray(chain_values(ch, self.tree, qb).T)
         kin = Kinematics(("robot", ch.name), (ch,), np.empty((n, 4, 4)), qb, (vt.T,))
         comp = self.compliances(kin)[0]
@@ -318,19 +335,7 @@ class RobotModel:
         c1 = np.array([c for _, c in one], dtype=float).reshape(len(one), n)
         s6 = np.array([v for v, _ in six], dtype=np.int64).reshape(len(six), 6)
         c6 = np.array([c for _, c in six], dtype=float).reshape(len(six), 6, 6)
-        pts, K, C, kt, kr, rk, iv, rot = out
-        ok = np.empty(n, dtype=bool)
-        R = np.empty((n, 3, 3))
-        stiffness_kernel(*self._encoded(ch), vt, s1, c1, s6, c6, 1e-10,  # type: ignore[call-arg]
-                         C[a0:b0], K[a0:b0], ok, pts[a0:b0], R)
-        rk[a0:b0], iv[a0:b0] = 6, True
-        bad = np.flatnonzero(~ok)
-        if bad.size:
-            Kb, rb, ib = psd_rank_inverse(C[a0 + bad])
-            K[a0 + bad], rk[a0 + bad], iv[a0 + bad] = Kb, rb, ib
-        kt[a0:b0] = sym3_max_eig(C[a0:b0, :3, :3])
-        kr[a0:b0] = sym3_max_eig(C[a0:b0, 3:, 3:])
-        rot[a0:b0] = rotation_vector(R)
+        return vt, s1, c1, s6, c6
 
     def _encoded(self, ch):
         """The chain's arrays for the kernel (:func:`vjm.robot.kernel.encode`), built once."""

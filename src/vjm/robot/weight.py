@@ -4,7 +4,11 @@ The links' weights (and a payload's) are dead loads ``m g`` at their centres of 
 springs deflect, the centres of mass move and the gravity torques change.  The equilibrium is
 the stationary point of ``1/2 sum theta^T K theta - sum m g . p_com(theta) - w . tool``, solved
 by :func:`vjm.nonlinear.deflection_map` -- the same Newton solver (exact Hessian, load steps on
-failure) as a parallel machine's, the weights entering as its body loads.  It converges when the
+failure) as a parallel machine's, the weights entering as its body loads.  Each configuration is
+first solved by the compiled Newton of those same equations on the chain's own variables
+(:mod:`vjm.robot.sagkernel`, :func:`fast_sag`); what it does not converge, and what it does not
+cover (a tool moment, a passive joint, a spring with a rigid direction), goes to ``deflection_map``
+(``info["fallback"]``).  It converges when the
 Newton step of the tool pose is below ``tol`` (default 1e-11) times its size; where it does not,
 an :class:`~vjm.errors.EquilibriumError` names the configurations (``strict=False``: NaN rows
 and ``info["converged"]`` False).
@@ -19,6 +23,8 @@ import numpy as np
 
 from ..chain import forward
 from ..errors import VjmError
+from ..nonlinear import MAX_ROT_STEP, ROUNDOFF
+from ..transforms import rotation_vector
 from .tree import ChainSprings, chain_values, path_chain
 
 
@@ -76,23 +82,89 @@ def body_loads(model, q: np.ndarray, tool: str, gravity, payload) -> list:
     return loads
 
 
+def _stiffness6(c6: np.ndarray):
+    """Stiffnesses (m6, 6, 6) of 6-dof springs of compliances c6, or None if one has a rigid direction
+    (the general solver's business: see :func:`vjm.nonlinear._spring_basis`)."""
+    d = np.sqrt(np.abs(np.einsum("mii->mi", c6)))
+    if np.any(d == 0.0):
+        return None
+    A = c6 / (d[:, :, None] * d[:, None, :])
+    A = 0.5 * (A + np.swapaxes(A, 1, 2))
+    ev = np.linalg.eigvalsh(A)
+    if np.any(ev[:, 0] <= 1e-10 * ev[:, -1]):
+        return None
+    K = np.linalg.inv(A) / (d[:, :, None] * d[:, None, :])
+    return 0.5 * (K + np.swapaxes(K, 1, 2))
+
+
+def fast_sag(model, a: np.ndarray, tool: str, g: np.ndarray, pl, W, tol: float, max_iter: int):
+    """The equilibrium of configurations a (n, nq) by the compiled Newton (:mod:`vjm.robot.sagkernel`):
+    twists (n, 6), Newton iterations (n,) and converged (n,); None where the kernel does not apply (a
+    passive joint, a tool moment, a spring with a rigid direction)."""
+    ch, _ = model.chain(tool)
+    n = len(a)
+    if ch.passive or W.shape != (n, 6) or np.any(W[:, 3:] != 0.0):
+        return None
+    vt, s1, c1, s6, c6 = model.spring_arrays(ch, a)
+    k6 = _stiffness6(c6) if len(c6) else np.zeros((0, 6, 6))
+    if k6 is None:
+        return None
+    from .sagkernel import sag_kernel
+
+    kinds, var, coef, T = model._encoded(ch)
+    loads = body_loads(model, a, tool, g, pl)
+    if np.any(W[:, :3] != 0.0):  # the tool force: a load at the chain's end
+        loads.append((len(kinds) - 1, np.zeros((n, 3)), W[:, :3]))
+    loads.sort(key=lambda x: x[0])
+    lidx = np.array([i for i, _, _ in loads], dtype=np.int64)
+    lpt = np.ascontiguousarray(np.array([np.broadcast_to(c, (n, 3)).T for _, c, _ in loads]).reshape(-1, 3, n))
+    lf = np.ascontiguousarray(np.array([np.broadcast_to(f, (n, 3)).T for _, _, f in loads]).reshape(-1, 3, n))
+    lref = sum(float(np.linalg.norm(f.T[:3, 3])) for f in ch.factors if f.kind == "const")
+    out = (np.empty((n, 3)), np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3, 3)), np.zeros(n, dtype=np.int64),
+           np.zeros(n, dtype=bool))
+    sag_kernel(kinds, var, coef, T, vt, s1, c1, s6, k6, lidx, lpt, lf, float(tol), int(max_iter),
+               MAX_ROT_STEP, ROUNDOFF * lref, ROUNDOFF, *out)
+    p0, R0, p, R, iters, ok = out
+    t = np.concatenate([p - p0, rotation_vector(R @ np.swapaxes(R0, 1, 2))], axis=1)
+    return t, iters, ok
+
+
 def self_weight(model, q, tool, gravity, payload, wrench, tol, max_iter, return_info, strict):
     """:meth:`vjm.robot.RobotModel.self_weight` (see the module docstring)."""
     from ..nonlinear import deflection_map
 
     check_inertials(model)
     tool = model._tool(tool)
-    kin = model.kinematics(q, tool)
+    a, single = model.check_q(q)
+    n = len(a)
     g = model.gravity if gravity is None else gravity
     g = np.asarray(g, dtype=float)
     if g.shape != (3,) or not np.all(np.isfinite(g)):
         raise VjmError(f"gravity must be 3 finite numbers (m/s^2, base frame), got {gravity!r}")
     pl = model.payload if payload is None else payload
-    loads = body_loads(model, kin.q, tool, g, pl)
     W = np.zeros(6) if wrench is None else wrench
-    t, info = deflection_map(model, kin, W, tol=tol, max_iter=max_iter, return_info=True, strict=strict,
-                             body_loads=[loads])
-    single = np.ndim(q) == 1
+    try:
+        Wn = np.array(np.broadcast_to(np.asarray(W, dtype=float), (n, 6)))
+    except (ValueError, TypeError):
+        Wn = np.full((n, 6), np.nan)  # the general solver names the fault
+    fast = fast_sag(model, a, tool, g, pl, Wn, tol, max_iter) if np.all(np.isfinite(Wn)) else None
+    t = np.full((n, 6), np.nan)
+    info = {"converged": np.zeros(n, bool), "iterations": np.zeros(n, int), "load_steps": np.ones(n, int),
+            "chain_wrench": Wn[:, None, :].copy(), "fallback": np.ones(n, bool)}
+    todo = np.arange(n)
+    if fast is not None:
+        tf, it, ok = fast
+        t[ok], info["iterations"][ok], info["converged"][ok], info["fallback"][ok] = tf[ok], it[ok], True, False
+        todo = np.flatnonzero(~ok)
+    if todo.size:  # the general solver: trees' other arms, rigid directions, load steps where Newton alone fails
+        kin = model.kinematics(a[todo], tool)
+        loads = body_loads(model, kin.q, tool, g, pl)
+        Wt = W if Wn.shape != (n, 6) or np.isnan(Wn).any() else Wn[todo]
+        tg, ig = deflection_map(model, kin, Wt, tol=tol, max_iter=max_iter, return_info=True, strict=strict,
+                                body_loads=[loads])
+        t[todo] = tg
+        for k in ("converged", "iterations", "load_steps", "chain_wrench"):
+            info[k][todo] = ig[k]
     if return_info:
         return (t[0], {k: v[0] for k, v in info.items() if k != "springs"}) if single else (t, info)
     return t[0] if single else t
