@@ -1,0 +1,343 @@
+"""Compiled (numba) stiffness of a parallel machine, pose by pose over a block: the map's fast path.
+
+The same arithmetic as the batched numpy path (:func:`vjm.stiffness.chain_stiffness_frames` and
+:func:`vjm.stiffness.assemble_soa`), one pose at a time in compiled loops, so that the small
+6x6 work stays in registers and cache instead of some hundred array operations per block:
+
+* per chain: the end frame and Jacobian in one pass over the factors
+  (:func:`vjm.ik_kernel._end_and_jacobian`, the shared helper), the wrench basis ``N`` of the
+  passive joints by Householder QR and its conditioning bound, ``M = sum_s Z_s C_s Z_s^T`` with
+  ``Z_s = N^T J_s``, its Cholesky inverse and relative pivot, ``K_i = N M^-1 N^T`` added to the
+  machine's K;
+* per machine: the Jacobi-scaled unpivoted LDL^T of K, its rank decision (every pivot above
+  ``rtol``), ``C = K^-1`` and the closed-form largest eigenvalues of its blocks (k_tran, k_rot).
+
+A pose where a chain's bound or pivot falls below ``FAST_RTOL``, or where K is not invertible,
+is flagged; the caller redoes it with the numpy path (rank-revealing bordered solve, SVD,
+pseudo-inverse), so both paths make the same rank and invertibility decisions.  ``cache=True``
+keeps the machine code on disk: the first process after an install compiles it (a few seconds),
+later ones load it; :mod:`vjm.stiffness` imports this module only for blocks of
+``KERNEL_FROM`` poses or more.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .ik_kernel import _end_and_jacobian
+
+
+#: poses computed side by side: every per-pose quantity is a vector of LANES values, so the
+#: short dependent sums of 6x6 algebra run as SIMD over poses instead of one latency chain
+LANES = 8
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _wrench_basis(A, k, N, R, Ri, beta, bound):  # pragma: no cover - compiled
+    """Orthonormal basis N (6-k, 6, LANES) of the complement of the rows A[:k] (overwritten), and
+    the lower bound ``1 / (||R^-1||_F ||R||_F)`` of sigma_min / sigma_max per lane (NaN or 0 for a
+    zero column), as vjm.stiffness._wrench_basis."""
+    m = 6 - k
+    nx = np.empty(LANES)
+    w = np.empty(LANES)
+    for j in range(k):
+        nx[:] = 0.0
+        for i in range(j, 6):
+            for q in range(LANES):
+                nx[q] += A[j, i, q] * A[j, i, q]
+        for q in range(LANES):
+            x = math.sqrt(nx[q])
+            v0 = A[j, j, q]
+            alpha = -x if v0 >= 0 else x
+            beta[j, q] = 1.0 / max(x * (x + abs(v0)), 1e-300)
+            A[j, j, q] = v0 - alpha
+            R[j, j, q] = alpha
+        for c in range(j + 1, k):
+            w[:] = 0.0
+            for i in range(j, 6):
+                for q in range(LANES):
+                    w[q] += A[c, i, q] * A[j, i, q]
+            for q in range(LANES):
+                w[q] *= beta[j, q]
+            for i in range(j, 6):
+                for q in range(LANES):
+                    A[c, i, q] -= w[q] * A[j, i, q]
+            for q in range(LANES):
+                R[j, c, q] = A[c, j, q]
+    for a in range(m):
+        for i in range(6):
+            for q in range(LANES):
+                N[a, i, q] = 1.0 if i == k + a else 0.0
+    for j in range(k - 1, -1, -1):
+        for a in range(m):
+            w[:] = 0.0
+            for i in range(j, 6):
+                for q in range(LANES):
+                    w[q] += N[a, i, q] * A[j, i, q]
+            for q in range(LANES):
+                w[q] *= beta[j, q]
+            for i in range(j, 6):
+                for q in range(LANES):
+                    N[a, i, q] -= w[q] * A[j, i, q]
+    if k == 0:
+        bound[:] = math.inf
+        return
+    for i in range(k - 1, -1, -1):
+        for q in range(LANES):
+            Ri[i, i, q] = 1.0 / R[i, i, q]
+        for j in range(i + 1, k):
+            w[:] = 0.0
+            for c in range(i + 1, j + 1):
+                for q in range(LANES):
+                    w[q] += R[i, c, q] * Ri[c, j, q]
+            for q in range(LANES):
+                Ri[i, j, q] = -w[q] * Ri[i, i, q]
+    nx[:] = 0.0
+    w[:] = 0.0
+    for i in range(k):
+        for j in range(i, k):
+            for q in range(LANES):
+                nx[q] += R[i, j, q] * R[i, j, q]
+                w[q] += Ri[i, j, q] * Ri[i, j, q]
+    for q in range(LANES):
+        bound[q] = 1.0 / math.sqrt(w[q] * nx[q])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _spd_inverse(M, m, Mi, L, piv):  # pragma: no cover - compiled
+    """Mi = M^-1 (m, m, LANES) by Cholesky, and the smallest relative pivot min_j d_j / M_jj per lane
+    (-1 where a diagonal entry is not positive), as vjm.linalg.spd_inverse."""
+    t = np.empty(LANES)
+    piv[:] = math.inf
+    for j in range(m):
+        for q in range(LANES):
+            t[q] = M[j, j, q]
+        for c in range(j):
+            for q in range(LANES):
+                t[q] -= L[j, c, q] * L[j, c, q]
+        for q in range(LANES):
+            mjj = M[j, j, q]
+            rel = t[q] / (mjj if mjj > 0 else 1.0)
+            piv[q] = min(piv[q], rel if mjj > 0 else -1.0)
+            L[j, j, q] = math.sqrt(t[q] if rel > 1e-300 else 1.0)
+        for i in range(j + 1, m):
+            for q in range(LANES):
+                t[q] = M[i, j, q]
+            for c in range(j):
+                for q in range(LANES):
+                    t[q] -= L[i, c, q] * L[j, c, q]
+            for q in range(LANES):
+                L[i, j, q] = t[q] / L[j, j, q]
+    # X = L^-1 into the upper triangle of Mi (Mi[j, i] holds X[i, j]), then Mi = X^T X
+    for i in range(m):
+        for q in range(LANES):
+            Mi[i, i, q] = 1.0 / L[i, i, q]
+        for j in range(i):
+            t[:] = 0.0
+            for c in range(j, i):
+                for q in range(LANES):
+                    t[q] += L[i, c, q] * Mi[j, c, q]
+            for q in range(LANES):
+                Mi[j, i, q] = -t[q] * Mi[i, i, q]
+    for i in range(m):
+        for j in range(i, m):
+            t[:] = 0.0
+            for c in range(j, m):
+                for q in range(LANES):
+                    t[q] += Mi[i, c, q] * Mi[j, c, q]
+            for q in range(LANES):
+                L[i, j, q] = t[q]
+    for i in range(m):
+        for j in range(i, m):
+            for q in range(LANES):
+                Mi[i, j, q] = L[i, j, q]
+                Mi[j, i, q] = L[i, j, q]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpose, perpose, fast_rtol,
+                K, flag, pend):  # pragma: no cover - compiled
+    """Add one chain's stiffness at every pose of a block to ``K`` (n, 6, 6).
+
+    ``values`` (n, n_vars); ``passive`` (k,) the passive variables; spring s spans the variables
+    ``svar[soff[s]:soff[s+1]]`` with its compliance at ``coff[s]`` (d*d values, row-major) in
+    ``cfix`` (constant) or, where ``perpose[s]``, in ``cpose[i]`` (n, ...).  ``flag[i]`` is set
+    where the fast closed form is not safe; ``pend`` (n, 3) receives the chain's end point.
+    Poses go LANES at a time; a short last group repeats its first pose (results not kept)."""
+    n, nv = values.shape
+    k = passive.shape[0]
+    m = 6 - k
+    nd = svar.shape[0]
+    nf = code.size
+    kk, mm = max(k, 1), max(m, 1)
+    F = np.empty((3, 4))
+    E = np.empty((nf, 3))
+    O = np.empty((nf, 3))
+    J = np.empty((nv, 6))
+    Jl = np.empty((max(nd, 1), 6, LANES))
+    A = np.empty((kk, 6, LANES))
+    R = np.zeros((kk, kk, LANES))
+    Ri = np.zeros((kk, kk, LANES))
+    beta = np.empty((6, LANES))
+    bound = np.empty(LANES)
+    piv = np.empty(LANES)
+    t = np.empty(LANES)
+    N = np.empty((mm, 6, LANES))
+    Z = np.empty((mm, max(nd, 1), LANES))
+    Y = np.empty((mm, 6, LANES))
+    M = np.empty((mm, mm, LANES))
+    Mi = np.empty((mm, mm, LANES))
+    L = np.empty((mm, mm, LANES))
+    W = np.empty((mm, 6, LANES))
+    # every spring's compliance in one buffer: the constant ones once, the per-pose ones per lane
+    nfix, npose = cfix.shape[0], cpose.shape[1]
+    cb = np.empty((nfix + npose, LANES))
+    for c in range(nfix):
+        cb[c, :] = cfix[c]
+    off = np.empty(soff.shape[0] - 1, dtype=np.int64)
+    for s in range(off.shape[0]):
+        off[s] = coff[s] + (nfix if perpose[s] else 0)
+    for p0 in range(0, n, LANES):
+        nl = min(LANES, n - p0)
+        for q in range(LANES):
+            p = p0 + q if q < nl else p0
+            _end_and_jacobian(code, var, coef, T, values[p], F, E, O, J)
+            if q < nl:
+                for i in range(3):
+                    pend[p, i] = F[i, 3]
+            for j in range(k):
+                for i in range(6):
+                    A[j, i, q] = J[passive[j], i]
+            for c in range(nd):
+                for i in range(6):
+                    Jl[c, i, q] = J[svar[c], i]
+            for c in range(npose):
+                cb[nfix + c, q] = cpose[p, c]
+        _wrench_basis(A, k, N, R, Ri, beta, bound)
+        for a in range(m):                    # Z = N^T J_s
+            for c in range(nd):
+                t[:] = 0.0
+                for i in range(6):
+                    for q in range(LANES):
+                        t[q] += N[a, i, q] * Jl[c, i, q]
+                for q in range(LANES):
+                    Z[a, c, q] = t[q]
+        M[:m, :m, :] = 0.0
+        for s in range(off.shape[0]):
+            o, d, co = soff[s], soff[s + 1] - soff[s], off[s]
+            for a in range(m):                # Y = Z_s C_s, then M += Y Z_s^T
+                for e in range(d):
+                    t[:] = 0.0
+                    for c in range(d):
+                        for q in range(LANES):
+                            t[q] += Z[a, o + c, q] * cb[co + c * d + e, q]
+                    for q in range(LANES):
+                        Y[a, e, q] = t[q]
+            for a in range(m):
+                for b in range(m):
+                    t[:] = 0.0
+                    for e in range(d):
+                        for q in range(LANES):
+                            t[q] += Y[a, e, q] * Z[b, o + e, q]
+                    for q in range(LANES):
+                        M[a, b, q] += t[q]
+        if m:
+            _spd_inverse(M, m, Mi, L, piv)
+        else:
+            piv[:] = 1.0
+        for q in range(nl):
+            if not (bound[q] > fast_rtol and piv[q] > fast_rtol):
+                flag[p0 + q] = True
+        for b in range(m):                    # W = M^-1 N
+            for i in range(6):
+                t[:] = 0.0
+                for a in range(m):
+                    for q in range(LANES):
+                        t[q] += Mi[b, a, q] * N[a, i, q]
+                for q in range(LANES):
+                    W[b, i, q] = t[q]
+        for i in range(6):                    # K += (W^T N + N^T W) / 2
+            for j in range(i, 6):
+                t[:] = 0.0
+                for b in range(m):
+                    for q in range(LANES):
+                        t[q] += W[b, i, q] * N[b, j, q] + W[b, j, q] * N[b, i, q]
+                for q in range(nl):
+                    h = 0.5 * t[q]
+                    K[p0 + q, i, j] += h
+                    if j != i:
+                        K[p0 + q, j, i] += h
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _sym3_max_eig(C, o):  # pragma: no cover - compiled
+    """Largest eigenvalue of the symmetric part of C[o:o+3, o:o+3], closed form (vjm.linalg.sym3_max_eig)."""
+    a00, a11, a22 = C[o, o], C[o + 1, o + 1], C[o + 2, o + 2]
+    a01 = 0.5 * (C[o, o + 1] + C[o + 1, o])
+    a02 = 0.5 * (C[o, o + 2] + C[o + 2, o])
+    a12 = 0.5 * (C[o + 1, o + 2] + C[o + 2, o + 1])
+    q = (a00 + a11 + a22) / 3.0
+    p1 = a01 ** 2 + a02 ** 2 + a12 ** 2
+    b00, b11, b22 = a00 - q, a11 - q, a22 - q
+    p2 = b00 ** 2 + b11 ** 2 + b22 ** 2 + 2.0 * p1
+    p = math.sqrt(p2 / 6.0)
+    if not p > 0:
+        return q
+    det = (b00 * (b11 * b22 - a12 ** 2) - a01 * (a01 * b22 - a12 * a02) + a02 * (a01 * a12 - b11 * a02)) / p ** 3
+    r = min(max(det / 2.0, -1.0), 1.0)
+    return q + 2.0 * p * math.cos(math.acos(r) / 3.0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def assemble_block(K, rtol, C, rank, inv, kt, kr):  # pragma: no cover - compiled
+    """C = K^-1 (n, 6, 6), rank, invertible, k_tran, k_rot per pose, as vjm.stiffness.assemble_soa where
+    K is invertible; elsewhere rank counts the LDL^T pivots above ``rtol`` and the caller redoes C."""
+    L = np.empty((6, 6))
+    X = np.empty((6, 6))
+    D = np.empty(6)
+    di = np.empty(6)
+    LD = np.empty(6)
+    for p in range(K.shape[0]):
+        Kp, Cp = K[p], C[p]
+        for i in range(6):
+            d = math.sqrt(max(Kp[i, i], 0.0))
+            di[i] = 1.0 / (d if d > 0 else 1.0)
+        r = 0
+        for j in range(6):
+            dj = Kp[j, j] * di[j] * di[j]
+            for l in range(j):
+                LD[l] = L[j, l] * D[l]
+                dj -= L[j, l] * LD[l]
+            D[j] = dj
+            good = dj > rtol
+            r += good
+            for i in range(j + 1, 6):
+                t = (Kp[i, j] + Kp[j, i]) * (0.5 * di[j] * di[i])
+                for l in range(j):
+                    t -= L[i, l] * LD[l]
+                L[i, j] = t / dj if good else 0.0
+        rank[p] = r
+        inv[p] = r == 6
+        if r < 6:
+            kt[p] = math.inf
+            kr[p] = math.inf
+            continue
+        for i in range(6):                    # X = L^-1, unit lower
+            X[i, i] = 1.0
+            for j in range(i):
+                t = 0.0
+                for l in range(j, i):
+                    t += L[i, l] * X[l, j]
+                X[i, j] = -t
+        for i in range(6):                    # C = X^T D^-1 X, scaled back
+            for j in range(i, 6):
+                t = 0.0
+                for l in range(j, 6):
+                    t += X[l, i] * X[l, j] / D[l]
+                t *= di[i] * di[j]
+                Cp[i, j] = t
+                Cp[j, i] = t
+        kt[p] = _sym3_max_eig(Cp, 0)
+        kr[p] = _sym3_max_eig(Cp, 3)
