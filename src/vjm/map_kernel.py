@@ -158,13 +158,14 @@ def _spd_inverse(M, m, Mi, L, piv):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpose, perpose, fast_rtol,
-                K, flag, pend):  # pragma: no cover - compiled
+                pts, K, flag):  # pragma: no cover - compiled
     """Add one chain's stiffness at every pose of a block to ``K`` (n, 6, 6).
 
     ``values`` (n, n_vars); ``passive`` (k,) the passive variables; spring s spans the variables
     ``svar[soff[s]:soff[s+1]]`` with its compliance at ``coff[s]`` (d*d values, row-major) in
     ``cfix`` (constant) or, where ``perpose[s]``, in ``cpose[i]`` (n, ...).  ``flag[i]`` is set
-    where the fast closed form is not safe; ``pend`` (n, 3) receives the chain's end point.
+    where the fast closed form is not safe.  Returns the largest distance (any coordinate) of the
+    chain's end point from the pose's point ``pts`` (n, 3) (NaN if one is NaN), mm.
     Poses go LANES at a time; a short last group repeats its first pose (results not kept)."""
     n, nv = values.shape
     k = passive.shape[0]
@@ -199,6 +200,7 @@ def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpo
     off = np.empty(soff.shape[0] - 1, dtype=np.int64)
     for s in range(off.shape[0]):
         off[s] = coff[s] + (nfix if perpose[s] else 0)
+    gap = 0.0
     for p0 in range(0, n, LANES):
         nl = min(LANES, n - p0)
         for q in range(LANES):
@@ -206,7 +208,8 @@ def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpo
             _end_and_jacobian(code, var, coef, T, values[p], F, E, O, J)
             if q < nl:
                 for i in range(3):
-                    pend[p, i] = F[i, 3]
+                    e = abs(F[i, 3] - pts[p, i])
+                    gap = e if (e > gap or math.isnan(e)) and not math.isnan(gap) else gap
             for j in range(k):
                 for i in range(6):
                     A[j, i, q] = J[passive[j], i]
@@ -269,6 +272,7 @@ def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpo
                     K[p0 + q, i, j] += h
                     if j != i:
                         K[p0 + q, j, i] += h
+    return gap
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

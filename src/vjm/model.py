@@ -351,7 +351,10 @@ class Model:
         return self.arch.compliances(self, kin.points, list(kin.values), kin.q)
 
     def _closed(self, kin: Kinematics, k: int, p_end: np.ndarray, tol: float) -> None:
-        err = np.max(np.abs(p_end - kin.points), initial=0.0)
+        self._gap(kin, k, np.max(np.abs(p_end - kin.points), initial=0.0), tol)
+
+    @staticmethod
+    def _gap(kin: Kinematics, k: int, err: float, tol: float) -> None:
         if err > tol:
             raise VjmError(f"internal: chain {kin.chains[k].name} does not close on the pose (error {err:.3g} mm)")
 
@@ -438,10 +441,8 @@ class Model:
         b = a + kin.n
         K, C, kt, kr, rank, inv, chain_rank = out
         if spread is None and use_kernel(kin.n, kernel):
-            res = machine_block_compiled(kin.chains, kin.values, self.compliances(kin),
-                                         lambda k, pe: self._closed(kin, k, pe, tol))
-            for o, r in zip(out, res):
-                o[a:b] = r
+            machine_block_compiled(kin.chains, kin.values, self.compliances(kin), kin.points,
+                                   tuple(o[a:b] for o in out), lambda k, gap: self._gap(kin, k, gap, tol))
             return
         Ksum, ranks = self._block_stiffness(kin, tol)
         for k, r in enumerate(ranks):

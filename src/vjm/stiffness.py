@@ -504,26 +504,27 @@ def _packed_springs(chain: Chain, compliances: dict, n: int):
             np.concatenate(pose, axis=1) if pose else np.zeros((n, 0)), np.array(perpose, dtype=np.bool_))
 
 
-def machine_block_compiled(chains, values, compliances, closed):
-    """The machine stiffness of a block of poses by the compiled kernels, with the numpy path's
-    decisions: K, C (n, 6, 6), k_tran, k_rot, rank, invertible (n,), chain ranks (n, n_chains).
+def machine_block_compiled(chains, values, compliances, points, out, closed) -> None:
+    """The machine stiffness at a block of poses by the compiled kernels, with the numpy path's
+    decisions, written into ``out`` = (K, C (n, 6, 6), k_tran, k_rot, rank, invertible (n,),
+    chain ranks (n, n_chains)).
 
-    ``values`` per chain (n, n_vars), ``compliances`` per chain as :func:`chain_stiffness`;
-    ``closed(k, p_end)`` checks chain k's end points (n, 3).  Poses a chain's fast closed form
-    flags are redone by :func:`chain_stiffness_frames` (bordered solve near rank loss), poses
-    whose K is not invertible by :func:`vjm.linalg.psd_rank_inverse` (pseudo-inverse, rank).
+    ``values`` per chain (n, n_vars), ``compliances`` per chain as :func:`chain_stiffness`,
+    ``points`` (n, 3) the poses' points; ``closed(k, gap)`` checks chain k's largest closure gap
+    (mm).  Poses a chain's fast closed form flags are redone by :func:`chain_stiffness_frames`
+    (bordered solve near rank loss), poses whose K is not invertible by
+    :func:`vjm.linalg.psd_rank_inverse` (pseudo-inverse, rank).
     """
     kern = _map_kernel()
-    n = values[0].shape[0]
-    K = np.zeros((n, 6, 6))
+    K, C, kt, kr, rank, inv, chain_rank = out
+    n = K.shape[0]
+    K[:] = 0.0
     flag = np.zeros(n, dtype=np.bool_)
-    pend = np.empty((n, 3))
-    chain_rank = np.empty((n, len(chains)), dtype=int)
+    pts = np.ascontiguousarray(points, dtype=float)
     for k, (ch, v, c) in enumerate(zip(chains, values, compliances)):
         (code, var, coef, T), passive = _encoded(ch)
-        kern.chain_block(code, var, coef, T, np.ascontiguousarray(v, dtype=float), passive,
-                         *_packed_springs(ch, c, n), FAST_RTOL, K, flag, pend)
-        closed(k, pend)
+        closed(k, kern.chain_block(code, var, coef, T, np.ascontiguousarray(v, dtype=float), passive,
+                                   *_packed_springs(ch, c, n), FAST_RTOL, pts, K, flag))
         chain_rank[:, k] = len(passive)
     bad = np.flatnonzero(flag)
     if bad.size:
@@ -533,11 +534,8 @@ def machine_block_compiled(chains, values, compliances, closed):
             Kc, chain_rank[bad, k], _ = chain_stiffness_frames(ch, np.ascontiguousarray(v[bad].T), cb)
             Kb = Kb + Kc
         K[bad] = np.transpose(Kb, (2, 0, 1))
-    C = np.zeros((n, 6, 6))
-    kt, kr = np.empty(n), np.empty(n)
-    rank, inv = np.empty(n, dtype=int), np.empty(n, dtype=np.bool_)
+    # psd_rank_inverse_soa's threshold: the same invertibility decision
     kern.assemble_block(K, 1e-10, C, rank, inv, kt, kr)
     sing = np.flatnonzero(~inv)
     if sing.size:
         C[sing], rank[sing], _ = psd_rank_inverse(K[sing])
-    return K, C, kt, kr, rank, inv, chain_rank
