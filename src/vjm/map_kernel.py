@@ -276,12 +276,8 @@ def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpo
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _sym3_max_eig(C, o):  # pragma: no cover - compiled
-    """Largest eigenvalue of the symmetric part of C[o:o+3, o:o+3], closed form (vjm.linalg.sym3_max_eig)."""
-    a00, a11, a22 = C[o, o], C[o + 1, o + 1], C[o + 2, o + 2]
-    a01 = 0.5 * (C[o, o + 1] + C[o + 1, o])
-    a02 = 0.5 * (C[o, o + 2] + C[o + 2, o])
-    a12 = 0.5 * (C[o + 1, o + 2] + C[o + 2, o + 1])
+def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
+    """Largest eigenvalue of a symmetric 3x3 matrix, closed form (vjm.linalg.sym3_max_eig_soa)."""
     q = (a00 + a11 + a22) / 3.0
     p1 = a01 ** 2 + a02 ** 2 + a12 ** 2
     b00, b11, b22 = a00 - q, a11 - q, a22 - q
@@ -297,51 +293,80 @@ def _sym3_max_eig(C, o):  # pragma: no cover - compiled
 @njit(cache=True, nogil=True, error_model="numpy")
 def assemble_block(K, rtol, C, rank, inv, kt, kr):  # pragma: no cover - compiled
     """C = K^-1 (n, 6, 6), rank, invertible, k_tran, k_rot per pose, as vjm.stiffness.assemble_soa where
-    K is invertible; elsewhere rank counts the LDL^T pivots above ``rtol`` and the caller redoes C."""
-    L = np.empty((6, 6))
-    X = np.empty((6, 6))
-    D = np.empty(6)
-    di = np.empty(6)
-    LD = np.empty(6)
-    for p in range(K.shape[0]):
-        Kp, Cp = K[p], C[p]
+    K is invertible; elsewhere rank counts the LDL^T pivots above ``rtol`` and the caller redoes C.
+    Poses go LANES at a time (a short last group repeats its first pose)."""
+    L = np.zeros((6, 6, LANES))
+    X = np.zeros((6, 6, LANES))
+    Cl = np.empty((6, 6, LANES))
+    D = np.empty((6, LANES))
+    Dinv = np.empty((6, LANES))
+    di = np.empty((6, LANES))
+    LD = np.empty((6, LANES))
+    Kl = np.empty((6, 6, LANES))
+    t = np.empty(LANES)
+    r = np.empty(LANES, dtype=np.int64)
+    n = K.shape[0]
+    for p0 in range(0, n, LANES):
+        nl = min(LANES, n - p0)
+        for q in range(LANES):
+            p = p0 + q if q < nl else p0
+            for i in range(6):
+                for j in range(6):
+                    Kl[i, j, q] = K[p, i, j]
         for i in range(6):
-            d = math.sqrt(max(Kp[i, i], 0.0))
-            di[i] = 1.0 / (d if d > 0 else 1.0)
-        r = 0
+            for q in range(LANES):
+                d = math.sqrt(max(Kl[i, i, q], 0.0))
+                di[i, q] = 1.0 / (d if d > 0 else 1.0)
+        r[:] = 0
         for j in range(6):
-            dj = Kp[j, j] * di[j] * di[j]
-            for l in range(j):
-                LD[l] = L[j, l] * D[l]
-                dj -= L[j, l] * LD[l]
-            D[j] = dj
-            good = dj > rtol
-            r += good
+            for q in range(LANES):
+                t[q] = Kl[j, j, q] * di[j, q] * di[j, q]
+            for c in range(j):
+                for q in range(LANES):
+                    LD[c, q] = L[j, c, q] * D[c, q]
+                    t[q] -= L[j, c, q] * LD[c, q]
+            for q in range(LANES):
+                D[j, q] = t[q]
+                good = t[q] > rtol
+                r[q] += good
+                Dinv[j, q] = 1.0 / t[q] if good else 0.0
             for i in range(j + 1, 6):
-                t = (Kp[i, j] + Kp[j, i]) * (0.5 * di[j] * di[i])
-                for l in range(j):
-                    t -= L[i, l] * LD[l]
-                L[i, j] = t / dj if good else 0.0
-        rank[p] = r
-        inv[p] = r == 6
-        if r < 6:
-            kt[p] = math.inf
-            kr[p] = math.inf
-            continue
+                for q in range(LANES):
+                    t[q] = (Kl[i, j, q] + Kl[j, i, q]) * (0.5 * di[j, q] * di[i, q])
+                for c in range(j):
+                    for q in range(LANES):
+                        t[q] -= L[i, c, q] * LD[c, q]
+                for q in range(LANES):
+                    L[i, j, q] = t[q] * Dinv[j, q]
         for i in range(6):                    # X = L^-1, unit lower
-            X[i, i] = 1.0
+            for q in range(LANES):
+                X[i, i, q] = 1.0
             for j in range(i):
-                t = 0.0
-                for l in range(j, i):
-                    t += L[i, l] * X[l, j]
-                X[i, j] = -t
+                t[:] = 0.0
+                for c in range(j, i):
+                    for q in range(LANES):
+                        t[q] += L[i, c, q] * X[c, j, q]
+                for q in range(LANES):
+                    X[i, j, q] = -t[q]
         for i in range(6):                    # C = X^T D^-1 X, scaled back
             for j in range(i, 6):
-                t = 0.0
-                for l in range(j, 6):
-                    t += X[l, i] * X[l, j] / D[l]
-                t *= di[i] * di[j]
-                Cp[i, j] = t
-                Cp[j, i] = t
-        kt[p] = _sym3_max_eig(Cp, 0)
-        kr[p] = _sym3_max_eig(Cp, 3)
+                t[:] = 0.0
+                for c in range(j, 6):
+                    for q in range(LANES):
+                        t[q] += X[c, i, q] * X[c, j, q] * Dinv[c, q]
+                for q in range(LANES):
+                    Cl[i, j, q] = t[q] * di[i, q] * di[j, q]
+        for q in range(nl):
+            p = p0 + q
+            rank[p] = r[q]
+            inv[p] = r[q] == 6
+            if r[q] < 6:
+                kt[p] = math.inf
+                kr[p] = math.inf
+                continue
+            for i in range(6):
+                for j in range(i, 6):
+                    C[p, i, j] = Cl[i, j, q]
+                    C[p, j, i] = Cl[i, j, q]
+            kt[p] = _sym3_max_eig(Cl[0, 0, q], Cl[1, 1, q], Cl[2, 2, q], Cl[0, 1, q], Cl[0, 2, q], Cl[1, 2, q])
+            kr[p] = _sym3_max_eig(Cl[3, 3, q], Cl[4, 4, q], Cl[5, 5, q], Cl[3, 4, q], Cl[3, 5, q], Cl[4, 5, q])
