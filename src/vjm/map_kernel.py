@@ -28,20 +28,16 @@ from numba import njit
 
 from .ik_kernel import _end_and_jacobian
 
-
 #: poses computed side by side: every per-pose quantity is a vector of LANES values, so the
 #: short dependent sums of 6x6 algebra run as SIMD over poses instead of one latency chain
 LANES = 8
 
+JIT = dict(cache=True, nogil=True, error_model="numpy")
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _wrench_basis(A, k, N, R, Ri, beta, bound):  # pragma: no cover - compiled
-    """Orthonormal basis N (6-k, 6, LANES) of the complement of the rows A[:k] (overwritten), and
-    the lower bound ``1 / (||R^-1||_F ||R||_F)`` of sigma_min / sigma_max per lane (NaN or 0 for a
-    zero column), as vjm.stiffness._wrench_basis."""
-    m = 6 - k
-    nx = np.empty(LANES)
-    w = np.empty(LANES)
+
+@njit(**JIT)
+def _householder(A, k, R, beta, nx, w):  # pragma: no cover - compiled
+    """Householder QR of the rows A[:k] (6 long, LANES): the vectors in place of A, R (k, k)."""
     for j in range(k):
         nx[:] = 0.0
         for i in range(j, 6):
@@ -51,40 +47,46 @@ def _wrench_basis(A, k, N, R, Ri, beta, bound):  # pragma: no cover - compiled
             x = math.sqrt(nx[q])
             v0 = A[j, j, q]
             alpha = -x if v0 >= 0 else x
+            # beta = 2 / |v|^2; a zero column gives v = 0, so a huge beta is harmless
             beta[j, q] = 1.0 / max(x * (x + abs(v0)), 1e-300)
             A[j, j, q] = v0 - alpha
             R[j, j, q] = alpha
         for c in range(j + 1, k):
-            w[:] = 0.0
-            for i in range(j, 6):
-                for q in range(LANES):
-                    w[q] += A[c, i, q] * A[j, i, q]
-            for q in range(LANES):
-                w[q] *= beta[j, q]
-            for i in range(j, 6):
-                for q in range(LANES):
-                    A[c, i, q] -= w[q] * A[j, i, q]
+            _reflect(A, c, A, j, beta, w)
             for q in range(LANES):
                 R[j, c, q] = A[c, j, q]
-    for a in range(m):
+
+
+@njit(**JIT)
+def _reflect(X, a, V, j, beta, w):  # pragma: no cover - compiled
+    """Row a of X (6, LANES) times the reflection of vector j of V (entries j..5)."""
+    w[:] = 0.0
+    for i in range(j, 6):
+        for q in range(LANES):
+            w[q] += X[a, i, q] * V[j, i, q]
+    for q in range(LANES):
+        w[q] *= beta[j, q]
+    for i in range(j, 6):
+        for q in range(LANES):
+            X[a, i, q] -= w[q] * V[j, i, q]
+
+
+@njit(**JIT)
+def _wrench_basis(A, k, N, R, Ri, beta, bound, nx, w):  # pragma: no cover - compiled
+    """Orthonormal basis N (6-k, 6, LANES) of the complement of the rows A[:k] (overwritten), and
+    the lower bound ``1 / (||R^-1||_F ||R||_F)`` of sigma_min / sigma_max per lane (NaN or 0 for a
+    zero column), as vjm.stiffness._wrench_basis."""
+    _householder(A, k, R, beta, nx, w)
+    for a in range(6 - k):                    # N = H_0 ... H_{k-1} [0; I]
         for i in range(6):
             for q in range(LANES):
                 N[a, i, q] = 1.0 if i == k + a else 0.0
-    for j in range(k - 1, -1, -1):
-        for a in range(m):
-            w[:] = 0.0
-            for i in range(j, 6):
-                for q in range(LANES):
-                    w[q] += N[a, i, q] * A[j, i, q]
-            for q in range(LANES):
-                w[q] *= beta[j, q]
-            for i in range(j, 6):
-                for q in range(LANES):
-                    N[a, i, q] -= w[q] * A[j, i, q]
+        for j in range(k - 1, -1, -1):
+            _reflect(N, a, A, j, beta, w)
     if k == 0:
         bound[:] = math.inf
         return
-    for i in range(k - 1, -1, -1):
+    for i in range(k - 1, -1, -1):            # R^-1, back substitution
         for q in range(LANES):
             Ri[i, i, q] = 1.0 / R[i, i, q]
         for j in range(i + 1, k):
@@ -105,11 +107,10 @@ def _wrench_basis(A, k, N, R, Ri, beta, bound):  # pragma: no cover - compiled
         bound[q] = 1.0 / math.sqrt(w[q] * nx[q])
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _spd_inverse(M, m, Mi, L, piv):  # pragma: no cover - compiled
-    """Mi = M^-1 (m, m, LANES) by Cholesky, and the smallest relative pivot min_j d_j / M_jj per lane
-    (-1 where a diagonal entry is not positive), as vjm.linalg.spd_inverse."""
-    t = np.empty(LANES)
+@njit(**JIT)
+def _cholesky(M, m, L, piv, t):  # pragma: no cover - compiled
+    """Lower Cholesky factor L of M (m, m, LANES) and the smallest relative pivot min_j d_j / M_jj
+    per lane (-1 where a diagonal entry is not positive), as vjm.linalg.spd_inverse."""
     piv[:] = math.inf
     for j in range(m):
         for q in range(LANES):
@@ -130,7 +131,13 @@ def _spd_inverse(M, m, Mi, L, piv):  # pragma: no cover - compiled
                     t[q] -= L[i, c, q] * L[j, c, q]
             for q in range(LANES):
                 L[i, j, q] = t[q] / L[j, j, q]
-    # X = L^-1 into the upper triangle of Mi (Mi[j, i] holds X[i, j]), then Mi = X^T X
+
+
+@njit(**JIT)
+def _spd_inverse(M, m, Mi, L, piv, t):  # pragma: no cover - compiled
+    """Mi = M^-1 (m, m, LANES) by Cholesky, and its relative pivot (:func:`_cholesky`)."""
+    _cholesky(M, m, L, piv, t)
+    # X = L^-1 into the upper triangle of Mi (Mi[j, i] holds X[i, j]), then M^-1 = X^T X
     for i in range(m):
         for q in range(LANES):
             Mi[i, i, q] = 1.0 / L[i, i, q]
@@ -156,7 +163,88 @@ def _spd_inverse(M, m, Mi, L, piv):  # pragma: no cover - compiled
                 Mi[j, i, q] = L[i, j, q]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**JIT)
+def _gather(code, var, coef, T, values, passive, svar, cpose, nfix, pts, p0, nl, F, E, O, J, A, Jl,
+            cb):  # pragma: no cover - compiled
+    """Jacobians of poses p0 .. p0 + nl - 1 (a short group repeats pose p0) into the lanes: passive
+    rows A, spring rows Jl, per-pose compliances cb[nfix:]; returns the largest closure gap (mm,
+    NaN if one is NaN)."""
+    gap = 0.0
+    for q in range(LANES):
+        p = p0 + q if q < nl else p0
+        _end_and_jacobian(code, var, coef, T, values[p], F, E, O, J)
+        if q < nl:
+            for i in range(3):
+                e = abs(F[i, 3] - pts[p, i])
+                gap = e if (e > gap or math.isnan(e)) and not math.isnan(gap) else gap
+        for j in range(passive.shape[0]):
+            for i in range(6):
+                A[j, i, q] = J[passive[j], i]
+        for c in range(svar.shape[0]):
+            for i in range(6):
+                Jl[c, i, q] = J[svar[c], i]
+        for c in range(cpose.shape[1]):
+            cb[nfix + c, q] = cpose[p, c]
+    return gap
+
+
+@njit(**JIT)
+def _spring_sum(N, m, Jl, nd, soff, off, cb, Z, Y, M, t):  # pragma: no cover - compiled
+    """M = sum_s Z_s C_s Z_s^T (m, m, LANES) with Z = N^T J_s (vjm.stiffness._reduced_stiffness)."""
+    for a in range(m):
+        for c in range(nd):
+            t[:] = 0.0
+            for i in range(6):
+                for q in range(LANES):
+                    t[q] += N[a, i, q] * Jl[c, i, q]
+            for q in range(LANES):
+                Z[a, c, q] = t[q]
+    M[:m, :m, :] = 0.0
+    for s in range(off.shape[0]):
+        o, d, co = soff[s], soff[s + 1] - soff[s], off[s]
+        for a in range(m):                    # Y = Z_s C_s
+            for e in range(d):
+                t[:] = 0.0
+                for c in range(d):
+                    for q in range(LANES):
+                        t[q] += Z[a, o + c, q] * cb[co + c * d + e, q]
+                for q in range(LANES):
+                    Y[a, e, q] = t[q]
+        for a in range(m):                    # M += Y Z_s^T
+            for b in range(m):
+                t[:] = 0.0
+                for e in range(d):
+                    for q in range(LANES):
+                        t[q] += Y[a, e, q] * Z[b, o + e, q]
+                for q in range(LANES):
+                    M[a, b, q] += t[q]
+
+
+@njit(**JIT)
+def _add_projected(Mi, N, m, K, p0, nl, W, t):  # pragma: no cover - compiled
+    """K[p0 + q] += N^T M^-1 N (symmetrised) for the lanes q < nl."""
+    for b in range(m):                        # W = M^-1 N
+        for i in range(6):
+            t[:] = 0.0
+            for a in range(m):
+                for q in range(LANES):
+                    t[q] += Mi[b, a, q] * N[a, i, q]
+            for q in range(LANES):
+                W[b, i, q] = t[q]
+    for i in range(6):
+        for j in range(i, 6):
+            t[:] = 0.0
+            for b in range(m):
+                for q in range(LANES):
+                    t[q] += W[b, i, q] * N[b, j, q] + W[b, j, q] * N[b, i, q]
+            for q in range(nl):
+                h = 0.5 * t[q]
+                K[p0 + q, i, j] += h
+                if j != i:
+                    K[p0 + q, j, i] += h
+
+
+@njit(**JIT)
 def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpose, perpose, fast_rtol,
                 pts, K, flag):  # pragma: no cover - compiled
     """Add one chain's stiffness at every pose of a block to ``K`` (n, 6, 6).
@@ -168,33 +256,20 @@ def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpo
     chain's end point from the pose's point ``pts`` (n, 3) (NaN if one is NaN), mm.
     Poses go LANES at a time; a short last group repeats its first pose (results not kept)."""
     n, nv = values.shape
-    k = passive.shape[0]
+    k, nd, nf = passive.shape[0], svar.shape[0], code.size
     m = 6 - k
-    nd = svar.shape[0]
-    nf = code.size
     kk, mm = max(k, 1), max(m, 1)
-    F = np.empty((3, 4))
-    E = np.empty((nf, 3))
-    O = np.empty((nf, 3))
-    J = np.empty((nv, 6))
-    Jl = np.empty((max(nd, 1), 6, LANES))
-    A = np.empty((kk, 6, LANES))
-    R = np.zeros((kk, kk, LANES))
-    Ri = np.zeros((kk, kk, LANES))
-    beta = np.empty((6, LANES))
-    bound = np.empty(LANES)
-    piv = np.empty(LANES)
-    t = np.empty(LANES)
-    N = np.empty((mm, 6, LANES))
-    Z = np.empty((mm, max(nd, 1), LANES))
-    Y = np.empty((mm, 6, LANES))
-    M = np.empty((mm, mm, LANES))
-    Mi = np.empty((mm, mm, LANES))
-    L = np.empty((mm, mm, LANES))
-    W = np.empty((mm, 6, LANES))
+    F, E, O, J = np.empty((3, 4)), np.empty((nf, 3)), np.empty((nf, 3)), np.empty((nv, 6))
+    Jl, A = np.empty((max(nd, 1), 6, LANES)), np.empty((kk, 6, LANES))
+    R, Ri = np.zeros((kk, kk, LANES)), np.zeros((kk, kk, LANES))
+    beta, bound, piv = np.empty((6, LANES)), np.empty(LANES), np.empty(LANES)
+    t, w = np.empty(LANES), np.empty(LANES)
+    N, Z, Y = np.empty((mm, 6, LANES)), np.empty((mm, max(nd, 1), LANES)), np.empty((mm, 6, LANES))
+    M, Mi, L, W = (np.empty((mm, mm, LANES)), np.empty((mm, mm, LANES)), np.empty((mm, mm, LANES)),
+                   np.empty((mm, 6, LANES)))
     # every spring's compliance in one buffer: the constant ones once, the per-pose ones per lane
-    nfix, npose = cfix.shape[0], cpose.shape[1]
-    cb = np.empty((nfix + npose, LANES))
+    nfix = cfix.shape[0]
+    cb = np.empty((nfix + cpose.shape[1], LANES))
     for c in range(nfix):
         cb[c, :] = cfix[c]
     off = np.empty(soff.shape[0] - 1, dtype=np.int64)
@@ -203,79 +278,22 @@ def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpo
     gap = 0.0
     for p0 in range(0, n, LANES):
         nl = min(LANES, n - p0)
-        for q in range(LANES):
-            p = p0 + q if q < nl else p0
-            _end_and_jacobian(code, var, coef, T, values[p], F, E, O, J)
-            if q < nl:
-                for i in range(3):
-                    e = abs(F[i, 3] - pts[p, i])
-                    gap = e if (e > gap or math.isnan(e)) and not math.isnan(gap) else gap
-            for j in range(k):
-                for i in range(6):
-                    A[j, i, q] = J[passive[j], i]
-            for c in range(nd):
-                for i in range(6):
-                    Jl[c, i, q] = J[svar[c], i]
-            for c in range(npose):
-                cb[nfix + c, q] = cpose[p, c]
-        _wrench_basis(A, k, N, R, Ri, beta, bound)
-        for a in range(m):                    # Z = N^T J_s
-            for c in range(nd):
-                t[:] = 0.0
-                for i in range(6):
-                    for q in range(LANES):
-                        t[q] += N[a, i, q] * Jl[c, i, q]
-                for q in range(LANES):
-                    Z[a, c, q] = t[q]
-        M[:m, :m, :] = 0.0
-        for s in range(off.shape[0]):
-            o, d, co = soff[s], soff[s + 1] - soff[s], off[s]
-            for a in range(m):                # Y = Z_s C_s, then M += Y Z_s^T
-                for e in range(d):
-                    t[:] = 0.0
-                    for c in range(d):
-                        for q in range(LANES):
-                            t[q] += Z[a, o + c, q] * cb[co + c * d + e, q]
-                    for q in range(LANES):
-                        Y[a, e, q] = t[q]
-            for a in range(m):
-                for b in range(m):
-                    t[:] = 0.0
-                    for e in range(d):
-                        for q in range(LANES):
-                            t[q] += Y[a, e, q] * Z[b, o + e, q]
-                    for q in range(LANES):
-                        M[a, b, q] += t[q]
+        g = _gather(code, var, coef, T, values, passive, svar, cpose, nfix, pts, p0, nl, F, E, O, J, A, Jl, cb)
+        gap = g if (g > gap or math.isnan(g)) and not math.isnan(gap) else gap
+        _wrench_basis(A, k, N, R, Ri, beta, bound, t, w)
+        _spring_sum(N, m, Jl, nd, soff, off, cb, Z, Y, M, t)
         if m:
-            _spd_inverse(M, m, Mi, L, piv)
+            _spd_inverse(M, m, Mi, L, piv, t)
         else:
             piv[:] = 1.0
         for q in range(nl):
             if not (bound[q] > fast_rtol and piv[q] > fast_rtol):
                 flag[p0 + q] = True
-        for b in range(m):                    # W = M^-1 N
-            for i in range(6):
-                t[:] = 0.0
-                for a in range(m):
-                    for q in range(LANES):
-                        t[q] += Mi[b, a, q] * N[a, i, q]
-                for q in range(LANES):
-                    W[b, i, q] = t[q]
-        for i in range(6):                    # K += (W^T N + N^T W) / 2
-            for j in range(i, 6):
-                t[:] = 0.0
-                for b in range(m):
-                    for q in range(LANES):
-                        t[q] += W[b, i, q] * N[b, j, q] + W[b, j, q] * N[b, i, q]
-                for q in range(nl):
-                    h = 0.5 * t[q]
-                    K[p0 + q, i, j] += h
-                    if j != i:
-                        K[p0 + q, j, i] += h
+        _add_projected(Mi, N, m, K, p0, nl, W, t)
     return gap
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**JIT)
 def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
     """Largest eigenvalue of a symmetric 3x3 matrix, closed form (vjm.linalg.sym3_max_eig_soa)."""
     q = (a00 + a11 + a22) / 3.0
@@ -290,19 +308,68 @@ def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
     return q + 2.0 * p * math.cos(math.acos(r) / 3.0)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**JIT)
+def _ldl(Kl, rtol, L, D, Dinv, di, LD, r, t):  # pragma: no cover - compiled
+    """Jacobi scaling ``di`` and unpivoted LDL^T of the symmetrised Kl (6, 6, LANES), as
+    vjm.linalg.psd_rank_inverse_soa; r counts the pivots above rtol, Dinv is 0 for the others."""
+    for i in range(6):
+        for q in range(LANES):
+            d = math.sqrt(max(Kl[i, i, q], 0.0))
+            di[i, q] = 1.0 / (d if d > 0 else 1.0)
+    r[:] = 0
+    for j in range(6):
+        for q in range(LANES):
+            t[q] = Kl[j, j, q] * di[j, q] * di[j, q]
+        for c in range(j):
+            for q in range(LANES):
+                LD[c, q] = L[j, c, q] * D[c, q]
+                t[q] -= L[j, c, q] * LD[c, q]
+        for q in range(LANES):
+            D[j, q] = t[q]
+            good = t[q] > rtol
+            r[q] += good
+            Dinv[j, q] = 1.0 / t[q] if good else 0.0
+        for i in range(j + 1, 6):
+            for q in range(LANES):
+                t[q] = (Kl[i, j, q] + Kl[j, i, q]) * (0.5 * di[j, q] * di[i, q])
+            for c in range(j):
+                for q in range(LANES):
+                    t[q] -= L[i, c, q] * LD[c, q]
+            for q in range(LANES):
+                L[i, j, q] = t[q] * Dinv[j, q]
+
+
+@njit(**JIT)
+def _ldl_inverse(L, Dinv, di, X, Cl, t):  # pragma: no cover - compiled
+    """Cl = D^-1/2 X^T D^-1 X D^-1/2 with X = L^-1 (unit lower), all (6, 6, LANES)."""
+    for i in range(6):
+        for q in range(LANES):
+            X[i, i, q] = 1.0
+        for j in range(i):
+            t[:] = 0.0
+            for c in range(j, i):
+                for q in range(LANES):
+                    t[q] += L[i, c, q] * X[c, j, q]
+            for q in range(LANES):
+                X[i, j, q] = -t[q]
+    for i in range(6):
+        for j in range(i, 6):
+            t[:] = 0.0
+            for c in range(j, 6):
+                for q in range(LANES):
+                    t[q] += X[c, i, q] * X[c, j, q] * Dinv[c, q]
+            for q in range(LANES):
+                Cl[i, j, q] = t[q] * di[i, q] * di[j, q]
+
+
+@njit(**JIT)
 def assemble_block(K, rtol, C, rank, inv, kt, kr):  # pragma: no cover - compiled
     """C = K^-1 (n, 6, 6), rank, invertible, k_tran, k_rot per pose, as vjm.stiffness.assemble_soa where
     K is invertible; elsewhere rank counts the LDL^T pivots above ``rtol`` and the caller redoes C.
     Poses go LANES at a time (a short last group repeats its first pose)."""
-    L = np.zeros((6, 6, LANES))
-    X = np.zeros((6, 6, LANES))
-    Cl = np.empty((6, 6, LANES))
-    D = np.empty((6, LANES))
-    Dinv = np.empty((6, LANES))
-    di = np.empty((6, LANES))
-    LD = np.empty((6, LANES))
-    Kl = np.empty((6, 6, LANES))
+    L, X, Cl, Kl = (np.zeros((6, 6, LANES)), np.zeros((6, 6, LANES)), np.empty((6, 6, LANES)),
+                    np.empty((6, 6, LANES)))
+    D, Dinv, di, LD = np.empty((6, LANES)), np.empty((6, LANES)), np.empty((6, LANES)), np.empty((6, LANES))
     t = np.empty(LANES)
     r = np.empty(LANES, dtype=np.int64)
     n = K.shape[0]
@@ -313,49 +380,8 @@ def assemble_block(K, rtol, C, rank, inv, kt, kr):  # pragma: no cover - compile
             for i in range(6):
                 for j in range(6):
                     Kl[i, j, q] = K[p, i, j]
-        for i in range(6):
-            for q in range(LANES):
-                d = math.sqrt(max(Kl[i, i, q], 0.0))
-                di[i, q] = 1.0 / (d if d > 0 else 1.0)
-        r[:] = 0
-        for j in range(6):
-            for q in range(LANES):
-                t[q] = Kl[j, j, q] * di[j, q] * di[j, q]
-            for c in range(j):
-                for q in range(LANES):
-                    LD[c, q] = L[j, c, q] * D[c, q]
-                    t[q] -= L[j, c, q] * LD[c, q]
-            for q in range(LANES):
-                D[j, q] = t[q]
-                good = t[q] > rtol
-                r[q] += good
-                Dinv[j, q] = 1.0 / t[q] if good else 0.0
-            for i in range(j + 1, 6):
-                for q in range(LANES):
-                    t[q] = (Kl[i, j, q] + Kl[j, i, q]) * (0.5 * di[j, q] * di[i, q])
-                for c in range(j):
-                    for q in range(LANES):
-                        t[q] -= L[i, c, q] * LD[c, q]
-                for q in range(LANES):
-                    L[i, j, q] = t[q] * Dinv[j, q]
-        for i in range(6):                    # X = L^-1, unit lower
-            for q in range(LANES):
-                X[i, i, q] = 1.0
-            for j in range(i):
-                t[:] = 0.0
-                for c in range(j, i):
-                    for q in range(LANES):
-                        t[q] += L[i, c, q] * X[c, j, q]
-                for q in range(LANES):
-                    X[i, j, q] = -t[q]
-        for i in range(6):                    # C = X^T D^-1 X, scaled back
-            for j in range(i, 6):
-                t[:] = 0.0
-                for c in range(j, 6):
-                    for q in range(LANES):
-                        t[q] += X[c, i, q] * X[c, j, q] * Dinv[c, q]
-                for q in range(LANES):
-                    Cl[i, j, q] = t[q] * di[i, q] * di[j, q]
+        _ldl(Kl, rtol, L, D, Dinv, di, LD, r, t)
+        _ldl_inverse(L, Dinv, di, X, Cl, t)
         for q in range(nl):
             p = p0 + q
             rank[p] = r[q]
