@@ -32,10 +32,7 @@ from .ik_kernel import _end_and_jacobian
 #: short dependent sums of 6x6 algebra run as SIMD over poses instead of one latency chain
 LANES = 8
 
-JIT = dict(cache=True, nogil=True, error_model="numpy")
-
-
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _householder(A, k, R, beta, nx, w):  # pragma: no cover - compiled
     """Householder QR of the rows A[:k] (6 long, LANES): the vectors in place of A, R (k, k)."""
     for j in range(k):
@@ -57,7 +54,7 @@ def _householder(A, k, R, beta, nx, w):  # pragma: no cover - compiled
                 R[j, c, q] = A[c, j, q]
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _reflect(X, a, V, j, beta, w):  # pragma: no cover - compiled
     """Row a of X (6, LANES) times the reflection of vector j of V (entries j..5)."""
     w[:] = 0.0
@@ -71,7 +68,7 @@ def _reflect(X, a, V, j, beta, w):  # pragma: no cover - compiled
             X[a, i, q] -= w[q] * V[j, i, q]
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _wrench_basis(A, k, N, R, Ri, beta, bound, nx, w):  # pragma: no cover - compiled
     """Orthonormal basis N (6-k, 6, LANES) of the complement of the rows A[:k] (overwritten), and
     the lower bound ``1 / (||R^-1||_F ||R||_F)`` of sigma_min / sigma_max per lane (NaN or 0 for a
@@ -107,7 +104,7 @@ def _wrench_basis(A, k, N, R, Ri, beta, bound, nx, w):  # pragma: no cover - com
         bound[q] = 1.0 / math.sqrt(w[q] * nx[q])
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _cholesky(M, m, L, piv, t):  # pragma: no cover - compiled
     """Lower Cholesky factor L of M (m, m, LANES) and the smallest relative pivot min_j d_j / M_jj
     per lane (-1 where a diagonal entry is not positive), as vjm.linalg.spd_inverse."""
@@ -133,7 +130,7 @@ def _cholesky(M, m, L, piv, t):  # pragma: no cover - compiled
                 L[i, j, q] = t[q] / L[j, j, q]
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _spd_inverse(M, m, Mi, L, piv, t):  # pragma: no cover - compiled
     """Mi = M^-1 (m, m, LANES) by Cholesky, and its relative pivot (:func:`_cholesky`)."""
     _cholesky(M, m, L, piv, t)
@@ -163,7 +160,7 @@ def _spd_inverse(M, m, Mi, L, piv, t):  # pragma: no cover - compiled
                 Mi[j, i, q] = L[i, j, q]
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _gather(code, var, coef, T, values, passive, svar, cpose, nfix, pts, p0, nl, F, E, O, J, A, Jl,
             cb):  # pragma: no cover - compiled
     """Jacobians of poses p0 .. p0 + nl - 1 (a short group repeats pose p0) into the lanes: passive
@@ -188,7 +185,7 @@ def _gather(code, var, coef, T, values, passive, svar, cpose, nfix, pts, p0, nl,
     return gap
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _spring_sum(N, m, Jl, nd, soff, off, cb, Z, Y, M, t):  # pragma: no cover - compiled
     """M = sum_s Z_s C_s Z_s^T (m, m, LANES) with Z = N^T J_s (vjm.stiffness._reduced_stiffness)."""
     for a in range(m):
@@ -220,7 +217,7 @@ def _spring_sum(N, m, Jl, nd, soff, off, cb, Z, Y, M, t):  # pragma: no cover - 
                     M[a, b, q] += t[q]
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _add_projected(Mi, N, m, K, p0, nl, W, t):  # pragma: no cover - compiled
     """K[p0 + q] += N^T M^-1 N (symmetrised) for the lanes q < nl."""
     for b in range(m):                        # W = M^-1 N
@@ -244,7 +241,7 @@ def _add_projected(Mi, N, m, K, p0, nl, W, t):  # pragma: no cover - compiled
                     K[p0 + q, j, i] += h
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpose, perpose, fast_rtol,
                 pts, K, flag):  # pragma: no cover - compiled
     """Add one chain's stiffness at every pose of a block to ``K`` (n, 6, 6).
@@ -293,7 +290,7 @@ def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpo
     return gap
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
     """Largest eigenvalue of a symmetric 3x3 matrix, closed form (vjm.linalg.sym3_max_eig_soa)."""
     q = (a00 + a11 + a22) / 3.0
@@ -308,7 +305,7 @@ def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
     return q + 2.0 * p * math.cos(math.acos(r) / 3.0)
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _ldl(Kl, rtol, L, D, Dinv, di, LD, r, t):  # pragma: no cover - compiled
     """Jacobi scaling ``di`` and unpivoted LDL^T of the symmetrised Kl (6, 6, LANES), as
     vjm.linalg.psd_rank_inverse_soa; r counts the pivots above rtol, Dinv is 0 for the others."""
@@ -339,7 +336,7 @@ def _ldl(Kl, rtol, L, D, Dinv, di, LD, r, t):  # pragma: no cover - compiled
                 L[i, j, q] = t[q] * Dinv[j, q]
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _ldl_inverse(L, Dinv, di, X, Cl, t):  # pragma: no cover - compiled
     """Cl = D^-1/2 X^T D^-1 X D^-1/2 with X = L^-1 (unit lower), all (6, 6, LANES)."""
     for i in range(6):
@@ -362,7 +359,7 @@ def _ldl_inverse(L, Dinv, di, X, Cl, t):  # pragma: no cover - compiled
                 Cl[i, j, q] = t[q] * di[i, q] * di[j, q]
 
 
-@njit(**JIT)
+@njit(cache=True, nogil=True, error_model="numpy")
 def assemble_block(K, rtol, C, rank, inv, kt, kr):  # pragma: no cover - compiled
     """C = K^-1 (n, 6, 6), rank, invertible, k_tran, k_rot per pose, as vjm.stiffness.assemble_soa where
     K is invertible; elsewhere rank counts the LDL^T pivots above ``rtol`` and the caller redoes C.
