@@ -119,3 +119,32 @@ def test_single_pose_does_not_load_the_kernel(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().splitlines()[-1] == "True"
+
+
+def test_kernel_per_pose_compliances():
+    """Springs whose compliance changes per pose, (n, 6, 6) and (n, 1, 1), beside constant ones:
+    the packing of the kernels' compliance buffer against chain_stiffness_frames and assemble_soa."""
+    m = vjm.load_model(PUU)
+    rng = np.random.default_rng(7)
+    P = rng.uniform(-40.0, 40.0, (203, 3))
+    kin = m.kinematics(P)
+    comps = []
+    for c in m.compliances(kin):
+        c = dict(c)
+        B = rng.normal(size=(len(P), 6, 6))
+        c["leg"] = np.asarray(c["leg"]) * (1.0 + 0.1 * rng.random((len(P), 1, 1))) + 1e-8 * B @ B.transpose(0, 2, 1)
+        c["actuator"] = np.full((len(P), 1, 1), 1e-4) * (1.0 + rng.random((len(P), 1, 1)))
+        comps.append(c)
+    n = len(P)
+    out = (np.empty((n, 6, 6)), np.empty((n, 6, 6)), np.empty(n), np.empty(n), np.empty(n, dtype=int),
+           np.empty(n, dtype=bool), np.empty((n, 3), dtype=int))
+    gaps = []
+    stiffness.machine_block_compiled(kin.chains, kin.values, comps, kin.points, out, lambda k, g: gaps.append(g))
+    Ks = sum(stiffness.chain_stiffness_frames(ch, np.ascontiguousarray(v.T), c)[0]
+             for ch, v, c in zip(kin.chains, kin.values, comps))
+    C, rank, inv, kt, kr = stiffness.assemble_soa(Ks)
+    assert _rel(out[0], Ks.transpose(2, 0, 1)) < 1e-12
+    assert _rel(out[1], C.transpose(2, 0, 1)) < 1e-12
+    assert _rel(out[2], kt) < 1e-12 and _rel(out[3], kr) < 1e-12
+    assert out[4].tolist() == rank.tolist() and out[5].all() and inv.all()
+    assert len(gaps) == 3 and max(gaps) < 1e-9
