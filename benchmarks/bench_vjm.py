@@ -4,11 +4,17 @@ Compares the batched ``Model.stiffness_map`` with a plain per-pose Python loop o
 the same math (same chains, Jacobians, bordered solve with numpy.linalg per pose)
 in the same run.  Each is timed ``REPEAT`` times and the best time is kept (as
 ``timeit`` does: the other runs only add the noise of other processes on the
-machine).  Usage: ``python benchmarks/bench_vjm.py [N]``.
+machine).  The batched map runs both paths side by side: the compiled kernels
+(``kernel="numba"``, :mod:`vjm.map_kernel`) and the numpy reference (``kernel="numpy"``), timed
+in CPU time of this process (what other processes on a shared machine disturb least).
+Usage: ``python benchmarks/bench_vjm.py [N]``, ``... machines [N]`` (hexapod and description
+files), ``... compile`` (the kernels' one-time compile and their load from the cache).
 """
 import os
 import platform
+import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -20,6 +26,8 @@ from vjm.stiffness import spring_compliance
 REPEAT = 3
 #: issue 4 target
 TARGET_RATE, TARGET_RATIO = 100_000, 50
+#: issue 29 targets: poses/s of the compiled map, 3-PUU and hexapod description file
+TARGET_KERNEL_PUU, TARGET_KERNEL_HEXAPOD = 500_000, 150_000
 
 
 def loop_stiffness(m, P):
@@ -66,7 +74,9 @@ def main(n=50):
     ax = np.linspace(-73.65, 126.35, n)
     P = np.stack(np.meshgrid(ax, ax, ax, indexing="ij"), -1).reshape(-1, 3)
     m.stiffness_map(P[:100])  # warm-up
+    m.stiffness_map(P[:3000], kernel="numba")  # compile or load the kernels
     load0 = os.getloadavg()[0]
+    side = {k: best_times(lambda: m.stiffness_map(P, kernel=k)) for k in ("numba", "numpy")}
     tb, res = best_time(lambda: m.stiffness_map(P))
     step = max(1, len(P) // 2000)
     sub = P[::step]
@@ -81,8 +91,21 @@ def main(n=50):
     print(f"per-pose Python loop : {tl:.2f} s for {len(sub)} poses, {rl:,.0f} poses/s")
     print(f"speed-up {rb / rl:.0f}x; max relative difference of C {err:.1e}")
     print(f"target (>= {TARGET_RATE:,} poses/s and >= {TARGET_RATIO}x): {'met' if met else 'NOT met'}")
+    _side_by_side("3-PUU", len(P), side, TARGET_KERNEL_PUU)
     print(f"machine: {os.cpu_count()} cores, load average {load0:.1f} -> {load1:.1f} (other processes), "
           f"Python {platform.python_version()}, numpy {np.__version__}, one thread")
+
+
+def _side_by_side(name, n, side, target):
+    """Print the compiled and the numpy map (best wall and CPU time of REPEAT) and their agreement."""
+    (wk, ck, rk), (wn, cn, rn) = side["numba"], side["numpy"]
+    err = max(np.max(np.abs(getattr(rk, f) - getattr(rn, f)).reshape(n, -1)
+                     / np.max(np.abs(getattr(rn, f)).reshape(n, -1), axis=1)[:, None]) for f in ("K", "C"))
+    same = bool((rk.rank == rn.rank).all() and (rk.invertible == rn.invertible).all())
+    print(f"{name} map, compiled kernels: CPU {ck:.2f} s, {n / ck:,.0f} poses/s (wall {n / wk:,.0f})")
+    print(f"{name} map, numpy path      : CPU {cn:.2f} s, {n / cn:,.0f} poses/s (wall {n / wn:,.0f})")
+    print(f"  ratio (CPU) {cn / ck:.2f}x; max relative difference of K, C {err:.1e}; same ranks: {same}; "
+          f"target (>= {target:,} poses/s): {'met' if n / ck >= target else 'NOT met'} in CPU time")
 
 
 #: issue 12 targets: hexapod map poses/s with the general IK; description / built-in time ratio
@@ -100,15 +123,22 @@ def machines(n=30):
     G = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     X = np.hstack([G, np.tile([0.02, -0.03, 0.05], (len(G), 1))])
     hexa.stiffness_map(X[:100])  # warm-up
+    hexa.stiffness_map(X[:3000], kernel="numba")  # compile or load the kernels
     load0 = os.getloadavg()[0]
-    def fresh_map(m, P):
+
+    def fresh_map(m, P, kernel=None):
         m._kin_cache.clear()  # time the inverse kinematics too, not the model's cache of small batches
-        return m.stiffness_map(P)
+        return m.stiffness_map(P, kernel=kernel)
+
+    side = {k: best_times(lambda: fresh_map(hexa, X, k)) for k in ("numba", "numpy")}
 
     th, ch, _ = best_times(lambda: fresh_map(hexa, X))
     F = as_poses(X, 6)
     tk, ck, kins = best_times(lambda: [hexa._solve_kinematics(F[a:a + 2048]) for a in range(0, len(F), 2048)])
     ts, cs, _ = best_times(lambda: [hexa.stiffness_map(k) for k in kins])
+    # the stiffness alone on either path; a fresh Kinematics each run (no geometry kept from the last)
+    stiff = {k: best_times(lambda: [hexa.stiffness_map(kin.take(slice(None)), kernel=k) for kin in kins])
+             for k in ("numba", "numpy")}
     a = vjm.load_model("data/orthoglide/puu.yaml")
     b = vjm.load_model("data/machines/orthoglide_puu.yaml")
     ax = np.linspace(-73.65, 126.35, 50)
@@ -125,6 +155,9 @@ def machines(n=30):
           f"stiffness from the kinematics {nh / ts:,.0f} poses/s)")
     print(f"  CPU time: {ch:.2f} s, {nh / ch:,.0f} poses/s  (IK alone {nh / ck:,.0f}, stiffness {nh / cs:,.0f})")
     print(f"target (>= {TARGET_HEXAPOD:,} poses/s): {'met' if rh >= TARGET_HEXAPOD else 'NOT met'}")
+    _side_by_side("hexapod", nh, side, TARGET_KERNEL_HEXAPOD)
+    print(f"  stiffness from the kinematics alone (CPU): compiled {nh / stiff['numba'][1]:,.0f} poses/s, "
+          f"numpy {nh / stiff['numpy'][1]:,.0f} poses/s; inverse kinematics alone {nh / ck:,.0f} poses/s")
     print(f"Orthoglide 3-PUU, {len(P)} poses (50^3 grid): description file {tb:.2f} s ({len(P) / tb:,.0f} poses/s), "
           f"built-in module {ta:.2f} s ({len(P) / ta:,.0f} poses/s); ratio {tb / ta:.2f}x, max relative "
           f"difference of K {err:.1e}")
@@ -134,8 +167,34 @@ def machines(n=30):
           f"Python {platform.python_version()}, numpy {np.__version__}, one thread")
 
 
+_FIRST_MAP = """
+import time, numpy as np, vjm
+m = vjm.load_model("data/orthoglide/puu.yaml")
+P = np.random.default_rng(0).uniform(-50, 50, (300, 3))
+c, w = time.process_time(), time.perf_counter()
+m.stiffness_map(P, kernel="{kernel}")
+print(time.process_time() - c, time.perf_counter() - w)
+"""
+
+
+def compile_cost():
+    """The first 300-pose 3-PUU map of a fresh process: compiling the kernels (empty numba cache),
+    loading them from the cache, and the numpy path; CPU and wall seconds of that call."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        rows = [("compiled, empty cache (compiles)", "numba"), ("compiled, cache filled (loads)", "numba"),
+                ("numpy path", "numpy")]
+        for label, kernel in rows:
+            out = subprocess.run([sys.executable, "-c", _FIRST_MAP.format(kernel=kernel)], env=env, check=True,
+                                 capture_output=True, text=True).stdout.split()
+            print(f"first map of a process, {label}: CPU {float(out[0]):.2f} s, wall {float(out[1]):.2f} s")
+    print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} (other processes)")
+
+
 if __name__ == "__main__":
-    if len(sys.argv) > 1 and sys.argv[1] == "machines":
+    if len(sys.argv) > 1 and sys.argv[1] == "compile":
+        compile_cost()
+    elif len(sys.argv) > 1 and sys.argv[1] == "machines":
         machines(int(sys.argv[2]) if len(sys.argv) > 2 else 30)
     else:
         main(int(sys.argv[1]) if len(sys.argv) > 1 else 50)

@@ -24,7 +24,15 @@ from .kinematics import Kinematics, as_poses
 from .links import LinkSpring, as_link
 from .models import ARCHITECTURES
 from .spread import Spread
-from .stiffness import StiffnessResult, assemble, assemble_soa, chain_stiffness, chain_stiffness_frames
+from .stiffness import (
+    StiffnessResult,
+    assemble,
+    assemble_soa,
+    chain_stiffness,
+    chain_stiffness_frames,
+    machine_block_compiled,
+    use_kernel,
+)
 from .transforms import rotation_vector
 
 #: poses per block in :meth:`Model.stiffness_map` (working set of a block stays in cache)
@@ -343,7 +351,10 @@ class Model:
         return self.arch.compliances(self, kin.points, list(kin.values), kin.q)
 
     def _closed(self, kin: Kinematics, k: int, p_end: np.ndarray, tol: float) -> None:
-        err = np.max(np.abs(p_end - kin.points), initial=0.0)
+        self._gap(kin, k, np.max(np.abs(p_end - kin.points), initial=0.0), tol)
+
+    @staticmethod
+    def _gap(kin: Kinematics, k: int, err: float, tol: float) -> None:
         if err > tol:
             raise VjmError(f"internal: chain {kin.chains[k].name} does not close on the pose (error {err:.3g} mm)")
 
@@ -361,7 +372,8 @@ class Model:
             out.append(chain_stiffness(ch, J, c))
         return tuple(zip(*out))
 
-    def stiffness_map(self, P, spread: bool = False, spread_method: str = "linear") -> StiffnessResult:
+    def stiffness_map(self, P, spread: bool = False, spread_method: str = "linear",
+                      kernel: str | None = None) -> StiffnessResult:
         """Stiffness at every pose of P (points (n, 3), poses (n, 6) or (n, 4, 4), or a
         :class:`~vjm.kinematics.Kinematics`): batched, no loop over poses.
 
@@ -369,9 +381,13 @@ class Model:
         (``k_tran_spread``, ``k_rot_spread``; :mod:`vjm.spread`, ``spread_method`` "linear" or
         "ends"); links without an error estimate contribute none.
 
-        The poses are processed in blocks of ``MAP_BLOCK`` with the pose axis
-        last, so that the intermediate arrays stay in cache; a bad pose raises
-        the same VjmError as the whole batch would.
+        The poses are processed in blocks of ``MAP_BLOCK``; a bad pose raises the same
+        VjmError as the whole batch would.  ``kernel`` picks the path of a block: ``"numpy"``
+        (batched over poses, the pose axis last: the reference), ``"numba"`` (the compiled
+        kernels of :mod:`vjm.map_kernel`, same arithmetic pose by pose, same rank decisions) or
+        ``"auto"`` (the kernels for blocks of ``vjm.stiffness.KERNEL_FROM`` poses or more);
+        None reads the environment variable ``VJM_MAP_KERNEL`` (default ``auto``).  With
+        ``spread`` the numpy path runs.
         """
         if isinstance(P, Kinematics):
             kin = self._check_kinematics(P)
@@ -400,7 +416,8 @@ class Model:
                     raise
             for a in range(a0, b0, MAP_BLOCK):
                 b = min(b0, a + MAP_BLOCK)
-                self._map_block(kb if (a, b) == (a0, b0) else kb.take(slice(a - a0, b - a0)), a, out, tol, sp)
+                self._map_block(kb if (a, b) == (a0, b0) else kb.take(slice(a - a0, b - a0)), a, out, tol, sp,
+                                kernel)
         K, C, kt, kr, rank, inv, chain_rank = out
         rot = rotation_vector(frames[:, :3, :3]) if self.dof == 6 else None
         if sp is None:
@@ -418,10 +435,15 @@ class Model:
             Ksum = Kc if Ksum is None else Ksum + Kc
         return Ksum, ranks
 
-    def _map_block(self, kin: Kinematics, a: int, out, tol: float, spread: Spread | None = None) -> None:
+    def _map_block(self, kin: Kinematics, a: int, out, tol: float, spread: Spread | None = None,
+                   kernel: str | None = None) -> None:
         """Poses ``a : a + kin.n`` of :meth:`stiffness_map`, written into ``out`` (and into ``spread``)."""
         b = a + kin.n
         K, C, kt, kr, rank, inv, chain_rank = out
+        if spread is None and use_kernel(kin.n, kernel):
+            machine_block_compiled(kin.chains, kin.values, self.compliances(kin), kin.points,
+                                   tuple(o[a:b] for o in out), lambda k, gap: self._gap(kin, k, gap, tol))
+            return
         Ksum, ranks = self._block_stiffness(kin, tol)
         for k, r in enumerate(ranks):
             chain_rank[a:b, k] = r

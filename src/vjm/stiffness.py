@@ -17,6 +17,8 @@ all in the world frame at the end-effector point.
 """
 from __future__ import annotations
 
+import functools
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,6 +30,7 @@ from .linalg import (
     FAST_RTOL,
     cholesky,
     lower_inverse,
+    psd_rank_inverse,
     psd_rank_inverse_soa,
     range_basis,
     spd_inverse,
@@ -43,6 +46,13 @@ SPREAD_NOTE = ("k +- spread: half-width of the range of k_tran (mm/N) and k_rot 
 
 #: poses per block of the batched kernels (a block's arrays stay in cache)
 BLOCK = 2048
+#: blocks of this many poses or more run the compiled kernels of :mod:`vjm.map_kernel`; smaller
+#: ones (a single ``vjm stiffness --at``) the numpy path, and do not import numba
+KERNEL_FROM = 256
+#: the environment switch of the map's path: ``numpy`` (the reference, at every size), ``numba``
+#: (the kernels at every size) or ``auto`` (the default: the kernels from ``KERNEL_FROM`` poses)
+KERNEL_ENV = "VJM_MAP_KERNEL"
+KERNELS = ("auto", "numba", "numpy")
 
 
 def spring_compliance(chain: Chain, J: np.ndarray, compliances: dict) -> np.ndarray:
@@ -424,3 +434,108 @@ def assemble_soa(K: np.ndarray):
     kt = np.where(inv, sym3_max_eig_soa(C[:3, :3]), np.inf)
     kr = np.where(inv, sym3_max_eig_soa(C[3:, 3:]), np.inf)
     return C, rank, inv, kt, kr
+
+
+# -- the compiled path (vjm.map_kernel): the same arithmetic pose by pose ----------------------
+
+@functools.cache
+def _map_kernel():
+    """The compiled kernels (:mod:`vjm.map_kernel`), or None where numba is not installed."""
+    try:
+        from . import map_kernel
+    except ImportError:
+        return None
+    return map_kernel
+
+
+def use_kernel(n: int, kernel: str | None = None) -> bool:
+    """Whether a block of ``n`` poses runs the compiled kernels: ``kernel`` (or, if None, the
+    environment variable ``VJM_MAP_KERNEL``) is ``auto`` (from ``KERNEL_FROM`` poses), ``numba``
+    or ``numpy``."""
+    choice = kernel if kernel is not None else (os.environ.get(KERNEL_ENV) or "auto")
+    if choice not in KERNELS:
+        raise ValueError(f"kernel must be one of {', '.join(KERNELS)}, got {choice!r}"
+                         + ("" if kernel is not None else f" (environment variable {KERNEL_ENV})"))
+    if choice == "numpy" or (choice == "auto" and n < KERNEL_FROM):
+        return False
+    return _map_kernel() is not None
+
+
+#: chains as arrays for the kernels, by id (the chain is kept in the entry, so the id stays its own)
+_ENCODED: dict = {}
+
+
+def _encoded(chain: Chain):
+    hit = _ENCODED.get(id(chain))
+    if hit is None or hit[0] is not chain:
+        from .ik import encode
+
+        if len(_ENCODED) >= 256:
+            _ENCODED.clear()
+        hit = _ENCODED[id(chain)] = (chain, encode(chain), np.array(chain.passive, dtype=np.int64))
+    return hit[1], hit[2]
+
+
+def _packed_springs(chain: Chain, compliances: dict, n: int):
+    """The chain's non-rigid springs for :func:`vjm.map_kernel.chain_block`: variables, offsets, and
+    compliances row-major in a constant part and a per-pose part (n, ...)."""
+    svar: list = []
+    soff, coff, perpose, fix, pose = [0], [], [], [], []
+    nfix = npose = 0
+    for s in chain.springs:
+        c = compliances.get(s.name)
+        if c is None:
+            continue
+        c = np.asarray(c, dtype=float)
+        d = len(s.vars)
+        svar += s.vars
+        soff.append(len(svar))
+        perpose.append(c.ndim == 3)
+        if c.ndim == 3:
+            coff.append(npose)
+            pose.append(c.reshape(n, d * d))
+            npose += d * d
+        else:
+            coff.append(nfix)
+            fix.append(c.ravel())
+            nfix += d * d
+    return (np.array(svar, dtype=np.int64), np.array(soff, dtype=np.int64), np.array(coff, dtype=np.int64),
+            np.concatenate(fix) if fix else np.zeros(0),
+            np.concatenate(pose, axis=1) if pose else np.zeros((n, 0)), np.array(perpose, dtype=np.bool_))
+
+
+def machine_block_compiled(chains, values, compliances, points, out, closed) -> None:
+    """The machine stiffness at a block of poses by the compiled kernels, with the numpy path's
+    decisions, written into ``out`` = (K, C (n, 6, 6), k_tran, k_rot, rank, invertible (n,),
+    chain ranks (n, n_chains)).
+
+    ``values`` per chain (n, n_vars), ``compliances`` per chain as :func:`chain_stiffness`,
+    ``points`` (n, 3) the poses' points; ``closed(k, gap)`` checks chain k's largest closure gap
+    (mm).  Poses a chain's fast closed form flags are redone by :func:`chain_stiffness_frames`
+    (bordered solve near rank loss), poses whose K is not invertible by
+    :func:`vjm.linalg.psd_rank_inverse` (pseudo-inverse, rank).
+    """
+    kern = _map_kernel()
+    K, C, kt, kr, rank, inv, chain_rank = out
+    n = K.shape[0]
+    K[:] = 0.0
+    flag = np.zeros(n, dtype=np.bool_)
+    pts = np.ascontiguousarray(points, dtype=float)
+    for k, (ch, v, c) in enumerate(zip(chains, values, compliances)):
+        (code, var, coef, T), passive = _encoded(ch)
+        closed(k, kern.chain_block(code, var, coef, T, np.ascontiguousarray(v, dtype=float), passive,
+                                   *_packed_springs(ch, c, n), FAST_RTOL, pts, K, flag))
+        chain_rank[:, k] = len(passive)
+    bad = np.flatnonzero(flag)
+    if bad.size:
+        Kb = 0.0
+        for k, (ch, v, c) in enumerate(zip(chains, values, compliances)):
+            cb = {key: (x[bad] if np.ndim(x) == 3 else x) for key, x in c.items()}
+            Kc, chain_rank[bad, k], _ = chain_stiffness_frames(ch, np.ascontiguousarray(v[bad].T), cb)
+            Kb = Kb + Kc
+        K[bad] = np.transpose(Kb, (2, 0, 1))
+    # psd_rank_inverse_soa's threshold: the same invertibility decision
+    kern.assemble_block(K, 1e-10, C, rank, inv, kt, kr)
+    sing = np.flatnonzero(~inv)
+    if sing.size:
+        C[sing], rank[sing], _ = psd_rank_inverse(K[sing])
