@@ -75,8 +75,8 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
              force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files "
                                                                "(they are never overwritten or deleted)")):
     """Deflection of the tool along TOOLPATH under the process wrench, and the compensated toolpath."""
-    from .output import check_out, write_outputs
     from .dispatch import path
+    from .output import check_out, write_outputs
 
     try:
         if method not in ("linear", "nonlinear"):

@@ -36,6 +36,7 @@ import numpy as np
 from ..errors import EquilibriumError, VjmError
 from ..kinematics import rotation_matrix
 from ..robot import ik
+from ..robot.model import SAG_TOL, RobotModel
 from ..transforms import rotation_vector
 from . import gcode as gc
 from . import run
@@ -56,7 +57,7 @@ class RobotTool:
     """What ``vjm path`` needs of a robot: the model, its tool frame, the TCP offset (3,) mm in that
     frame's axes, the seed configuration (nq,) and whether the robot's weight loads it."""
 
-    model: object
+    model: RobotModel
     frame: str
     offset: np.ndarray
     seed: np.ndarray
@@ -175,7 +176,6 @@ def deflect(rt: RobotTool, q, W_tcp, where) -> np.ndarray:
     process force dead loads at their material points (the force at the TCP), the process moment on the
     tool frame."""
     from ..nonlinear import deflection_map
-    from ..robot.model import SAG_TOL
     from ..robot.weight import body_loads, point_load
 
     m = rt.model
