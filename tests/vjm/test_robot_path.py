@@ -141,3 +141,39 @@ def test_unreachable_point_and_singular_seed_are_errors_naming_the_line(tmp_path
         vjm.path(f, str(nc), wrench=Constant(WRENCH), step=20.0)
     with pytest.raises(VjmError, match="seed configuration .* is at a singular posture"):
         vjm.path(f, str(nc), wrench=Constant(WRENCH), seed=[0, 0, 0, 0, 0, 0])
+
+
+def test_passes_of_a_long_program_carry_the_configuration(tmp_path, monkeypatch):
+    from vjm.toolpath import run
+
+    nc = tmp_path / "p.nc"
+    nc.write_text(PROGRAM, encoding="utf-8")
+    f = str(_model_file(tmp_path))
+    kw = dict(wrench=Constant(WRENCH), tool=tuple(TOOL), step=10.0, chord_tol=0.05)
+    one = vjm.path(f, str(nc), **kw)
+    monkeypatch.setattr(run, "CHUNK", 3)         # passes of three points
+    lines = []
+    many = vjm.path(f, str(nc), progress=lines.append, **kw)
+    assert one.toolpath.n > 12 and any("points/s" in s for s in lines)
+    assert np.allclose(many.deflection, one.deflection, rtol=0, atol=1e-9)
+    d = np.linalg.norm(one.deflection[:, :3], axis=1)
+    gap = np.linalg.norm(many.compensation.commanded - one.compensation.commanded, axis=1)
+    assert np.all(gap <= 2e-4 * d)               # both within 1e-4 of the deflection of the same commands
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(seed=[0.0] * 3), "--seed must have 6 joint values"),
+    (dict(tool_frame="elbow"), "no tool frame 'elbow'"),
+    (dict(tool_frame="base_link"), "is fixed to the robot's base"),
+    (dict(method="linear"), "--method linear is for parallel machines"),
+])
+def test_robot_options_are_checked(tmp_path, kw, message):
+    nc = tmp_path / "p.nc"
+    nc.write_text(PROGRAM, encoding="utf-8")
+    with pytest.raises(VjmError, match=message):
+        vjm.path(str(_model_file(tmp_path)), str(nc), wrench=Constant(WRENCH), **kw)
+
+
+def test_seed_is_for_robots_only(tmp_path):
+    with pytest.raises(VjmError, match="--seed and --tool-frame are for serial robots"):
+        vjm.path("puu", str(tmp_path / "p.nc"), seed=HOME)

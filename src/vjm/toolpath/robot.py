@@ -91,6 +91,8 @@ def setup(model, seed=None, tool_frame=None, tool=None) -> RobotTool:
                            f"({', '.join(model.q_names)}): the configuration (elbow up or down, wrist flip) to hold "
                            f"along the path, or home: in the model file")
         seed = model.home
+    if np.shape(seed) != (model.nq,):
+        raise VjmError(f"--seed must have {model.nq} joint values ({', '.join(model.q_names)}), got {list(seed)!r}")
     q0 = model.check_q(seed)[0]
     if _singular(model, q0, frame)[0]:
         raise VjmError(f"the seed configuration {np.round(q0[0], 6).tolist()} is at a singular posture of the robot: "
@@ -122,9 +124,11 @@ def targets(rt: RobotTool, tp: Toolpath) -> np.ndarray:
     return T
 
 
-def follow(rt: RobotTool, T_tcp, where, what: str = "programmed", seed=None) -> np.ndarray:
+def follow(rt: RobotTool, T_tcp, where, what: str = "programmed", seed=None, start=None) -> np.ndarray:
     """Joint values (n, nq) of TCP frames along a path in the configuration of the seed (see the module
-    docstring); ``seed`` (n, nq): solve each frame from these instead (the compensation's nearby commands)."""
+    docstring), the first from ``start`` (default the seed: a later pass of a long program starts from the
+    previous pass's last point); ``seed`` (n, nq): solve each frame from these instead (the compensation's
+    nearby commands)."""
     m, f = rt.model, rt.frame
     T = rt.frame_targets(T_tcp)
     n = len(T)
@@ -132,22 +136,24 @@ def follow(rt: RobotTool, T_tcp, where, what: str = "programmed", seed=None) -> 
         r = ik.solve(m, T, seed, f, IK_TOL)
         q, ok = r.q, r.reached
     else:
-        anchors = np.arange(0, n, ANCHOR)
-        a = ik.solve_path(m, T[anchors], rt.seed, f, IK_TOL)
-        q = np.empty((n, m.nq))
-        q[anchors] = a.q
-        ok = np.zeros(n, bool)
-        ok[anchors] = a.reached
-        rest = np.setdiff1d(np.arange(n), anchors)
-        if rest.size:
+        q, ok = np.tile(rt.seed, (n, 1)), np.zeros(n, bool)
+        prev, end = rt.seed if start is None else np.asarray(start, dtype=float), n
+        for i in range(0, n, ANCHOR):  # anchors in order, each from the previous one
+            r = ik.solve(m, T[i:i + 1], prev, f, IK_TOL)
+            q[i], ok[i], prev = r.q[0], r.reached[0], r.q[0]
+            if not ok[i]:  # no need to go further: the error names this point or an earlier one
+                end = i
+                break
+        rest = np.setdiff1d(np.arange(end), np.arange(0, end, ANCHOR))
+        if rest.size:  # the samples between anchors together, each from its anchor
             r = ik.solve(m, T[rest], q[(rest // ANCHOR) * ANCHOR], f, IK_TOL)
             q[rest], ok[rest] = r.q, r.reached
     sign = _det_sign(m, rt.seed[None], f)[0]
     bad = ~ok | (_det_sign(m, q, f) != sign)
-    for i in np.flatnonzero(bad) if seed is None else ():  # in order: each from its (already fixed) predecessor
-        r = ik.solve(m, T[i:i + 1], q[i - 1] if i else rt.seed, f, IK_TOL)
-        q[i], ok[i] = r.q[0], r.reached[0]
-        if not ok[i] or _det_sign(m, q[i:i + 1], f)[0] != sign:
+    for k in np.flatnonzero(bad) if seed is None else ():  # in order: each from its (already fixed) predecessor
+        r = ik.solve(m, T[k:k + 1], q[k - 1] if k else (rt.seed if start is None else start), f, IK_TOL)
+        q[k], ok[k] = r.q[0], r.reached[0]
+        if not ok[k] or _det_sign(m, q[k:k + 1], f)[0] != sign:
             break  # the error names this point
     _check_configuration(rt, q, ok, sign, T_tcp, where, what)
     return q
@@ -249,19 +255,41 @@ def robot_path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear
     tp = toolpath if isinstance(toolpath, Toolpath) else read_toolpath(toolpath, chord_tol, step, passed)
     W = (wrench or PerPoint()).wrenches(tp)
     progress = or_quiet(progress)
-    T_p = targets(rt, tp)
-    progress(f"inverse kinematics at {tp.n:,} points")
-    q = follow(rt, T_p, tp.where)
-    progress(f"equilibria under the process wrench{' and the robot weight' if rt.weight else ''} at {tp.n:,} points")
-    d = deflect(rt, q, W, tp.where)
-    comp = after = text = None
-    if compensate:
-        progress("compensation")
-        comp, _ = compensate_commands(rt, T_p, tp.has_orientation, W, q, d, tp.where)
+    progress(f"inverse kinematics, equilibria under the process wrench{' and the weight' if rt.weight else ''}"
+             + (" and compensation" if compensate else "") + f" at {tp.n:,} points")
+    d, comp = _passes(rt, tp, W, compensate, progress)
+    after = text = None
+    if comp is not None:
         after = run.blend_after(run._all_vertices(tp, linearize_arcs, split_moves), comp.commanded,
                                 comp.residual_vector)
         text = run.compensated_text(tp, comp.commanded, linearize_arcs, split_moves)
     return PathResult(tp, W, d, method, tolerance, comp, None, after, _notes(rt, tp, after, d, split_moves), text)
+
+
+def _passes(rt: RobotTool, tp: Toolpath, W, compensate: bool, progress):
+    """(deflection (n, 6), Compensation or None) in passes of ``run.CHUNK`` points, each pass's IK starting
+    from the previous pass's last joint values (the configuration carried through)."""
+    import time
+
+    T_p = targets(rt, tp)
+    n = tp.n
+    d = np.empty((n, 6))
+    cmd, res, resvec = np.empty_like(tp.poses), np.empty(n), np.empty((n, 3))
+    iters, last, t0 = 0, None, time.perf_counter()
+    for a in range(0, n, run.CHUNK):
+        sl = slice(a, min(n, a + run.CHUNK))
+
+        def where(i, a=a):
+            return tp.where(i + a)
+
+        q = follow(rt, T_p[sl], where, start=last)
+        last = q[-1]
+        d[sl] = deflect(rt, q, W[sl], where)
+        if compensate:
+            c, _ = compensate_commands(rt, T_p[sl], tp.has_orientation, W[sl], q, d[sl], where)
+            cmd[sl], res[sl], resvec[sl], iters = c.commanded, c.residual, c.residual_vector, max(iters, c.iterations)
+        run._eta(progress, sl.stop, n, t0)
+    return d, (Compensation(cmd, res, iters, resvec, 0) if compensate else None)
 
 
 def _notes(rt: RobotTool, tp: Toolpath, after, d, split_moves: bool) -> tuple:
