@@ -177,3 +177,23 @@ def test_robot_options_are_checked(tmp_path, kw, message):
 def test_seed_is_for_robots_only(tmp_path):
     with pytest.raises(VjmError, match="--seed and --tool-frame are for serial robots"):
         vjm.path("puu", str(tmp_path / "p.nc"), seed=HOME)
+
+
+def test_a_path_through_a_wrist_singularity_is_an_error_naming_the_line(tmp_path):
+    from vjm.transforms import rotation_vector
+
+    m = vjm.load_model(str(_model_file(tmp_path)))
+    Q = np.tile(HOME, (30, 1))
+    Q[:, 4] = np.linspace(-1.0, 0.47, 30)        # wrist 2 through 0 (between two points): wrists 1, 3 aligned
+    T = m.forward(Q)
+    rows = [",".join(f"{v:.17g}" for v in (*p, *r)) + ",0,0,0,0,0,0"
+            for p, r in zip(T[:, :3, 3], rotation_vector(T[:, :3, :3]))]
+    f = tmp_path / "wrist.csv"
+    f.write_text("x,y,z,rx,ry,rz,Fx,Fy,Fz,Mx,My,Mz\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    # q5 = 0.014 at line 22 (row 21): the first point past the singular posture, or one just before it
+    with pytest.raises(VjmError, match=r"wrist.csv line 2[0-2]: the robot is at a singular posture"):
+        vjm.path(str(_model_file(tmp_path)), str(f))
+    ok = tmp_path / "half.csv"                   # the same path stopping short of it is fine
+    ok.write_text("x,y,z,rx,ry,rz,Fx,Fy,Fz,Mx,My,Mz\n" + "\n".join(rows[:12]) + "\n", encoding="utf-8")
+    res = vjm.path(str(_model_file(tmp_path)), str(ok))
+    assert res.compensation.residual.max() <= 1e-4 * np.linalg.norm(res.deflection[:, :3], axis=1).min()
