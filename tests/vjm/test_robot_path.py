@@ -197,3 +197,24 @@ def test_a_path_through_a_wrist_singularity_is_an_error_naming_the_line(tmp_path
     ok.write_text("x,y,z,rx,ry,rz,Fx,Fy,Fz,Mx,My,Mz\n" + "\n".join(rows[:12]) + "\n", encoding="utf-8")
     res = vjm.path(str(_model_file(tmp_path)), str(ok))
     assert res.compensation.residual.max() <= 1e-4 * np.linalg.norm(res.deflection[:, :3], axis=1).min()
+
+
+def test_cli_writes_the_output_set_and_leaves_foreign_files_alone(tmp_path, capsys):
+    from vjm.cli import main
+
+    nc = tmp_path / "p.nc"
+    nc.write_text(PROGRAM, encoding="utf-8")
+    out = tmp_path / "out"
+    argv = ["path", str(_model_file(tmp_path)), str(nc), "--tool", "0,0,150", "--wrench", "40,-25,15,0,0,0",
+            "--seed", ",".join(map(str, HOME)), "--step", "10", "--out", str(out)]
+    assert main(argv) == 0
+    assert "serial robot" in capsys.readouterr().out
+    names = {"path.csv", "deflection.png", "plan.png", "summary.json", "p_compensated.nc"}
+    assert names <= {p.name for p in out.iterdir()}
+    text = (out / "p_compensated.nc").read_text(encoding="utf-8")
+    assert text.count("\n") == PROGRAM.count("\n") and text != PROGRAM    # the same lines, new numbers
+    (out / "mine.txt").write_text("not the tool's", encoding="utf-8")
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    assert main(argv) == 2                        # a folder holding another file: refused before any work
+    assert "error: " in capsys.readouterr().err
+    assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
