@@ -8,7 +8,8 @@ source tree keeps its layout.  The package list is computed so that new subpacka
 """
 from setuptools import find_namespace_packages, find_packages, setup
 
-DATA = ["vjm._data"] + [f"vjm._data.{p}" for p in find_namespace_packages("data")]
+# data/realdata/ (measured data sets, a few MB) stays in the source tree: the benchmarks read it there.
+DATA = ["vjm._data"] + [f"vjm._data.{p}" for p in find_namespace_packages("data", exclude=["realdata", "realdata.*"])]
 
 setup(
     packages=find_packages("src") + ["linkfea._cad"] + DATA,

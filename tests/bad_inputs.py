@@ -161,6 +161,12 @@ def _report_folder(edited: str) -> dict:
     files = {f"rep/{n}": t + ("# my edit\n" if n == edited else "") for n, t in written.items()}
     return {"m.csv": GOOD, "rep/.linkfea-outputs.json": json.dumps(man), **files}
 
+#: a link script whose build() runs ``body`` (line 4)
+SCRIPT = "PARAMS = {{}}\n\ndef build(**p):\n{body}\n"
+LINE_NC = "G21 G90\nG0 X0 Y0 Z0\nG1 X100 F100\n"
+#: nine levels of ten aliases of the level below (a "billion laughs")
+LAUGHS = "laughs:\n  a0: &a0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n" + "".join(
+    f"  a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]\n" for i in range(1, 9))
 
 # ------------------------------------------------------------------ the cases
 D = "vjm diagnose {puu} m.csv --out rep"
@@ -422,6 +428,45 @@ CASES = [
     Case("26.4", "vjm path {ur10} far.nc --out o --wrench 20,0,0,0,0,0 --step 5000", "far.nc line 3: the programmed point "
          "[2500.0, 160.0, 250.0] mm is out of the robot's reach", {"far.nc": "G21 G90\nG0 X800 Y160 Z250\nG1 X2500 "
                                                                     "F1000\n"}, "a UR10 toolpath reaching 2.5 m out"),
+
+
+    # 30.2: one line where a traceback was
+    Case("30.2", "linkfea compute bar --out .", "--out '.' is a folder, not a file: give a file name"),
+    Case("30.2", "linkfea compute bar --out ''", "--out '.' is a folder, not a file: give a file name"),
+    Case("30.2", "linkfea compute bar -p length=1e20", "parameter 'length' must be <= 1e+08 mm"),
+    Case("30.2", "linkfea compute bar -p length=1e308", "parameter 'length' must be <= 1e+08 mm"),
+    Case("30.2", "linkfea compute s.py --out r.json", "s.py, line 4: ZeroDivisionError: integer division or modulo by zero",
+         {"s.py": SCRIPT.format(body="    return 1 // 0")}, "a link script whose build() divides by zero"),
+    Case("30.2", "linkfea compute s.py --out r.json", "s.py, line 4: SyntaxError: '(' was never closed",
+         {"s.py": SCRIPT.format(body="    return (")}, "a link script with a syntax error"),
+    Case("30.2", "linkfea compute s.py --out r.json", "s.py, line 3: RecursionError: maximum recursion depth",
+         {"s.py": "PARAMS = {}\ndef build(**p):\n    return build(**p)\n"}, "a link script whose build() recurses forever"),
+    Case("30.2", "linkfea compute s.py --out r.json", "s.py, line 1: ModuleNotFoundError: No module named "
+         "'no_such_module_30'", {"s.py": "import no_such_module_30\n" + SCRIPT.format(body="    pass")},
+         "a link script importing a missing module"),
+    Case("30.2", "linkfea compute s.py --out r.json", "s.py, line 5: the script called sys.exit(0)",
+         {"s.py": "import sys\n" + SCRIPT.format(body="    sys.exit(0)")}, "a link script whose build() calls sys.exit(0)"),
+    # 30.3: work estimated before it starts
+    Case("30.3", "linkfea compute bar --mesh-size 1e-3", "a mesh of edge 0.001 mm would have about 2.2e+14 tets"),
+    Case("30.3", "linkfea compute bar -p width=1e-4", "a mesh of edge 6e-05 mm would have about"),
+    Case("30.3", "linkfea compute bar -p length=1e6", "a mesh of edge 4 mm would have about 1.7e+07 tets"),
+    Case("30.3", "vjm path {puu} p.nc --out o --wrench 10,0,0,0,0,0 --step 1e-6",
+         "vjm path would need about 2.1e+03 GB of memory for 1e+08 toolpath points", {"p.nc": LINE_NC},
+         "a 100 mm straight move"),
+    Case("30.3", "vjm path {puu} p.nc --out o --wrench 10,0,0,0,0,0 --chord-tol 1e-12",
+         "for 7.86e+06 toolpath points", {"p.nc": LINE_NC + "G2 X0 Y0 I-50 J0\n"}, "a half circle of radius 50 mm"),
+    Case("30.3", "vjm path {puu} p.nc --out o --wrench 1e300,0,0,0,0,0", "deflects the tool by inf mm",
+         {"p.nc": LINE_NC}, "a 100 mm straight move"),
+    Case("30.3", "vjm stiffness m.yaml --at 0,0,0", "the alias *c is inside the value &c names (a recursive anchor",
+         {"m.yaml": PLACES["puu"].read_text(encoding="utf-8").replace(
+             "  beam: {section: rect, width: 30.0, height: 10.0, length: 310.0, material: aluminium}",
+             "  compliance: &c [*c, *c, *c, *c, *c, *c]")},
+         "puu.yaml whose leg is compliance: &c [*c, *c, *c, *c, *c, *c]"),
+    Case("30.3", "vjm stiffness m.yaml --at 0,0,0", "it holds 1.23e+09 values once its aliases are expanded",
+         {"m.yaml": _linear("geometry:\n", LAUGHS + "geometry:\n")},
+         "linear_delta.yaml with nine levels of ten aliases each (10^9 values)"),
+    Case("30.3", "vjm stiffness m.yaml --at 0,0,0", "copies.count must be an integer in [1, 64], got 1000000000",
+         {"m.yaml": _linear("count: 3", "count: 1000000000")}, "linear_delta.yaml with copies: {count: 1000000000}"),
 ]
 
 

@@ -12,10 +12,11 @@ faces) and :mod:`linkfea.params` (script parameters).
 from __future__ import annotations
 
 import importlib.util
+import sys
 from dataclasses import replace
 from pathlib import Path
 
-from .errors import LinkFeaError
+from .errors import LinkFeaError, ScriptError
 from .link import Link, check_link
 from .materials import get_material
 from .params import parse_param_args, resolve_params  # noqa: F401  (re-exported)
@@ -43,13 +44,49 @@ def resolve_script(spec: str | Path) -> Path:
     return find_script(spec)
 
 
+def script_error(path: Path, exc: BaseException, what: str) -> ScriptError:
+    """``exc`` raised by the user's script ``path`` (while ``what``) as one line: the script, its deepest
+    line in the traceback and the exception; the traceback from the script's first frame on as details."""
+    import traceback
+
+    tb = traceback.TracebackException.from_exception(exc)
+    mine = [i for i, fr in enumerate(tb.stack) if Path(fr.filename) == path]
+    line = tb.stack[mine[-1]].lineno if mine else None
+    if isinstance(exc, SyntaxError) and exc.filename and Path(exc.filename) == path:
+        line = exc.lineno
+    if mine or isinstance(exc, SyntaxError):  # a syntax error: the importer's frames say nothing
+        tb.stack = traceback.StackSummary.from_list(tb.stack[mine[0]:] if mine else [])
+    where = f"{path}, line {line}" if line is not None else str(path)
+    text = exc.msg if isinstance(exc, SyntaxError) else str(exc)
+    if isinstance(exc, SystemExit):
+        text = f"the script called sys.exit({exc.code!r}) while {what}; a link script must return a Link, not exit"
+        return ScriptError(f"{where}: {text}", "".join(tb.format()))
+    return ScriptError(f"{where}: {type(exc).__name__}: {text} (while {what}; --traceback shows the script's "
+                       "traceback)", "".join(tb.format()))
+
+
+def _run_script(path: Path, what: str, fn, *args, **kwargs):
+    """``fn(*args, **kwargs)``, the user's code: its own checks (LinkFeaError) pass as they are, any other
+    exception, a ``sys.exit`` included, becomes a :class:`ScriptError`; Ctrl-C stays Ctrl-C."""
+    try:
+        return fn(*args, **kwargs)
+    except LinkFeaError:
+        raise
+    except (Exception, SystemExit) as exc:
+        raise script_error(path, exc, what) from exc
+
+
 def load_script(path: str | Path):
     """Import a cad/ script as a module (it must define ``PARAMS`` and ``build``)."""
     path = resolve_script(path)
     modname = f"linkfea_cad_{path.stem}"
     spec = importlib.util.spec_from_file_location(modname, path)
     mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    writes, sys.dont_write_bytecode = sys.dont_write_bytecode, True  # no __pycache__ in the user's folder
+    try:
+        _run_script(path, "loading the script", spec.loader.exec_module, mod)
+    finally:
+        sys.dont_write_bytecode = writes
     if not (hasattr(mod, "PARAMS") and callable(getattr(mod, "build", None))):
         raise LinkFeaError(f"{path}: a link script must define PARAMS and build(**params)")
     return mod
@@ -91,7 +128,7 @@ def build_link(spec, params: dict | None = None, material: str | None = None,
         if "material" not in mod.PARAMS:
             raise LinkFeaError(f"{spec}: this script has no material parameter")
         p["material"] = material
-    link = mod.build(**p)
+    link = _run_script(Path(mod.__file__), "running build()", mod.build, **p)
     if not isinstance(link, Link):
         raise LinkFeaError(f"{spec}: build() must return a linkfea.cad.Link")
     changes: dict = {}

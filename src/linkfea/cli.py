@@ -48,11 +48,20 @@ def error_table(diagonal: np.ndarray, err: np.ndarray) -> Table:
     return t
 
 
-def _fail(msg) -> None:
+def _fail(msg, traceback: bool = False) -> None:
+    """One ``error:`` line, exit 2; with ``traceback``, a link script's own traceback before it."""
     from .checks import cli_message
 
+    details = getattr(msg, "details", "")
+    if traceback and details:
+        print(details.rstrip("\n"), file=sys.stderr)
     print(f"error: {cli_message(msg, FLAGS)}", file=sys.stderr)
     raise typer.Exit(code=2)
+
+
+def _traceback_option():
+    return typer.Option(False, "--traceback", help="when the link script fails, also print its traceback "
+                                                   "(the script's own frames)")
 
 
 @app.command()
@@ -83,6 +92,7 @@ def compute(
     out: Path = typer.Option(Path("out/result.json"), "--out", "-o", help="result JSON; .vtu and .png go beside it"),
     picture: bool = typer.Option(True, "--picture/--no-picture", help="write the .vtu and .png beside the JSON"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or tables"),
+    traceback: bool = _traceback_option(),
 ):
     """Compute a link's 6x6 compliance and stiffness at its reference frame."""
     from .cad import parse_param_args
@@ -102,7 +112,7 @@ def compute(
             res = run(spec, params=params, options=opts, progress=lambda msg: status.update(f"[bold]{msg}"))
         written = write_result_set(out, res, vtu=picture, png=picture)
     except LinkFeaError as exc:
-        _fail(exc)
+        _fail(exc, traceback)
     if not quiet:
         con = Console(width=max(Console().width, 100))
         show(res, con)
@@ -181,6 +191,7 @@ def compare_cmd(
     force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files (they are "
                                                       "never overwritten or deleted)"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or summary"),
+    traceback: bool = _traceback_option(),
 ):
     """Beam or FEA? The FEA compliance against N-beam models cut from the CAD (see linkfea.compare)."""
     from .cad import parse_param_args
@@ -193,7 +204,7 @@ def compare_cmd(
             cmp = run(spec, beams, params=params, mesh_size=mesh_size, mode=mode, out=out, material=material,
                       base=base, tip=tip, progress=lambda msg: status.update(f"[bold]{msg}"), force=force)
     except LinkFeaError as exc:
-        _fail(exc)
+        _fail(exc, traceback)
     if not quiet:
         t = Table(title=f"{cmp.link}: max principal compliance error vs FEA, % (translation / rotation)")
         for c in ("N", "Euler-Bernoulli", "Timoshenko", "max angle (deg)"):
@@ -235,6 +246,7 @@ def sweep_cmd(
     plot: Optional[str] = typer.Option(None, "--plot", help="compliance entries to plot, e.g. dy_Fy,rz_Mz "
                                                             "(default: the diagonal)"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar or summary"),
+    traceback: bool = _traceback_option(),
 ):
     """Run the pipeline over a grid or sample of link parameters on Dask (resumable)."""
     from .options import ComputeOptions
@@ -250,7 +262,7 @@ def sweep_cmd(
                         retry_failed=retry_failed, plot=plot.split(",") if plot else None, progress=not quiet,
                         force=force)
     except LinkFeaError as exc:
-        _fail(exc)
+        _fail(exc, traceback)
     if not quiet or rep.interrupted:
         n_ok = sum(r["status"] == "ok" for r in rep.rows)
         print(f"{rep.n_designs} designs: {len(rep.skipped)} already done, {len(rep.computed)} computed, "

@@ -27,6 +27,18 @@ class SolverError(LinkFeaError, RuntimeError):
     """
 
 
+class ScriptError(LinkFeaError):
+    """A link script (the user's code) raised, exited or failed to import.
+
+    ``str(err)`` names the script, the line and the exception; ``details`` is the traceback of
+    the script's own frames (what ``--traceback`` prints).
+    """
+
+    def __init__(self, message: str, details: str = ""):
+        super().__init__(message)
+        self.details = details
+
+
 class LinkFeaWarning(UserWarning):
     """Something the user should know that did not stop the run (e.g. a damaged mesh cache entry
     that was meshed again).  The CLI prints it as one ``warning: ...`` line."""

@@ -29,7 +29,7 @@ from typing import Callable, Optional
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import SolverError
+from .errors import LinkFeaError, SolverError
 from .p2 import symmetric_from_upper
 
 log = logging.getLogger(__name__)
@@ -58,7 +58,7 @@ ITERATIVE_PEAK_BYTES_PER_DOF = 4.1e3
 0.71 GB, assembly included; docs/benchmarks.md); it grows linearly with the size."""
 
 
-def iterative_peak_bytes(n_dofs: int) -> float:
+def iterative_peak_bytes(n_dofs: float) -> float:
     """Estimated peak memory (bytes) of assembling and solving ``n_dofs`` with the P1-multigrid CG."""
     return ITERATIVE_PEAK_BYTES_PER_DOF * n_dofs
 
@@ -119,7 +119,14 @@ def cg_p1mg_factorizer(U: sp.csr_matrix, coarse=None, rtol: float = RTOL,
     n = U.shape[0]
     say(f"solve: multigrid setup ({n:,} DOF)")
     space = coarse() if callable(coarse) else coarse
-    h = p1_sa_hierarchy(U, space.P, space.near_nullspace)
+    try:
+        h = p1_sa_hierarchy(U, space.P, space.near_nullspace)
+    except LinkFeaError:
+        raise
+    except (ValueError, ArithmeticError, RuntimeError, np.linalg.LinAlgError) as exc:
+        # pyamg's and SuperLU's errors on a degenerate hierarchy: the package's error type, one line
+        raise SolverError(f"the multigrid setup failed on {n:,} DOF ({type(exc).__name__}: {exc}); "
+                          "use the direct solver (--solver direct)") from exc
     A = h.levels[0].A
     setup = time.perf_counter() - t0
     stats: dict = {"method": "CG on the load cases in lockstep; V-cycle: Chebyshev on P2, P1 Galerkin level, "
@@ -131,7 +138,13 @@ def cg_p1mg_factorizer(U: sp.csr_matrix, coarse=None, rtol: float = RTOL,
 
     def solve(Bmat):
         Bmat = np.asarray(Bmat, dtype=float).reshape(n, -1)
-        r = cg_columns(A, Bmat, h.cycle, rtol, MAXITER, progress=say)
+        try:
+            r = cg_columns(A, Bmat, h.cycle, rtol, MAXITER, progress=say)
+        except LinkFeaError:
+            raise
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            raise SolverError(f"the multigrid CG failed on {n:,} DOF ({type(exc).__name__}: {exc}); "
+                              "use the direct solver (--solver direct)") from exc
         stats.update(iterations=r.iterations, relative_residual=r.relative_residual, solve_seconds=r.seconds,
                      history=r.history)
         bad = [k for k, res in enumerate(r.relative_residual) if res > 1e3 * rtol]

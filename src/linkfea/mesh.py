@@ -9,11 +9,13 @@ report and the interface-area gate (a base or tip area more than
 """
 from __future__ import annotations
 
-from dataclasses import replace
+import math
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
 from . import checks, mesh_gmsh
+from .child import run_in_child
 from .errors import LinkFeaError
 from .link import interface_faces
 from .linkmesh import (  # noqa: F401  (re-exported)
@@ -58,6 +60,56 @@ def default_mesh_size(link) -> float:
     s = link.body
     t = 2.0 * s.Volume() / s.Area()
     return float(min(0.6 * t, s.BoundingBox().DiagonalLength / 20.0))
+
+
+TETS_PER_CUBE = 5.5
+"""Tets per ``H^3`` of volume in a gmsh mesh of target edge ``H``: measured 5.5-5.7 on the bar (H = 3 mm,
+rigid and block), 6.4 on the parallelogram bar and 9.6 on the sharp foot (their default sizes: the
+corner and interface refinement adds to it); coarse meshes have more (the surface dominates).  The
+smallest measured value, so the estimate below is at the low end."""
+
+DOFS_PER_TET = 4.0
+"""P2 unknowns per tet of a large mesh: ``3 (n_vertices + n_edges)`` with ``n_edges ~ n_vertices +
+n_tets`` (Euler) and ``n_vertices ~ n_tets / 5.5`` gives 4.1; coarse meshes have more (5.8 at 8k DOF)."""
+
+
+@dataclass(frozen=True)
+class MeshEstimate:
+    """Size of a mesh before it is made: tets, P2 unknowns and the memory of solving them."""
+
+    mesh_size: float
+    n_tets: float
+    n_dofs: float
+    memory: float
+
+    def check(self, budget: float | None = None) -> None:
+        """Refuse a mesh whose solve cannot fit in ``budget`` bytes (default: what the solver may use now)."""
+        from .iterative import available_bytes
+        from .sweep_budget import human_bytes
+
+        budget = available_bytes() if budget is None else budget
+        if self.memory > budget:
+            raise LinkFeaError(f"a mesh of edge {self.mesh_size:.3g} mm would have about {self.n_tets:.2g} tets "
+                               f"({self.n_dofs:.2g} DOF) and need about {human_bytes(self.memory)} of memory to "
+                               f"solve, more than the {human_bytes(budget)} available; use a larger --mesh-size "
+                               "(or check the link's dimensions)")
+
+
+def mesh_estimate(volume: float, mesh_size: float) -> MeshEstimate:
+    """The mesh of ``volume`` mm^3 at edge ``mesh_size`` mm, estimated from the size field before meshing:
+    :data:`TETS_PER_CUBE` tets per ``H^3``, :data:`DOFS_PER_TET` unknowns each, and the iterative solver's
+    measured memory per unknown (the lighter path: :func:`linkfea.iterative.iterative_peak_bytes`)."""
+    from .iterative import iterative_peak_bytes
+
+    cube = float(mesh_size) ** 3
+    n_tets = TETS_PER_CUBE * float(volume) / cube if cube > 0.0 else math.inf  # 1e-200 mm: H^3 underflows
+    n_dofs = DOFS_PER_TET * n_tets
+    return MeshEstimate(float(mesh_size), n_tets, n_dofs, iterative_peak_bytes(n_dofs))
+
+
+def link_volume(link, with_block: bool) -> float:
+    """The volume to mesh, mm^3: the body, and the block in block mode."""
+    return float(link.body.Volume()) + (float(link.block.Volume()) if with_block and link.block is not None else 0.0)
 
 
 def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, epsilon: float = DEFAULT_EPSILON,
@@ -109,6 +161,7 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
 
     if mesher not in MESHERS:
         raise LinkFeaError(f"unknown mesher {mesher!r}; use gmsh or pytetwild")
+    mesh_estimate(link_volume(link, with_block), H).check()  # before the mesher: it cannot be stopped midway
     if size_at is not None and mesher != "gmsh":
         raise LinkFeaError("refinement by the error estimate (--tolerance) needs the gmsh mesher")
     if mesher == "gmsh":
@@ -123,8 +176,9 @@ def _mesh_with_gmsh(link, H, block_solid, progress, area_gate, size_at=None) -> 
         raise LinkFeaError(f"mesh size {H:g} mm exceeds the part size ({diag:.3g} mm bounding-box diagonal)")
     base_faces, tip_faces = interface_faces(link)
     progress(f"meshing with gmsh (edge {H:.3g} mm)")
-    g = mesh_gmsh.mesh_gmsh(link.name, link.body, block_solid, base_faces, tip_faces, H, curved=CURVED,
-                            size_at=size_at)
+    # In a child process: gmsh does not return to Python until done, and Ctrl-C must stop it now.
+    g = run_in_child(mesh_gmsh.mesh_gmsh, link.name, link.body, block_solid, base_faces, tip_faces, H,
+                     curved=CURVED, size_at=size_at)
     progress("checking interfaces")
     m = finish_mesh(link, g.points, g.tets, g.block, g.base_facets, g.tip_facets, block_solid, H, 0.0, "",
                     "gmsh", mesh_gmsh.version(), area_gate)

@@ -173,16 +173,20 @@ def p1_sa_hierarchy(U: sp.csr_matrix, P1: sp.csr_matrix, B1: np.ndarray, degree:
 
     Ac = galerkin_from_upper(U, P1)
     ops, pros = [operator(U, symmetric_upper=True), operator(Ac)], [P1]
+    ml = None
     if Ac.shape[0] > MAX_COARSE:
         Ab = Ac.tobsr(blocksize=(3, 3)) if Ac.shape[0] % 3 == 0 else Ac
         ml = pyamg.smoothed_aggregation_solver(Ab, B=B1, symmetry="hermitian", strength="symmetric",
                                                smooth=("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}), max_coarse=MAX_COARSE,
                                                keep=False)
+    if ml is not None and len(ml.levels) > 1:
         for lev in ml.levels[1:-1]:
             ops.append(operator(lev.A.tocsr()))
         for lev in ml.levels[:-1]:
             pros.append(lev.P.tocsr())
         ops.append(ml.levels[-1].A)
     else:
+        # Nothing to aggregate (pyamg counts 3-DOF blocks against MAX_COARSE, so a P1 level of up to
+        # 3 MAX_COARSE DOFs gives it one level): the P1 level is the coarsest and is factored.
         ops[-1] = Ac
     return Hierarchy(ops, pros, CHEBYSHEV_DEGREE if degree is None else degree)

@@ -6,6 +6,12 @@ import math
 from .errors import LinkFeaError
 from .materials import get_material
 
+MAX_LENGTH = 1e8
+"""Largest length a script parameter may give, mm (100 km).  OpenCASCADE compares points to an
+absolute tolerance of 1e-7 mm; the spacing of float64 numbers near ``x`` is ``2.2e-16 x``, which
+passes 1e-7 mm from 4.5e8 mm on, where the kernel's constructions fail (``-p length=1e20``:
+"gp_Vec::Normalize() - vector has zero norm")."""
+
 
 def resolve_params(defaults: dict, given: dict | None = None, positive=(), nonnegative=()) -> dict:
     """Merge ``given`` into a script's ``PARAMS`` with checks.
@@ -39,6 +45,10 @@ def resolve_params(defaults: dict, given: dict | None = None, positive=(), nonne
     for k in nonnegative:
         if not out[k] >= 0:
             raise LinkFeaError(f"parameter {k!r} must be >= 0, got {out[k]}")
+    for k in (*positive, *nonnegative):
+        if out[k] > MAX_LENGTH:
+            raise LinkFeaError(f"parameter {k!r} must be <= {MAX_LENGTH:g} mm (beyond, coordinates cannot resolve "
+                               f"the CAD kernel's 1e-7 mm tolerance), got {out[k]:g}")
     if "material" in out:
         get_material(out["material"])
     return out

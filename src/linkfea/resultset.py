@@ -31,6 +31,9 @@ def companions(path) -> dict[str, Path]:
 
 def check_result_out(path, vtu: bool = True, png: bool = True, option: str = "--out") -> Path:
     """Check ``--out`` of a result before any work (see :func:`linkfea.outputs.check_file`)."""
+    if not Path(path).name:  # ".", "" (which Path reads as ".") or "/": no name to put .vtu and .png beside
+        raise LinkFeaError(f"{option} {str(path)!r} is a folder, not a file: give a file name such as "
+                           "out/result.json")
     comp = companions(path)
     want = [comp[k] for k, on in (("vtu", vtu), ("png", png)) if on]
     return check_file(path, is_result, "a linkfea result", companions=want, option=option,

@@ -56,6 +56,8 @@ from .errors import VjmError
 from .transforms import KINDS, elementary
 
 PLATFORM_KEYS = ("dof", "seed", "attachments", "workspace")
+MAX_COPIES = 64
+"""Most copies of one chain (machines have 3 or 6 legs; ``count: 1000000000`` grew past 6 GB)."""
 CHAIN_KEYS = ("name", "transforms", "copies", "seed", "platform", "limits")
 ROLES = ("passive", "actuated", "joint")
 KIND_OF = {k.capitalize(): k for k in KINDS}          # "Tx" -> "tx"
@@ -387,8 +389,8 @@ def _chain_copies(name: str, copies, geometry: dict, els, sv, attach: str, limit
         raise VjmError(f"chain {name}.copies: expected {{rotate: [transforms] | permute: [y, z, x], count: N, "
                        f"names: [...]}}")
     count = copies.get("count")
-    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-        raise VjmError(f"chain {name}.copies.count must be an integer >= 1")
+    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_COPIES:
+        raise VjmError(f"chain {name}.copies.count must be an integer in [1, {MAX_COPIES}], got {count!r}")
     S = (_constants(copies["rotate"], geometry, f"chain {name}.copies.rotate") if "rotate" in copies
          else _permutation(copies["permute"], f"chain {name}.copies"))
     names = copies.get("names") or [f"{name}_{k + 1}" if k else name for k in range(count)]

@@ -168,7 +168,7 @@ class Plan:
         return f"{self.what}: {self.n:,} points, about {_gb(self.memory)} of memory and {_duration(self.seconds)}"
 
 
-def plan(what: str, n: int, bytes_per_item: float, seconds_per_item: float = SECONDS_PER_POINT,
+def plan(what: str, n: float, bytes_per_item: float, seconds_per_item: float = SECONDS_PER_POINT,
          limit: Optional[float] = None, unit: str = "points",
          hint: str = "use fewer points (a coarser grid or a slice)") -> Plan:
     """The memory and time of a run over ``n`` items (``unit``), or VjmError if it cannot fit in memory.
@@ -176,11 +176,12 @@ def plan(what: str, n: int, bytes_per_item: float, seconds_per_item: float = SEC
     ``limit`` defaults to :data:`MEMORY_FRACTION` of the memory available now; the error names
     the estimate, the limit and what to do (``hint``).
     """
-    p = Plan(what, int(n), float(n) * bytes_per_item, float(n) * seconds_per_item)
+    memory = float(n) * bytes_per_item
     lim = MEMORY_FRACTION * available_memory() if limit is None else float(limit)
-    if p.memory > lim:
-        raise VjmError(f"{what} would need about {_gb(p.memory)} of memory for {float(n):.3g} {unit}, more than "
+    if memory > lim:  # before int(n): a count may be astronomically large (or inf)
+        raise VjmError(f"{what} would need about {_gb(memory)} of memory for {float(n):.3g} {unit}, more than "
                        f"the {_gb(lim)} this machine can give it; {hint}")
+    p = Plan(what, int(n), memory, float(n) * seconds_per_item)
     return p
 
 

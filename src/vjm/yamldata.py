@@ -11,6 +11,11 @@ import yaml
 
 from .errors import VjmError
 
+MAX_NODES = 1_000_000
+"""Most values (numbers, strings, list and mapping entries, counted with aliases expanded) a data file may
+hold: a model file has a few hundred.  Aliases can multiply a small file (``b: &b [*a, *a, ...]`` nested
+ten times is 10^10 values), and a program that walks the data would run out of memory."""
+
 
 class _UniqueKeys(yaml.SafeLoader):
     """``yaml.SafeLoader`` that refuses a key given twice in one mapping (PyYAML keeps the last one
@@ -42,11 +47,67 @@ class _UniqueKeys(yaml.SafeLoader):
         super().flatten_mapping(node)
 
 
+class _DataLoader(_UniqueKeys):
+    """``yaml.SafeLoader`` that refuses an alias inside the node it names (``c: &c [*c, *c]``: a value
+    that contains itself, endless to walk) and a document above :data:`MAX_NODES` values once its aliases
+    are expanded."""
+
+    def __init__(self, stream):
+        super().__init__(stream)
+        self._open: set = set()
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            if event.anchor in self._open:
+                raise yaml.composer.ComposerError(
+                    None, None, f"the alias *{event.anchor} is inside the value &{event.anchor} names (a recursive "
+                    "anchor: a value that contains itself); data files cannot hold one", event.start_mark)
+            return super().compose_node(parent, index)
+        anchor = getattr(self.peek_event(), "anchor", None)
+        if anchor is None:
+            return super().compose_node(parent, index)
+        self._open.add(anchor)
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self._open.discard(anchor)
+
+
+def _expanded_size(node, memo: dict) -> int:
+    """Values in ``node`` with every alias expanded (a shared node counted each time it is used)."""
+    key = id(node)
+    if key not in memo:
+        if isinstance(node, yaml.SequenceNode):
+            memo[key] = 1 + sum(_expanded_size(n, memo) for n in node.value)
+        elif isinstance(node, yaml.MappingNode):
+            memo[key] = 1 + sum(_expanded_size(k, memo) + _expanded_size(v, memo) for k, v in node.value)
+        else:
+            memo[key] = 1
+    return memo[key]
+
+
+def _load(fh):
+    loader = _DataLoader(fh)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        n = _expanded_size(node, {})
+        if n > MAX_NODES:
+            raise yaml.composer.ComposerError(
+                None, None, f"it holds {n:.3g} values once its aliases are expanded, more than the {MAX_NODES:,} "
+                "a data file may hold", None)
+        return loader.construct_document(node)
+    finally:
+        loader.dispose()
+
+
 def read_yaml(path, what: str = "model file"):
     """The document in ``path`` as plain data (VjmError naming the file on any failure)."""
     try:
         with open(path, encoding="utf-8") as fh:
-            return yaml.load(fh, Loader=_UniqueKeys)  # a SafeLoader: builds no object from a tag
+            return _load(fh)
     except yaml.constructor.ConstructorError as exc:
         mark = exc.problem_mark
         where = f"{path}, line {mark.line + 1}" if mark is not None else str(path)

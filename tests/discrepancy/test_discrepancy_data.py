@@ -128,3 +128,34 @@ def test_encodings_named(tmp_path):
     p.write_bytes(("# mesure à 20 °C\n" + PLAIN).encode("latin-1"))
     with pytest.raises(VjmError, match=r"row 1: byte 0xe0 is not UTF-8"):
         read_csv(p)
+
+
+def test_a_diagnosis_beyond_the_memory_is_refused_before_it_starts(tmp_path, monkeypatch):
+    """120,000 rows (a 27 MB file of ``vjm simulate``) passed 12 GB in 45 s: the estimate from the row count
+    and the candidates (210 kB per row with all 25, measured) refuses it on a 16 GB machine at once; a smaller
+    file is refused the same way when the memory is smaller, before any stage runs."""
+    from vjm import grid
+    from vjm.discrepancy import workflow
+
+    monkeypatch.setattr(grid, "available_memory", lambda: 20e9)  # 16 GB usable (80%)
+    with pytest.raises(VjmError, match=r"vjm diagnose would need about 25.2 GB of memory for 1.2e\+05 rows"):
+        workflow.diagnose_plan(120_000)
+    assert workflow.diagnose_plan(120_000, 2).memory == pytest.approx(2 / 25 * 120_000 * 2.1e5)
+
+    def never(*a, **k):
+        raise AssertionError("a stage ran")
+
+    monkeypatch.setattr(workflow, "run_stages", never)
+    monkeypatch.setattr(grid, "available_memory", lambda: 1e5)  # 3 rows need 630 kB
+    import vjm
+    model = vjm.load_model("puu")
+    C = model.stiffness([0.0, 0.0, 0.0]).C
+    rows = ["x,y,z,Fx,Fy,Fz,Mx,My,Mz,dx,dy,dz,rx,ry,rz"]
+    for k in range(3):
+        w = np.zeros(6)
+        w[k] = 100.0
+        t = C @ w
+        rows.append("0,0,0," + ",".join(f"{v:g}" for v in w) + "," + ",".join(f"{v:.6g}" for v in t[:3]) + ",,,")
+    (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
+    with pytest.raises(VjmError, match="vjm diagnose would need about"):
+        workflow.diagnose(model, tmp_path / "m.csv")

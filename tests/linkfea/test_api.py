@@ -186,3 +186,20 @@ def test_compliance_moves_by_the_adjoint_map():
     d_B = t_A[:3] + np.cross(t_A[3:], r)
     t_B = np.concatenate([B.axes @ d_B, B.axes @ t_A[3:]])
     np.testing.assert_allclose(cb.matrix[:, 2], t_B, rtol=1e-10, atol=1e-16)
+
+
+@pytest.mark.parametrize("mode", ["rigid", "block"])
+def test_the_iterative_solver_on_a_small_link(bar, cache, mode, tmp_path, monkeypatch):
+    """``compute(solver='iterative')`` on the coarse bar (its P1 level too small for pyamg to coarsen) agrees
+    with the direct solve, through the API and the command line (exit 0, the same matrix)."""
+    from linkfea.cli import main
+
+    direct = bar if mode == "rigid" else linkfea.compute("bar", mesh_size=H, cache_dir=cache, mode=mode)
+    it = linkfea.compute("bar", mesh_size=H, cache_dir=cache, mode=mode, solver="iterative")
+    assert it.solver["factorizer"] == "cg+p1mg"
+    assert _scaled(it.compliance, direct.compliance) < 1e-6
+    monkeypatch.setenv("LINKFEA_CACHE_DIR", str(cache))
+    out = tmp_path / "r.json"
+    assert main(["compute", "bar", "--mesh-size", str(H), "--mode", mode, "--solver", "iterative", "-q",
+                 "--no-picture", "--out", str(out)]) == 0
+    assert _scaled(np.array(json.loads(out.read_text())["compliance"]), direct.compliance) < 1e-6

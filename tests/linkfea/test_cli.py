@@ -117,3 +117,76 @@ def test_broken_step_via_cli(env, tmp_path):
     p = _linkfea(["compute", str(step), "--base", "plane:x=0", "--tip", "plane:x=100", "--out", str(out)], env)
     assert p.returncode == 2 and p.stderr.strip().startswith("error: ") and "closed solid" in p.stderr
     assert not out.exists() and not out.with_suffix(".png").exists()
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        with open(f"/proc/{pid}/task/{pid}/children") as fh:
+            return [int(x) for x in fh.read().split()]
+    except OSError:
+        return []
+
+
+@pytest.mark.skipif(not os.path.exists(f"/proc/{os.getpid()}/task/{os.getpid()}/children"), reason="needs Linux /proc")
+def test_ctrl_c_during_meshing_stops_at_once(env, tmp_path):
+    """SIGINT while gmsh meshes (a 1 mm bar: 20 s of meshing) ends the command within seconds: status 130,
+    one ``error:`` line, nothing written, and no mesher left running (it ran in a child process)."""
+    import signal
+    import time
+
+    e = dict(env, LINKFEA_MEMORY="100")  # the estimate must let this mesh through on any machine
+    p = subprocess.Popen([sys.executable, "-m", "linkfea", "compute", "bar", "--mesh-size", "1", "--out",
+                          str(tmp_path / "r.json")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=e,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # even if we ignore it
+    try:
+        t0 = time.monotonic()
+        while not _children(p.pid) and p.poll() is None and time.monotonic() - t0 < 120:
+            time.sleep(0.05)
+        mesher = _children(p.pid)
+        assert mesher, "the mesher did not start in a child process"
+        time.sleep(1.0)
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=10)
+    finally:
+        p.kill()
+        p.wait()
+    assert p.returncode == 130, err
+    assert err.strip().splitlines() == ["error: interrupted (Ctrl-C)"], err
+    assert list(tmp_path.iterdir()) == []
+    assert not os.path.exists(f"/proc/{mesher[0]}") or open(f"/proc/{mesher[0]}/stat").read().split()[2] == "Z"
+
+
+def test_traceback_shows_the_scripts_own_frames(tmp_path, monkeypatch, capsys):
+    """A failing link script: one ``error:`` line naming the script, line and exception (exit 2); with
+    ``--traceback`` the script's own frames come before it, and no frame of linkfea."""
+    from linkfea.cli import main
+
+    (tmp_path / "s.py").write_text("PARAMS = {}\n\n\ndef helper():\n    raise ValueError('no such bore')\n\n\n"
+                                   "def build(**p):\n    return helper()\n")
+    monkeypatch.chdir(tmp_path)
+    assert main(["compute", "s.py", "--out", "r.json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and "s.py, line 5: ValueError: no such bore" in err[0]
+    assert main(["compute", "s.py", "--out", "r.json", "--traceback"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0] == "Traceback (most recent call last):" and err[-1].startswith("error: ")
+    frames = [ln for ln in err if ln.lstrip().startswith("File ")]
+    assert [f.split(", in ")[-1] for f in frames] == ["build", "helper"] and all("s.py" in f for f in frames)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.py"]  # no r.json, no __pycache__
+
+
+def test_the_mesher_child_returns_its_result_and_raises_its_errors():
+    """``run_in_child`` runs in another process (its pid differs) where Ctrl-C can reach the caller, and gives
+    back the value or the exception (type and message) of the function."""
+    from linkfea.child import interruptible_here, run_in_child
+
+    if not interruptible_here():
+        pytest.skip("SIGINT is not Python's here (a worker thread or an ignored signal)")
+    assert run_in_child(os.getpid) != os.getpid()
+    assert run_in_child(np.arange, 3).tolist() == [0, 1, 2]
+
+    def fails():
+        raise LinkFeaError("the mesher said no")
+
+    with pytest.raises(LinkFeaError, match="the mesher said no"):
+        run_in_child(fails)

@@ -82,3 +82,17 @@ def test_the_choice_takes_the_iterative_path_where_it_is_faster():
     assert choose(250_000, budget=1e12) == "iterative"
     assert iterative_peak_bytes(2_000_000) == pytest.approx(2 * iterative_peak_bytes(1_000_000))
     assert iterative_peak_bytes(871_710) < direct_peak_bytes(871_710) / 2
+
+
+@pytest.mark.parametrize("mode", ["rigid", "block"])
+def test_a_p1_level_with_nothing_to_aggregate_is_solved_directly(steel, mode, monkeypatch):
+    """A P1 level above MAX_COARSE DOFs but at most MAX_COARSE 3-DOF blocks (pyamg counts blocks) gives pyamg
+    nothing to coarsen: the P1 level is the coarsest, factored, and the 6x6 is the direct solver's."""
+    mesh = bar_link_mesh(60.0, 8.0, 6.0, 10, 2, 2, block_length=6.0, nb=1)
+    probe = solve_link(mesh, steel, mode=mode, solver=cg_p1mg_factorizer)
+    n_p1 = probe.solver["convergence"]["level_sizes"][1]
+    monkeypatch.setattr(multigrid, "MAX_COARSE", n_p1 // 2)  # above in DOFs, below in 3-DOF blocks
+    it = solve_link(mesh, steel, mode=mode, solver=cg_p1mg_factorizer)
+    assert it.solver["convergence"]["level_sizes"] == [it.n_dofs, n_p1]
+    direct = solve_link(mesh, steel, mode=mode)
+    assert _scaled(compliance_from_solution(it).matrix, compliance_from_solution(direct).matrix) < 1e-6

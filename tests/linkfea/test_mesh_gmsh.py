@@ -229,3 +229,32 @@ def test_two_meshers_one_answer_on_the_filleted_bracket(bracket, tmp_path):
     assert max(abs(p.mesh.quality["base_area_error"]), abs(p.mesh.quality["tip_area_error"])) <= AREA_GATE
     d = np.abs(np.diag(p.matrix) / np.diag(g.matrix) - 1)
     assert d.max() <= 0.01, d
+
+
+@pytest.mark.parametrize("spec,size", [("bar", 3.0), ("parallelogram_bar", None)])
+def test_the_mesh_estimate_is_at_the_low_end_of_the_real_mesh(spec, size):
+    """The estimate from the size field (volume / H^3) is below the tets gmsh makes, and not far below:
+    within a factor 2 (the refinement at interfaces and corners adds the rest)."""
+    from linkfea.mesh import default_mesh_size, link_volume, mesh_estimate
+
+    link = build_link(spec, with_block=False)
+    H = size or default_mesh_size(link)
+    est = mesh_estimate(link_volume(link, False), H)
+    m = mesh_link(link, H, with_block=False, use_cache=False)
+    assert est.n_tets <= m.n_tets < 2.0 * est.n_tets, (est.n_tets, m.n_tets)
+
+
+@pytest.mark.parametrize("params,size", [({}, 1e-3), ({"width": 1e-4}, None), ({"length": 1e6}, None)])
+def test_a_mesh_beyond_the_memory_is_refused_before_meshing(params, size, monkeypatch):
+    """``--mesh-size 1e-3``, ``-p width=1e-4`` (default size 6e-5 mm) and ``-p length=1e6`` ran gmsh for
+    minutes: the estimate refuses them before the mesher starts, naming the figures."""
+    import linkfea.mesh_gmsh as mg
+
+    def never(*a, **k):
+        raise AssertionError("gmsh started")
+
+    monkeypatch.setattr(mg, "mesh_gmsh", never)
+    monkeypatch.setenv("LINKFEA_MEMORY", "64")  # a 64 GB machine: still far too small
+    link = build_link("bar", params, with_block=False)
+    with pytest.raises(LinkFeaError, match=r"would have about .* tets .* more than the 64 GB available"):
+        mesh_link(link, size, with_block=False, use_cache=False)

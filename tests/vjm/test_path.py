@@ -372,3 +372,37 @@ def test_passive_clearance_against_truths_joint_slips_in_the_equilibrium(tmp_pat
     diff = dfl.nonlinear_tcp(m, P, W, np.zeros(3)) - dfl.nonlinear_tcp(base, P, W, np.zeros(3))
     ref = tr.joint_slip_twist(tr.Truth(joint_backlash=b), P, W)
     np.testing.assert_allclose(diff, ref, rtol=1e-3, atol=1e-3 * np.abs(ref).max())
+
+
+def test_a_long_path_says_how_long_before_it_starts(monkeypatch):
+    """A path estimated to take more than a minute reports the estimate first, then its stages; a short one
+    reports its stages only."""
+    import vjm.toolpath.points as points
+    import vjm.toolpath.run as run
+    from vjm.toolpath.run import path
+    from vjm.toolpath.wrench import Constant
+
+    said: list = []
+    path("puu", "data/toolpaths/pocket.nc", wrench=Constant((10.0, 0, 0, 0, 0, 0)), compensate=False,
+         method="linear", progress=said.append)
+    assert said and not any(s.startswith("vjm path: ") for s in said)
+    said.clear()
+    monkeypatch.setattr(points, "PATH_SECONDS", 100.0)
+    monkeypatch.setattr(run, "CHUNK", 64)  # several passes of the nonlinear equilibrium, each reported
+    res = path("puu", "data/toolpaths/pocket.nc", wrench=Constant((10.0, 0, 0, 0, 0, 0)), compensate=False,
+               progress=said.append)
+    n = len(res.deflection)
+    assert said[0].startswith(f"vjm path: {n:,} points, about") and "progress follows" in said[0]
+    assert said[1] == f"nonlinear deflection at {n:,} points"
+    assert said[2].startswith(f"  64 of {n:,} points, ") and said[2].endswith(" s left") and len(said) >= 3
+
+
+def test_a_wrench_far_beyond_the_model_is_refused_at_once():
+    """``--wrench 1e300,...`` spent 80 s in failing equilibria: the linear deflection at the most loaded point
+    answers first (inf mm here; 1e5 N on the 3-PUU deflects it by more than a tenth of its workspace)."""
+    from vjm.toolpath.run import path
+    from vjm.toolpath.wrench import Constant
+
+    for w in (1e300, 1e7):
+        with pytest.raises(VjmError, match="deflects the tool by .* beyond 0.1 x the workspace"):
+            path("puu", "data/toolpaths/pocket.nc", wrench=Constant((w, 0, 0, 0, 0, 0)))

@@ -178,3 +178,28 @@ def test_toolpath_files_with_a_byte_order_mark_are_read(tmp_path):
     for name in ("p.nc", "p.csv"):
         tp = points.read(str(tmp_path / name))
         np.testing.assert_allclose(tp.points[[0, -1], :3], [[0, 0, 0], [2, 0, 0]])
+
+
+@pytest.mark.parametrize("chord_tol,step", [(1e-3, 1.0), (1e-2, 0.3), (0.5, 7.0)])
+def test_the_sample_count_is_the_samples_made(chord_tol, step):
+    """``sample_count`` (the estimate made before sampling) counts exactly the points ``sample`` makes, on the
+    pocket's lines and arcs."""
+    prog = gc.parse_text(_text())
+    assert gc.sample_count(prog, chord_tol, step) == len(gc.sample(prog, chord_tol, step)[0])
+
+
+@pytest.mark.parametrize("kw", [{"step": 1e-6}, {"chord_tol": 1e-12}, {"chord_tol": 1e-300}])
+def test_a_sampling_beyond_the_memory_is_refused_before_it_starts(kw, monkeypatch):
+    """``--step 1e-6`` grew to 24 GB before the kernel killed it: the count is made first and refused with the
+    figures (the memory limit set to 64 GB, so that the answer does not depend on this machine)."""
+    from vjm import grid
+    from vjm.toolpath.points import from_gcode
+
+    monkeypatch.setattr(grid, "available_memory", lambda: 80e9)
+
+    def never(*a, **k):
+        raise AssertionError("sampled")
+
+    monkeypatch.setattr(gc, "sample", never)
+    with pytest.raises(VjmError, match=r"vjm path would need about .* more than the 64 GB this machine can give"):
+        from_gcode(gc.parse_text(_text()), "pocket.nc", **kw)

@@ -218,3 +218,10 @@ def test_cli_writes_the_output_set_and_leaves_foreign_files_alone(tmp_path, caps
     assert main(argv) == 2                        # a folder holding another file: refused before any work
     assert "error: " in capsys.readouterr().err
     assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
+
+
+def test_a_wrench_far_beyond_the_model_is_refused_at_once(tmp_path):
+    nc = tmp_path / "p.nc"
+    nc.write_text(PROGRAM, encoding="utf-8")
+    with pytest.raises(VjmError, match=r"p.nc line 3: the wrench 1e\+300,0,0,0,0,0 .* deflects the tool by inf"):
+        vjm.path(str(_model_file(tmp_path)), str(nc), wrench=Constant((1e300, 0, 0, 0, 0, 0)))

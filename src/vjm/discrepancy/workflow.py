@@ -99,6 +99,26 @@ def run_stages(model, data, alpha, effects, folds, max_effects, progress, model_
     return Pass(s, chosen, fit, loc, rep, nc.scale if nc is not None else None)
 
 
+DIAGNOSE_BYTES_PER_ROW = 2.1e5
+"""Peak memory of ``vjm diagnose`` per data row with every candidate of the registry (25): measured on the
+3-PUU, 247 MB at 601 rows, 640 MB at 2,401, 2.1 GB at 9,601 (205-218 kB per added row, outlier stage
+included); the candidates' Jacobians make most of it, so ``--effect`` scales it by its share of them."""
+DIAGNOSE_SECONDS_PER_ROW = 5.8e-3
+"""Seconds per row of the same runs (25 s at 2,401 rows, 67 s at 9,601, on this 2-core machine)."""
+
+
+def diagnose_plan(n_rows: int, n_candidates: int | None = None):
+    """The :class:`vjm.grid.Plan` of a diagnosis of ``n_rows`` rows (``n_candidates``: None for the whole
+    registry); VjmError naming the figures if it cannot fit in memory."""
+    from ..grid import plan
+    from .effects import REGISTRY
+
+    share = 1.0 if n_candidates is None else min(1.0, max(1, n_candidates) / max(1, len(REGISTRY)))
+    return plan("vjm diagnose", n_rows, DIAGNOSE_BYTES_PER_ROW * share, DIAGNOSE_SECONDS_PER_ROW, unit="rows",
+                hint="diagnose a subset of the rows (the diagnosis needs postures and loads, not repeats), "
+                     "or fewer candidates (--effect)")
+
+
 @renamed_progress("log")
 def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int = 5, max_effects: int = 3,
              model_name: str | None = None, progress=None, suggest: int = 0, forces_only: bool = False,
@@ -124,6 +144,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         model = load_model(model)
     if isinstance(data, (str, os.PathLike)):
         data = read_csv(data)
+    diagnose_plan(data.n, len(effects) if effects else None)  # before the stages: 120k rows passed 12 GB in 45 s
     if noise is not None:
         if not isinstance(data, Deflections):
             raise VjmError("noise: a tracker noise model applies to deflection data (x,y,z,Fx..Mz,dx..rz)")

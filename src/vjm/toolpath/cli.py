@@ -37,6 +37,20 @@ def _wrench_source(wrench, kc, fz, depth, width, diameter):
     return None
 
 
+def _long_run_progress():
+    """Progress lines on stderr once ``vjm.path`` has announced a long run (its estimate line); a short run
+    stays quiet, as ``vjm map`` does."""
+    loud: list = []
+
+    def say(msg: str) -> None:
+        if msg.startswith("vjm path: "):
+            loud.append(True)
+        if loud:
+            typer.echo(msg, err=True)
+
+    return say
+
+
 def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_updated.yaml of vjm diagnose)"),
              toolpath: Path = typer.Argument(..., help="toolpath: CSV x,y,z[,rx,ry,rz][,Fx..Mz] or G-code"),
              out: Path = typer.Option(..., "--out", help="output folder (path.csv, deflection.png, plan.png, "
@@ -92,7 +106,7 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
                    split_moves=split_moves,
                    chord_tol=chord_tol, step=step, passed=passed, workers=workers, foot=foot, leg=leg,
                    seed=None if seed is None else _numbers(seed, "--seed", seed.count(",") + 1),
-                   tool_frame=tool_frame)
+                   tool_frame=tool_frame, progress=_long_run_progress())
         names = write_outputs(res, out)
     except user_errors() as exc:
         typer.echo(f"error: {one_line(exc)}", err=True)

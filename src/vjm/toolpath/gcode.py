@@ -20,6 +20,7 @@ True
 """
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 
@@ -229,10 +230,9 @@ def moves(prog: Program) -> list:
     return out
 
 
-def arc_points(mv: Move, chord_tol: float) -> np.ndarray:
-    """Points (k, 3) along an arc after its start, the last being its end, within ``chord_tol`` (mm)
-    of the true arc (sagitta of each chord); helices move the normal axis linearly."""
-    u, v, w = PLANE_AXES[mv.plane]
+def _arc(mv: Move, chord_tol: float):
+    """Start angle, signed sweep, start radius and number of chords of an arc within ``chord_tol``."""
+    u, v, _ = PLANE_AXES[mv.plane]
     a0 = np.arctan2(*(mv.start - mv.centre)[[v, u]])
     a1 = np.arctan2(*(mv.end - mv.centre)[[v, u]])
     r = np.hypot(*(mv.start - mv.centre)[[u, v]])
@@ -246,7 +246,16 @@ def arc_points(mv: Move, chord_tol: float) -> np.ndarray:
         if sweep >= -1e-12:
             sweep = -2 * np.pi
     step = 2.0 * np.arccos(max(-1.0, 1.0 - chord_tol / r)) if chord_tol < 2 * r else np.pi
-    k = max(1, int(np.ceil(abs(sweep) / step - 1e-12)))
+    chords = abs(sweep) / step - 1e-12 if step > 0 else math.inf  # chord_tol 1e-300: arccos(1) = 0
+    return a0, sweep, r, max(1.0, math.ceil(chords) if math.isfinite(chords) else math.inf)
+
+
+def arc_points(mv: Move, chord_tol: float) -> np.ndarray:
+    """Points (k, 3) along an arc after its start, the last being its end, within ``chord_tol`` (mm)
+    of the true arc (sagitta of each chord); helices move the normal axis linearly."""
+    u, v, w = PLANE_AXES[mv.plane]
+    a0, sweep, r, chords = _arc(mv, chord_tol)
+    k = int(chords)
     t = np.arange(1, k + 1) / k
     ang = a0 + sweep * t
     r1 = np.hypot(*(mv.end - mv.centre)[[u, v]])
@@ -257,6 +266,19 @@ def arc_points(mv: Move, chord_tol: float) -> np.ndarray:
     out[:, w] = mv.start[w] + (mv.end[w] - mv.start[w]) * t
     out[-1] = mv.end
     return out
+
+
+def sample_count(prog: Program, chord_tol: float = 1e-3, step: float = 1.0) -> float:
+    """The number of points :func:`sample` makes, counted without making them (a float: it may be huge)."""
+    n = 0.0
+    for m in moves(prog):
+        if np.any(np.isnan(m.start)):
+            n += 1.0
+        elif m.kind in (2, 3):
+            n += _arc(m, chord_tol)[3]
+        else:
+            n += max(1.0, math.ceil(float(np.linalg.norm(m.end - m.start)) / step))
+    return n
 
 
 def sample(prog: Program, chord_tol: float = 1e-3, step: float = 1.0):

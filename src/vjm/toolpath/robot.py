@@ -41,10 +41,10 @@ from ..transforms import rotation_vector
 from . import gcode as gc
 from . import run
 from .compensate import ABS_TOL, MAX_ITER, REL_TOL, Compensation
-from .points import Toolpath
+from .points import Toolpath, path_plan
 from .points import read as read_toolpath
 from .result import PathResult
-from .wrench import PerPoint
+from .wrench import PerPoint, at_platform
 
 #: samples between two anchor points of the IK continuation (solved in order)
 ANCHOR = 16
@@ -254,7 +254,11 @@ def robot_path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear
     rt = setup(model, seed, tool_frame, tool)
     tp = toolpath if isinstance(toolpath, Toolpath) else read_toolpath(toolpath, chord_tol, step, passed)
     W = (wrench or PerPoint()).wrenches(tp)
+    check_load(rt, tp, W)
+    plan = path_plan(tp.n)  # a CSV's points, or a program's samples (checked before sampling)
     progress = or_quiet(progress)
+    if plan.long:  # a run of more than a minute says so before it starts
+        progress(f"{plan.describe()}; progress follows")
     progress(f"inverse kinematics, equilibria under the process wrench{' and the weight' if rt.weight else ''}"
              + (" and compensation" if compensate else "") + f" at {tp.n:,} points")
     d, comp = _passes(rt, tp, W, compensate, progress)
@@ -264,6 +268,26 @@ def robot_path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear
                                 comp.residual_vector)
         text = run.compensated_text(tp, comp.commanded, linearize_arcs, split_moves)
     return PathResult(tp, W, d, method, tolerance, comp, None, after, _notes(rt, tp, after, d, split_moves), text)
+
+
+def check_load(rt: RobotTool, tp: Toolpath, W) -> None:
+    """Refuse a wrench far beyond the model's range (as :func:`vjm.toolpath.run.check_load`): its linear
+    deflection at the seed beyond ``run.LARGE_DEFLECTION`` x the tool's distance from the base, or
+    ``run.LARGE_ROTATION``, before any equilibrium is tried."""
+    if not W.size or not np.abs(W).max() > 0:
+        return
+    i = int(np.argmax(np.abs(W).max(axis=1)))
+    T = rt.tcp(rt.seed[None])[0]
+    lever = T[:3, :3] @ rt.offset
+    with np.errstate(all="ignore"):  # 1e300 N: the products overflow, which is the answer
+        d = rt.model.deflection(rt.seed, at_platform(W[i:i + 1], lever[None])[0], rt.frame)
+        t, r = float(np.linalg.norm(d[:3] + np.cross(d[3:], lever))), float(np.linalg.norm(d[3:]))
+    size = float(np.linalg.norm(T[:3, 3]))
+    if not (t <= run.LARGE_DEFLECTION * size and r <= run.LARGE_ROTATION):
+        raise VjmError(f"{tp.where(i)}: the wrench {','.join(f'{v:g}' for v in W[i])} (N, N mm) deflects the tool "
+                       f"by {t:.3g} mm and {r:.3g} rad in the linear model at the seed, beyond "
+                       f"{run.LARGE_DEFLECTION:g} x the tool's reach ({size:.3g} mm) or {run.LARGE_ROTATION:g} rad, "
+                       f"where the model holds; check the wrench and its units")
 
 
 def _passes(rt: RobotTool, tp: Toolpath, W, compensate: bool, progress):

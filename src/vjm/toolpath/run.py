@@ -22,7 +22,7 @@ from .compensate import Compensation
 from .compensate import compensate as _compensate
 from .deflect import check_effects, nonlinear_tcp_solved, platform_poses, tcp_deflection
 from .equilibrium import RTOL
-from .points import Toolpath, csv_text
+from .points import Toolpath, csv_text, path_plan
 from .points import read as read_toolpath
 from .result import PathResult
 from .wrench import PerPoint
@@ -47,6 +47,36 @@ def check_machine(model, tp: Toolpath, tool) -> None:
         i = int(np.argmax(~ok))
         raise VjmError(f"{tp.where(i)}: the programmed point {np.round(tp.points[i], 6).tolist()} mm is outside "
                        f"the machine's workspace (or needs an actuator outside its limits)")
+
+
+LARGE_DEFLECTION = 0.1
+"""A wrench whose linear deflection passes this share of the workspace diagonal (or :data:`LARGE_ROTATION`)
+is refused at once: the models are small-deflection models, and the nonlinear equilibrium spent 80 s failing on
+``--wrench 1e300,...`` before saying so."""
+
+
+LARGE_ROTATION = 1.0
+"""Largest linear rotation of the platform (rad) accepted from a wrench (a test of large loads reaches 0.1)."""
+
+
+def check_load(model, tp: Toolpath, W: np.ndarray, tool) -> None:
+    """Refuse a wrench far beyond the model's range, from the linear deflection at its largest point."""
+    from .deflect import linear
+
+    if not W.size or not np.abs(W).max() > 0:
+        return
+    i = int(np.argmax(np.abs(W).max(axis=1)))
+    with np.errstate(all="ignore"):  # 1e300 N: the products overflow, which is the answer
+        d = linear(model, tp.poses[i:i + 1], W[i:i + 1], tool)[0]
+        t, r = float(np.linalg.norm(d[:3])), float(np.linalg.norm(d[3:]))
+    ws = model.workspace
+    size = float(np.linalg.norm(np.asarray(ws.hi, float) - np.asarray(ws.lo, float)))
+    if not (t <= LARGE_DEFLECTION * size and r <= LARGE_ROTATION):
+        raise VjmError(f"{tp.where(i)}: the wrench {','.join(f'{v:g}' for v in W[i])} (N, N mm) "
+                       f"deflects the tool by {t:.3g} mm and {r:.3g} rad in the linear model, beyond "
+                       f"{LARGE_DEFLECTION:g} x the workspace ({size:.3g} mm) or {LARGE_ROTATION:g} rad, where the model "
+                       "holds; "
+                       "check the wrench and its units")
 
 
 def _tool(tool) -> np.ndarray:
@@ -167,7 +197,11 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
     tp = toolpath if isinstance(toolpath, Toolpath) else read_toolpath(toolpath, chord_tol, step, passed)
     check_machine(m, tp, t)
     W = (wrench or PerPoint()).wrenches(tp)
+    check_load(m, tp, W, t)
+    plan = path_plan(len(tp.poses))  # a CSV's points, or a program's samples (checked before sampling)
     progress = or_quiet(progress)
+    if plan.long:  # a run of more than a minute says so before it starts
+        progress(f"{plan.describe()}; progress follows")
     notes = []
     if m.dof == 6 and not tp.has_orientation:
         notes.append("6-dof platform, toolpath without orientations: the platform keeps a zero rotation and "

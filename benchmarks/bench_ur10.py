@@ -1,0 +1,115 @@
+"""Held-out position errors of the IPA UR10 accuracy set (data/realdata/ur10_ipa/), read as it is.
+
+The robot's parameters are fitted on a random part of series A (``--train`` rows); every other row of A,
+and all of series C and D, are held out.  C and D are separate tracker set-ups: each is first
+registered on ``--register`` of its own poses (evenly spaced in the file), the robot's parameters
+frozen, and the errors are those of its other poses.  Four models, each held out:
+
+1. nominal: the URDF, the T-Mac offset of ``Trafo_TM_F_init.txt``, only the instrument frame fitted;
+2. registration only: the URDF, the instrument frame and the T-Mac offset fitted on A;
+3. geometry: + the identifiable joint offsets and URDF-origin errors (vjm.robot.calibration);
+4. geometry + joint compliance under self-weight (and the T-Mac's weight, a payload at the marker, if the
+   F test keeps it).
+
+Usage: ``python benchmarks/bench_ur10.py [--train 3000] [--register 30] [--out table.md]``.
+"""
+import argparse
+import os
+import sys
+import time
+import warnings
+
+import numpy as np
+
+import vjm
+from vjm.robot.calibration import Calibration, calibrate, error_stats, position_errors, register
+from vjm.robot.poses import read_column_map, read_poses
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+IPA = os.path.join(ROOT, "data", "realdata", "ur10_ipa")
+FILES = {"A": "Series_A/measurements_grid.csv", "C": "Series_C/measurements_random_poses.csv",
+         "D": "Series_D/measurements_iso_cubes.csv"}
+MODELS = (("nominal", None), ("registration only", ()), ("geometry", ("geometry",)),
+          ("geometry + joint compliance", ("geometry", "compliance", "payload")))
+
+
+def nominal_marker() -> np.ndarray:
+    """The T-Mac's point in the flange frame (mm): Trafo_TM_F_init is the flange's pose in the T-Mac frame."""
+    T = np.loadtxt(os.path.join(IPA, "Series_A", "Trafo_TM_F_init.txt"))
+    return -T[:3, :3].T @ T[:3, 3]
+
+
+def split(data, k: int):
+    """(the k evenly spaced rows registering a series, the others)."""
+    mask = np.zeros(data.n, dtype=bool)
+    mask[np.linspace(0, data.n - 1, k).astype(int)] = True
+    return data.subset(mask), data.subset(~mask)
+
+
+def run(args) -> list:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")   # the illustrative joint stiffnesses of ur10.yaml are not used here
+        model = vjm.load_model(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
+    cmap = read_column_map(os.path.join(IPA, "columns.yaml"))
+    sets = {s: read_poses(os.path.join(IPA, f), cmap, model.q_names, group=s) for s, f in FILES.items()}
+    A = sets["A"]
+    pick = np.zeros(A.n, dtype=bool)
+    pick[np.random.default_rng(0).permutation(A.n)[:min(args.train, A.n)]] = True
+    train, held = A.subset(pick), A.subset(~pick)
+    rows = []
+    for name, effects in MODELS:
+        t0 = time.perf_counter()
+        if effects is None:
+            cal = register(Calibration(model, "tool0", {}, {}, {}, nominal_marker()), train)
+        else:
+            cal = calibrate(model, train, "tool0", effects=effects)
+        fit_s = time.perf_counter() - t0
+        out = {"model": name, "fit_s": fit_s, "cal": cal, "A": error_stats(position_errors(cal, held))}
+        for s in ("C", "D"):
+            few, rest = split(sets[s], args.register)
+            out[s] = error_stats(position_errors(register(cal, few), rest))
+        rows.append(out)
+        print(f"{name}: fitted in {fit_s:.1f} s", file=sys.stderr)
+    return rows
+
+
+def table(rows, args) -> str:
+    lines = ["| model | A held out: mean / std / max / p95 | C: mean / std / max / p95 | D: mean / std / max / p95 |",
+             "|---|---|---|---|"]
+    for r in rows:
+        cells = [" / ".join(f"{r[s][k]:.3f}" for k in ("mean", "std", "max", "p95")) for s in ("A", "C", "D")]
+        lines.append(f"| {r['model']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def details(cal) -> str:
+    out = ["stages: " + "; ".join(f"{s.name} {'kept' if s.kept else 'not kept'} ({s.n_params} parameters, "
+                                   f"RMS {s.rms:.3f} mm)" for s in cal.stages)]
+    for k, v in cal.robot_values().items():
+        unit = "mm" if k.split(".")[-1].startswith("d") else ("rad/(N m)" if k.endswith("compliance") else "rad")
+        f = 1000.0 if k.endswith("compliance") else 1.0
+        out.append(f"- `{k}` = {v * f:.4g} +- {cal.std[k] * f:.2g} {unit}")
+    out.append(f"- removed or not observable: {len(cal.removed)}: "
+               + "; ".join(f"`{n}` ({why})" for n, why in cal.removed))
+    return "\n".join(out)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--train", type=int, default=3000, help="rows of series A fitted (random, seed 0)")
+    ap.add_argument("--register", type=int, default=30, help="poses of C and of D registering their set-up")
+    ap.add_argument("--out", help="write the table (markdown) here too")
+    args = ap.parse_args(argv)
+    rows = run(args)
+    text = (f"Position error (mm) held out; A: {args.train} rows fitted, the other "
+            f"{11911 - args.train} held out; C, D: registered on {args.register} of their poses.\n\n"
+            + table(rows, args) + "\n\nFitted (geometry + joint compliance):\n\n" + details(rows[-1]["cal"])
+            + "\n\nFit times (s): " + ", ".join(f"{r['model']} {r['fit_s']:.1f}" for r in rows) + "\n")
+    print(text)
+    if args.out:
+        with open(args.out, "w") as f:
+            f.write(text)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,330 @@
+"""Absolute-pose calibration of a robot: registration, geometry, joint compliance under self-weight.
+
+On an :class:`~vjm.robot.poses.AbsolutePoses` data set (points measured by an instrument in its own frame)
+the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marquardt (scipy), in stages:
+
+1. **registration** (nuisance, always fitted, reported apart): the instrument frame of each group
+   (6 parameters) and the marker's offset on its frame (3), started from a Kabsch fit on the nominal model;
+2. **geometry**: joint offsets and per-joint URDF-origin errors.  The identification Jacobian decides what
+   can be identified: its columns (scaled to unit norm, in a fixed order: offsets, then each joint's
+   ``dx dy dz ex ey ez``) are kept one by one while they add a direction beyond ``tol`` to the span of the
+   registration and of the columns kept before (Gram-Schmidt); the others are combinations of those,
+   removed and listed with the parameters they combine (a base frame against the first joint, a
+   translation along parallel axes ...) -- never fitted as degenerate parameters;
+3. **compliance**: a torsional compliance per joint, the deflection ``-c g_j(q)`` under the nominal model's
+   gravity torque.  A joint whose gravity torque hardly varies over the data (its spread below
+   ``flat`` of the largest joint's) cannot be told from an offset: it is reported not observable.
+4. **payload**: an unknown mass at the marker (a probe, a tool), weighed through the compliances kept: its
+   gravity torque ``-J_p^T g`` per kg adds to the robot's own.
+
+A stage is kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the
+registration only) and, with ``folds``, when its cross-validated error drops too.  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
+are unweighted (mm), the model's errors exceeding the instruments' stated sigmas on real data.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.stats import f as f_dist
+
+from ..errors import VjmError
+from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
+
+STAGES = ("registration", "geometry", "compliance", "payload")
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One stage of the fit: its name, whether it was kept, its parameter count, residual sum of squares
+    (mm^2), RMS position error (mm), the F test's p-value against the stage before (nan for the first)
+    and the cross-validated RMS (mm; nan without ``folds``)."""
+
+    name: str
+    kept: bool
+    n_params: int
+    rss: float
+    rms: float
+    p_value: float
+    cv_rms: float = float("nan")
+
+
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """A fitted measurement model: ``values`` and ``std`` of the fitted parameters (names of
+    :mod:`vjm.robot.absolute`), the groups' base registration ``frames`` {group: (R0, t0)}, the marker's
+    base offset ``p0``, the parameters ``removed`` [(name, why)], and the ``stages``."""
+
+    model: Any
+    frame: str
+    values: dict
+    std: dict
+    frames: dict
+    p0: np.ndarray
+    removed: tuple = ()
+    stages: tuple = ()
+
+    def robot_values(self) -> dict:
+        """The robot's fitted parameters (geometry and compliance), without the nuisance."""
+        return {k: v for k, v in self.values.items() if not k.startswith("reg[") and not k.startswith(f"{self.frame}.p")}
+
+    @property
+    def marker(self) -> np.ndarray:
+        return self.p0 + np.array([self.values.get(f"{self.frame}.p{k}", 0.0) for k in "xyz"])
+
+
+def unit_torques(model, q: np.ndarray, frame: str, p) -> np.ndarray:
+    """The gravity torques (n, nq) N mm of 1 kg at the point ``p`` (mm) of ``frame``, ``-J_p^T g``."""
+    T = model.forward(q, frame).reshape(-1, 4, 4)
+    J = model.jacobian(q, frame).reshape(len(q), 6, -1)
+    r = np.einsum("nij,j->ni", T[:, :3, :3], np.asarray(p, dtype=float))
+    Jp = J[:, :3, :] + np.cross(J[:, 3:, :], r[:, :, None], axis=1)
+    return -np.einsum("nik,i->nk", Jp, np.asarray(model.gravity, dtype=float))
+
+
+def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: bool = False) -> Problem:
+    q = data.q_for(model.q_names)
+    groups = tuple(sorted({str(g) for g in data.groups}))
+    missing = [g for g in groups if g not in frames]
+    if missing:
+        raise VjmError(f"{data.source}: group(s) {', '.join(missing)} not registered")
+    gidx = np.array([groups.index(str(g)) for g in data.groups])
+    return Problem(model, frame, q, gidx, groups, tuple(frames[g][0] for g in groups),
+                   tuple(frames[g][1] for g in groups), np.asarray(p0, dtype=float), model.gravity_torques(q),
+                   unit_torques(model, q, frame, p0) if payload else None)
+
+
+def initial_registration(model, data, frame: str, p0=None, rounds: int = 8) -> tuple[dict, np.ndarray]:
+    """Instrument frames {group: (R, t)} and marker offset (3,) mm from the nominal model: Kabsch fits of
+    each group's points alternating with the linear least squares of the marker offset (kept at ``p0`` if
+    given)."""
+    q = data.q_for(model.q_names)
+    T = model.forward(q, frame).reshape(-1, 4, 4)
+    m = data.points[frame]
+    groups = sorted({str(g) for g in data.groups})
+    rows = {g: np.array([str(x) == g for x in data.groups]) for g in groups}
+    p = np.zeros(3) if p0 is None else np.asarray(p0, dtype=float)
+    frames: dict = {}
+    for _ in range(1 if p0 is not None else rounds):
+        pb = np.einsum("nij,j->ni", T[:, :3, :3], p) + T[:, :3, 3]
+        frames = {g: kabsch(pb[r], m[r]) for g, r in rows.items()}
+        if p0 is not None:
+            break
+        # m - R T_o - t = R T_R p: stack the groups, their t's as unknowns too
+        A = np.zeros((3 * len(q), 3 + 3 * len(groups)))
+        b = np.zeros(3 * len(q))
+        for gi, g in enumerate(groups):
+            R, _ = frames[g]
+            idx = np.flatnonzero(rows[g])
+            RT = np.einsum("ij,njk->nik", R, T[idx, :3, :3])
+            for c in range(3):
+                A[3 * idx + c, :3] = RT[:, c, :]
+                A[3 * idx + c, 3 + 3 * gi + c] = 1.0
+                b[3 * idx + c] = m[idx, c] - (T[idx, :3, 3] @ R.T)[:, c]
+        p = np.linalg.lstsq(A, b, rcond=None)[0][:3]
+    return frames, p
+
+
+def _residual_fn(prob: Problem, layout: Layout, meas: np.ndarray, fixed: dict):
+    def fun(x):
+        return (predict(prob, layout, x, fixed) - meas).ravel()
+
+    def jac(x):
+        return jacobian_fast(prob, layout, x, fixed)
+
+    return fun, jac
+
+
+def fit(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: dict | None = None):
+    """Levenberg-Marquardt fit of ``layout``'s parameters: (x, std, rss)."""
+    fixed = fixed or {}
+    fun, jac = _residual_fn(prob, layout, meas, fixed)
+    if layout.size == 0:
+        r = fun(x0)
+        return x0, x0, float(r @ r)
+    sol = least_squares(fun, x0, jac=jac, method="lm", x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10)
+    r = sol.fun
+    rss = float(r @ r)
+    dof = max(len(r) - layout.size, 1)
+    J = jac(sol.x)
+    # columns scaled to unit norm first: the parameters' units (mm, rad, rad/(N mm)) span 1e12
+    s = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
+    cov = np.linalg.pinv((J / s).T @ (J / s)) / np.outer(s, s) * (rss / dof)
+    return sol.x, np.sqrt(np.maximum(np.diag(cov), 0.0)), rss
+
+
+def _combination(Jn: np.ndarray, col: np.ndarray, names: list) -> str:
+    coef = np.linalg.lstsq(Jn, col, rcond=None)[0]
+    top = np.argsort(-np.abs(coef))[:3]
+    return ", ".join(names[i] for i in top if abs(coef[i]) > 1e-3) or "nothing"
+
+
+def select(J: np.ndarray, layout: Layout, base: list, candidates: list, tol: float) -> tuple[list, list]:
+    """Which ``candidates`` (column indices of J, in order) add a direction beyond ``tol`` to the span of
+    ``base`` and of the candidates kept before them: (kept, [(index, why)] removed)."""
+    Js = J / np.maximum(np.linalg.norm(J, axis=0), 1e-300)
+    Q = np.linalg.qr(Js[:, base])[0] if base else np.zeros((len(J), 0))
+    kept, removed = [], []
+    for i in candidates:
+        v = Js[:, i].copy()
+        if not np.any(v):
+            removed.append((i, "no effect on the measured points"))
+            continue
+        for _ in range(2):
+            v -= Q @ (Q.T @ v)
+        nv = float(np.linalg.norm(v))
+        if nv > tol:
+            Q = np.column_stack([Q, v / nv])
+            kept.append(i)
+        else:
+            span = base + kept
+            removed.append((i, "not identifiable: a combination of "
+                            + _combination(Js[:, span], Js[:, i], [layout.names[k] for k in span])))
+    return kept, removed
+
+
+def _f_test(rss0: float, p0: int, rss1: float, p1: int, m: int) -> float:
+    if p1 <= p0 or rss1 <= 0:
+        return 1.0
+    F = ((rss0 - rss1) / (p1 - p0)) / (rss1 / (m - p1))
+    return float(f_dist.sf(F, p1 - p0, m - p1))
+
+
+def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[list, list]:
+    qn = list(prob.model.tree.q_names)
+    spread = np.std(prob.torques, axis=0)
+    top = float(np.max(spread, initial=0.0))
+    keep, out = [], []
+    for i in cands:
+        j = qn.index(layout.names[i][:-len(".compliance")])
+        if top == 0 or spread[j] < flat * top:
+            out.append((i, f"not observable: its gravity torque hardly varies (spread {spread[j] / 1000:.3g} N m, "
+                           f"largest {top / 1000:.3g} N m)"))
+        else:
+            keep.append(i)
+    return keep, out
+
+
+def _rows(prob: Problem, mask: np.ndarray) -> Problem:
+    return replace(prob, q=prob.q[mask], gidx=prob.gidx[mask], torques=prob.torques[mask],
+                   unit_torques=None if prob.unit_torques is None else prob.unit_torques[mask])
+
+
+def cross_validated_rms(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, folds: int) -> float:
+    """RMS position error (mm) of ``layout``'s fit over ``folds`` interleaved folds, each predicted by the
+    fit on the others (started from ``x0``)."""
+    fold = np.arange(len(meas)) % folds
+    rss = 0.0
+    for f in range(folds):
+        tr = fold != f
+        x, _, _ = fit(_rows(prob, tr), layout, meas[tr], x0)
+        r = predict(_rows(prob, ~tr), layout, x) - meas[~tr]
+        rss += float(np.sum(r * r))
+    return float(np.sqrt(rss / len(meas)))
+
+
+def calibrate(model, data, frame: str | None = None, effects=("geometry", "compliance"), alpha: float = 1e-3,
+              tol: float = 1e-3, flat: float = 0.05, p0=None, folds: int = 0) -> Calibration:
+    """Fit registration, then the ``effects`` stages (see the module docstring) on ``data``.
+
+    ``folds`` > 1: a stage is kept only if its cross-validated RMS (:func:`cross_validated_rms`) is also
+    below the stage before's -- an effect that improves the fitted rows but not the held-out ones is
+    not kept."""
+    if folds == 1 or folds < 0:
+        raise VjmError(f"folds must be 0 (no cross-validation) or at least 2, got {folds}")
+    frame = frame or _only_frame(data)
+    bad = set(effects) - set(STAGES[1:])
+    if bad:
+        raise VjmError(f"unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
+    frames, p = initial_registration(model, data, frame, p0)
+    prob = _problem(model, data, frame, frames, p, "payload" in effects)
+    meas = data.points[frame]
+    full = full_layout(model, frame, prob.groups, "payload" in effects)
+    active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
+    x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
+    m = meas.size
+    cv = cross_validated_rms(prob, full.pick(active), meas, x, folds) if folds else float("nan")
+    stages = [Stage("registration", True, len(active), rss, float(np.sqrt(rss / len(meas))), float("nan"), cv)]
+    best = (active, x, sd, rss, cv)
+    removed: list = []
+    for name in STAGES[1:]:
+        if name not in effects:
+            continue
+        x_all = np.zeros(full.size)
+        x_all[best[0]] = best[1]
+        J = jacobian_fast(prob, full, x_all)   # at the stage's start: the payload acts through the compliances
+        cands = [i for i, k in enumerate(full.kinds) if k == name]
+        if name == "compliance":
+            cands, flat_out = _flat_joints(prob, full, cands, flat)
+            removed += flat_out
+        kept, rem = select(J, full, best[0], cands, tol)
+        removed += rem
+        trial = best[0] + kept
+        x0 = np.zeros(len(trial))
+        x0[:len(best[0])] = best[1]
+        xt, sdt, rsst = fit(prob, full.pick(trial), meas, x0)
+        pv = _f_test(best[3], len(best[0]), rsst, len(trial), m)
+        ok = bool(kept) and pv < alpha
+        cvt = cross_validated_rms(prob, full.pick(trial), meas, xt, folds) if folds and ok else float("nan")
+        ok = ok and not (folds and cvt >= best[4])
+        stages.append(Stage(name, ok, len(trial), rsst, float(np.sqrt(rsst / len(meas))), pv, cvt))
+        if ok:
+            best = (trial, xt, sdt, rsst, cvt)
+    lay = full.pick(best[0])
+    return Calibration(model, frame, dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, p,
+                       tuple((full.names[i], why) for i, why in removed), tuple(stages))
+
+
+def _only_frame(data) -> str:
+    if len(data.points) != 1:
+        raise VjmError(f"{data.source}: several measured points ({', '.join(data.points)}): name the frame")
+    return next(iter(data.points))
+
+
+def register(cal: Calibration, data, marker: bool = False) -> Calibration:
+    """The calibration with the instrument frames of ``data``'s groups fitted on ``data`` (the robot's
+    parameters frozen; the marker offset too unless ``marker``)."""
+    frames, _ = initial_registration(cal.model, data, cal.frame, cal.marker)
+    prob = _problem(cal.model, data, cal.frame, frames, cal.marker, "payload.mass" in cal.values)
+    full = full_layout(cal.model, cal.frame, prob.groups)
+    keep = [i for i, k in enumerate(full.kinds) if k == "reg" or (marker and k == "marker")]
+    lay = full.pick(keep)
+    fixed = cal.robot_values()
+    x, sd, _ = fit(prob, lay, data.points[cal.frame], np.zeros(lay.size), fixed)
+    values = {k: v for k, v in cal.values.items() if not any(k.startswith(f"reg[{g}]") for g in prob.groups)}
+    std = {k: v for k, v in cal.std.items() if k in values}
+    p0 = cal.p0
+    if marker:
+        values = {k: v for k, v in values.items() if not k.startswith(f"{cal.frame}.p")}
+        p0 = cal.marker
+    values.update(zip(lay.names, x))
+    std.update(zip(lay.names, sd))
+    return replace(cal, values=values, std=std, frames={**cal.frames, **frames}, p0=p0)
+
+
+def predict_points(cal: Calibration, data) -> np.ndarray:
+    """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups."""
+    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0, "payload.mass" in cal.values)
+    lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
+    return predict(prob, lay, np.array(list(cal.values.values())))
+
+
+def position_errors(cal: Calibration, data) -> np.ndarray:
+    """|measured - predicted| (n,) mm."""
+    return np.linalg.norm(data.points[cal.frame] - predict_points(cal, data), axis=1)
+
+
+def error_stats(e) -> dict:
+    """mean, std, max and 95th percentile (mm) of position errors."""
+    e = np.asarray(e, dtype=float)
+    return {"mean": float(e.mean()), "std": float(e.std()), "max": float(e.max()), "p95": float(np.percentile(e, 95))}
+
+
+def instrument_frame(cal: Calibration, group: str) -> tuple[np.ndarray, np.ndarray]:
+    """The fitted instrument frame (R, t) of a group: instrument = R base + t."""
+    R0, t0 = cal.frames[group]
+    w = np.array([cal.values.get(f"reg[{group}].r{k}", 0.0) for k in "xyz"])
+    t = np.array([cal.values.get(f"reg[{group}].t{k}", 0.0) for k in "xyz"])
+    return rotation_matrix(w) @ R0, t0 + t

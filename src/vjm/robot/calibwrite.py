@@ -1,0 +1,111 @@
+"""A calibration written back: the calibrated URDF, and the robot file with the joint stiffnesses found.
+
+The URDF is the source URDF with, for every joint the calibration corrected, its ``<origin>`` times the
+correction ``exp(origin error) Rot(axis, offset)`` (a joint offset is a turn of the origin about the
+joint's own axis, which commutes with the joint's motion), and the marker as a fixed link
+``<frame>_marker`` on the measured frame.  Everything else (inertials, limits, meshes) is kept as written.
+The robot file beside it names that URDF and gives each joint whose compliance was fitted its stiffness
+``1 / c`` (N mm/rad): loaded back, vjm and pinocchio reproduce the calibrated positions.
+"""
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from ..errors import VjmError
+from ..transforms import elementary
+from .absolute import GEOMETRY, _delta
+from .tree import _rigid_inverse, origin_transform
+
+MM = 1000.0
+
+
+def rpy(R: np.ndarray) -> tuple[float, float, float]:
+    """URDF roll, pitch, yaw of a rotation matrix (``R = Rz(y) Ry(p) Rx(r)``)."""
+    p = float(np.arctan2(-R[2, 0], np.hypot(R[0, 0], R[1, 0])))
+    if np.hypot(R[0, 0], R[1, 0]) < 1e-12:   # gimbal lock: put the whole turn in the roll
+        return float(np.arctan2(-R[1, 2], R[1, 1])), p, 0.0
+    return float(np.arctan2(R[2, 1], R[2, 2])), p, float(np.arctan2(R[1, 0], R[0, 0]))
+
+
+def corrections(cal) -> dict:
+    """{joint name: 4x4 correction (mm) right-multiplying its URDF origin} of the fitted geometry."""
+    out = {}
+    for j in cal.model.tree.joints:
+        d = np.array([cal.values.get(f"{j.name}.{k}", 0.0) for k in GEOMETRY])
+        if not np.any(d):
+            continue
+        turn = elementary(j.kind, np.array([d[0]]))[0]
+        if j.align is not None:
+            turn = j.align @ turn @ _rigid_inverse(j.align)
+        out[j.name] = _delta(d[1:]) @ turn
+    return out
+
+
+def _fmt(v) -> str:
+    return " ".join(repr(float(x)) for x in v)
+
+
+def calibrated_urdf(cal, urdf_path) -> str:
+    """The text of the calibrated URDF (see the module docstring)."""
+    try:
+        tree = ET.parse(urdf_path)
+    except (OSError, ET.ParseError) as e:
+        raise VjmError(f"{urdf_path}: cannot read the URDF ({e})") from None
+    root = tree.getroot()
+    joints = {j.get("name"): j for j in root.findall("joint") if j.get("name")}   # not <transmission>'s
+    for name, K in corrections(cal).items():
+        if name not in joints:
+            raise VjmError(f"{urdf_path}: no joint {name!r} (the calibrated model's)")
+        el = joints[name].find("origin")
+        if el is None:
+            el = ET.SubElement(joints[name], "origin")
+        O = origin_transform([float(x) * MM for x in el.get("xyz", "0 0 0").split()],
+                             [float(x) for x in el.get("rpy", "0 0 0").split()])
+        N = O @ K
+        el.set("xyz", _fmt(N[:3, 3] / MM))
+        el.set("rpy", _fmt(rpy(N[:3, :3])))
+    links = {x.get("name") for x in root.findall("link")}
+    if cal.frame not in links:
+        raise VjmError(f"{urdf_path}: the measured frame {cal.frame!r} is no link: the marker cannot be attached")
+    ET.SubElement(root, "link", name=f"{cal.frame}_marker")
+    jm = ET.SubElement(root, "joint", name=f"{cal.frame}_marker_joint", type="fixed")
+    ET.SubElement(jm, "parent", link=cal.frame)
+    ET.SubElement(jm, "child", link=f"{cal.frame}_marker")
+    ET.SubElement(jm, "origin", xyz=_fmt(cal.marker / MM), rpy="0 0 0")
+    return ET.tostring(root, encoding="unicode")
+
+
+def robot_file(cal, urdf_name: str) -> str:
+    """The robot file (YAML text) naming the calibrated URDF, with the fitted joint stiffnesses."""
+    import yaml
+
+    joints = {}
+    for name in cal.model.q_names:
+        c = cal.values.get(f"{name}.compliance")
+        if c is not None and c > 0:
+            joints[name] = {"stiffness": float(1.0 / c)}
+    d: dict = {"name": f"{cal.model.name or 'robot'} (calibrated)", "urdf": urdf_name,
+         "tools": [f"{cal.frame}_marker"], "gravity": [float(g) for g in cal.model.gravity]}
+    if joints:
+        d["joints"] = joints
+    head = ("# Calibrated by vjm.robot.calibration: joint stiffnesses (N mm/rad) fitted under self-weight;\n"
+            "# the joints without one were rigid in the fit (not observable, or not fitted).\n")
+    return head + yaml.safe_dump(d, sort_keys=False)
+
+
+def write_calibrated(cal, urdf_path, out_urdf, out_yaml) -> None:
+    """Write the calibrated URDF and its robot file; an existing file is never overwritten."""
+    from linkfea.atomic import atomic_path
+
+    for p in (out_urdf, out_yaml):
+        if os.path.lexists(p):
+            raise VjmError(f"{p}: exists; choose a new name (a calibration never overwrites a file)")
+    texts = ((out_urdf, calibrated_urdf(cal, urdf_path)),
+             (out_yaml, robot_file(cal, os.path.relpath(out_urdf, os.path.dirname(os.path.abspath(out_yaml))))))
+    for p, text in texts:
+        with atomic_path(p) as tmp:
+            with open(tmp, "w") as f:
+                f.write(text)
