@@ -23,7 +23,8 @@ LINKS  := --foot $(OUT)/foot/result.json
 
 # The whole path on the default example: link CAD -> 6x6 compliances -> machine stiffness
 # (maps, seed Table 1) -> a hidden effect found in simulated measurements -> a pocket's deflection
-# and its compensated G-code; a serial robot's stiffness and self-weight sag over its joint space.
+# and its compensated G-code; a serial robot's stiffness and self-weight sag over its joint space, and
+# a square pocket pass milled by it, compensated for the cutting force and its own weight.
 demo: $(STAMP)
 	$(BIN)/linkfea compute orthoglide_foot --out $(OUT)/foot/result.json
 	$(BIN)/linkfea compute parallelogram_bar --out $(OUT)/bar/result.json
@@ -39,6 +40,8 @@ demo: $(STAMP)
 	    --kc 700 --feed-per-tooth 0.05 --depth 1 --width 8 --split-moves --workers 2 --out $(OUT)/path
 	$(BIN)/vjm stiffness data/robots/ur10/ur10.yaml --q 0,-1.2,1.5,-1.9,-1.57,0 --self-weight
 	$(PY) docs/examples/serial_robot.py
+	$(BIN)/vjm path data/robots/ur10/ur10.yaml data/toolpaths/robot_square.nc --tool 0,0,150 --kc 700 \
+	    --feed-per-tooth 0.05 --depth 2 --width 8 --split-moves --step 5 --out $(OUT)/robot_path
 
 # Lint and type-check first (seconds), build the docs site (strict: a broken link or a stale reference
 # fails; output in .cache/site), then the suite.

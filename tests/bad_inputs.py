@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PLACES = {"puu": ROOT / "data/orthoglide/puu.yaml", "prpar": ROOT / "data/orthoglide/prpar.yaml",
           "delta": ROOT / "data/orthoglide/delta.yaml", "linear": ROOT / "data/machines/linear_delta.yaml",
-          "hexapod": ROOT / "data/machines/hexapod_6ups.yaml"}
+          "hexapod": ROOT / "data/machines/hexapod_6ups.yaml", "ur10": ROOT / "data/robots/ur10/ur10.yaml"}
 
 
 @dataclass(frozen=True)
@@ -425,6 +425,9 @@ CASES = [
     Case("26.7", "vjm stiffness r.yaml --q 0,0", "r.urdf has no joint 'elbow'; its joints: j1, j2",
          {"r.yaml": "urdf: r.urdf\njoints:\n  j1: {stiffness: 1.0e+8}\n  elbow: {stiffness: 1.0e+8}\n", "r.urdf": ARM}, "a stiffness for a joint the URDF "
          "does not have"),
+    Case("26.4", "vjm path {ur10} far.nc --out o --wrench 20,0,0,0,0,0 --step 5000", "far.nc line 3: the programmed point "
+         "[2500.0, 160.0, 250.0] mm is out of the robot's reach", {"far.nc": "G21 G90\nG0 X800 Y160 Z250\nG1 X2500 "
+                                                                    "F1000\n"}, "a UR10 toolpath reaching 2.5 m out"),
 
 
     # 30.2: one line where a traceback was

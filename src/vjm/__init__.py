@@ -28,7 +28,7 @@ def __dir__():
 def __getattr__(name):
     # ``vjm.path(...)``: deflection along a toolpath (vjm/toolpath/), imported on first use (matplotlib)
     if name == "path":
-        from .toolpath.run import path
+        from .toolpath.dispatch import path
 
         return path
     # ``vjm.Link``: the older name of LinkSpring (it shared its name with linkfea.cad.Link)

@@ -105,6 +105,8 @@ class RobotModel:
     gravity : (3,) m/s^2 in the base frame
     name, path : free text; the model file read (or None)
     raw : the model file's mapping (written back by :meth:`save`)
+    strict_limits : a q outside a joint's limits is an error, not a warning
+    home : the working configuration (nq,) the file names, or None (``vjm path``'s default seed)
     """
 
     tree: Tree
@@ -117,6 +119,7 @@ class RobotModel:
     path: str | None = None
     raw: dict | None = None
     strict_limits: bool = False
+    home: tuple | None = None
 
     def __post_init__(self):
         names = {j.name for j in self.tree.joints}

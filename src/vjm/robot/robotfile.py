@@ -7,6 +7,7 @@ Units N, mm, kg, rad (the URDF's metres are converted where it is read)::
     tools: [tool0]                  # optional: the tool frames (default: the links without a child)
     gravity: [0, 0, -9.80665]       # optional, m/s^2 in the base frame (a wall or ceiling mount turns it)
     strict_limits: false            # optional: a q outside a joint's limits is an error, not a warning
+    home: [0, -1.2, 1.5, -1.87, -1.57, 0]   # optional: the working configuration (rad, mm), vjm path's seed
     joints:                         # optional: a joint not named here is rigid
       shoulder_pan_joint: {stiffness: 2.0e9}                 # N mm/rad (N/mm for a prismatic joint)
       lift: {stiffness: "2e4 * (1 - q / 2000)"}              # an expression of the joint's value q
@@ -35,7 +36,7 @@ from ..errors import VjmError
 from .model import GRAVITY, JointSpring, Payload, PlacedSpring, RobotModel
 from .tree import Body, Tree, origin_transform
 
-ROBOT_KEYS = ("name", "urdf", "dh", "tools", "gravity", "strict_limits", "joints", "links", "masses", "payload")
+ROBOT_KEYS = ("name", "urdf", "dh", "tools", "gravity", "strict_limits", "home", "joints", "links", "masses", "payload")
 
 
 def _num(v, where: str) -> float:
@@ -196,7 +197,13 @@ def robot_from_dict(d: dict, base_dir: str, path: str | None, parse_link) -> Rob
     strict = d.get("strict_limits", False)
     if not isinstance(strict, bool):
         raise VjmError(f"strict_limits must be true or false, got {strict!r}")
-    return RobotModel(tree, springs, six, links, payload, g, str(d.get("name", tree.name)), path, dict(d), strict)
+    home = d.get("home")
+    if home is not None:
+        if not isinstance(home, list) or len(home) != tree.nq:
+            raise VjmError(f"home must be a list of {tree.nq} joint values ({', '.join(tree.q_names)}), got {home!r}")
+        home = tuple(_num(v, "home") for v in home)
+    return RobotModel(tree, springs, six, links, payload, g, str(d.get("name", tree.name)), path, dict(d), strict,
+                      home)
 
 
 def is_robot(d) -> bool:

@@ -74,11 +74,9 @@ def body_loads(model, q: np.ndarray, tool: str, gravity, payload) -> list:
         if hit is not None:
             loads.append((hit[0], hit[1], b.mass * g))
     if payload is not None and payload.mass > 0:
-        f = model.tree.frame(payload.frame)
-        p = f.placement[:3, :3] @ np.asarray(payload.com, dtype=float) + f.placement[:3, 3]
-        hit = _attach(model, marks, f.joint, p, q, own=False)
+        hit = point_load(model, q, tool, payload.frame, payload.com, payload.mass * g)
         if hit is not None:
-            loads.append((hit[0], hit[1], payload.mass * g))
+            loads.append(hit)
     return loads
 
 
@@ -127,6 +125,16 @@ def fast_sag(model, a: np.ndarray, tool: str, g: np.ndarray, pl, W, tol: float, 
     p0, R0, p, R, iters, ok = out
     t = np.concatenate([p - p0, rotation_vector(R @ np.swapaxes(R0, 1, 2))], axis=1)
     return t, iters, ok
+
+
+def point_load(model, q: np.ndarray, tool: str, frame: str, point, force):
+    """The body load (factor index, point, force) of a dead force (3,) or (n, 3) (N, world axes) at
+    ``point`` (mm) of the named ``frame``, on the chain to ``tool``; None where it hangs from the base."""
+    _, marks = model.chain(tool)
+    f = model.tree.frame(frame)
+    p = f.placement[:3, :3] @ np.asarray(point, dtype=float) + f.placement[:3, 3]
+    hit = _attach(model, marks, f.joint, p, q, own=False)
+    return None if hit is None else (hit[0], hit[1], force)
 
 
 def self_weight(model, q, tool, gravity, payload, wrench, tol, max_iter, return_info, strict):

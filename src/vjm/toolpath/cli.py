@@ -55,7 +55,12 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
              toolpath: Path = typer.Argument(..., help="toolpath: CSV x,y,z[,rx,ry,rz][,Fx..Mz] or G-code"),
              out: Path = typer.Option(..., "--out", help="output folder (path.csv, deflection.png, plan.png, "
                                                          "summary.json, <toolpath>_compensated.<suffix>)"),
-             tool: Optional[str] = typer.Option(None, "--tool", help="TCP dx,dy,dz in platform axes, mm"),
+             tool: Optional[str] = typer.Option(None, "--tool", help="TCP dx,dy,dz in platform axes, mm (robots: in "
+                                                                     "the tool frame's axes)"),
+             seed: Optional[str] = typer.Option(None, "--seed", help="robots: the configuration q1,..,qn held along "
+                                                                     "the path (default: home: of the model file)"),
+             tool_frame: Optional[str] = typer.Option(None, "--tool-frame",
+                                                      help="robots: the tool frame (default: the model's first)"),
              wrench: Optional[str] = typer.Option(None, "--wrench", help="constant wrench at the TCP Fx,Fy,Fz,Mx,My,Mz "
                                                                          "(N, N mm) on cutting moves"),
              kc: Optional[float] = typer.Option(None, "--kc", help="milling model: specific cutting force, N/mm^2"),
@@ -84,8 +89,8 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
              force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files "
                                                                "(they are never overwritten or deleted)")):
     """Deflection of the tool along TOOLPATH under the process wrench, and the compensated toolpath."""
+    from .dispatch import path
     from .output import check_out, write_outputs
-    from .run import path
 
     try:
         if method not in ("linear", "nonlinear"):
@@ -100,7 +105,8 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
                    compensate=not no_compensate, tolerance=tolerance, linearize_arcs=linearize_arcs,
                    split_moves=split_moves,
                    chord_tol=chord_tol, step=step, passed=passed, workers=workers, foot=foot, leg=leg,
-                   progress=_long_run_progress())
+                   seed=None if seed is None else _numbers(seed, "--seed", seed.count(",") + 1),
+                   tool_frame=tool_frame, progress=_long_run_progress())
         names = write_outputs(res, out)
     except user_errors() as exc:
         typer.echo(f"error: {one_line(exc)}", err=True)
