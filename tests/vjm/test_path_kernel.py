@@ -36,6 +36,11 @@ def _hexapod_path(n=40):
     return P, np.tile([200.0, -100.0, 300.0, 2000.0, 0.0, -1000.0], (n, 1))
 
 
+@pytest.fixture(autouse=True)
+def _kernel_on_short_paths(monkeypatch):
+    monkeypatch.setattr(eq, "KERNEL_MIN", 0)
+
+
 def _both(monkeypatch, m, P, W, **kw):
     monkeypatch.setattr(eq, "KERNEL", False)
     ref = eq.equilibria(m, P, W, **kw)

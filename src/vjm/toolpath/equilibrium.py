@@ -42,6 +42,9 @@ BATCH = 256
 WARM_STEPS = 3
 #: use the compiled kernels (:mod:`vjm.nonlinear_kernel`) where numba is installed; False: the numpy path
 KERNEL = True
+#: ... on blocks of at least this many points (a short path does not wait for the kernel's compilation
+#: or its load from the cache, ~1 s)
+KERNEL_MIN = 1000
 
 
 @functools.cache
@@ -167,7 +170,7 @@ def equilibria(model, P, W, offsets=None, start=None) -> Solved:
     ``offsets`` as in :func:`vjm.nonlinear.deflection_map`.
     """
     b = _Block(model, np.asarray(P, dtype=float), W, offsets)
-    kern = _kernel() if KERNEL and not any(cd.loads for cd in b.chains) else None
+    kern = _kernel() if KERNEL and len(b.P) >= KERNEL_MIN and not any(cd.loads for cd in b.chains) else None
     if kern is not None:
         return _compiled(b, kern, start)
     n = len(b.P)
