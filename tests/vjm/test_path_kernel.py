@@ -111,3 +111,29 @@ def test_compiled_starts_that_fail_go_to_the_reference_solver(monkeypatch):
     s = eq.equilibria(m, P, W, start=np.full((len(P), 3 * 17 + 6 + 18), np.nan))
     assert s.cold == len(P) and s.warm_failed == len(P)
     np.testing.assert_allclose(s.twist, nl.deflection_map(m, P, W), rtol=0, atol=1e-12)
+
+
+def test_vjm_path_compiled_gives_the_numpy_commands(tmp_path, monkeypatch):
+    """vjm.path end to end (deflection, compensation, the compensated CSV written as it goes) with the
+    compiled kernels and with the numpy path: the same commands to round-off, no cold check."""
+    P, W = _puu_path(120)
+    P = P + [30.0, 0.0, -20.0]
+    f = tmp_path / "p.csv"
+    f.write_text("x,y,z,Fx,Fy,Fz,Mx,My,Mz\n" + "\n".join(",".join(repr(float(v)) for v in r)
+                                                        for r in np.hstack([P, W])) + "\n")
+    m = vjm.load_model(PUU)
+    out = {}
+    for kernel in (False, True):
+        monkeypatch.setattr(eq, "KERNEL", kernel)
+        out[kernel] = vjm.path(m, f, tool=(0.0, 0.0, -60.0), uncertainty=False)
+    a, b = out[False], out[True]
+    scale = np.abs(a.deflection[:, :3]).max()
+    assert scale > 1e-3
+    assert np.abs(b.deflection - a.deflection).max() <= 1e-11 * scale
+    assert np.abs(b.compensation.commanded - a.compensation.commanded).max() <= 1e-11 * scale
+    assert b.compensation.cold == 0 and callable(b.compensated)
+    from vjm.toolpath.points import read_csv_text
+
+    back = [read_csv_text(r.compensated_text).points for r in (a, b)]  # written to 6 decimals of mm
+    np.testing.assert_allclose(back[1], back[0], rtol=0, atol=1.01e-6)
+    np.testing.assert_allclose(back[1], b.compensation.commanded, rtol=0, atol=5.1e-7)
