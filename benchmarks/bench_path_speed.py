@@ -4,16 +4,19 @@ the cold reference solver, side by side in one run (issue 29, item 2).
 The path: bench_path.py's zigzag (rows 0.5 mm apart over the 60 x 40 mm pocket at z = -1, the
 milling model, a 60 mm tool) on the 3-PUU.  "cold" is the solver before the warm start: every
 equilibrium of the deflection and of the compensation's checks by vjm.nonlinear.deflection_map
-(from the unloaded posture, to its 1e-11 step tolerance); "warm" is vjm.toolpath.equilibrium.
+(from the unloaded posture, to its 1e-11 step tolerance); "numpy" is vjm.toolpath.equilibrium's
+warm-started path in numpy (KERNEL = False), "compiled" the same path by vjm.nonlinear_kernel.
 Links: the beams of puu.yaml, or FEA results (``--foot out/foot/result.json --leg
 out/leg/result.json``, as `make demo` computes them).
 
 ``--million``: a one-million-point program (the zigzag, 1M samples) through ``vjm.path`` (CSV in,
-compensated CSV text out, workers=2), its wall time and the process's peak resident memory.
-The machine is shared: wall times carry the load average printed; the ratio of the two solvers,
+compensated CSV written as it goes into a temporary folder, workers=2), its wall time and the
+process's peak resident memory.
+The machine is shared: wall times carry the load average printed; the ratio of the solvers,
 measured alternately in one run, is the figure to read.
 
     PYTHONPATH=src nice python benchmarks/bench_path_speed.py [--n 4096] [--foot F --leg L] [--million]
+        [--modes cold,numpy,compiled]
 """
 import os
 import sys
@@ -31,6 +34,7 @@ from bench_path import MILL, PUU, TOOL, zigzag
 import vjm
 from vjm import nonlinear
 from vjm.toolpath import deflect, run
+from vjm.toolpath import equilibrium as eq
 from vjm.toolpath.equilibrium import Solved
 
 
@@ -40,42 +44,50 @@ def cold_equilibria(model, P, W, offsets=None, start=None):
     return Solved(t, np.zeros((len(t), 1)), len(t), 0, 0)
 
 
-def timed(model, tp, W, workers, cold):
-    saved = deflect.equilibria
-    if cold:
+#: the solvers compared: the reference from the unloaded posture at every equilibrium, the warm-started
+#: path in numpy (equilibrium.KERNEL = False) and compiled (vjm.nonlinear_kernel)
+MODES = ("cold", "numpy", "compiled")
+
+
+def timed(model, tp, W, workers, mode):
+    saved = deflect.equilibria, eq.KERNEL
+    if mode == "cold":
         deflect.equilibria = cold_equilibria
+    eq.KERNEL = mode == "compiled"
     try:
         t0, c0 = time.perf_counter(), time.process_time()
         d, _, comp, n_cold = run._deflect_and_compensate(model, tp, W, TOOL, "nonlinear", workers, True, print)
         return time.perf_counter() - t0, time.process_time() - c0, d, comp, n_cold
     finally:
-        deflect.equilibria = saved
+        deflect.equilibria, eq.KERNEL = saved
 
 
-def side_by_side(model, n, workers, reps=2):
+def side_by_side(model, n, workers, reps=2, modes=MODES):
     tp = zigzag(n)
     W = MILL.wrenches(tp)
-    times = {True: [], False: []}
-    cpu = {True: [], False: []}
+    warm = zigzag(eq.KERNEL_MIN + 200)
+    timed(model, warm, MILL.wrenches(warm), 1, "compiled")  # the kernel's compile or its load from the cache
+    wall = {m: [] for m in modes}
+    cpu = {m: [] for m in modes}
     out = {}
     for _ in range(reps):
-        for cold in (True, False):
-            dt, dc_, d, comp, n_cold = timed(model, tp, W, workers, cold)
-            times[cold].append(dt)
-            cpu[cold].append(dc_)
-            out[cold] = (d, comp, n_cold)
-    (dc, cc, _), (dw, cw, nw) = out[True], out[False]
-    tc, tw = min(times[True]), min(times[False])
-    uc, uw = min(cpu[True]), min(cpu[False])
-    print(f"side by side, {tp.n} points, workers={workers}, best of {reps}: cold {tc:.2f} s wall, {uc:.2f} s CPU "
-          f"({tp.n / uc:,.0f} points per CPU second); warm {tw:.2f} s wall, {uw:.2f} s CPU ({tp.n / uw:,.0f} "
-          f"points per CPU second): ratio {tc / tw:.2f} wall, {uc / uw:.2f} CPU; warm cold starts {nw} of "
-          f"{2 * tp.n} equilibria")
-    dd = np.abs(dw - dc).max() / np.abs(dc[:, :3]).max()
-    dcmd = np.abs(cw.commanded - cc.commanded).max() / np.abs(dc[:, :3]).max()
-    print(f"  agreement: deflection {dd:.1e}, commands {dcmd:.1e} of the largest deflection "
-          f"({1e3 * np.abs(dc[:, :3]).max():.1f} um); residual max warm {cw.residual.max():.2g} mm, "
-          f"cold {cc.residual.max():.2g} mm")
+        for mode in modes:
+            dt, dc_, d, comp, n_cold = timed(model, tp, W, workers, mode)
+            wall[mode].append(dt)
+            cpu[mode].append(dc_)
+            out[mode] = (d, comp, n_cold)
+    ref = modes[0]
+    dr, cr, _ = out[ref]
+    for mode in modes:
+        tw, uc = min(wall[mode]), min(cpu[mode])
+        d, c, nc = out[mode]
+        dd = np.abs(d - dr).max() / np.abs(dr[:, :3]).max()
+        dcmd = np.abs(c.commanded - cr.commanded).max() / np.abs(dr[:, :3]).max()
+        print(f"{mode:>8}: {tp.n} points, workers={workers}, best of {reps}: {tw:.2f} s wall, {uc:.2f} s CPU "
+              f"({tp.n / uc:,.0f} points per CPU second); CPU ratio {min(cpu[ref]) / uc:.2f} and wall ratio "
+              f"{min(wall[ref]) / tw:.2f} against {ref}; cold starts {nc} of {2 * tp.n} equilibria; "
+              f"against {ref}: deflection {dd:.1e}, commands {dcmd:.1e} of the largest deflection "
+              f"({1e3 * np.abs(dr[:, :3]).max():.1f} um); residual max {c.residual.max():.2g} mm")
 
 
 def _peak():
@@ -96,9 +108,16 @@ def million(model, workers=2, n=1_000_000):
                        progress=lambda s: print(f"  [{time.perf_counter() - t0:7.1f} s, {_peak():,.0f} MB] {s}",
                                                 flush=True))
         dt = time.perf_counter() - t0
+        t1 = time.perf_counter()
+        with open(os.path.join(tmp, "raster_compensated.csv"), "w") as fh:  # as the output set writes it
+            res.write_compensated(fh)
+        with open(os.path.join(tmp, "path.csv"), "w") as fh:
+            res.write_table(fh)
+        dw = time.perf_counter() - t1
     peak = _peak()
     print(f"million: {res.toolpath.n:,} points in {dt:.0f} s wall ({res.toolpath.n / dt:,.0f} points/s, "
-          f"workers={workers}); peak resident memory {peak:,.0f} MB; residual max "
+          f"workers={workers}), then {dw:.0f} s writing the compensated CSV and path.csv; "
+          f"{time.process_time():.0f} s CPU in all; peak resident memory {peak:,.0f} MB; residual max "
           f"{res.compensation.residual.max():.2g} mm; {[x for x in res.notes if 'cold' in x]}")
 
 
@@ -115,7 +134,8 @@ def main():
     if "--million" in args:
         million(model)
     else:
-        side_by_side(model, int(opt("--n", 4096)), int(opt("--workers", 2)))
+        modes = tuple(opt("--modes", ",".join(MODES)).split(","))
+        side_by_side(model, int(opt("--n", 4096)), int(opt("--workers", 2)), modes=modes)
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
 
 

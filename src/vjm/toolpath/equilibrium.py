@@ -24,6 +24,7 @@ size).  Rows where no equilibrium was found are NaN, as in ``deflection_map(stri
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +40,21 @@ SEGMENTS = 128
 BATCH = 256
 #: Newton steps from a warm start before the point is solved cold
 WARM_STEPS = 3
+#: use the compiled kernels (:mod:`vjm.nonlinear_kernel`) where numba is installed; False: the numpy path
+KERNEL = True
+#: ... on blocks of at least this many points (a short path does not wait for the kernel's compilation
+#: or its load from the cache, ~1 s)
+KERNEL_MIN = 1000
+
+
+@functools.cache
+def _kernel():
+    """The compiled Newton steps (:mod:`vjm.nonlinear_kernel`), or None without numba (the numpy path)."""
+    try:
+        from .. import nonlinear_kernel
+    except ImportError:  # pragma: no cover - numba is a dependency
+        return None
+    return nonlinear_kernel
 
 
 @dataclass(frozen=True)
@@ -154,6 +170,9 @@ def equilibria(model, P, W, offsets=None, start=None) -> Solved:
     ``offsets`` as in :func:`vjm.nonlinear.deflection_map`.
     """
     b = _Block(model, np.asarray(P, dtype=float), W, offsets)
+    kern = _kernel() if KERNEL and len(b.P) >= KERNEL_MIN and not any(cd.loads for cd in b.chains) else None
+    if kern is not None:
+        return _compiled(b, kern, start)
     n = len(b.P)
     nz = b.nx + 6 + b.nc
     z = np.zeros((n, nz))
@@ -204,3 +223,87 @@ def equilibria(model, P, W, offsets=None, start=None) -> Solved:
             settle(idx, np.concatenate([_to_x(ch_i, dv), z[prev, b.nx:]], axis=1))
     state = np.concatenate([_to_dv(b.chains, z[:, :b.nx]), z[:, b.nx:]], axis=1)
     return Solved(twist, state, cold, failed, newton)
+
+
+def _pack(b: _Block):
+    """The block's chains as the arrays of :mod:`vjm.nonlinear_kernel`: the factor tables (padded to the
+    longest chain) and, per point, the chain data of ``nonlinear._ChainData`` (padded likewise)."""
+    from ..transforms import KINDS
+
+    ch = b.chains
+    n, nch = len(b.P), len(ch)
+    nf = np.array([len(cd.chain.factors) for cd in ch], np.int64)
+    mk = np.array([cd.S.shape[1] for cd in ch], np.int64)
+    nv = max(cd.S.shape[2] for cd in ch)
+    nJ = np.array([cd.D.shape[2] for cd in ch], np.int64)
+    code = np.full((nch, nf.max()), len(KINDS), np.int64)
+    var = np.zeros((nch, nf.max()), np.int64)
+    coef = np.zeros((nch, nf.max()))
+    Tc = np.zeros((nch, nf.max(), 4, 4))
+    jof = np.full((nch, nf.max()), -1, np.int64)
+    v0 = np.zeros((n, nch, nv))
+    R0 = np.zeros((n, nch, 3, 3))
+    S = np.zeros((n, nch, mk.max(), nv))
+    D = np.zeros((n, nch, mk.max(), nJ.max()))
+    for k, cd in enumerate(ch):
+        for f, fac in enumerate(cd.chain.factors):
+            if fac.kind == "const":
+                Tc[k, f] = fac.T
+            else:
+                code[k, f], var[k, f], coef[k, f] = KINDS.index(fac.kind), fac.var, fac.coef
+        jof[k, list(cd.joints)] = np.arange(len(cd.joints))
+        v0[:, k, :cd.S.shape[2]] = cd.v0
+        R0[:, k] = cd.R0
+        S[:, k, :mk[k], :cd.S.shape[2]] = cd.S
+        D[:, k, :mk[k], :nJ[k]] = cd.D
+    col = np.concatenate([[0], np.cumsum(mk)[:-1]]).astype(np.int64)
+    tab = (code, var, coef, Tc, jof, nf, mk, nJ, col)
+    c = np.ascontiguousarray
+    return tab, (v0, R0, S, D, c(b.fixed), c(b.kappa, dtype=float), c(b.kd, dtype=float),
+                 c(b.x_rest, dtype=float), c(b.W, dtype=float), c(b.P[:, :3], dtype=float))
+
+
+def _compiled(b: _Block, kern, start) -> Solved:
+    """:func:`equilibria` by the compiled kernels: the same starts, Newton steps, residual check and
+    reference fallback as the numpy path, point by point."""
+    n = len(b.P)
+    nz = b.nx + 6 + b.nc
+    z = np.zeros((n, nz))
+    trivial = np.all(b.W == 0.0, axis=1) & np.all(b.x_rest == 0.0, axis=1)
+    tab, data = _pack(b)
+    if start is not None:
+        pos = np.flatnonzero(~trivial)
+        for a in range(0, pos.size, BATCH):
+            idx = pos[a:a + BATCH]
+            zs = np.asarray(start, dtype=float)[idx]
+            nv = zs.shape[1] - 6 - b.nc
+            z[idx] = np.concatenate([_to_x([cd.take(idx) for cd in b.chains], zs[:, :nv]), zs[:, nv:]], axis=1)
+        end, cold = pos + 1, 0
+    else:
+        L = max(1, -(-n // SEGMENTS))
+        pos = np.arange(0, n, L)
+        end = np.minimum(pos + L, n)
+        cold = int(np.count_nonzero(~trivial[pos]))  # run heads: Newton from the unloaded posture
+    given = np.ones(pos.size, bool)
+    ok = np.zeros(n, bool)
+    steps = np.zeros(pos.size, np.int64)
+    twist = np.full((n, 6), np.nan)
+    failed = 0
+    heads = set(pos.tolist()) if start is None else set()
+    while True:
+        kern.march(tab, *data[:5], data[5], data[6], data[7], data[8], data[9], trivial, z, pos, end, given,
+                   WARM_STEPS, b.lref, RTOL, nl.ROUNDOFF, ok, steps)
+        stop = np.flatnonzero(pos < end)
+        if stop.size == 0:
+            break
+        bad = pos[stop]  # the reference solver, with load steps if needed
+        failed += bad.size
+        cold += sum(1 for i in bad.tolist() if i not in heads or start is not None)
+        twist[bad], z[bad] = b.cold(bad)
+        pos[stop] += 1
+        given[stop] = False
+    good = ok & ~trivial
+    twist[good] = _twist(z[good, b.nx:b.nx + 6])
+    twist[trivial] = 0.0
+    state = np.concatenate([_to_dv(b.chains, z[:, :b.nx]), z[:, b.nx:]], axis=1)
+    return Solved(twist, state, cold, failed, int(steps.sum()))

@@ -66,17 +66,17 @@ def write_outputs(res, out) -> list:
     import matplotlib.pyplot as plt
 
     names = output_names(res.toolpath.source)
-    if res.compensated_text is None:
+    if res.compensated is None:
         names.pop("compensated")
     with OutputSet(out, WRITER) as s:
         tmp = {k: s.path(v) for k, v in names.items()}
         with open(tmp["table"], "w", encoding="utf-8", newline="") as fh:
-            fh.write(res.table())
+            res.write_table(fh)
         with open(tmp["summary"], "w", encoding="utf-8") as fh:
             json.dump(summary_dict(res), fh, indent=1)
         if "compensated" in tmp:
             with open(tmp["compensated"], "w", encoding="utf-8", newline="") as fh:
-                fh.write(res.compensated_text)
+                res.write_compensated(fh)
         for key, draw, size in (("deflection", res.plot_deflection, (7, 3.5)), ("plan", res.plot_plan, (5.5, 4.5))):
             fig, ax = plt.subplots(figsize=size)
             draw(ax=ax)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 from dataclasses import dataclass
 
@@ -86,45 +87,73 @@ class Toolpath:
         return f"{self.source} line {int(self.lines[i])}"
 
 
+#: CSV rows formatted per piece when writing (the text of a long file is never held whole)
+CSV_ROWS = 65536
+
+
 def read_csv_text(text: str, source: str = "<csv>") -> Toolpath:
     """A toolpath from CSV text (see the module docstring)."""
-    rows = [(k + 1, r) for k, r in enumerate(csv.reader(io.StringIO(text)))]
-    rows = [(k, r) for k, r in rows if r and not r[0].lstrip().startswith("#") and any(c.strip() for c in r)]
-    if not rows:
+    return read_csv_lines(io.StringIO(text), source, text.count("\n") + text.count("\r") + 1)
+
+
+def _csv_header(rows, source: str):
+    """(header line number, column names, the columns read) of the first row that is not a comment."""
+    first = next(((k, r) for k, r in rows if r and not r[0].lstrip().startswith("#") and any(c.strip() for c in r)),
+                 None)
+    if first is None:
         raise VjmError(f"{source}: no header line (x,y,z[,rx,ry,rz][,Fx..Mz])")
-    hline, head = rows[0]
-    head = [h.strip() for h in head]
+    k, r = first
+    head = [h.strip() for h in r]
     known = set(POSE + ROT + WRENCH)
     unknown = [h for h in head if h not in known]
     if unknown:
-        raise VjmError(f"{source}: line {hline}: unknown columns {unknown}; known: x,y,z[,rx,ry,rz][,Fx..Mz]")
+        raise VjmError(f"{source}: line {k}: unknown columns {unknown}; known: x,y,z[,rx,ry,rz][,Fx..Mz]")
     if len(set(head)) != len(head):
-        raise VjmError(f"{source}: line {hline}: a column appears twice")
+        raise VjmError(f"{source}: line {k}: a column appears twice")
     for group, name in ((POSE, "x,y,z"), (ROT, "rx,ry,rz"), (WRENCH, "Fx,Fy,Fz,Mx,My,Mz")):
         got = [c for c in group if c in head]
         if (group is POSE and len(got) != 3) or (0 < len(got) < len(group)):
-            raise VjmError(f"{source}: line {hline}: columns {name} come all together "
+            raise VjmError(f"{source}: line {k}: columns {name} come all together "
                            f"({'required' if group is POSE else 'or not at all'})")
     cols = list(POSE) + (list(ROT) if "rx" in head else []) + (list(WRENCH) if "Fx" in head else [])
+    return head, cols
+
+
+def read_csv_lines(lines, source: str = "<csv>", max_rows: int | None = None) -> Toolpath:
+    """A toolpath from CSV lines (a text file or any iterable of lines), parsed as they come: only the
+    numbers are kept, in arrays sized by ``max_rows`` (at least the number of lines; default: the
+    lines are counted first, so ``lines`` must then be a list or a seekable file)."""
+    if max_rows is None:
+        if isinstance(lines, list):
+            max_rows = len(lines)
+        else:
+            max_rows = sum(1 for _ in lines)
+            lines.seek(0)
+    rows = ((k + 1, r) for k, r in enumerate(csv.reader(lines)))
+    head, cols = _csv_header(rows, source)
     idx = [head.index(c) for c in cols]
-    data, lines = [], []
-    for k, r in rows[1:]:
+    A = np.empty((max_rows, len(cols)))
+    numbers = np.empty(max_rows, np.int64)
+    n = 0
+    for k, r in rows:
+        if not r or r[0].lstrip().startswith("#") or not any(c.strip() for c in r):
+            continue
         if len(r) != len(head):
             raise VjmError(f"{source}: line {k}: {len(r)} fields, the header has {len(head)}")
         try:
             vals = [float(r[i]) for i in idx]
         except ValueError:
             raise VjmError(f"{source}: line {k}: a value is not a number: {','.join(r)!r}") from None
-        if not np.all(np.isfinite(vals)):
+        if not all(math.isfinite(v) for v in vals):
             raise VjmError(f"{source}: line {k}: values must be finite numbers")
-        data.append(vals)
-        lines.append(k)
-    if not data:
+        A[n] = vals
+        numbers[n] = k
+        n += 1
+    if n == 0:
         raise VjmError(f"{source}: no data rows after the header")
-    A = np.array(data)
+    A = A[:n]
     npose = 6 if "rx" in head else 3
-    n = len(A)
-    return Toolpath(A[:, :npose], np.array(lines), np.ones(n, bool), np.ones(n, bool),
+    return Toolpath(A[:, :npose], numbers[:n], np.ones(n, bool), np.ones(n, bool),
                     A[:, npose:] if "Fx" in head else None, source, "csv", None, np.arange(n), tuple(cols))
 
 
@@ -164,14 +193,15 @@ def read(path, chord_tol: float = 1e-3, step: float = 1.0, passed: str = gc.DEFA
     name = os.path.basename(path)
     if not os.path.isfile(path):
         raise VjmError(f"toolpath file not found: {path}")
+    suffix = os.path.splitext(name)[1].lower()
     try:
+        if suffix == ".csv":  # read as it is parsed; spreadsheets write a byte order mark (utf-8-sig drops it)
+            with open(path, encoding="utf-8-sig", newline="") as fh:
+                return read_csv_lines(fh, name)
         with open(path, encoding="utf-8", newline="") as fh:
             text = fh.read()
     except (OSError, UnicodeDecodeError) as exc:
         raise VjmError(f"cannot read toolpath {path}: {exc}") from None
-    suffix = os.path.splitext(name)[1].lower()
-    if suffix == ".csv":
-        return read_csv_text(text.removeprefix(gc.BOM), name)  # spreadsheets write a byte order mark
     if suffix in GCODE_SUFFIXES:
         return from_gcode(gc.parse_text(text, passed, name), name, chord_tol, step)
     raise VjmError(f"toolpath {name}: unknown format {suffix or '(no suffix)'}; use .csv or a G-code suffix "
@@ -181,11 +211,21 @@ def read(path, chord_tol: float = 1e-3, step: float = 1.0, passed: str = gc.DEFA
 def csv_text(tp: Toolpath, poses: np.ndarray) -> str:
     """The CSV of ``tp`` with its poses replaced (same columns; wrench columns kept)."""
     buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(tp.header)
-    for k in range(tp.n):
-        row = [f"{v:.6f}" for v in poses[k, :3]] + [f"{v:.9f}" for v in poses[k, 3:]]
-        if tp.wrench is not None:
-            row += [f"{v:.12g}" for v in tp.wrench[k]]
-        w.writerow(row)
+    write_csv(buf, tp, poses)
     return buf.getvalue()
+
+
+def write_csv(fh, tp: Toolpath, poses: np.ndarray, rows: int | None = None) -> None:
+    """Write :func:`csv_text` to the text file ``fh``, ``rows`` (default ``CSV_ROWS``) at a time
+    (bounded memory on long paths)."""
+    rows = rows or CSV_ROWS
+    csv.writer(fh, lineterminator="\n").writerow(tp.header)
+    for a in range(0, tp.n, rows):
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        for k in range(a, min(a + rows, tp.n)):
+            row = [f"{v:.6f}" for v in poses[k, :3]] + [f"{v:.9f}" for v in poses[k, 3:]]
+            if tp.wrench is not None:
+                row += [f"{v:.12g}" for v in tp.wrench[k]]
+            w.writerow(row)
+        fh.write(buf.getvalue())

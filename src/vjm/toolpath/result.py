@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import csv
 import io
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import IO
 
 import numpy as np
 
@@ -28,6 +30,8 @@ class PathResult:
     after : (n, 6) TCP error of the compensated program from the programmed path at the sampled points
         (first order between the written end points; NaN on rapid moves)
     notes : lines for the summary (assumptions, effects used, warnings)
+    compensated : the compensated program: its text, or a function writing it to a text file as it
+        goes (a long CSV is never held whole); ``compensated_text`` gives the text either way
     """
 
     toolpath: Toolpath
@@ -39,7 +43,23 @@ class PathResult:
     band: Band | None = None
     after: np.ndarray | None = None
     notes: tuple = ()
-    compensated_text: str | None = None
+    compensated: str | Callable[[IO[str]], None] | None = None
+
+    @property
+    def compensated_text(self) -> str | None:
+        """The compensated program's text (None without compensation)."""
+        if self.compensated is None or isinstance(self.compensated, str):
+            return self.compensated
+        buf = io.StringIO()
+        self.compensated(buf)
+        return buf.getvalue()
+
+    def write_compensated(self, fh: IO[str]) -> None:
+        """Write the compensated program to the text file ``fh`` (in pieces when it is long)."""
+        if isinstance(self.compensated, str):
+            fh.write(self.compensated)
+        elif self.compensated is not None:
+            self.compensated(fh)
 
     @property
     def error(self) -> np.ndarray:
@@ -99,7 +119,12 @@ class PathResult:
     def table(self) -> str:
         """CSV along the path: line, arc length, programmed point, wrench, deflection, norm [, band, after]."""
         buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
+        self.write_table(buf)
+        return buf.getvalue()
+
+    def write_table(self, fh: IO[str], rows: int = 16384) -> None:
+        """Write :meth:`table` to the text file ``fh``, ``rows`` at a time (bounded memory on long paths)."""
+        w = csv.writer(fh, lineterminator="\n")
         head = ["line", "s_mm", "x", "y", "z", "Fx", "Fy", "Fz", "Mx", "My", "Mz",
                 "dx", "dy", "dz", "rx", "ry", "rz", "error_mm"]
         if self.band is not None:
@@ -107,17 +132,27 @@ class PathResult:
         if self.after is not None:
             head += ["error_after_mm"]
         w.writerow(head)
-        s = self.toolpath.arc_length()
-        e = self.error
-        for i in range(self.toolpath.n):
-            row = [int(self.toolpath.lines[i]), f"{s[i]:.6g}"] + [f"{v:.6f}" for v in self.toolpath.points[i]]
-            row += [f"{v:.6g}" for v in self.wrench[i]] + [f"{v:.6e}" for v in self.deflection[i]] + [f"{e[i]:.6e}"]
-            if self.band is not None:
-                row.append(f"{self.band.norm[i]:.3e}")
-            if self.after is not None:
-                row.append(f"{_norm(self.after)[i]:.3e}")
-            w.writerow(row)
-        return buf.getvalue()
+        tp, last = self.toolpath, 0.0
+        for a in range(0, tp.n, rows):
+            b = min(a + rows, tp.n)
+            # the arc length as Toolpath.arc_length sums it (in order), piece by piece
+            d = np.linalg.norm(np.diff(tp.points[max(a - 1, 0):b], axis=0), axis=1)
+            s = np.cumsum(np.concatenate([[last], d]))[1 if a else 0:]
+            last = s[-1]
+            e = _norm(self.deflection[a:b])
+            after = None if self.after is None else _norm(self.after[a:b])
+            buf = io.StringIO()
+            wb = csv.writer(buf, lineterminator="\n")
+            for j, i in enumerate(range(a, b)):
+                row = [int(tp.lines[i]), f"{s[j]:.6g}"] + [f"{v:.6f}" for v in tp.points[i]]
+                row += [f"{v:.6g}" for v in self.wrench[i]] + [f"{v:.6e}" for v in self.deflection[i]]
+                row.append(f"{e[j]:.6e}")
+                if self.band is not None:
+                    row.append(f"{self.band.norm[i]:.3e}")
+                if after is not None:
+                    row.append(f"{after[j]:.3e}")
+                wb.writerow(row)
+            fh.write(buf.getvalue())
 
     def plot_deflection(self, ax=None):
         """Deflection magnitude against arc length (before and, if compensated, after), with the band."""

@@ -8,6 +8,7 @@ the input's own format.  Nothing is written here (see :mod:`vjm.toolpath.output`
 """
 from __future__ import annotations
 
+import functools
 import os
 import time
 
@@ -22,7 +23,7 @@ from .compensate import Compensation
 from .compensate import compensate as _compensate
 from .deflect import check_effects, nonlinear_tcp_solved, platform_poses, tcp_deflection
 from .equilibrium import RTOL
-from .points import Toolpath, csv_text, path_plan
+from .points import Toolpath, csv_text, path_plan, write_csv
 from .points import read as read_toolpath
 from .result import PathResult
 from .wrench import PerPoint
@@ -226,7 +227,9 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
     after = text = None
     if comp is not None and d_nl is not None:
         after = blend_after(_all_vertices(tp, linearize_arcs, split_moves), comp.commanded, comp.residual_vector)
-        text = compensated_text(tp, comp.commanded, linearize_arcs, split_moves)
+        cmd = comp.commanded
+        text = (functools.partial(write_csv, tp=tp, poses=cmd) if tp.kind == "csv"  # written as it goes
+                else compensated_text(tp, cmd, linearize_arcs, split_moves))
         worse = np.flatnonzero(np.linalg.norm(after[:, :3], axis=1) > np.linalg.norm(d_nl[:, :3], axis=1))
         if tp.kind == "gcode" and not split_moves and worse.size:
             notes.append(f"warning: along {worse.size} of {int(tp.cutting.sum())} cutting samples (first: "
