@@ -23,7 +23,7 @@ are unweighted (mm), the model's errors exceeding the instruments' stated sigmas
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -49,6 +49,8 @@ class Stage:
     rms: float
     p_value: float
     cv_rms: float = float("nan")
+    #: mean, std, max and p95 (mm) of the fitted rows' position errors after the stage (:func:`error_stats`)
+    stats: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -238,6 +240,7 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
     bad = set(effects) - set(STAGES[1:])
     if bad:
         raise VjmError(f"unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
+    _enough_rows(model, data, frame, effects, folds)
     frames, p = initial_registration(model, data, frame, p0)
     prob = _problem(model, data, frame, frames, p, "payload" in effects)
     meas = data.points[frame]
@@ -246,7 +249,8 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
     x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
     m = meas.size
     cv = cross_validated_rms(prob, full.pick(active), meas, x, folds) if folds else float("nan")
-    stages = [Stage("registration", True, len(active), rss, float(np.sqrt(rss / len(meas))), float("nan"), cv)]
+    stages = [Stage("registration", True, len(active), rss, float(np.sqrt(rss / len(meas))), float("nan"), cv,
+                    _stats(prob, full.pick(active), x, meas))]
     best = (active, x, sd, rss, cv)
     removed: list = []
     for name in STAGES[1:]:
@@ -269,12 +273,32 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         ok = bool(kept) and pv < alpha
         cvt = cross_validated_rms(prob, full.pick(trial), meas, xt, folds) if folds and ok else float("nan")
         ok = ok and not (folds and cvt >= best[4])
-        stages.append(Stage(name, ok, len(trial), rsst, float(np.sqrt(rsst / len(meas))), pv, cvt))
+        stages.append(Stage(name, ok, len(trial), rsst, float(np.sqrt(rsst / len(meas))), pv, cvt,
+                            _stats(prob, full.pick(trial), xt, meas)))
         if ok:
             best = (trial, xt, sdt, rsst, cvt)
     lay = full.pick(best[0])
     return Calibration(model, frame, dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, p,
                        tuple((full.names[i], why) for i, why in removed), tuple(stages))
+
+
+def _enough_rows(model, data, frame: str, effects, folds: int) -> None:
+    """Refuse a set too small for the fit: 3 rows per group (a Kabsch start), and more coordinates than the
+    parameters the effects may take (in each fold's training rows)."""
+    groups = {str(g) for g in data.groups}
+    few = [g for g in sorted(groups) if np.sum(np.asarray([str(x) for x in data.groups]) == g) < 3]
+    if few:
+        raise VjmError(f"{data.source}: group {few[0] or '(none)'} has fewer than 3 rows: its instrument frame "
+                       f"cannot be registered")
+    size = full_layout(model, frame, tuple(sorted(groups)), "payload" in effects).size
+    n = data.n * (folds - 1) // folds if folds else data.n
+    if 3 * n <= size:
+        raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "
+                       f"{size} parameters: measure more poses")
+
+
+def _stats(prob: Problem, layout: Layout, x: np.ndarray, meas: np.ndarray) -> dict:
+    return error_stats(np.linalg.norm(predict(prob, layout, x) - meas, axis=1))
 
 
 def _only_frame(data) -> str:
