@@ -4,8 +4,9 @@ A serial arm read by pinocchio from its URDF carries hidden effects:
 - joint offsets (added to the commanded joint values);
 - URDF-origin errors (each joint's placement times a small rigid motion);
 - a payload (a point mass at the marker);
-- joint compliance under self-weight: the link angles ``theta`` solve ``theta = q + offset - c g(theta)``
-  with pinocchio's generalized gravity ``g`` of the *perturbed* arm (fixed point, to 1e-14 rad);
+- joint compliance under self-weight and backlash: the link angles ``theta`` solve
+  ``theta = q + offset - c g(theta) - b sign(g(theta))`` with pinocchio's generalized gravity ``g`` of the
+  *perturbed* arm (fixed point, to 1e-14 rad; the clearance taken up on the side gravity pushes to);
 - an unknown instrument frame (R, t) and a marker offset on the measured frame;
 - noise (iid, mm).
 It returns what a laser tracker would log: the commanded q (rad) and the marker's position in the
@@ -34,6 +35,7 @@ class Hidden:
     marker: np.ndarray = field(default_factory=lambda: np.zeros(3))
     sigma: float = 0.0
     payload: float = 0.0   # kg, a point mass at the marker
+    backlash: dict = field(default_factory=dict)   # {joint: rad}, half the clearance
 
 
 def _rotation(w) -> np.ndarray:
@@ -74,13 +76,17 @@ def measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, rng=Non
         off[m.idx_qs[m.getJointId(nm)]] = v
     for nm, v in hidden.compliance.items():
         c[m.idx_qs[m.getJointId(nm)]] = v
+    b = np.zeros(m.nq)
+    for nm, v in hidden.backlash.items():
+        b[m.idx_qs[m.getJointId(nm)]] = v
     out = np.empty((len(q), 3))
     for k, row in enumerate(q):
         qc = np.zeros(m.nq)
         qc[idx] = row
         theta = qc + off
         for _ in range(100):
-            new = qc + off - c * pin.computeGeneralizedGravity(m, d, theta)
+            g = pin.computeGeneralizedGravity(m, d, theta)
+            new = qc + off - c * g - b * np.sign(g)
             done = np.max(np.abs(new - theta)) < 1e-14
             theta = new
             if done:

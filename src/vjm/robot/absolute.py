@@ -61,7 +61,7 @@ def kabsch(P: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class Layout:
-    """The parameter vector: names, kinds (``reg``, ``marker``, ``geometry``, ``compliance``), units
+    """The parameter vector: names, kinds (``reg``, ``marker``, ``geometry``, ``compliance``, ``backlash``), units
     (``mm``, ``rad``, ``c``) and, per name, what it acts on."""
 
     names: tuple
@@ -105,6 +105,11 @@ def full_layout(model, frame: str, groups, payload: bool = False) -> Layout:
             names.append(f"{j.name}.compliance")
             kinds.append("compliance")
             units.append("c")
+    for j in path:
+        if j.mimic is None:
+            names.append(f"{j.name}.backlash")
+            kinds.append("backlash")
+            units.append("rad")
     if payload:
         names.append("payload.mass")
         kinds.append("payload")
@@ -181,13 +186,17 @@ def total_torques(prob: Problem, vals: dict) -> np.ndarray:
 
 
 def deflections(prob: Problem, vals: dict) -> np.ndarray:
-    """The joints' deflections (n, nq) ``-c g(q)`` under the compliances of ``vals``."""
+    """The joints' deflections (n, nq) ``-c g(q) - b sign(g(q))`` under the compliances ``c`` and the
+    backlashes ``b`` of ``vals`` (a clearance taken up on the side the gravity torque pushes to)."""
     tau = total_torques(prob, vals)
     dq = np.zeros_like(prob.q)
     for i, name in enumerate(prob.model.tree.q_names):
         c = vals.get(f"{name}.compliance", 0.0)
+        b = vals.get(f"{name}.backlash", 0.0)
         if c:
-            dq[:, i] = -c * tau[:, i]
+            dq[:, i] -= c * tau[:, i]
+        if b:
+            dq[:, i] -= b * np.sign(tau[:, i])
     return dq
 
 
@@ -273,6 +282,8 @@ def _base_columns(prob: Problem, vals: dict) -> tuple[np.ndarray, dict]:
         cols[f"{j.name}.offset"] = ax
         comp = f"{qn[k]}.compliance"
         cols[comp] = cols.get(comp, 0.0) + mult * ax * (-tau[:, k:k + 1])
+        back = f"{qn[k]}.backlash"
+        cols[back] = cols.get(back, 0.0) + mult * ax * (-np.sign(tau[:, k:k + 1]))
         if prob.unit_torques is not None:
             cu = -vals.get(comp, 0.0) * prob.unit_torques[:, k:k + 1]
             cols["payload.mass"] = cols.get("payload.mass", 0.0) + mult * ax * cu

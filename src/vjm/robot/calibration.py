@@ -14,7 +14,10 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
 3. **compliance**: a torsional compliance per joint, the deflection ``-c g_j(q)`` under the nominal model's
    gravity torque.  A joint whose gravity torque hardly varies over the data (its spread below
    ``flat`` of the largest joint's) cannot be told from an offset: it is reported not observable.
-4. **payload**: an unknown mass at the marker (a probe, a tool), weighed through the compliances kept: its
+4. **backlash**: a clearance per joint taken up on the side its gravity torque pushes to, the deflection
+   ``-b sign(g_j(q))``.  A joint whose gravity torque keeps one sign (the other sign on fewer than
+   ``flat`` of the rows) cannot tell it from an offset: reported not observable;
+5. **payload**: an unknown mass at the marker (a probe, a tool), weighed through the compliances kept: its
    gravity torque ``-J_p^T g`` per kg adds to the robot's own.
 
 A stage is kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the
@@ -33,7 +36,7 @@ from scipy.stats import f as f_dist
 from ..errors import VjmError
 from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
 
-STAGES = ("registration", "geometry", "compliance", "payload")
+STAGES = ("registration", "geometry", "compliance", "backlash", "payload")
 
 
 @dataclass(frozen=True)
@@ -67,6 +70,8 @@ class Calibration:
     p0: np.ndarray
     removed: tuple = ()
     stages: tuple = ()
+    #: rows of the data set aside as outliers (indices), not fitted (:mod:`vjm.robot.robust`)
+    set_aside: tuple = ()
 
     def robot_values(self) -> dict:
         """The robot's fitted parameters (geometry and compliance), without the nuisance."""
@@ -209,6 +214,20 @@ def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float) -> tup
     return keep, out
 
 
+def _one_sign(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[list, list]:
+    qn = list(prob.model.tree.q_names)
+    keep, out = [], []
+    for i in cands:
+        tau = prob.torques[:, qn.index(layout.names[i][:-len(".backlash")])]
+        minority = min(np.mean(tau > 0), np.mean(tau < 0))
+        if minority < flat:
+            out.append((i, f"not observable: its gravity torque changes sign on {100 * minority:.3g} % of the rows "
+                           f"(a backlash on one side is an offset)"))
+        else:
+            keep.append(i)
+    return keep, out
+
+
 def _rows(prob: Problem, mask: np.ndarray) -> Problem:
     return replace(prob, q=prob.q[mask], gidx=prob.gidx[mask], torques=prob.torques[mask],
                    unit_torques=None if prob.unit_torques is None else prob.unit_torques[mask])
@@ -260,8 +279,8 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         x_all[best[0]] = best[1]
         J = jacobian_fast(prob, full, x_all)   # at the stage's start: the payload acts through the compliances
         cands = [i for i, k in enumerate(full.kinds) if k == name]
-        if name == "compliance":
-            cands, flat_out = _flat_joints(prob, full, cands, flat)
+        if name in ("compliance", "backlash"):
+            cands, flat_out = (_flat_joints if name == "compliance" else _one_sign)(prob, full, cands, flat)
             removed += flat_out
         kept, rem = select(J, full, best[0], cands, tol)
         removed += rem
@@ -290,7 +309,8 @@ def _enough_rows(model, data, frame: str, effects, folds: int) -> None:
     if few:
         raise VjmError(f"{data.source}: group {few[0] or '(none)'} has fewer than 3 rows: its instrument frame "
                        f"cannot be registered")
-    size = full_layout(model, frame, tuple(sorted(groups)), "payload" in effects).size
+    size = sum(k in ("reg", "marker", *effects) for k in full_layout(model, frame, tuple(sorted(groups)),
+                                                                      "payload" in effects).kinds)
     n = data.n * (folds - 1) // folds if folds else data.n
     if 3 * n <= size:
         raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "

@@ -9,7 +9,8 @@ error on its other poses.  :func:`report` gathers what a user judges a calibrati
   with the error before and after it (mean, std, max, 95th percentile, mm, on the fitted rows);
 - the held-out error: k-fold cross-validated RMS of the stages (``folds``), and the validation files';
 - the registration (instrument frame of each group, marker offset) and its standard deviations, apart;
-- the parameters removed: combinations that cannot be identified, joints that are not observable.
+- the parameters removed: combinations that cannot be identified, joints that are not observable;
+- the rows set aside as outliers (:mod:`vjm.robot.robust`), with their errors.
 
 :func:`write_set` writes ``report.json``, ``summary.txt``, ``calibrated.urdf`` and ``calibrated.yaml``
 into a folder as one set (:mod:`linkfea.outputs`: complete or untouched, a manifest, never a user's file).
@@ -24,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import VjmError
-from .calibration import STAGES, Calibration, calibrate, error_stats, instrument_frame, position_errors, register
+from .calibration import STAGES, Calibration, error_stats, instrument_frame, position_errors, register
+from .robust import calibrate_robust
 
 FILES = ("report.json", "summary.txt", "calibrated.urdf", "calibrated.yaml")
 SET_NAME = "vjm calibrate"
@@ -141,7 +143,7 @@ def effects_named(cal: Calibration) -> list:
 
 def _kind(name: str) -> str:
     last = name.split(".")[-1]
-    return {"compliance": "compliance", "mass": "payload"}.get(last, "geometry")
+    return {"compliance": "compliance", "backlash": "backlash", "mass": "payload"}.get(last, "geometry")
 
 
 def registration(cal: Calibration) -> dict:
@@ -161,6 +163,7 @@ def registration(cal: Calibration) -> dict:
 def report(cal: Calibration, opt: Options, model_path, data, validations: list, seconds: float) -> dict:
     """The report's mapping (see the module docstring)."""
     removed = [{"parameter": n, "why": why} for n, why in cal.removed]
+    aside = position_errors(cal, data.subset(list(cal.set_aside))) if cal.set_aside else []
     return {
         "schema": SCHEMA, "model": str(model_path), "data": data.source, "rows": int(data.n), "frame": cal.frame,
         "effects_tried": list(opt.effects), "alpha": opt.alpha,
@@ -171,6 +174,7 @@ def report(cal: Calibration, opt: Options, model_path, data, validations: list, 
         "registration": registration(cal),
         "not_identifiable": [r for r in removed if not r["why"].startswith("not observable")],
         "not_observable": [r for r in removed if r["why"].startswith("not observable")],
+        "set_aside": [{"row": i, "error_mm": float(e)} for i, e in zip(cal.set_aside, aside)],   # row: 0-based
         "seconds": seconds,
     }
 
@@ -207,13 +211,18 @@ def summary(rep: dict) -> str:
                      f"{v['rows']} others): {_fmt(v['errors_mm'])}")
     lines.append(f"Not identifiable (removed): {len(rep['not_identifiable'])}; not observable: "
                  + (", ".join(r["parameter"] for r in rep["not_observable"]) or "none"))
+    if rep["set_aside"]:
+        rows = [str(r["row"] + 1) for r in rep["set_aside"]]
+        lines.append(f"Set aside as outliers (not fitted): {len(rows)} rows, data rows (1 = the first under the "
+                     f"header) "
+                     + ", ".join(rows[:20]) + (" ..." if len(rows) > 20 else ""))
     lines.append(f"Fitted in {rep['seconds']:.1f} s.")
     return "\n".join(lines) + "\n"
 
 
 def run(model, data, validate_sets: list, opt: Options) -> tuple[Calibration, list]:
     """Fit and hold out: (the calibration, the validation files' held-out errors)."""
-    cal = calibrate(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
+    cal = calibrate_robust(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
     return cal, [validate(cal, v, opt.register_on) for v in validate_sets]
 
 
