@@ -125,3 +125,21 @@ def test_a_second_run_replaces_its_own_set_but_never_a_users_file(run, files, ca
     err = capsys.readouterr().err
     assert err.count("error:") == 1 and "summary.txt" in err
     assert (mine / "summary.txt").read_text() == "my notes" and os.listdir(mine) == ["summary.txt"]
+
+
+def test_outlying_rows_are_set_aside_and_listed(files, names, capsys):
+    """Rows of another reflector (150 mm away on the flange) in the file: listed in the report, not fitted."""
+    text = (files / "fit.csv").read_text().splitlines()
+    other = files / "other_marker.csv"
+    _write(other, names, truth.Hidden(**{**HIDDEN.__dict__, "marker": HIDDEN.marker + [150.0, 0.0, 0.0]}), 250, 1)
+    swapped = [3, 50, 77, 120, 200, 240]
+    alt = other.read_text().splitlines()
+    (files / "mixed.csv").write_text("\n".join(alt[i] if i - 1 in swapped else t for i, t in enumerate(text)) + "\n")
+    out = files / "out_mixed"
+    assert main(["calibrate", UR10, str(files / "mixed.csv"), "--columns", str(files / "map.yaml"), "--folds", "0",
+                 "--out", str(out)]) == 0
+    rep = json.loads((out / "report.json").read_text())
+    assert [r["row"] for r in rep["set_aside"]] == swapped
+    assert all(r["error_mm"] > 50 for r in rep["set_aside"])
+    assert {e["effect"] for e in rep["effects"]} == {"geometry", "compliance"}
+    assert "Set aside as outliers (not fitted): 6 rows" in capsys.readouterr().out
