@@ -7,6 +7,7 @@ A serial arm read by pinocchio from its URDF carries hidden effects:
 - joint compliance under self-weight and backlash: the link angles ``theta`` solve
   ``theta = q + offset - c g(theta) - b sign(g(theta))`` with pinocchio's generalized gravity ``g`` of the
   *perturbed* arm (fixed point, to 1e-14 rad; the clearance taken up on the side gravity pushes to);
+- a base tilt: the gravity turned about the base's x and y axes;
 - an unknown instrument frame (R, t) and a marker offset on the measured frame;
 - noise (iid, mm).
 It returns what a laser tracker would log: the commanded q (rad) and the marker's position in the
@@ -36,6 +37,7 @@ class Hidden:
     sigma: float = 0.0
     payload: float = 0.0   # kg, a point mass at the marker
     backlash: dict = field(default_factory=dict)   # {joint: rad}, half the clearance
+    tilt: tuple = (0.0, 0.0)   # rad: the base turned about its x and y axes against gravity
 
 
 def _rotation(w) -> np.ndarray:
@@ -45,7 +47,7 @@ def _rotation(w) -> np.ndarray:
 def perturbed_model(urdf: str, hidden: Hidden):
     """pinocchio's model of the URDF with the hidden origin errors (placement @ (rotation, translation))."""
     m = pin.buildModelFromUrdf(urdf)
-    m.gravity.linear = np.array(GRAVITY)
+    m.gravity.linear = _rotation([hidden.tilt[0], hidden.tilt[1], 0.0]) @ np.array(GRAVITY)
     for name, e in hidden.origins.items():
         jid = m.getJointId(name)
         e = np.asarray(e, dtype=float)

@@ -88,3 +88,22 @@ def test_rows_of_a_swapped_marker_are_set_aside_not_fitted(model):
     assert sorted(cal.set_aside) == sorted(swapped.tolist())
     assert [s.name for s in cal.stages if s.kept] == ["registration"]
     assert np.max(position_errors(cal, exact)) < 3 * SIGMA
+
+
+def test_a_base_tilt_is_named_through_the_compliances(model):
+    tilt = (0.05, -0.03)   # rad
+    comp = {"shoulder_lift_joint": 8e-6, "elbow_joint": 1.2e-5}
+    hidden = truth.Hidden(offsets={"elbow_joint": 1e-3}, compliance=comp, tilt=tilt, **BASE)
+    data = _data(model, hidden, _q(model, 300, 12, away=0.0), 13)
+    cal = calibrate(model, data, "tool0", effects=("geometry", "compliance", "tilt"))
+    assert [s.name for s in cal.stages if s.kept] == ["registration", "geometry", "compliance", "tilt"]
+    for k, v in zip(("rx", "ry"), tilt):
+        x, s = cal.values[f"base.tilt_{k}"], cal.std[f"base.tilt_{k}"]
+        assert s < 0.2 * abs(v) and abs(x - v) < 4 * s
+    for j, c in comp.items():
+        assert abs(cal.values[f"{j}.compliance"] * 1000 - c) < 4 * cal.std[f"{j}.compliance"] * 1000
+    # the same arm level: no tilt named
+    level = truth.Hidden(**{**hidden.__dict__, "tilt": (0.0, 0.0)})
+    cal = calibrate(model, _data(model, level, _q(model, 300, 12, away=0.0), 13), "tool0",
+                    effects=("geometry", "compliance", "tilt"))
+    assert [s.name for s in cal.stages if s.kept] == ["registration", "geometry", "compliance"]

@@ -81,9 +81,10 @@ class Layout:
                       tuple(self.units[i] for i in k))
 
 
-def full_layout(model, frame: str, groups, payload: bool = False) -> Layout:
+def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = False) -> Layout:
     """Every parameter of the measurement model of a point on ``frame`` (registration of each group
-    first, the marker offset, then per joint of the path its offset and origin error, then the compliances)."""
+    first, the marker offset, then per joint of the path its offset and origin error, then the compliances,
+    the backlashes, the base tilt and the payload)."""
     names, kinds, units = [], [], []
     for g in groups:
         for k in _REG:
@@ -110,6 +111,11 @@ def full_layout(model, frame: str, groups, payload: bool = False) -> Layout:
             names.append(f"{j.name}.backlash")
             kinds.append("backlash")
             units.append("rad")
+    if tilt:
+        for k in ("rx", "ry"):
+            names.append(f"base.tilt_{k}")
+            kinds.append("tilt")
+            units.append("rad")
     if payload:
         names.append("payload.mass")
         kinds.append("payload")
@@ -134,6 +140,8 @@ class Problem:
     torques: np.ndarray
     #: the gravity torques (n, nq) N mm of 1 kg at the marker (the ``payload.mass`` parameter's), or None
     unit_torques: np.ndarray | None = None
+    #: the robot's gravity torques (3, n, nq) N mm for a unit gravity along each base axis (the base tilt's), or None
+    gravity_basis: np.ndarray | None = None
 
 
 def chain_frames(model, q: np.ndarray, frame: str, values: dict, dq: np.ndarray | None = None) -> np.ndarray:
@@ -179,10 +187,26 @@ def predict(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = N
     return out
 
 
+def tilted_gravity(prob: Problem, vals: dict, d: int | None = None) -> np.ndarray:
+    """The gravity (3,) in the base frame turned by the base tilt of ``vals`` (about the base x and y axes),
+    or its derivative by ``base.tilt_rx`` (d=0) or ``base.tilt_ry`` (d=1)."""
+    w = np.array([vals.get("base.tilt_rx", 0.0), vals.get("base.tilt_ry", 0.0), 0.0])
+    g = np.asarray(prob.model.gravity, dtype=float)
+    if d is None:
+        return rotation_matrix(w) @ g
+    e = np.zeros(3)
+    e[d] = _STEP["rad"]
+    return (rotation_matrix(w + e) - rotation_matrix(w - e)) @ g / (2 * e[d])
+
+
 def total_torques(prob: Problem, vals: dict) -> np.ndarray:
-    """The gravity torques (n, nq) N mm: the model's masses, and the fitted payload at the marker."""
+    """The gravity torques (n, nq) N mm: the model's masses (under the tilted gravity if the base is tilted),
+    and the fitted payload at the marker."""
+    tau = prob.torques
+    if prob.gravity_basis is not None and (vals.get("base.tilt_rx", 0.0) or vals.get("base.tilt_ry", 0.0)):
+        tau = np.einsum("knj,k->nj", prob.gravity_basis, tilted_gravity(prob, vals))
     m = vals.get("payload.mass", 0.0)
-    return prob.torques if not m or prob.unit_torques is None else prob.torques + m * prob.unit_torques
+    return tau if not m or prob.unit_torques is None else tau + m * prob.unit_torques
 
 
 def deflections(prob: Problem, vals: dict) -> np.ndarray:
@@ -284,6 +308,10 @@ def _base_columns(prob: Problem, vals: dict) -> tuple[np.ndarray, dict]:
         cols[comp] = cols.get(comp, 0.0) + mult * ax * (-tau[:, k:k + 1])
         back = f"{qn[k]}.backlash"
         cols[back] = cols.get(back, 0.0) + mult * ax * (-np.sign(tau[:, k:k + 1]))
+        if prob.gravity_basis is not None:
+            for axis, name in enumerate(("base.tilt_rx", "base.tilt_ry")):
+                dtau = np.einsum("kn,k->n", prob.gravity_basis[:, :, k], tilted_gravity(prob, vals, axis))
+                cols[name] = cols.get(name, 0.0) + mult * ax * (-vals.get(comp, 0.0) * dtau[:, None])
         if prob.unit_torques is not None:
             cu = -vals.get(comp, 0.0) * prob.unit_torques[:, k:k + 1]
             cols["payload.mass"] = cols.get("payload.mass", 0.0) + mult * ax * cu

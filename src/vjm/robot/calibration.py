@@ -14,10 +14,13 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
 3. **compliance**: a torsional compliance per joint, the deflection ``-c g_j(q)`` under the nominal model's
    gravity torque.  A joint whose gravity torque hardly varies over the data (its spread below
    ``flat`` of the largest joint's) cannot be told from an offset: it is reported not observable.
-4. **backlash**: a clearance per joint taken up on the side its gravity torque pushes to, the deflection
+4. **tilt**: the base tilted against the gravity the model assumes (2 angles, about the base x and y axes):
+   seen only through the compliances kept, the torques ``g(q)`` being those of the tilted gravity
+   (geometrically a tilt is the instrument frame's rotation, taken by the registration);
+5. **backlash**: a clearance per joint taken up on the side its gravity torque pushes to, the deflection
    ``-b sign(g_j(q))``.  A joint whose gravity torque keeps one sign (the other sign on fewer than
    ``flat`` of the rows) cannot tell it from an offset: reported not observable;
-5. **payload**: an unknown mass at the marker (a probe, a tool), weighed through the compliances kept: its
+6. **payload**: an unknown mass at the marker (a probe, a tool), weighed through the compliances kept: its
    gravity torque ``-J_p^T g`` per kg adds to the robot's own.
 
 A stage is kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the
@@ -36,7 +39,7 @@ from scipy.stats import f as f_dist
 from ..errors import VjmError
 from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
 
-STAGES = ("registration", "geometry", "compliance", "backlash", "payload")
+STAGES = ("registration", "geometry", "compliance", "tilt", "backlash", "payload")
 
 
 @dataclass(frozen=True)
@@ -91,7 +94,8 @@ def unit_torques(model, q: np.ndarray, frame: str, p) -> np.ndarray:
     return -np.einsum("nik,i->nk", Jp, np.asarray(model.gravity, dtype=float))
 
 
-def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: bool = False) -> Problem:
+def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: bool = False,
+             tilt: bool = False) -> Problem:
     q = data.q_for(model.q_names)
     groups = tuple(sorted({str(g) for g in data.groups}))
     missing = [g for g in groups if g not in frames]
@@ -100,7 +104,8 @@ def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: boo
     gidx = np.array([groups.index(str(g)) for g in data.groups])
     return Problem(model, frame, q, gidx, groups, tuple(frames[g][0] for g in groups),
                    tuple(frames[g][1] for g in groups), np.asarray(p0, dtype=float), model.gravity_torques(q),
-                   unit_torques(model, q, frame, p0) if payload else None)
+                   unit_torques(model, q, frame, p0) if payload else None,
+                   np.stack([model.gravity_torques(q, e) for e in np.eye(3)]) if tilt else None)
 
 
 def initial_registration(model, data, frame: str, p0=None, rounds: int = 8) -> tuple[dict, np.ndarray]:
@@ -261,9 +266,9 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         raise VjmError(f"unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
     _enough_rows(model, data, frame, effects, folds)
     frames, p = initial_registration(model, data, frame, p0)
-    prob = _problem(model, data, frame, frames, p, "payload" in effects)
+    prob = _problem(model, data, frame, frames, p, "payload" in effects, "tilt" in effects)
     meas = data.points[frame]
-    full = full_layout(model, frame, prob.groups, "payload" in effects)
+    full = full_layout(model, frame, prob.groups, "payload" in effects, "tilt" in effects)
     active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
     x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
     m = meas.size
@@ -310,7 +315,7 @@ def _enough_rows(model, data, frame: str, effects, folds: int) -> None:
         raise VjmError(f"{data.source}: group {few[0] or '(none)'} has fewer than 3 rows: its instrument frame "
                        f"cannot be registered")
     size = sum(k in ("reg", "marker", *effects) for k in full_layout(model, frame, tuple(sorted(groups)),
-                                                                      "payload" in effects).kinds)
+                                                                      "payload" in effects, "tilt" in effects).kinds)
     n = data.n * (folds - 1) // folds if folds else data.n
     if 3 * n <= size:
         raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "
@@ -331,7 +336,8 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
     """The calibration with the instrument frames of ``data``'s groups fitted on ``data`` (the robot's
     parameters frozen; the marker offset too unless ``marker``)."""
     frames, _ = initial_registration(cal.model, data, cal.frame, cal.marker)
-    prob = _problem(cal.model, data, cal.frame, frames, cal.marker, "payload.mass" in cal.values)
+    prob = _problem(cal.model, data, cal.frame, frames, cal.marker, "payload.mass" in cal.values,
+                    "base.tilt_rx" in cal.values)
     full = full_layout(cal.model, cal.frame, prob.groups)
     keep = [i for i, k in enumerate(full.kinds) if k == "reg" or (marker and k == "marker")]
     lay = full.pick(keep)
@@ -350,7 +356,8 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
 
 def predict_points(cal: Calibration, data) -> np.ndarray:
     """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups."""
-    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0, "payload.mass" in cal.values)
+    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0, "payload.mass" in cal.values,
+                    "base.tilt_rx" in cal.values)
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
     return predict(prob, lay, np.array(list(cal.values.values())))
 

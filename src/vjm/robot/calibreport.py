@@ -117,6 +117,8 @@ def _unit(name: str) -> str:
         return "rad/(N mm)"
     if last == "mass":
         return "kg"
+    if last.startswith("tilt"):
+        return "rad"
     return "mm" if last[0] in "dtp" else "rad"
 
 
@@ -143,6 +145,8 @@ def effects_named(cal: Calibration) -> list:
 
 def _kind(name: str) -> str:
     last = name.split(".")[-1]
+    if name.startswith("base.tilt"):
+        return "tilt"
     return {"compliance": "compliance", "backlash": "backlash", "mass": "payload"}.get(last, "geometry")
 
 
