@@ -8,6 +8,8 @@ A serial arm read by pinocchio from its URDF carries hidden effects:
   ``theta = q + offset - c g(theta) - b sign(g(theta))`` with pinocchio's generalized gravity ``g`` of the
   *perturbed* arm (fixed point, to 1e-14 rad; the clearance taken up on the side gravity pushes to);
 - a base tilt: the gravity turned about the base's x and y axes;
+- joint couplings: a joint turning by k times another's commanded value (what the data call a joint is a
+  combination of two);
 - an unknown instrument frame (R, t) and a marker offset on the measured frame;
 - noise (iid, mm).
 It returns what a laser tracker would log: the commanded q (rad) and the marker's position in the
@@ -38,6 +40,7 @@ class Hidden:
     payload: float = 0.0   # kg, a point mass at the marker
     backlash: dict = field(default_factory=dict)   # {joint: rad}, half the clearance
     tilt: tuple = (0.0, 0.0)   # rad: the base turned about its x and y axes against gravity
+    coupling: dict = field(default_factory=dict)   # {(a, b): k}: joint a turns by k times b's commanded value
 
 
 def _rotation(w) -> np.ndarray:
@@ -85,6 +88,8 @@ def measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, rng=Non
     for k, row in enumerate(q):
         qc = np.zeros(m.nq)
         qc[idx] = row
+        for (a, bb), kc in hidden.coupling.items():
+            qc[m.idx_qs[m.getJointId(a)]] += kc * row[list(names).index(bb)]
         theta = qc + off
         for _ in range(100):
             g = pin.computeGeneralizedGravity(m, d, theta)

@@ -107,3 +107,19 @@ def test_a_base_tilt_is_named_through_the_compliances(model):
     cal = calibrate(model, _data(model, level, _q(model, 300, 12, away=0.0), 13), "tool0",
                     effects=("geometry", "compliance", "tilt"))
     assert [s.name for s in cal.stages if s.kept] == ["registration", "geometry", "compliance"]
+
+
+def test_a_joint_coupled_to_another_is_named(model):
+    """The wrist-2 column holds wrist_2 + 0.02 wrist_1 (a gear train written as an ordinary joint)."""
+    k = 0.02
+    hidden = truth.Hidden(offsets={"elbow_joint": 1e-3}, coupling={("wrist_2_joint", "wrist_1_joint"): k}, **BASE)
+    data = _data(model, hidden, _q(model, 300, 14, away=0.0), 15)
+    cal = calibrate(model, data, "tool0", effects=("geometry", "coupling", "compliance"))
+    assert "coupling" in [s.name for s in cal.stages if s.kept]
+    name = "wrist_2_joint.coupling[wrist_1_joint]"
+    assert abs(cal.values[name] - k) < 4 * cal.std[name] and cal.std[name] < 0.05 * k
+    others = {n: v for n, v in cal.values.items() if ".coupling[" in n and n != name}
+    assert all(abs(v) < 4 * cal.std[n] + 1e-6 for n, v in others.items())
+    clean = calibrate(model, _data(model, truth.Hidden(**BASE), _q(model, 300, 14, away=0.0), 15), "tool0",
+                      effects=("geometry", "coupling", "compliance"))
+    assert [s.name for s in clean.stages if s.kept] == ["registration"]

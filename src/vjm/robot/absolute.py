@@ -81,10 +81,12 @@ class Layout:
                       tuple(self.units[i] for i in k))
 
 
-def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = False) -> Layout:
+def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = False,
+                coupling: bool = False) -> Layout:
     """Every parameter of the measurement model of a point on ``frame`` (registration of each group
     first, the marker offset, then per joint of the path its offset and origin error, then the compliances,
-    the backlashes, the base tilt and the payload)."""
+    the backlashes, with ``coupling`` each joint's value coupled to each other's (``a.coupling[b]``: a
+    turns by that times b's value, a gear train's or a misread joint's), the base tilt and the payload)."""
     names, kinds, units = [], [], []
     for g in groups:
         for k in _REG:
@@ -111,6 +113,14 @@ def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = F
             names.append(f"{j.name}.backlash")
             kinds.append("backlash")
             units.append("rad")
+    if coupling:
+        free = [j.name for j in path if j.mimic is None]
+        for a in free:
+            for b in free:
+                if a != b:
+                    names.append(f"{a}.coupling[{b}]")
+                    kinds.append("coupling")
+                    units.append("rad")
     if tilt:
         for k in ("rx", "ry"):
             names.append(f"base.tilt_{k}")
@@ -221,6 +231,11 @@ def deflections(prob: Problem, vals: dict) -> np.ndarray:
             dq[:, i] -= c * tau[:, i]
         if b:
             dq[:, i] -= b * np.sign(tau[:, i])
+    qn = list(prob.model.tree.q_names)
+    for key, k in vals.items():
+        if k and ".coupling[" in key:
+            a, b = key[:-1].split(".coupling[")
+            dq[:, qn.index(a)] += k * prob.q[:, qn.index(b)]
     return dq
 
 
@@ -308,6 +323,10 @@ def _base_columns(prob: Problem, vals: dict) -> tuple[np.ndarray, dict]:
         cols[comp] = cols.get(comp, 0.0) + mult * ax * (-tau[:, k:k + 1])
         back = f"{qn[k]}.backlash"
         cols[back] = cols.get(back, 0.0) + mult * ax * (-np.sign(tau[:, k:k + 1]))
+        for b in qn:
+            if b != qn[k]:
+                name = f"{qn[k]}.coupling[{b}]"
+                cols[name] = cols.get(name, 0.0) + mult * ax * q[:, qn.index(b), None]
         if prob.gravity_basis is not None:
             for axis, name in enumerate(("base.tilt_rx", "base.tilt_ry")):
                 dtau = np.einsum("kn,k->n", prob.gravity_basis[:, :, k], tilted_gravity(prob, vals, axis))

@@ -11,6 +11,8 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
    registration and of the columns kept before (Gram-Schmidt); the others are combinations of those,
    removed and listed with the parameters they combine (a base frame against the first joint, a
    translation along parallel axes ...) -- never fitted as degenerate parameters;
+   Then **coupling** (asked only): a joint turning by ``k`` times another's value (a wrist's gear train, or
+   a column holding a combination of joints written as an ordinary joint), the same selection deciding;
 3. **compliance**: a torsional compliance per joint, the deflection ``-c g_j(q)`` under the nominal model's
    gravity torque.  A joint whose gravity torque hardly varies over the data (its spread below
    ``flat`` of the largest joint's) cannot be told from an offset: it is reported not observable.
@@ -39,7 +41,7 @@ from scipy.stats import f as f_dist
 from ..errors import VjmError
 from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
 
-STAGES = ("registration", "geometry", "compliance", "tilt", "backlash", "payload")
+STAGES = ("registration", "geometry", "coupling", "compliance", "tilt", "backlash", "payload")
 
 
 @dataclass(frozen=True)
@@ -268,7 +270,7 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
     frames, p = initial_registration(model, data, frame, p0)
     prob = _problem(model, data, frame, frames, p, "payload" in effects, "tilt" in effects)
     meas = data.points[frame]
-    full = full_layout(model, frame, prob.groups, "payload" in effects, "tilt" in effects)
+    full = full_layout(model, frame, prob.groups, "payload" in effects, "tilt" in effects, "coupling" in effects)
     active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
     x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
     m = meas.size
@@ -315,7 +317,8 @@ def _enough_rows(model, data, frame: str, effects, folds: int) -> None:
         raise VjmError(f"{data.source}: group {few[0] or '(none)'} has fewer than 3 rows: its instrument frame "
                        f"cannot be registered")
     size = sum(k in ("reg", "marker", *effects) for k in full_layout(model, frame, tuple(sorted(groups)),
-                                                                      "payload" in effects, "tilt" in effects).kinds)
+                                                                      "payload" in effects, "tilt" in effects,
+                                                                      "coupling" in effects).kinds)
     n = data.n * (folds - 1) // folds if folds else data.n
     if 3 * n <= size:
         raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "

@@ -117,8 +117,8 @@ def _unit(name: str) -> str:
         return "rad/(N mm)"
     if last == "mass":
         return "kg"
-    if last.startswith("tilt"):
-        return "rad"
+    if last.startswith("tilt") or ".coupling[" in name:
+        return "rad" if last.startswith("tilt") else "rad/rad"
     return "mm" if last[0] in "dtp" else "rad"
 
 
@@ -147,6 +147,8 @@ def _kind(name: str) -> str:
     last = name.split(".")[-1]
     if name.startswith("base.tilt"):
         return "tilt"
+    if ".coupling[" in name:
+        return "coupling"
     return {"compliance": "compliance", "backlash": "backlash", "mass": "payload"}.get(last, "geometry")
 
 
