@@ -191,6 +191,9 @@ def _joint(name, parent, child, jtype="revolute", axis="0 0 1"):
 ARM = _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2"))
 ROBOT = "urdf: r.urdf\njoints: {j1: {stiffness: 1.0e+8}, j2: {stiffness: 5.0e+7}}\n"
 
+POSES = "j1,j2,l2.x,l2.y,l2.z\n" + "".join(f"{0.1 * k:.2f},{-0.05 * k:.3f},{k},{2 * k},{600 + k}\n" for k in range(40))
+CAL_FILES = {"r.yaml": ROBOT, "r.urdf": ARM, "p.csv": POSES}
+
 CASES = [
     # 18.2: numeric options, vjm
     Case("18.2", D + " --alpha 0", "--alpha must be in (0, 1), got 0", {"m.csv": GOOD}),
@@ -429,6 +432,32 @@ CASES = [
          "[2500.0, 160.0, 250.0] mm is out of the robot's reach", {"far.nc": "G21 G90\nG0 X800 Y160 Z250\nG1 X2500 "
                                                                     "F1000\n"}, "a UR10 toolpath reaching 2.5 m out"),
 
+
+    # 27: vjm calibrate (absolute poses)
+    Case("27", "vjm calibrate {puu} p.csv --out o", "a parallel machine; vjm calibrate takes a serial or tree robot",
+         {"p.csv": POSES}, "a parallel machine given to the robot calibration"),
+    Case("27", "vjm calibrate r.yaml p.csv --out o --folds 1", "--folds must be 0 (no cross-validation) or at least 2",
+         CAL_FILES, "one fold"),
+    Case("27", "vjm calibrate r.yaml p.csv --out o --register 2", "--register must be at least 3 poses", CAL_FILES,
+         "validation files registered on 2 poses"),
+    Case("27", "vjm calibrate r.yaml p.csv --out o --effects geometry,thermal", "--effects: unknown effect(s) thermal",
+         CAL_FILES, "an effect the library does not have"),
+    Case("27", "vjm calibrate r.yaml p.csv --out o", "p.csv: no column for joint(s) j2",
+         {**CAL_FILES, "p.csv": POSES.replace("j2,", "jj,")}, "a data file without a joint's column"),
+    Case("27", "vjm calibrate r.yaml p.csv --out o --frame l1", "--frame l1: p.csv measures l2", CAL_FILES,
+         "a frame the data does not measure"),
+    Case("27", "vjm calibrate r.yaml p.csv --out o", "--frame hand: not a frame of the model",
+         {**CAL_FILES, "p.csv": POSES.replace("l2.", "hand.")}, "a measured point that is no frame of the URDF"),
+    Case("27", "vjm calibrate r.yaml p.csv --out o --validate v.csv", "v.csv: 5 rows; a validation file needs more "
+         "than --register (30) rows", {**CAL_FILES, "v.csv": "\n".join(POSES.splitlines()[:6]) + "\n"},
+         "a validation file shorter than its registration"),
+    Case("27", "vjm calibrate r.yaml p.csv --out o", "p.csv: 4 rows (9 coordinates per fold) for up to 26 parameters",
+         {**CAL_FILES, "p.csv": "\n".join(POSES.splitlines()[:5]) + "\n"}, "four poses"),
+    Case("27", "vjm calibrate r.yaml p.csv --columns c.yaml --out o", "l2.x: unit 'deg' is not a length",
+         {**CAL_FILES, "c.yaml": "columns: {j1: [j1, rad], j2: [j2, rad], l2.x: [l2.x, deg], l2.y: [l2.y, mm], "
+          "l2.z: [l2.z, mm]}\n"}, "a column map giving a position in degrees"),
+    Case("27", "vjm calibrate r.yaml p.csv --out o", "o: report.json is there and was not written by linkfea or vjm",
+         {**CAL_FILES, "o/report.json": "{}\n"}, "an output folder holding the user's report.json"),
 
     # 30.2: one line where a traceback was
     Case("30.2", "linkfea compute bar --out .", "--out '.' is a folder, not a file: give a file name"),

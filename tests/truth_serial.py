@@ -4,8 +4,12 @@ A serial arm read by pinocchio from its URDF carries hidden effects:
 - joint offsets (added to the commanded joint values);
 - URDF-origin errors (each joint's placement times a small rigid motion);
 - a payload (a point mass at the marker);
-- joint compliance under self-weight: the link angles ``theta`` solve ``theta = q + offset - c g(theta)``
-  with pinocchio's generalized gravity ``g`` of the *perturbed* arm (fixed point, to 1e-14 rad);
+- joint compliance under self-weight and backlash: the link angles ``theta`` solve
+  ``theta = q + offset - c g(theta) - b sign(g(theta))`` with pinocchio's generalized gravity ``g`` of the
+  *perturbed* arm (fixed point, to 1e-14 rad; the clearance taken up on the side gravity pushes to);
+- a base tilt: the gravity turned about the base's x and y axes;
+- joint couplings: a joint turning by k times another's commanded value (what the data call a joint is a
+  combination of two);
 - an unknown instrument frame (R, t) and a marker offset on the measured frame;
 - noise (iid, mm).
 It returns what a laser tracker would log: the commanded q (rad) and the marker's position in the
@@ -34,6 +38,9 @@ class Hidden:
     marker: np.ndarray = field(default_factory=lambda: np.zeros(3))
     sigma: float = 0.0
     payload: float = 0.0   # kg, a point mass at the marker
+    backlash: dict = field(default_factory=dict)   # {joint: rad}, half the clearance
+    tilt: tuple = (0.0, 0.0)   # rad: the base turned about its x and y axes against gravity
+    coupling: dict = field(default_factory=dict)   # {(a, b): k}: joint a turns by k times b's commanded value
 
 
 def _rotation(w) -> np.ndarray:
@@ -43,7 +50,7 @@ def _rotation(w) -> np.ndarray:
 def perturbed_model(urdf: str, hidden: Hidden):
     """pinocchio's model of the URDF with the hidden origin errors (placement @ (rotation, translation))."""
     m = pin.buildModelFromUrdf(urdf)
-    m.gravity.linear = np.array(GRAVITY)
+    m.gravity.linear = _rotation([hidden.tilt[0], hidden.tilt[1], 0.0]) @ np.array(GRAVITY)
     for name, e in hidden.origins.items():
         jid = m.getJointId(name)
         e = np.asarray(e, dtype=float)
@@ -74,13 +81,19 @@ def measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, rng=Non
         off[m.idx_qs[m.getJointId(nm)]] = v
     for nm, v in hidden.compliance.items():
         c[m.idx_qs[m.getJointId(nm)]] = v
+    b = np.zeros(m.nq)
+    for nm, v in hidden.backlash.items():
+        b[m.idx_qs[m.getJointId(nm)]] = v
     out = np.empty((len(q), 3))
     for k, row in enumerate(q):
         qc = np.zeros(m.nq)
         qc[idx] = row
+        for (a, bb), kc in hidden.coupling.items():
+            qc[m.idx_qs[m.getJointId(a)]] += kc * row[list(names).index(bb)]
         theta = qc + off
         for _ in range(100):
-            new = qc + off - c * pin.computeGeneralizedGravity(m, d, theta)
+            g = pin.computeGeneralizedGravity(m, d, theta)
+            new = qc + off - c * g - b * np.sign(g)
             done = np.max(np.abs(new - theta)) < 1e-14
             theta = new
             if done:

@@ -223,6 +223,60 @@ def sweep_cmd(model: Path = typer.Argument(..., help="model YAML"),
     typer.echo(f"wrote {out}/tradeoffs.csv, tradeoffs.parquet, pareto.csv, pareto.json, pareto.png")
 
 
+@app.command("calibrate")
+def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf: ...)"),
+                  data: Path = typer.Argument(..., help="absolute poses: joint values and measured points per row"),
+                  columns: Optional[Path] = typer.Option(None, "--columns", help="column map YAML: the files' own "
+                                                         "names, units, separator, decimal mark"),
+                  validate: Optional[list[Path]] = typer.Option(None, "--validate", help="held-out file (a new "
+                                                                "instrument set-up; repeatable)"),
+                  register_on: int = typer.Option(30, "--register", help="poses of each --validate file that "
+                                                  "register its instrument frame (the robot frozen)"),
+                  folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation in the choice "
+                                                      "of effects (0: none; default 5, or 0 with --validate)"),
+                  effects: str = typer.Option("geometry,compliance,payload", "--effects",
+                                              help="stages tried, in this order (also: coupling, tilt, backlash)"),
+                  frame: Optional[str] = typer.Option(None, "--frame", help="the measured point (default: the "
+                                                      "data's only one)"),
+                  alpha: float = typer.Option(1e-3, "--alpha", help="F test level of an effect"),
+                  out: Path = typer.Option(..., "--out", help="output folder"),
+                  force: bool = FORCE):
+    """Calibrate a robot on absolute poses (laser tracker, camera): registration, geometry, joint compliance
+    under self-weight; held out; the calibrated URDF and robot file written back."""
+    import time
+    from dataclasses import replace
+
+    try:
+        from linkfea.outputs import check_folder
+
+        from .robot import calibreport as cr
+        from .robot.poses import read_column_map, read_poses
+
+        opt = cr.Options(frame, tuple(e.strip() for e in effects.split(",") if e.strip()), alpha,
+                         (0 if validate else 5) if folds is None else folds, register_on)
+        cr.check_options(opt)
+        check_folder(out, cr.FILES, force=force)
+        m = _load(model, None, None)
+        cr.robot_of(m)
+        cr.check_writeback(m)
+        cmap = read_column_map(columns) if columns is not None else None
+        d = read_poses(data, cmap, m.q_names)
+        d = d if d.group is not None else d.with_group(data.name)   # one instrument set-up per file
+        opt = replace(opt, frame=cr.check_frame(m, d, frame))
+        vals = [read_poses(v, cmap, m.q_names, group=f"validate:{v.name}") for v in validate or []]
+        for v in vals:
+            cr.check_frame(m, v, opt.frame)
+            cr.check_validation(v, opt.register_on)
+        t0 = time.perf_counter()
+        cal, held = cr.run(m, d, vals, opt)
+        rep = cr.report(cal, opt, model, d, held, time.perf_counter() - t0)
+        cr.write_set(out, cal, rep, force)
+    except user_errors() as exc:
+        _fail(exc)
+    typer.echo(cr.summary(rep), nl=False)
+    typer.echo(f"wrote {out}/" + ", ".join(cr.FILES))
+
+
 def _register_extensions():
     try:
         from .discrepancy.cli import register

@@ -136,8 +136,9 @@ def test_one_pass_jacobian_matches_central_differences(model):
     d = AbsolutePoses(tuple(model.q_names), q, {"tool0": np.zeros((40, 3))},
                       group=np.array(["A"] * 20 + ["B"] * 20, dtype=object))
     frames = {"A": (rotation_matrix([0.1, 0.2, 0.3]), np.ones(3)), "B": (np.eye(3), np.zeros(3))}
-    prob = cm._problem(model, d, "tool0", frames, MARKER)
-    lay = full_layout(model, "tool0", prob.groups)
+    prob = cm._problem(model, d, "tool0", frames, MARKER, tilt=True)
+    lay = full_layout(model, "tool0", prob.groups, tilt=True, coupling=True)
+    assert {"backlash", "tilt", "coupling"} <= set(lay.kinds)
     x = rng.normal(size=lay.size) * 1e-2
     x[[i for i, u in enumerate(lay.units) if u == "c"]] = 1e-8   # rad/(N mm): 1e-3 rad at 100 N m
     J1, J2 = jacobian(prob, lay, x), jacobian_fast(prob, lay, x)

@@ -89,3 +89,14 @@ def test_the_ipa_ur10_files_are_read_as_they_are():
     assert np.isclose(a.meta["meta_goal_x"][0], 365.141) and np.isclose(a.meta["meta_temperature"][0], 23.6800003051758)
     assert a.sigmas == {} and np.allclose(d.sigmas["tool0"][0], [0.00095905, 0.0022901, 0.0019936])
     assert d.meta["meta_timestamp"][0] == 2.02103e13   # the spreadsheet-mangled stamp, a number once read
+
+
+def test_series_b_is_read_as_it_is():
+    """Series B (two joint configurations per goal) through the same column map, first row as written."""
+    b = read_poses(os.path.join(IPA, "Series_B", "measurements_joint_configurations.csv"),
+                   read_column_map(os.path.join(IPA, "columns.yaml")), group="B")
+    assert b.n == 1495
+    assert np.allclose(b.points["tool0"][0], [383.76294, -3240.8734, 201.93157], rtol=0, atol=1e-9)
+    assert np.allclose(b.q[1], [-0.908775, -0.052173, -1.92746, -1.16213, -2.05921, -0.000837151], rtol=0, atol=1e-12)
+    assert np.allclose(b.sigmas["tool0"][1], [0.011904, 0.0080769, 0.0088318])
+    assert np.isclose(b.meta["meta_goal_z"][1], 800.0)

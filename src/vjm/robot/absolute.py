@@ -61,7 +61,7 @@ def kabsch(P: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class Layout:
-    """The parameter vector: names, kinds (``reg``, ``marker``, ``geometry``, ``compliance``), units
+    """The parameter vector: names, kinds (``reg``, ``marker``, ``geometry``, ``compliance``, ``backlash``), units
     (``mm``, ``rad``, ``c``) and, per name, what it acts on."""
 
     names: tuple
@@ -81,9 +81,12 @@ class Layout:
                       tuple(self.units[i] for i in k))
 
 
-def full_layout(model, frame: str, groups, payload: bool = False) -> Layout:
+def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = False,
+                coupling: bool = False) -> Layout:
     """Every parameter of the measurement model of a point on ``frame`` (registration of each group
-    first, the marker offset, then per joint of the path its offset and origin error, then the compliances)."""
+    first, the marker offset, then per joint of the path its offset and origin error, then the compliances,
+    the backlashes, with ``coupling`` each joint's value coupled to each other's (``a.coupling[b]``: a
+    turns by that times b's value, a gear train's or a misread joint's), the base tilt and the payload)."""
     names, kinds, units = [], [], []
     for g in groups:
         for k in _REG:
@@ -105,6 +108,24 @@ def full_layout(model, frame: str, groups, payload: bool = False) -> Layout:
             names.append(f"{j.name}.compliance")
             kinds.append("compliance")
             units.append("c")
+    for j in path:
+        if j.mimic is None:
+            names.append(f"{j.name}.backlash")
+            kinds.append("backlash")
+            units.append("rad")
+    if coupling:
+        free = [j.name for j in path if j.mimic is None]
+        for a in free:
+            for b in free:
+                if a != b:
+                    names.append(f"{a}.coupling[{b}]")
+                    kinds.append("coupling")
+                    units.append("rad")
+    if tilt:
+        for k in ("rx", "ry"):
+            names.append(f"base.tilt_{k}")
+            kinds.append("tilt")
+            units.append("rad")
     if payload:
         names.append("payload.mass")
         kinds.append("payload")
@@ -129,6 +150,8 @@ class Problem:
     torques: np.ndarray
     #: the gravity torques (n, nq) N mm of 1 kg at the marker (the ``payload.mass`` parameter's), or None
     unit_torques: np.ndarray | None = None
+    #: the robot's gravity torques (3, n, nq) N mm for a unit gravity along each base axis (the base tilt's), or None
+    gravity_basis: np.ndarray | None = None
 
 
 def chain_frames(model, q: np.ndarray, frame: str, values: dict, dq: np.ndarray | None = None) -> np.ndarray:
@@ -174,20 +197,45 @@ def predict(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = N
     return out
 
 
+def tilted_gravity(prob: Problem, vals: dict, d: int | None = None) -> np.ndarray:
+    """The gravity (3,) in the base frame turned by the base tilt of ``vals`` (about the base x and y axes),
+    or its derivative by ``base.tilt_rx`` (d=0) or ``base.tilt_ry`` (d=1)."""
+    w = np.array([vals.get("base.tilt_rx", 0.0), vals.get("base.tilt_ry", 0.0), 0.0])
+    g = np.asarray(prob.model.gravity, dtype=float)
+    if d is None:
+        return rotation_matrix(w) @ g
+    e = np.zeros(3)
+    e[d] = _STEP["rad"]
+    return (rotation_matrix(w + e) - rotation_matrix(w - e)) @ g / (2 * e[d])
+
+
 def total_torques(prob: Problem, vals: dict) -> np.ndarray:
-    """The gravity torques (n, nq) N mm: the model's masses, and the fitted payload at the marker."""
+    """The gravity torques (n, nq) N mm: the model's masses (under the tilted gravity if the base is tilted),
+    and the fitted payload at the marker."""
+    tau = prob.torques
+    if prob.gravity_basis is not None and (vals.get("base.tilt_rx", 0.0) or vals.get("base.tilt_ry", 0.0)):
+        tau = np.einsum("knj,k->nj", prob.gravity_basis, tilted_gravity(prob, vals))
     m = vals.get("payload.mass", 0.0)
-    return prob.torques if not m or prob.unit_torques is None else prob.torques + m * prob.unit_torques
+    return tau if not m or prob.unit_torques is None else tau + m * prob.unit_torques
 
 
 def deflections(prob: Problem, vals: dict) -> np.ndarray:
-    """The joints' deflections (n, nq) ``-c g(q)`` under the compliances of ``vals``."""
+    """The joints' deflections (n, nq) ``-c g(q) - b sign(g(q))`` under the compliances ``c`` and the
+    backlashes ``b`` of ``vals`` (a clearance taken up on the side the gravity torque pushes to)."""
     tau = total_torques(prob, vals)
     dq = np.zeros_like(prob.q)
     for i, name in enumerate(prob.model.tree.q_names):
         c = vals.get(f"{name}.compliance", 0.0)
+        b = vals.get(f"{name}.backlash", 0.0)
         if c:
-            dq[:, i] = -c * tau[:, i]
+            dq[:, i] -= c * tau[:, i]
+        if b:
+            dq[:, i] -= b * np.sign(tau[:, i])
+    qn = list(prob.model.tree.q_names)
+    for key, k in vals.items():
+        if k and ".coupling[" in key:
+            a, b = key[:-1].split(".coupling[")
+            dq[:, qn.index(a)] += k * prob.q[:, qn.index(b)]
     return dq
 
 
@@ -273,6 +321,16 @@ def _base_columns(prob: Problem, vals: dict) -> tuple[np.ndarray, dict]:
         cols[f"{j.name}.offset"] = ax
         comp = f"{qn[k]}.compliance"
         cols[comp] = cols.get(comp, 0.0) + mult * ax * (-tau[:, k:k + 1])
+        back = f"{qn[k]}.backlash"
+        cols[back] = cols.get(back, 0.0) + mult * ax * (-np.sign(tau[:, k:k + 1]))
+        for b in qn:
+            if b != qn[k]:
+                name = f"{qn[k]}.coupling[{b}]"
+                cols[name] = cols.get(name, 0.0) + mult * ax * q[:, qn.index(b), None]
+        if prob.gravity_basis is not None:
+            for axis, name in enumerate(("base.tilt_rx", "base.tilt_ry")):
+                dtau = np.einsum("kn,k->n", prob.gravity_basis[:, :, k], tilted_gravity(prob, vals, axis))
+                cols[name] = cols.get(name, 0.0) + mult * ax * (-vals.get(comp, 0.0) * dtau[:, None])
         if prob.unit_torques is not None:
             cu = -vals.get(comp, 0.0) * prob.unit_torques[:, k:k + 1]
             cols["payload.mass"] = cols.get("payload.mass", 0.0) + mult * ax * cu

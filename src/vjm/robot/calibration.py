@@ -11,10 +11,18 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
    registration and of the columns kept before (Gram-Schmidt); the others are combinations of those,
    removed and listed with the parameters they combine (a base frame against the first joint, a
    translation along parallel axes ...) -- never fitted as degenerate parameters;
+   Then **coupling** (asked only): a joint turning by ``k`` times another's value (a wrist's gear train, or
+   a column holding a combination of joints written as an ordinary joint), the same selection deciding;
 3. **compliance**: a torsional compliance per joint, the deflection ``-c g_j(q)`` under the nominal model's
    gravity torque.  A joint whose gravity torque hardly varies over the data (its spread below
    ``flat`` of the largest joint's) cannot be told from an offset: it is reported not observable.
-4. **payload**: an unknown mass at the marker (a probe, a tool), weighed through the compliances kept: its
+4. **tilt**: the base tilted against the gravity the model assumes (2 angles, about the base x and y axes):
+   seen only through the compliances kept, the torques ``g(q)`` being those of the tilted gravity
+   (geometrically a tilt is the instrument frame's rotation, taken by the registration);
+5. **backlash**: a clearance per joint taken up on the side its gravity torque pushes to, the deflection
+   ``-b sign(g_j(q))``.  A joint whose gravity torque keeps one sign (the other sign on fewer than
+   ``flat`` of the rows) cannot tell it from an offset: reported not observable;
+6. **payload**: an unknown mass at the marker (a probe, a tool), weighed through the compliances kept: its
    gravity torque ``-J_p^T g`` per kg adds to the robot's own.
 
 A stage is kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the
@@ -23,7 +31,7 @@ are unweighted (mm), the model's errors exceeding the instruments' stated sigmas
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -33,7 +41,7 @@ from scipy.stats import f as f_dist
 from ..errors import VjmError
 from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
 
-STAGES = ("registration", "geometry", "compliance", "payload")
+STAGES = ("registration", "geometry", "coupling", "compliance", "tilt", "backlash", "payload")
 
 
 @dataclass(frozen=True)
@@ -49,6 +57,8 @@ class Stage:
     rms: float
     p_value: float
     cv_rms: float = float("nan")
+    #: mean, std, max and p95 (mm) of the fitted rows' position errors after the stage (:func:`error_stats`)
+    stats: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,6 +75,8 @@ class Calibration:
     p0: np.ndarray
     removed: tuple = ()
     stages: tuple = ()
+    #: rows of the data set aside as outliers (indices), not fitted (:mod:`vjm.robot.robust`)
+    set_aside: tuple = ()
 
     def robot_values(self) -> dict:
         """The robot's fitted parameters (geometry and compliance), without the nuisance."""
@@ -84,7 +96,8 @@ def unit_torques(model, q: np.ndarray, frame: str, p) -> np.ndarray:
     return -np.einsum("nik,i->nk", Jp, np.asarray(model.gravity, dtype=float))
 
 
-def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: bool = False) -> Problem:
+def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: bool = False,
+             tilt: bool = False) -> Problem:
     q = data.q_for(model.q_names)
     groups = tuple(sorted({str(g) for g in data.groups}))
     missing = [g for g in groups if g not in frames]
@@ -93,7 +106,8 @@ def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: boo
     gidx = np.array([groups.index(str(g)) for g in data.groups])
     return Problem(model, frame, q, gidx, groups, tuple(frames[g][0] for g in groups),
                    tuple(frames[g][1] for g in groups), np.asarray(p0, dtype=float), model.gravity_torques(q),
-                   unit_torques(model, q, frame, p0) if payload else None)
+                   unit_torques(model, q, frame, p0) if payload else None,
+                   np.stack([model.gravity_torques(q, e) for e in np.eye(3)]) if tilt else None)
 
 
 def initial_registration(model, data, frame: str, p0=None, rounds: int = 8) -> tuple[dict, np.ndarray]:
@@ -207,6 +221,20 @@ def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float) -> tup
     return keep, out
 
 
+def _one_sign(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[list, list]:
+    qn = list(prob.model.tree.q_names)
+    keep, out = [], []
+    for i in cands:
+        tau = prob.torques[:, qn.index(layout.names[i][:-len(".backlash")])]
+        minority = min(np.mean(tau > 0), np.mean(tau < 0))
+        if minority < flat:
+            out.append((i, f"not observable: its gravity torque changes sign on {100 * minority:.3g} % of the rows "
+                           f"(a backlash on one side is an offset)"))
+        else:
+            keep.append(i)
+    return keep, out
+
+
 def _rows(prob: Problem, mask: np.ndarray) -> Problem:
     return replace(prob, q=prob.q[mask], gidx=prob.gidx[mask], torques=prob.torques[mask],
                    unit_torques=None if prob.unit_torques is None else prob.unit_torques[mask])
@@ -238,15 +266,17 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
     bad = set(effects) - set(STAGES[1:])
     if bad:
         raise VjmError(f"unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
+    _enough_rows(model, data, frame, effects, folds)
     frames, p = initial_registration(model, data, frame, p0)
-    prob = _problem(model, data, frame, frames, p, "payload" in effects)
+    prob = _problem(model, data, frame, frames, p, "payload" in effects, "tilt" in effects)
     meas = data.points[frame]
-    full = full_layout(model, frame, prob.groups, "payload" in effects)
+    full = full_layout(model, frame, prob.groups, "payload" in effects, "tilt" in effects, "coupling" in effects)
     active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
     x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
     m = meas.size
     cv = cross_validated_rms(prob, full.pick(active), meas, x, folds) if folds else float("nan")
-    stages = [Stage("registration", True, len(active), rss, float(np.sqrt(rss / len(meas))), float("nan"), cv)]
+    stages = [Stage("registration", True, len(active), rss, float(np.sqrt(rss / len(meas))), float("nan"), cv,
+                    _stats(prob, full.pick(active), x, meas))]
     best = (active, x, sd, rss, cv)
     removed: list = []
     for name in STAGES[1:]:
@@ -256,8 +286,8 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         x_all[best[0]] = best[1]
         J = jacobian_fast(prob, full, x_all)   # at the stage's start: the payload acts through the compliances
         cands = [i for i, k in enumerate(full.kinds) if k == name]
-        if name == "compliance":
-            cands, flat_out = _flat_joints(prob, full, cands, flat)
+        if name in ("compliance", "backlash"):
+            cands, flat_out = (_flat_joints if name == "compliance" else _one_sign)(prob, full, cands, flat)
             removed += flat_out
         kept, rem = select(J, full, best[0], cands, tol)
         removed += rem
@@ -269,12 +299,34 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         ok = bool(kept) and pv < alpha
         cvt = cross_validated_rms(prob, full.pick(trial), meas, xt, folds) if folds and ok else float("nan")
         ok = ok and not (folds and cvt >= best[4])
-        stages.append(Stage(name, ok, len(trial), rsst, float(np.sqrt(rsst / len(meas))), pv, cvt))
+        stages.append(Stage(name, ok, len(trial), rsst, float(np.sqrt(rsst / len(meas))), pv, cvt,
+                            _stats(prob, full.pick(trial), xt, meas)))
         if ok:
             best = (trial, xt, sdt, rsst, cvt)
     lay = full.pick(best[0])
     return Calibration(model, frame, dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, p,
                        tuple((full.names[i], why) for i, why in removed), tuple(stages))
+
+
+def _enough_rows(model, data, frame: str, effects, folds: int) -> None:
+    """Refuse a set too small for the fit: 3 rows per group (a Kabsch start), and more coordinates than the
+    parameters the effects may take (in each fold's training rows)."""
+    groups = {str(g) for g in data.groups}
+    few = [g for g in sorted(groups) if np.sum(np.asarray([str(x) for x in data.groups]) == g) < 3]
+    if few:
+        raise VjmError(f"{data.source}: group {few[0] or '(none)'} has fewer than 3 rows: its instrument frame "
+                       f"cannot be registered")
+    size = sum(k in ("reg", "marker", *effects) for k in full_layout(model, frame, tuple(sorted(groups)),
+                                                                      "payload" in effects, "tilt" in effects,
+                                                                      "coupling" in effects).kinds)
+    n = data.n * (folds - 1) // folds if folds else data.n
+    if 3 * n <= size:
+        raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "
+                       f"{size} parameters: measure more poses")
+
+
+def _stats(prob: Problem, layout: Layout, x: np.ndarray, meas: np.ndarray) -> dict:
+    return error_stats(np.linalg.norm(predict(prob, layout, x) - meas, axis=1))
 
 
 def _only_frame(data) -> str:
@@ -287,7 +339,8 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
     """The calibration with the instrument frames of ``data``'s groups fitted on ``data`` (the robot's
     parameters frozen; the marker offset too unless ``marker``)."""
     frames, _ = initial_registration(cal.model, data, cal.frame, cal.marker)
-    prob = _problem(cal.model, data, cal.frame, frames, cal.marker, "payload.mass" in cal.values)
+    prob = _problem(cal.model, data, cal.frame, frames, cal.marker, "payload.mass" in cal.values,
+                    "base.tilt_rx" in cal.values)
     full = full_layout(cal.model, cal.frame, prob.groups)
     keep = [i for i, k in enumerate(full.kinds) if k == "reg" or (marker and k == "marker")]
     lay = full.pick(keep)
@@ -306,7 +359,8 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
 
 def predict_points(cal: Calibration, data) -> np.ndarray:
     """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups."""
-    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0, "payload.mass" in cal.values)
+    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0, "payload.mass" in cal.values,
+                    "base.tilt_rx" in cal.values)
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
     return predict(prob, lay, np.array(list(cal.values.values())))
 

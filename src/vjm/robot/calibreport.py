@@ -1,0 +1,251 @@
+"""``vjm calibrate``: a robot calibrated on absolute poses, held out, reported and written back as one set.
+
+The run (:func:`run`) reads the robot model, the calibration file through its column map and the
+``--validate`` files, fits :func:`vjm.robot.calibration.calibrate`, registers every validation file on a
+few of its own poses (the robot frozen: a validation file is a new instrument set-up) and measures the
+error on its other poses.  :func:`report` gathers what a user judges a calibration on:
+
+- the effects named, in order of what each buys (the drop of the mean position error of its stage), each
+  with the error before and after it (mean, std, max, 95th percentile, mm, on the fitted rows);
+- the held-out error: k-fold cross-validated RMS of the stages (``folds``), and the validation files';
+- the registration (instrument frame of each group, marker offset) and its standard deviations, apart;
+- the parameters removed: combinations that cannot be identified, joints that are not observable;
+- the rows set aside as outliers (:mod:`vjm.robot.robust`), with their errors.
+
+:func:`write_set` writes ``report.json``, ``summary.txt``, ``calibrated.urdf`` and ``calibrated.yaml``
+into a folder as one set (:mod:`linkfea.outputs`: complete or untouched, a manifest, never a user's file).
+"""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import VjmError
+from .calibration import STAGES, Calibration, error_stats, instrument_frame, position_errors, register
+from .robust import calibrate_robust
+
+FILES = ("report.json", "summary.txt", "calibrated.urdf", "calibrated.yaml")
+SET_NAME = "vjm calibrate"
+SCHEMA = "vjm.calibration/1"
+
+
+@dataclass(frozen=True)
+class Options:
+    """What the command line asks: the measured ``frame`` (None: the data's only point), the ``effects``
+    tried, the F test's ``alpha``, ``folds`` of cross-validation (0: none), and the number of poses
+    ``register_on`` that register each validation file."""
+
+    frame: str | None = None
+    effects: tuple = STAGES[1:]
+    alpha: float = 1e-3
+    folds: int = 0
+    register_on: int = 30
+
+
+def check_options(opt: Options) -> None:
+    """Refuse bad options before any work."""
+    bad = set(opt.effects) - set(STAGES[1:])
+    if bad:
+        raise VjmError(f"--effects: unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
+    if opt.folds == 1 or opt.folds < 0:
+        raise VjmError(f"--folds must be 0 (no cross-validation) or at least 2, got {opt.folds}")
+    if opt.register_on < 3:
+        raise VjmError(f"--register must be at least 3 poses (an instrument frame has 6 parameters), got "
+                       f"{opt.register_on}")
+    if not 0 < opt.alpha < 1:
+        raise VjmError(f"--alpha must be between 0 and 1, got {opt.alpha}")
+
+
+def robot_of(model) -> None:
+    """Refuse a parallel machine: the absolute-pose calibration takes serial and tree robots."""
+    if not hasattr(model, "tree"):
+        raise VjmError(f"{getattr(model, 'path', None) or 'the model'}: a parallel machine; vjm calibrate takes a "
+                       f"serial or tree robot (a model file with urdf: or dh:)")
+
+
+def check_writeback(model) -> None:
+    """Refuse, before any work, a robot whose calibration cannot be written back (no URDF file)."""
+    urdf = model.tree.source
+    if not urdf or not os.path.isfile(urdf):
+        raise VjmError(f"{model.path}: the robot has no URDF file to write the calibration back into (a DH table?)")
+
+
+def check_frame(model, data, frame: str | None) -> str:
+    """The measured frame: named, or the data's only point; it must be a frame of the model."""
+    if frame is None:
+        if len(data.points) != 1:
+            raise VjmError(f"{data.source}: several measured points ({', '.join(data.points)}): name one with --frame")
+        frame = next(iter(data.points))
+    if frame not in data.points:
+        raise VjmError(f"--frame {frame}: {data.source} measures {', '.join(data.points)}")
+    names = {f.name for f in model.tree.frames}
+    if frame not in names:
+        raise VjmError(f"--frame {frame}: not a frame of the model ({model.path}); measured points must be frames "
+                       f"or links of the URDF")
+    return frame
+
+
+def check_validation(data, k: int) -> None:
+    """A validation file needs more rows than the ``k`` that register it."""
+    if data.n <= k:
+        raise VjmError(f"{data.source}: {data.n} rows; a validation file needs more than --register ({k}) rows")
+
+
+def split(data, k: int):
+    """(k evenly spaced rows of ``data`` that register its set-up, the other rows)."""
+    check_validation(data, k)
+    mask = np.zeros(data.n, dtype=bool)
+    mask[np.linspace(0, data.n - 1, k).astype(int)] = True
+    return data.subset(mask), data.subset(~mask)
+
+
+def validate(cal: Calibration, data, k: int) -> dict:
+    """A validation file's held-out errors: its set-up registered on ``k`` of its poses, the robot frozen."""
+    few, rest = split(data, k)
+    reg = register(cal, few)
+    return {"file": data.source, "registered_on": k, "rows": int(rest.n),
+            "errors_mm": error_stats(position_errors(reg, rest))}
+
+
+def _unit(name: str) -> str:
+    last = name.split(".")[-1]
+    if last == "compliance":
+        return "rad/(N mm)"
+    if last == "mass":
+        return "kg"
+    if last.startswith("tilt") or ".coupling[" in name:
+        return "rad" if last.startswith("tilt") else "rad/rad"
+    return "mm" if last[0] in "dtp" else "rad"
+
+
+def _stage(s) -> dict:
+    return {"name": s.name, "kept": s.kept, "n_params": s.n_params, "rms_mm": s.rms,
+            "p_value": None if np.isnan(s.p_value) else s.p_value,
+            "cv_rms_mm": None if np.isnan(s.cv_rms) else s.cv_rms, "errors_mm": s.stats}
+
+
+def effects_named(cal: Calibration) -> list:
+    """The kept stages beyond the registration, in order of what each buys: (drop of the mean error, before,
+    after, stage), largest drop first; before/after are the fitted rows' errors around the stage."""
+    out = []
+    before = cal.stages[0].stats
+    for s in cal.stages[1:]:
+        if s.kept:
+            out.append({"effect": s.name, "buys_mm": before["mean"] - s.stats["mean"], "before_mm": before,
+                        "after_mm": s.stats, "p_value": s.p_value,
+                        "cv_rms_mm": None if np.isnan(s.cv_rms) else s.cv_rms,
+                        "parameters": [k for k in cal.robot_values() if _kind(k) == s.name]})
+            before = s.stats
+    return sorted(out, key=lambda e: -e["buys_mm"])
+
+
+def _kind(name: str) -> str:
+    last = name.split(".")[-1]
+    if name.startswith("base.tilt"):
+        return "tilt"
+    if ".coupling[" in name:
+        return "coupling"
+    return {"compliance": "compliance", "backlash": "backlash", "mass": "payload"}.get(last, "geometry")
+
+
+def registration(cal: Calibration) -> dict:
+    """The nuisance, apart: each group's instrument frame (instrument = R base + t) and the marker, with the
+    standard deviations of the fitted corrections."""
+    groups = {}
+    for g in cal.frames:
+        R, t = instrument_frame(cal, g)
+        groups[str(g)] = {"R": R.tolist(), "t_mm": t.tolist(),
+                          "std": {k.split(".", 1)[1]: cal.std.get(k) for k in cal.values if k.startswith(f"reg[{g}].")}}
+    marker = {"frame": cal.frame, "offset_mm": cal.marker.tolist(),
+              "std_mm": [cal.std.get(f"{cal.frame}.p{c}", 0.0) for c in "xyz"]}
+    return {"instrument_frames": groups, "marker": marker,
+            "std_units": "t*: mm, r*: rad (a rotation vector after the Kabsch start)"}
+
+
+def report(cal: Calibration, opt: Options, model_path, data, validations: list, seconds: float) -> dict:
+    """The report's mapping (see the module docstring)."""
+    removed = [{"parameter": n, "why": why} for n, why in cal.removed]
+    aside = position_errors(cal, data.subset(list(cal.set_aside))) if cal.set_aside else []
+    return {
+        "schema": SCHEMA, "model": str(model_path), "data": data.source, "rows": int(data.n), "frame": cal.frame,
+        "effects_tried": list(opt.effects), "alpha": opt.alpha,
+        "effects": effects_named(cal),
+        "stages": [_stage(s) for s in cal.stages],
+        "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": _unit(k)} for k, v in cal.robot_values().items()},
+        "held_out": {"folds": opt.folds, "validate": validations},
+        "registration": registration(cal),
+        "not_identifiable": [r for r in removed if not r["why"].startswith("not observable")],
+        "not_observable": [r for r in removed if r["why"].startswith("not observable")],
+        "set_aside": [{"row": i, "error_mm": float(e)} for i, e in zip(cal.set_aside, aside)],   # row: 0-based
+        "seconds": seconds,
+    }
+
+
+def _fmt(st: dict) -> str:
+    return " / ".join(f"{st[k]:.3f}" for k in ("mean", "std", "max", "p95"))
+
+
+def _p(p: float) -> str:
+    return f"p = {p:.2g}" if p > 0 else "p < 1e-300"
+
+
+def summary(rep: dict) -> str:
+    """A short text of the report."""
+    reg = rep["stages"][0]
+    lines = [f"Calibration of {rep['model']} on {rep['data']} ({rep['rows']} rows, point {rep['frame']}).",
+             "Position error (mm) mean / std / max / p95, fitted rows:",
+             f"  registration only: {_fmt(reg['errors_mm'])}"]
+    if not rep["effects"]:
+        lines.append("  no effect named beyond the registration.")
+    for e in rep["effects"]:
+        lines.append(f"  {e['effect']} buys {e['buys_mm']:.3f} mm: {_fmt(e['before_mm'])} -> {_fmt(e['after_mm'])} "
+                     f"({_p(e['p_value'])}; {len(e['parameters'])} parameters)")
+    for s in rep["stages"][1:]:
+        if not s["kept"]:
+            lines.append(f"  {s['name']}: not named ({_p(s['p_value'])}"
+                         + (f", cross-validated RMS {s['cv_rms_mm']:.3f} mm" if s["cv_rms_mm"] is not None else "")
+                         + ")")
+    if rep["held_out"]["folds"]:
+        cv = [f"{s['name']} {s['cv_rms_mm']:.3f}" for s in rep["stages"] if s["cv_rms_mm"] is not None]
+        lines.append(f"Held out, {rep['held_out']['folds']}-fold cross-validated RMS (mm): " + ", ".join(cv))
+    for v in rep["held_out"]["validate"]:
+        lines.append(f"Held out, {v['file']} (registered on {v['registered_on']} of its poses, robot frozen; "
+                     f"{v['rows']} others): {_fmt(v['errors_mm'])}")
+    lines.append(f"Not identifiable (removed): {len(rep['not_identifiable'])}; not observable: "
+                 + (", ".join(r["parameter"] for r in rep["not_observable"]) or "none"))
+    if rep["set_aside"]:
+        rows = [str(r["row"] + 1) for r in rep["set_aside"]]
+        lines.append(f"Set aside as outliers (not fitted): {len(rows)} rows, data rows (1 = the first under the "
+                     f"header) "
+                     + ", ".join(rows[:20]) + (" ..." if len(rows) > 20 else ""))
+    lines.append(f"Fitted in {rep['seconds']:.1f} s.")
+    return "\n".join(lines) + "\n"
+
+
+def run(model, data, validate_sets: list, opt: Options) -> tuple[Calibration, list]:
+    """Fit and hold out: (the calibration, the validation files' held-out errors)."""
+    cal = calibrate_robust(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
+    return cal, [validate(cal, v, opt.register_on) for v in validate_sets]
+
+
+def write_set(out, cal: Calibration, rep: dict, force: bool = False) -> list[Path]:
+    """The four files of :data:`FILES` under ``out``, as one set."""
+    from linkfea.atomic import plain
+    from linkfea.outputs import OutputSet, check_folder
+
+    from .calibwrite import calibrated_urdf, robot_file
+
+    out = Path(out)
+    check_folder(out, FILES, force=force)
+    check_writeback(cal.model)
+    urdf = cal.model.tree.source
+    texts = {"report.json": json.dumps(plain(rep), indent=1) + "\n", "summary.txt": summary(rep),
+             "calibrated.urdf": calibrated_urdf(cal, urdf), "calibrated.yaml": robot_file(cal, "calibrated.urdf")}
+    with OutputSet(out, SET_NAME) as s:
+        for name in FILES:
+            Path(s.path(name)).write_text(texts[name], encoding="utf-8")
+    return [out / n for n in FILES]
