@@ -38,36 +38,44 @@ def encode(chain):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def factor_step(kinds, var, coef, T, v, f, F, E, O):  # pragma: no cover - compiled
+    """Frame F (3, 4) times factor ``f`` at variable values ``v``; a joint or spring factor's axis and
+    origin after it go to E[f], O[f] (the walk of both kernels: stiffness and self-weight)."""
+    kd = kinds[f]
+    if kd == CONST:
+        for i in range(3):
+            r0, r1, r2, r3 = F[i, 0], F[i, 1], F[i, 2], F[i, 3]
+            for j in range(4):
+                F[i, j] = r0 * T[f, 0, j] + r1 * T[f, 1, j] + r2 * T[f, 2, j]
+            F[i, 3] += r3
+        return
+    a = coef[f] * v[var[f]]
+    ax = kd % 3
+    if a != 0.0:
+        if kd >= 3:
+            ii, jj = (ax + 1) % 3, (ax + 2) % 3
+            c, s = np.cos(a), np.sin(a)
+            for r in range(3):
+                ci, cj = F[r, ii], F[r, jj]
+                F[r, ii] = ci * c + cj * s
+                F[r, jj] = cj * c - ci * s
+        else:
+            for r in range(3):
+                F[r, 3] += F[r, ax] * a
+    for r in range(3):
+        E[f, r] = F[r, ax]
+        O[f, r] = F[r, 3]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _walk(kinds, var, coef, T, vt, k, F, E, O):  # pragma: no cover - compiled
     """Frames of configuration k: F the end frame (3, 4); E, O each factor's axis and origin."""
     for i in range(3):
         for j in range(4):
             F[i, j] = 1.0 if i == j else 0.0
+    v = vt[:, k]
     for f in range(kinds.shape[0]):
-        kd = kinds[f]
-        if kd == CONST:
-            for i in range(3):
-                r0, r1, r2, r3 = F[i, 0], F[i, 1], F[i, 2], F[i, 3]
-                for j in range(4):
-                    F[i, j] = r0 * T[f, 0, j] + r1 * T[f, 1, j] + r2 * T[f, 2, j]
-                F[i, 3] += r3
-            continue
-        a = coef[f] * vt[var[f], k]
-        ax = kd % 3
-        if a != 0.0:
-            if kd >= 3:
-                ii, jj = (ax + 1) % 3, (ax + 2) % 3
-                c, s = np.cos(a), np.sin(a)
-                for r in range(3):
-                    ci, cj = F[r, ii], F[r, jj]
-                    F[r, ii] = ci * c + cj * s
-                    F[r, jj] = cj * c - ci * s
-            else:
-                for r in range(3):
-                    F[r, 3] += F[r, ax] * a
-        for r in range(3):
-            E[f, r] = F[r, ax]
-            O[f, r] = F[r, 3]
+        factor_step(kinds, var, coef, T, v, f, F, E, O)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .kernel import CONST
+from .kernel import CONST, factor_step
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -50,30 +50,7 @@ def _walk(kinds, var, coef, T, v, lidx, lpt, k, F, E, O, P):  # pragma: no cover
     ld = 0
     nl = lidx.shape[0]
     for f in range(kinds.shape[0]):
-        kd = kinds[f]
-        if kd == CONST:
-            for i in range(3):
-                r0, r1, r2, r3 = F[i, 0], F[i, 1], F[i, 2], F[i, 3]
-                for j in range(4):
-                    F[i, j] = r0 * T[f, 0, j] + r1 * T[f, 1, j] + r2 * T[f, 2, j]
-                F[i, 3] += r3
-        else:
-            a = coef[f] * v[var[f]]
-            ax = kd % 3
-            if a != 0.0:
-                if kd >= 3:
-                    ii, jj = (ax + 1) % 3, (ax + 2) % 3
-                    c, s = np.cos(a), np.sin(a)
-                    for r in range(3):
-                        ci, cj = F[r, ii], F[r, jj]
-                        F[r, ii] = ci * c + cj * s
-                        F[r, jj] = cj * c - ci * s
-                else:
-                    for r in range(3):
-                        F[r, 3] += F[r, ax] * a
-            for r in range(3):
-                E[f, r] = F[r, ax]
-                O[f, r] = F[r, 3]
+        factor_step(kinds, var, coef, T, v, f, F, E, O)
         while ld < nl and lidx[ld] == f:
             for r in range(3):
                 P[ld, r] = F[r, 0] * lpt[ld, 0, k] + F[r, 1] * lpt[ld, 1, k] + F[r, 2] * lpt[ld, 2, k] + F[r, 3]
