@@ -21,6 +21,8 @@ def steel():
 #: bounds the suite's time; every other file runs whole on one worker (module fixtures such as
 #: meshes and FEA solutions built once)
 SPREAD = {
+    "test_bad_inputs.py",  # one subprocess per case, no fixture
+    "test_docs.py",  # one fresh interpreter per block, no fixture
     "test_diagnose_truth.py",
     "test_diagnose_truth_prpar.py",
     "test_discrepancy_effects.py",
