@@ -25,6 +25,34 @@ CONST = 6
 
 
 @njit(cache=True, error_model="numpy")
+def jacobian_columns(code, var, coef, F, E, O, J):  # pragma: no cover - compiled
+    """Jacobian columns J (n_vars, 6) from the factors' axes E and origins O, at the end point F[:, 3]:
+    ``e x (p_end - o), e`` for a rotation, ``e`` for a translation; a variable met twice adds its columns."""
+    o0, o1, o2 = F[0, 3], F[1, 3], F[2, 3]
+    for k in range(J.shape[0]):
+        for b in range(6):
+            J[k, b] = 0.0
+    for f in range(code.size):
+        c = code[f]
+        if c == CONST:
+            continue
+        k, cf = var[f], coef[f]
+        e0, e1, e2 = E[f, 0], E[f, 1], E[f, 2]
+        if c >= 3:
+            d0, d1, d2 = o0 - O[f, 0], o1 - O[f, 1], o2 - O[f, 2]
+            J[k, 0] += cf * (e1 * d2 - e2 * d1)
+            J[k, 1] += cf * (e2 * d0 - e0 * d2)
+            J[k, 2] += cf * (e0 * d1 - e1 * d0)
+            J[k, 3] += cf * e0
+            J[k, 4] += cf * e1
+            J[k, 5] += cf * e2
+        else:
+            J[k, 0] += cf * e0
+            J[k, 1] += cf * e1
+            J[k, 2] += cf * e2
+
+
+@njit(cache=True, error_model="numpy")
 def _end_and_jacobian(code, var, coef, T, v, F, E, O, J):  # pragma: no cover - compiled
     """End frame ``F`` (3, 4: columns x y z o) and Jacobian ``J`` (k, 6) of the chain at values ``v`` (k,).
 
@@ -82,27 +110,7 @@ def _end_and_jacobian(code, var, coef, T, v, F, E, O, J):  # pragma: no cover - 
     F[0, 1], F[1, 1], F[2, 1] = y0, y1, y2
     F[0, 2], F[1, 2], F[2, 2] = z0, z1, z2
     F[0, 3], F[1, 3], F[2, 3] = o0, o1, o2
-    for k in range(J.shape[0]):
-        for b in range(6):
-            J[k, b] = 0.0
-    for f in range(code.size):
-        c = code[f]
-        if c == CONST:
-            continue
-        k, cf = var[f], coef[f]
-        e0, e1, e2 = E[f, 0], E[f, 1], E[f, 2]
-        if c >= 3:
-            d0, d1, d2 = o0 - O[f, 0], o1 - O[f, 1], o2 - O[f, 2]
-            J[k, 0] += cf * (e1 * d2 - e2 * d1)
-            J[k, 1] += cf * (e2 * d0 - e0 * d2)
-            J[k, 2] += cf * (e0 * d1 - e1 * d0)
-            J[k, 3] += cf * e0
-            J[k, 4] += cf * e1
-            J[k, 5] += cf * e2
-        else:
-            J[k, 0] += cf * e0
-            J[k, 1] += cf * e1
-            J[k, 2] += cf * e2
+    jacobian_columns(code, var, coef, F, E, O, J)
 
 
 @njit(cache=True, error_model="numpy")

@@ -14,10 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..ik_kernel import CONST, jacobian_columns
 from ..transforms import KINDS
-
-#: factor code of a constant (0..5 are the elementary kinds in vjm.transforms.KINDS order)
-CONST = 6
 
 
 def encode(chain):
@@ -76,30 +74,6 @@ def _walk(kinds, var, coef, T, vt, k, F, E, O):  # pragma: no cover - compiled
     v = vt[:, k]
     for f in range(kinds.shape[0]):
         factor_step(kinds, var, coef, T, v, f, F, E, O)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _columns(kinds, var, coef, F, E, O, J):  # pragma: no cover - compiled
-    """Jacobian columns J (n_vars, 6) from the factors' axes and origins (end point F[:, 3])."""
-    J[:, :] = 0.0
-    for f in range(kinds.shape[0]):
-        kd = kinds[f]
-        if kd == CONST:
-            continue
-        v, cf = var[f], coef[f]
-        ex, ey, ez = E[f, 0], E[f, 1], E[f, 2]
-        if kd >= 3:
-            dx, dy, dz = F[0, 3] - O[f, 0], F[1, 3] - O[f, 1], F[2, 3] - O[f, 2]
-            J[v, 0] += cf * (ey * dz - ez * dy)
-            J[v, 1] += cf * (ez * dx - ex * dz)
-            J[v, 2] += cf * (ex * dy - ey * dx)
-            J[v, 3] += cf * ex
-            J[v, 4] += cf * ey
-            J[v, 5] += cf * ez
-        else:
-            J[v, 0] += cf * ex
-            J[v, 1] += cf * ey
-            J[v, 2] += cf * ez
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -176,7 +150,7 @@ def stiffness_kernel(kinds, var, coef, T, vt, s1, c1, s6, c6, rtol, C, K, ok, pt
     Y = np.zeros((6, 6))
     for k in range(vt.shape[1]):
         _walk(kinds, var, coef, T, vt, k, F, E, O)
-        _columns(kinds, var, coef, F, E, O, J)
+        jacobian_columns(kinds, var, coef, F, E, O, J)
         Ck = C[k]
         Ck[:, :] = 0.0
         for m in range(s1.shape[0]):
