@@ -466,14 +466,20 @@ class OutputSet:
         fsync_dir(self.folder)
         fault("journal-written")
         for k, (tname, name) in enumerate(renames):
-            os.replace(self.folder / tname, self.folder / name)
+            try:
+                os.replace(self.folder / tname, self.folder / name)
+            except FileNotFoundError:
+                # a concurrent run into this folder found the journal and finished these renames
+                # (what the journal is for): the member is in place, the set complete
+                if not (self.folder / name).exists():
+                    raise
             if k == 0:
                 fault("renamed-one")
         for name in remove:
             (self.folder / name).unlink(missing_ok=True)
         fsync_dir(self.folder)
         fault("renamed-all")
-        journal.unlink()
+        journal.unlink(missing_ok=True)  # gone if a concurrent run finished the renames
         fsync_dir(self.folder)
         done = [self.folder / n for n in self.tmps]
         self.tmps = {}
