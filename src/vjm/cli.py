@@ -148,28 +148,53 @@ def _robot_stiffness(m, q_text: str, tool, strict_limits: bool, self_weight: boo
 
 @app.command("map")
 def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
-            grid: int = typer.Option(30, "--grid", help="points per axis"),
+            grid: int = typer.Option(30, "--grid", help="points per axis (robots: also per joint of --joints)"),
             slice_: Optional[str] = typer.Option(None, "--slice", help="fix one axis, e.g. z=0"),
-            orientation: str = typer.Option("0,0,0", "--orientation",
-                                            help="6-dof platforms: the fixed platform rotation vector rx,ry,rz "
-                                                 "(rad) of the map"),
-            out: Path = typer.Option(..., "--out", help="output directory (k_tran.png, k_rot.png, map.npz)"),
+            orientation: Optional[str] = typer.Option(None, "--orientation",
+                                                      help="6-dof platforms: the fixed platform rotation vector "
+                                                           "rx,ry,rz (rad) of the map (default 0,0,0); robots: the "
+                                                           "tool's (default: as at --q)"),
+            out: Path = typer.Option(..., "--out", help="output directory (k_tran.png, k_rot.png, map.npz; "
+                                                        "robots also map.csv, summary.json)"),
             spread: bool = typer.Option(False, "--spread",
                                         help="also save k_tran_spread and k_rot_spread (map.npz), the spread from "
                                              "the links' FEA error bars; costs one more spring evaluation per FEA "
                                              "link (1.4-3x the map's time); zero if no link has an error estimate"),
+            joints: Optional[str] = typer.Option(None, "--joints", help="robots: a joint-space map of two joints, "
+                                                                        "name=lo:hi[:n] each, e.g. q2=-2:0:41,q3=0:2.5:41"),
+            q: Optional[str] = typer.Option(None, "--q", help="robots: the other joints' values (joint map) or the "
+                                                              "IK's seed configuration (default: the file's home:)"),
+            box: Optional[str] = typer.Option(None, "--box", help="robots: the Cartesian grid's box x0:x1,y0:y1,z0:z1 "
+                                                                  "mm (default: the tool's reach)"),
+            tool: Optional[str] = typer.Option(None, "--tool", help="robots: the tool frame (default: the first)"),
+            self_weight: bool = typer.Option(False, "--self-weight", help="robots: also the sag under the robot's "
+                                                                          "own weight (sag.png)"),
             foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG, force: bool = FORCE):
-    """k_tran and k_rot over the workspace box: PNG maps and an .npz of K, k_tran, k_rot."""
+    """k_tran and k_rot over the workspace box: PNG maps and an .npz of K, k_tran, k_rot; robots: over two
+    joints (--joints) or a Cartesian grid through the IK."""
     from linkfea.checks import integer
     from linkfea.outputs import check_folder
 
     from .maps import GRID, MAP_FILES
+    from .robot.model import RobotModel
 
+    robot_only = {"--joints": joints, "--q": q, "--box": box, "--tool": tool, "--self-weight": self_weight or None}
     try:
         grid = integer(grid, "grid", GRID, ArgumentError)
-        rot = _point(orientation, "--orientation", (3,))
-        check_folder(out, MAP_FILES, force=force)
         m = _load(model, foot, leg)
+        if isinstance(m, RobotModel):
+            if spread:
+                raise ArgumentError("spread", "is for parallel machines with FEA links; a robot map has none")
+            from .robot.mapcmd import Request, run
+
+            text = run(m, Request(grid, slice_, box, joints, q, orientation, tool, self_weight), out, force)
+            typer.echo(f"{text}; wrote {out}/")
+            return
+        given = [k for k, v in robot_only.items() if v is not None]
+        if given:
+            raise VjmError(f"{given[0]} is for serial robots; {model} is a parallel machine")
+        rot = _point(orientation or "0,0,0", "--orientation", (3,))
+        check_folder(out, MAP_FILES, force=force)
         smap = m.map(grid, slice_, orientation=rot, progress=_progress, spread=spread)
         smap.save(out, force=force)
     except user_errors() as exc:

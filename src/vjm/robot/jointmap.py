@@ -26,6 +26,8 @@ class JointMap:
     k_tran: np.ndarray
     k_rot: np.ndarray
     sag: np.ndarray | None = None
+    #: the stiffness matrices (n_a, n_b, 6, 6), world axes at the tool point
+    K: np.ndarray | None = None
 
     def plot(self, name: str = "k_tran", ax=None):
         """A filled contour of ``k_tran``, ``k_rot`` or ``sag`` (the sag's length, mm) over the two joints."""
@@ -48,10 +50,10 @@ class JointMap:
         return ax
 
 
-def joint_map(model, q0, joints, ranges, n: int = 41, tool: str | None = None,
+def joint_map(model, q0, joints, ranges, n=41, tool: str | None = None,
               self_weight: bool = False) -> JointMap:
     """The map of ``model`` over joints ``joints`` (two names) in ``ranges`` ((lo, hi), (lo, hi)), the
-    other joints at ``q0``; n values per joint."""
+    other joints at ``q0``; n values per joint (one integer, or one per joint)."""
     q0 = np.asarray(q0, dtype=float)
     if q0.shape != (model.nq,):
         raise VjmError(f"q0 must have {model.nq} values ({', '.join(model.q_names)}), got shape {q0.shape}")
@@ -62,13 +64,16 @@ def joint_map(model, q0, joints, ranges, n: int = 41, tool: str | None = None,
         if j not in model.q_names:
             raise VjmError(f"no joint {j!r} with a coordinate of its own; joints: {', '.join(model.q_names)}")
         idx.append(model.q_names.index(j))
-    if not isinstance(n, int) or n < 2:
-        raise VjmError(f"n must be an integer >= 2, got {n!r}")
-    a, b = (np.linspace(float(lo), float(hi), n) for lo, hi in ranges)
-    Q = np.broadcast_to(q0, (n, n, model.nq)).copy()
+    ns = (n, n) if isinstance(n, (int, np.integer)) and not isinstance(n, bool) else n
+    if not isinstance(ns, (tuple, list)) or len(ns) != 2 or not all(isinstance(k, (int, np.integer)) and not isinstance(k, bool) and k >= 2 for k in ns):
+        raise VjmError(f"n must be an integer >= 2 (or one per joint), got {n!r}")
+    a, b = (np.linspace(float(lo), float(hi), int(k)) for (lo, hi), k in zip(ranges, ns))
+    shape = (len(a), len(b))
+    Q = np.broadcast_to(q0, shape + (model.nq,)).copy()
     Q[:, :, idx[0]] = a[:, None]
     Q[:, :, idx[1]] = b[None, :]
     flat = Q.reshape(-1, model.nq)
     r = model.stiffness(flat, tool)
-    sag = model.self_weight(flat, tool).reshape(n, n, 6) if self_weight else None
-    return JointMap(tuple(joints), a, b, Q, r.k_tran.reshape(n, n), r.k_rot.reshape(n, n), sag)
+    sag = model.self_weight(flat, tool).reshape(shape + (6,)) if self_weight else None
+    return JointMap(tuple(joints), a, b, Q, r.k_tran.reshape(shape), r.k_rot.reshape(shape), sag,
+                    r.K.reshape(shape + (6, 6)))

@@ -1,0 +1,268 @@
+"""``vjm map`` on a serial or tree robot: a joint-space map or a Cartesian grid through the IK, one output set.
+
+``--joints q2=-2:0:41,q3=0:2.5:41`` varies two joints (``name=lo:hi[:n]``, rad or mm; n defaults to
+``--grid``) with the others at ``--q`` (default: the model file's ``home:``)
+(:func:`vjm.robot.jointmap.joint_map`).  Without ``--joints`` the map is over a Cartesian grid of
+tool points (``--grid``, ``--slice z=...``, ``--box``; default box: the tool's reach), each reached by
+the IK in the configuration of ``--q`` with the tool held at ``--orientation`` (default: its
+orientation at ``--q``) (:func:`vjm.robot.cartmap.cartesian_grid_map`); unreachable and singular
+points are masked and counted.  ``--self-weight`` adds the sag under the robot's own weight.
+
+Files (one set, :class:`linkfea.outputs.OutputSet`): ``map.npz`` (every array), ``map.csv`` (one row a
+point), ``k_tran.png``, ``k_rot.png``, ``sag.png`` (with ``--self-weight``) and ``summary.json``.
+"""
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+from linkfea.atomic import file_sha256, plain
+from linkfea.outputs import OutputSet, check_folder
+
+from ..errors import ArgumentError, VjmError
+from ..grid import Workspace, grid_plan
+
+#: the output set's name in the folder's manifest, and summary.json's writer
+WRITER = "vjm map"
+FILES = ("map.npz", "map.csv", "k_tran.png", "k_rot.png", "summary.json")
+SAG_FILE = "sag.png"
+#: bytes a robot map holds per point (q, K, the IK's arrays, the CSV row) and seconds per Cartesian point
+BYTES = 1200
+IK_SECONDS = 0.02
+
+
+@dataclass(frozen=True)
+class Request:
+    """What ``vjm map robot.yaml`` was asked (the command line's text, checked by :func:`run`)."""
+
+    grid: int = 30
+    slice: str | None = None
+    box: str | None = None
+    joints: str | None = None
+    q: str | None = None
+    orientation: str | None = None
+    tool: str | None = None
+    self_weight: bool = False
+
+
+def files(req: Request) -> tuple[str, ...]:
+    return FILES + ((SAG_FILE,) if req.self_weight else ())
+
+
+def _numbers(text: str, option: str, sep: str = ",") -> np.ndarray:
+    try:
+        v = np.array([float(x) for x in text.split(sep)])
+    except ValueError:
+        v = np.array([np.nan])
+    if not np.all(np.isfinite(v)):
+        raise ArgumentError(option.lstrip("-"), f"expects finite numbers separated by '{sep}', got {text!r}")
+    return v
+
+
+def seed_of(model, text: str | None) -> np.ndarray:
+    """--q, or the model file's ``home:``; its length and limits checked."""
+    if text is None:
+        if model.home is None:
+            raise VjmError(f"{model.path or model.name} has no home: configuration; give --q q1,...,q{model.nq} "
+                           f"({', '.join(model.q_names)})")
+        return model.check_q(np.asarray(model.home, dtype=float))[0][0]
+    q = _numbers(text, "--q")
+    if q.shape != (model.nq,):
+        raise VjmError(f"--q expects {model.nq} numbers q1,...,q{model.nq} for {model.path or model.name} "
+                       f"({', '.join(model.q_names)}; rad, mm for prismatic joints), got {text!r}")
+    return model.check_q(q)[0][0]
+
+
+def parse_joints(model, text: str, n_default: int) -> tuple[tuple, tuple, tuple]:
+    """``"q2=-2:0:41,q3=0:2.5:41"`` -> names, ranges ((lo, hi), (lo, hi)), points per joint; each range
+    within the joint's limits."""
+    items = [t.strip() for t in text.split(",") if t.strip()]
+    if len(items) != 2:
+        raise ArgumentError("joints", f"varies two joints, name=lo:hi[:n] each, e.g. {model.q_names[1]}=-2:0:41,"
+                                      f"{model.q_names[-1]}=0:2.5:41; got {text!r}")
+    lo_lim, hi_lim = model.tree.limits
+    names, ranges, ns = [], [], []
+    for item in items:
+        name, _, spec = item.partition("=")
+        name = name.strip()
+        if name not in model.q_names:
+            raise ArgumentError("joints", f"no joint {name!r} with a coordinate of its own; joints: "
+                                          f"{', '.join(model.q_names)}")
+        if name in names:
+            raise ArgumentError("joints", f"names joint {name!r} twice; a joint map varies two different joints")
+        parts = spec.split(":")
+        if len(parts) not in (2, 3):
+            raise ArgumentError("joints", f"{name}: expects lo:hi or lo:hi:n (rad, mm for prismatic joints), "
+                                          f"got {spec!r}")
+        lo, hi = _numbers(":".join(parts[:2]), "--joints", ":")
+        n = n_default if len(parts) == 2 else _count(parts[2], name)
+        j = model.q_names.index(name)
+        if not lo < hi:
+            raise ArgumentError("joints", f"{name}: the range {lo:g}:{hi:g} is empty; give lo < hi")
+        if lo < lo_lim[j] - 1e-12 or hi > hi_lim[j] + 1e-12:
+            raise ArgumentError("joints", f"{name}: the range {lo:g}:{hi:g} leaves the joint's limits "
+                                          f"[{lo_lim[j]:g}, {hi_lim[j]:g}]")
+        names.append(name)
+        ranges.append((lo, hi))
+        ns.append(n)
+    return tuple(names), tuple(ranges), tuple(ns)
+
+
+def _count(text: str, name: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 2:
+        raise ArgumentError("joints", f"{name}: the number of values must be a whole number >= 2, got {text!r}")
+    return n
+
+
+def parse_box(text: str) -> Workspace:
+    """``"x0:x1,y0:y1,z0:z1"`` (mm) -> the box."""
+    parts = text.split(",")
+    if len(parts) != 3:
+        raise ArgumentError("box", f"expects x0:x1,y0:y1,z0:z1 (mm), got {text!r}")
+    lh = np.array([_numbers(p, "--box", ":") for p in parts if len(p.split(":")) == 2])
+    if lh.shape != (3, 2):
+        raise ArgumentError("box", f"expects x0:x1,y0:y1,z0:z1 (mm), got {text!r}")
+    if not np.all(lh[:, 1] > lh[:, 0]):
+        raise ArgumentError("box", f"needs lo < hi on every axis, got {text!r}")
+    return Workspace(lh[:, 0].copy(), lh[:, 1].copy())
+
+
+def check(model, req: Request):
+    """Every option checked before any work: ``(kind, tool, seed, spec)``, ``spec`` the joints' names,
+    ranges and counts of a ``"joint"`` map, or the grid (None: the tool's reach, laid later) and the tool's
+    rotation (None: as at the seed) of a ``"cartesian"`` one."""
+    from ..kinematics import rotation_matrix
+
+    tool = model._tool(req.tool)
+    seed = seed_of(model, req.q)
+    if req.joints is not None:
+        for option, given in (("--slice", req.slice), ("--box", req.box), ("--orientation", req.orientation)):
+            if given is not None:
+                raise ArgumentError(option.lstrip("-"), "is for a Cartesian map; a joint map (--joints) has none")
+        names, ranges, ns = parse_joints(model, req.joints, req.grid)
+        return "joint", tool, seed, (names, ranges, ns)
+    p = grid_plan(req.grid, req.slice, "the robot's Cartesian map", BYTES)
+    if p.n * IK_SECONDS > 3600:
+        raise VjmError(f"{p.describe()}: the IK of {p.n:,} points would take about {p.n * IK_SECONDS / 3600:.1f} h; "
+                       f"use a coarser grid or a slice")
+    box = parse_box(req.box) if req.box is not None else None
+    rot = None
+    if req.orientation is not None:
+        w = _numbers(req.orientation, "--orientation")
+        if w.shape != (3,):
+            raise ArgumentError("orientation", f"expects the tool's rotation vector rx,ry,rz (rad), got "
+                                               f"{req.orientation!r}")
+        rot = rotation_matrix(w)
+    grid = (box or Workspace(np.zeros(3), np.ones(3))).grid(req.grid, req.slice)  # the slice checked now
+    return "cartesian", tool, seed, (grid if box is not None else None, rot)
+
+
+def run(model, req: Request, out, force: bool = False) -> str:
+    """``vjm map robot.yaml``: check, compute, write the set; the one-line summary."""
+    from .cartmap import cartesian_grid_map, reach_box
+
+    kind, tool, seed, spec = check(model, req)
+    check_folder(out, files(req), force=force)
+    if kind == "joint":
+        names, ranges, ns = spec
+        res = model.joint_map(seed, names, ranges, ns, tool, req.self_weight)
+        doc = {"kind": "joint space", "joints": list(names), "ranges": [list(r) for r in ranges], "n": list(ns),
+               "q_fixed": seed.tolist()}
+    else:
+        grid, rot = spec
+        box = reach_box(model, tool) if grid is None else None
+        grid = grid if grid is not None else box.grid(req.grid, req.slice)
+        res = cartesian_grid_map(model, grid, seed, rot, tool, req.self_weight)
+        doc = {"kind": "cartesian", "grid": req.grid, "slice": req.slice,
+               "box_mm": [list(map(float, grid.axes[k][[0, -1]])) for k in range(3)],
+               "box_from": "the tool's reach" if req.box is None else "--box", "seed": seed.tolist(),
+               "tool_rotation": res.rotation.tolist(), **res.counts()}
+    summary = _summary(model, tool, res, doc)
+    write_set(out, res, summary, force)
+    return _line(summary)
+
+
+def _summary(model, tool, res, doc) -> dict:
+    kt, kr = res.k_tran, res.k_rot
+    out = {"written_by": WRITER, "model": model.name, "tool": tool, "joint_names": list(model.q_names),
+           "units": "k_tran mm/N, k_rot rad/(N mm) (largest eigenvalues of the compliance blocks); K world axes "
+                    "at the tool point; sag mm and rad; joints rad (mm prismatic); NaN: not evaluated", **doc,
+           "k_tran_min": float(np.nanmin(kt)) if np.isfinite(kt).any() else None,
+           "k_tran_max": float(np.nanmax(kt)) if np.isfinite(kt).any() else None,
+           "k_rot_min": float(np.nanmin(kr)) if np.isfinite(kr).any() else None,
+           "k_rot_max": float(np.nanmax(kr)) if np.isfinite(kr).any() else None}
+    if res.sag is not None:
+        s = np.linalg.norm(res.sag[..., :3], axis=-1)
+        out["sag_max_mm"] = float(np.nanmax(s)) if np.isfinite(s).any() else None
+    if model.path:
+        out["model_file"] = {"path": str(model.path), "sha256": file_sha256(model.path)}
+    return plain(out)
+
+
+def _line(s: dict) -> str:
+    where = (f"{s['joints'][0]} x {s['joints'][1]} ({s['n'][0]} x {s['n'][1]} configurations)"
+             if s["kind"] == "joint space" else
+             f"{s['evaluated']} of {s['points']} grid points evaluated ({s['unreachable']} unreachable, "
+             f"{s['singular']} singular)")
+    if s["k_tran_min"] is None:
+        return f"{where}; no stiffness"
+    text = (f"{where}; k_tran {s['k_tran_min']:.3g}..{s['k_tran_max']:.3g} mm/N, "
+            f"k_rot {s['k_rot_min']:.3g}..{s['k_rot_max']:.3g} rad/(N mm)")
+    return text + (f"; sag up to {s['sag_max_mm']:.3g} mm" if s.get("sag_max_mm") is not None else "")
+
+
+def _table(res, names) -> tuple[list, list]:
+    """The CSV's header and rows: one per point (a joint map: per configuration)."""
+    sag_cols = ["sag_dx_mm", "sag_dy_mm", "sag_dz_mm", "sag_rx_rad", "sag_ry_rad", "sag_rz_rad"]
+    head = list(names) + ["k_tran_mm_per_N", "k_rot_rad_per_Nmm"] + (sag_cols if res.sag is not None else [])
+    if hasattr(res, "grid"):
+        head = ["x_mm", "y_mm", "z_mm", "status"] + head
+        status = np.where(~res.reached, "unreachable", np.where(res.singular, "singular", "ok"))
+        q = np.where(res.reached[:, None], res.q, np.nan)  # an unreachable point's last IK iterate is no answer
+        cols = [res.points, status[:, None], q, res.k_tran[:, None], res.k_rot[:, None]]
+    else:
+        cols = [res.q.reshape(-1, res.q.shape[-1]), res.k_tran.reshape(-1, 1), res.k_rot.reshape(-1, 1)]
+    if res.sag is not None:
+        cols.append(res.sag.reshape(-1, 6))
+    rows = [[*(c[i] for c in cols)] for i in range(len(cols[0]))]
+    return head, [[v if isinstance(v, str) else f"{float(v):.10g}" for r in row for v in np.atleast_1d(r)]
+                  for row in rows]
+
+
+def write_set(out, res, summary: dict, force: bool = False) -> None:
+    """map.npz, map.csv, the pictures and summary.json as one set (all new, or the old ones)."""
+    from ..views import pyplot
+
+    plt = pyplot()
+    names = FILES + ((SAG_FILE,) if res.sag is not None else ())
+    check_folder(out, names, force=force)
+    with OutputSet(out, WRITER) as s:
+        tmp = {n: s.path(n) for n in names}
+        arrays: dict = {k: v for k, v in vars(res).items() if isinstance(v, np.ndarray)}
+        if hasattr(res, "grid"):
+            arrays.update(shape=np.array(res.grid.shape), ok=res.ok)
+        else:
+            arrays.update(axes=np.array(res.axes))
+        arrays["note"] = np.array(summary["units"])
+        np.savez_compressed(tmp["map.npz"], **arrays)
+        head, rows = _table(res, summary["joint_names"])
+        with open(tmp["map.csv"], "w", encoding="utf-8", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(head)
+            w.writerows(rows)
+        with open(tmp["summary.json"], "w", encoding="utf-8") as fh:
+            json.dump(summary, fh, indent=1)
+        for name in ("k_tran", "k_rot", "sag"):
+            if f"{name}.png" in tmp:
+                fig, ax = plt.subplots(figsize=(5.5, 4.5))
+                res.plot(name, ax=ax)
+                fig.tight_layout()
+                fig.savefig(tmp[f"{name}.png"], dpi=110)
+                plt.close(fig)
