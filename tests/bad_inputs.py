@@ -423,8 +423,23 @@ CASES = [
          {"r.yaml": ROBOT, "r.urdf": ARM}, "three joint values for a two-joint arm"),
     Case("26.7", "vjm stiffness r.yaml --q 0,2.5 --strict-limits", "q[1] = 2.5 of joint 'j2' is outside its limits "
          "[-2, 2]", {"r.yaml": ROBOT, "r.urdf": ARM}, "a joint value beyond the URDF's limit"),
-    Case("26", "vjm map r.yaml --out m", "r.yaml: a serial robot model; 'map' belongs to parallel machines",
-         {"r.yaml": ROBOT, "r.urdf": ARM}, "a robot given to a command of parallel machines"),
+    Case("26", "vjm map r.yaml --out m", "r.yaml has no home: configuration; give --q q1,...,q2 (j1, j2)",
+         {"r.yaml": ROBOT, "r.urdf": ARM}, "a robot map without a configuration"),
+    Case("26.2", "vjm map r.yaml --q 0,0 --joints j1=-1:1:5,j9=0:1:5 --out m", "--joints names 'j9', not a joint "
+         "with a coordinate of its own; joints: j1, j2", {"r.yaml": ROBOT, "r.urdf": ARM}, "a joint map of a joint "
+         "the robot does not have"),
+    Case("26.2", "vjm map r.yaml --q 0,0 --joints j1=-1:1:5,j2=0:2.5:5 --out m", "--joints j2: the range 0:2.5 leaves "
+         "the joint's limits [-2, 2]", {"r.yaml": ROBOT, "r.urdf": ARM}, "a joint map beyond a joint's limits"),
+    Case("26.2", "vjm map r.yaml --q 0,0 --joints j1=-1:1:5 --out m", "--joints varies two joints",
+         {"r.yaml": ROBOT, "r.urdf": ARM}, "a joint map of one joint"),
+    Case("26.2", "vjm map r.yaml --q 0,0,0 --out m", "--q expects 2 numbers q1,...,q2",
+         {"r.yaml": ROBOT, "r.urdf": ARM}, "a robot map's seed of the wrong length"),
+    Case("26.2", "vjm map r.yaml --q 0,0 --joints j1=-1:1:1,j2=0:1 --out m", "--joints j1: the number of values must "
+         "be a whole number >= 2, got '1'", {"r.yaml": ROBOT, "r.urdf": ARM}, "a joint map of one value per joint"),
+    Case("26.2", "vjm map r.yaml --q 0,0 --box 0:1,0:1 --out m", "--box expects x0:x1,y0:y1,z0:z1 (mm)",
+         {"r.yaml": ROBOT, "r.urdf": ARM}, "a Cartesian robot map's box of two axes"),
+    Case("26.2", "vjm map {puu} --joints a=0:1,b=0:1 --out m", "--joints is for serial robots",
+         note="a joint map asked of a parallel machine"),
     Case("26.7", "vjm stiffness r.yaml --q 0,0", "r.urdf has no joint 'elbow'; its joints: j1, j2",
          {"r.yaml": "urdf: r.urdf\njoints:\n  j1: {stiffness: 1.0e+8}\n  elbow: {stiffness: 1.0e+8}\n", "r.urdf": ARM}, "a stiffness for a joint the URDF "
          "does not have"),

@@ -81,7 +81,7 @@ def parse_joints(model, text: str, n_default: int) -> tuple[tuple, tuple, tuple]
     within the joint's limits."""
     items = [t.strip() for t in text.split(",") if t.strip()]
     if len(items) != 2:
-        raise ArgumentError("joints", f"varies two joints, name=lo:hi[:n] each, e.g. {model.q_names[1]}=-2:0:41,"
+        raise ArgumentError("joints", f"varies two joints, name=lo:hi[:n] each, e.g. {model.q_names[0]}=-2:0:41,"
                                       f"{model.q_names[-1]}=0:2.5:41; got {text!r}")
     lo_lim, hi_lim = model.tree.limits
     names, ranges, ns = [], [], []
@@ -89,7 +89,7 @@ def parse_joints(model, text: str, n_default: int) -> tuple[tuple, tuple, tuple]
         name, _, spec = item.partition("=")
         name = name.strip()
         if name not in model.q_names:
-            raise ArgumentError("joints", f"no joint {name!r} with a coordinate of its own; joints: "
+            raise ArgumentError("joints", f"names {name!r}, not a joint with a coordinate of its own; joints: "
                                           f"{', '.join(model.q_names)}")
         if name in names:
             raise ArgumentError("joints", f"names joint {name!r} twice; a joint map varies two different joints")
