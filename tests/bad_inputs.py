@@ -440,6 +440,18 @@ CASES = [
          {"r.yaml": ROBOT, "r.urdf": ARM}, "a Cartesian robot map's box of two axes"),
     Case("26.2", "vjm map {puu} --joints a=0:1,b=0:1 --out m", "--joints is for serial robots",
          note="a joint map asked of a parallel machine"),
+    Case("26.3", "vjm simulate r.yaml --poses random:5 --effect offset:j9=0.01 --out s.csv", "--effect offset: no "
+         "joint 'j9'; joints: j1, j2", {"r.yaml": ROBOT, "r.urdf": ARM}, "a hidden offset of a joint the robot lacks"),
+    Case("26.3", "vjm simulate r.yaml --poses random:5 --effect backlash:j1=0.01 --out s.csv", "--effect a robot takes "
+         "offset:<joint>=<value>,... or compliance:<joint>=<factor>", {"r.yaml": ROBOT, "r.urdf": ARM},
+         "a hidden effect a robot's simulation does not have"),
+    Case("26.3", "vjm simulate r.yaml --poses random:5 --effect compliance:j1=-2 --out s.csv", "--effect "
+         "compliance:j1 needs a finite number > 0, got '-2'", {"r.yaml": ROBOT, "r.urdf": ARM},
+         "a negative compliance factor"),
+    Case("26.3", "vjm simulate r.yaml --poses grid:4 --out s.csv", "--poses a robot takes random:N or a CSV of joint "
+         "values (j1, j2)", {"r.yaml": ROBOT, "r.urdf": ARM}, "a grid of platform poses asked of a robot"),
+    Case("26.3", "vjm simulate r.yaml --loads axes:50 --out s.csv", "--loads is for parallel machines",
+         {"r.yaml": ROBOT, "r.urdf": ARM}, "loads asked of a robot's absolute poses"),
     Case("26.7", "vjm stiffness r.yaml --q 0,0", "r.urdf has no joint 'elbow'; its joints: j1, j2",
          {"r.yaml": "urdf: r.urdf\njoints:\n  j1: {stiffness: 1.0e+8}\n  elbow: {stiffness: 1.0e+8}\n", "r.urdf": ARM}, "a stiffness for a joint the URDF "
          "does not have"),

@@ -94,7 +94,9 @@ def diagnose_cmd(
 def simulate_cmd(
     model: Path = typer.Argument(..., help="model YAML"),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="hidden effect NAME[:param=value,...] (repeatable)"),
-    poses: str = typer.Option("grid:4", "--poses", help="grid:N | random:N | CSV with x,y,z[,ox,oy,oz]"),
+    poses: Optional[str] = typer.Option(None, "--poses", help="grid:N | random:N | CSV with x,y,z[,ox,oy,oz] "
+                                                               "(default grid:4); robots: random:N (default "
+                                                               "random:100) | CSV of joint values"),
     loads: str = typer.Option("axes:100", "--loads", help="axes:F[:M] | random:N:F | CSV with Fx..Mz; several "
                                                            "magnitudes (load levels): axes:50,100, random:N:50,100"),
     noise_t: float = typer.Option(0.001, "--noise-t", help="translation noise sigma, mm"),
@@ -104,11 +106,17 @@ def simulate_cmd(
     tilt: float = typer.Option(0.0, "--tilt", help="6-dof platform: random orientations of grid/random poses, "
                                                    "each rotation-vector component within +-TILT rad"),
 ):
-    """Write synthetic measurements of MODEL with hidden effects."""
+    """Write synthetic measurements of MODEL with hidden effects (a robot: absolute poses for vjm calibrate)."""
     from .simulate import run
 
     try:
-        d = run(model, effect or [], poses, loads, noise_t, noise_r, seed, out,
+        from ..robot.simposes import simulate_robot
+
+        n = simulate_robot(model, effect or [], poses, loads, noise_t, noise_r, seed, out, tilt)
+        if n is not None:
+            typer.echo(f"wrote {n} absolute poses to {out}")
+            return
+        d = run(model, effect or [], poses or "grid:4", loads, noise_t, noise_r, seed, out,
                 progress=lambda line: typer.echo(line, err=True), tilt=tilt)
     except user_errors() as exc:
         _fail(exc)

@@ -171,6 +171,8 @@ def _table(path, sep: str) -> tuple[list, list]:
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
             rows = [r for r in csv.reader(f, delimiter=sep) if any(c.strip() for c in r)]
+        while rows and rows[0][0].startswith("#"):  # comment lines above the header (vjm simulate's mark)
+            rows.pop(0)
     except OSError as e:
         raise VjmError(f"{path}: cannot read ({e.strerror})") from None
     except UnicodeDecodeError:
