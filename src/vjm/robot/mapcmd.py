@@ -23,7 +23,7 @@ from linkfea.atomic import file_sha256, plain
 from linkfea.outputs import OutputSet, check_folder
 
 from ..errors import ArgumentError, VjmError
-from ..grid import Workspace, grid_plan
+from ..grid import Workspace, grid_plan, plan
 
 #: the output set's name in the folder's manifest, and summary.json's writer
 WRITER = "vjm map"
@@ -147,6 +147,7 @@ def check(model, req: Request):
             if given is not None:
                 raise ArgumentError(option.lstrip("-"), "is for a Cartesian map; a joint map (--joints) has none")
         names, ranges, ns = parse_joints(model, req.joints, req.grid)
+        plan(f"the joint map ({ns[0]} x {ns[1]})", ns[0] * ns[1], BYTES, hint="use fewer values per joint")
         return "joint", tool, seed, (names, ranges, ns)
     p = grid_plan(req.grid, req.slice, "the robot's Cartesian map", BYTES)
     if p.n * IK_SECONDS > 3600:
