@@ -181,6 +181,7 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
     robot_only = {"--joints": joints, "--q": q, "--box": box, "--tool": tool, "--self-weight": self_weight or None}
     try:
         grid = integer(grid, "grid", GRID, ArgumentError)
+        check_folder(out, MAP_FILES, force=force)  # before any work (a robot's set, a superset, checked again)
         m = _load(model, foot, leg)
         if isinstance(m, RobotModel):
             if spread:
@@ -194,7 +195,6 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
         if given:
             raise VjmError(f"{given[0]} is for serial robots; {model} is a parallel machine")
         rot = _point(orientation or "0,0,0", "--orientation", (3,))
-        check_folder(out, MAP_FILES, force=force)
         smap = m.map(grid, slice_, orientation=rot, progress=_progress, spread=spread)
         smap.save(out, force=force)
     except user_errors() as exc:

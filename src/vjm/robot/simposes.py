@@ -165,9 +165,12 @@ def simulate_robot(model_path, effects, poses, loads: str, noise_t: float, noise
 
     A robot's rows have no load (its own weight is the load), no measured rotation and no platform
     tilt: those options, given, are refused rather than ignored."""
+    from linkfea.outputs import check_file, is_simulated_csv
+
     from ..modelfile import load_model
     from .model import RobotModel
 
+    check_file(out, is_simulated_csv, "a CSV written by vjm simulate")  # before any work, robot or not
     model = load_model(model_path)
     if not isinstance(model, RobotModel):
         return None
