@@ -371,8 +371,9 @@ class RobotModel:
 
         return self_weight(self, q, tool, gravity, payload, wrench, tol, max_iter, return_info, strict)
 
-    def joint_map(self, q0, joints, ranges, n: int = 41, tool: str | None = None, self_weight: bool = False):
-        """k_tran, k_rot (and the sag) over two joints, the others at ``q0`` (:func:`vjm.robot.jointmap.joint_map`)."""
+    def joint_map(self, q0, joints, ranges, n=41, tool: str | None = None, self_weight: bool = False):
+        """k_tran, k_rot, K (and the sag) over two joints, the others at ``q0``; ``n`` values per joint (or one
+        count per joint) (:func:`vjm.robot.jointmap.joint_map`)."""
         from .jointmap import joint_map
 
         return joint_map(self, q0, joints, ranges, n, tool, self_weight)
