@@ -40,8 +40,12 @@ from scipy.stats import f as f_dist
 
 from ..errors import VjmError
 from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
+from .flex import TEMPERATURE, flex_loads
 
-STAGES = ("registration", "geometry", "coupling", "compliance", "tilt", "backlash", "payload")
+STAGES = ("registration", "geometry", "coupling", "compliance", "lateral", "bending", "varying", "thermal", "tilt",
+          "backlash", "payload")
+#: the stages acting through the loads of vjm.robot.flex
+FLEX = ("lateral", "bending", "varying", "thermal")
 
 
 @dataclass(frozen=True)
@@ -97,7 +101,7 @@ def unit_torques(model, q: np.ndarray, frame: str, p) -> np.ndarray:
 
 
 def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: bool = False,
-             tilt: bool = False) -> Problem:
+             tilt: bool = False, flex: bool = False, thermal: bool = False) -> Problem:
     q = data.q_for(model.q_names)
     groups = tuple(sorted({str(g) for g in data.groups}))
     missing = [g for g in groups if g not in frames]
@@ -107,7 +111,27 @@ def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: boo
     return Problem(model, frame, q, gidx, groups, tuple(frames[g][0] for g in groups),
                    tuple(frames[g][1] for g in groups), np.asarray(p0, dtype=float), model.gravity_torques(q),
                    unit_torques(model, q, frame, p0) if payload else None,
-                   np.stack([model.gravity_torques(q, e) for e in np.eye(3)]) if tilt else None)
+                   np.stack([model.gravity_torques(q, e) for e in np.eye(3)]) if tilt else None,
+                   flex_loads(model, q, frame, _temperature(data) if thermal else None) if flex or thermal else None)
+
+
+def _temperature(data) -> np.ndarray:
+    if TEMPERATURE not in data.meta:
+        raise VjmError(f"{data.source}: the thermal effect needs the rows' temperature, a {TEMPERATURE} column (C)")
+    return np.asarray(data.meta[TEMPERATURE], dtype=float)
+
+
+def _options(effects) -> dict:
+    """The problem options the effects tried need."""
+    return {"payload": "payload" in effects, "tilt": "tilt" in effects,
+            "flex": any(e in effects for e in ("lateral", "bending", "varying")), "thermal": "thermal" in effects}
+
+
+def _uses(values: dict) -> dict:
+    """The problem options a calibration's parameters need: payload, tilt, flex, thermal."""
+    return {"payload": "payload.mass" in values, "tilt": "base.tilt_rx" in values,
+            "flex": any(k.rsplit(".", 1)[-1] in ("lateral", "bending", "varying") for k in values),
+            "thermal": "thermal.alpha" in values}
 
 
 def initial_registration(model, data, frame: str, p0=None, rounds: int = 8) -> tuple[dict, np.ndarray]:
@@ -207,15 +231,30 @@ def _f_test(rss0: float, p0: int, rss1: float, p1: int, m: int) -> float:
 
 
 def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[list, list]:
-    qn = list(prob.model.tree.q_names)
-    spread = np.std(prob.torques, axis=0)
-    top = float(np.max(spread, initial=0.0))
+    """The candidates whose load hardly varies (its spread below ``flat`` of the largest joint's) set apart as
+    not observable: the gravity torque for a compliance (and a varying one), the moment normal to the axis
+    for a lateral compliance, the temperature for the thermal scale (spread below 0.1 K)."""
+    tree = prob.model.tree
     keep, out = [], []
+    if not cands:
+        return keep, out
+    kind = layout.kinds[cands[0]]
+    if kind == "thermal":
+        sd = float(np.std(prob.flex.dT))
+        return ([], [(cands[0], f"not observable: the temperature hardly varies (spread {sd:.3g} K)")]) if sd < 0.1 \
+            else (list(cands), [])
+    if kind == "lateral":
+        spread = np.array([np.sum(np.std(prob.flex.lateral[:, tree.joint_index(n)], axis=0)) for n in tree.q_names])
+        what, unit = "moment normal to its axis", "N m"
+    else:
+        spread = np.std(prob.torques, axis=0)
+        what, unit = "gravity torque", "N m"
+    top = float(np.max(spread, initial=0.0))
     for i in cands:
-        j = qn.index(layout.names[i][:-len(".compliance")])
+        j = list(tree.q_names).index(layout.names[i].rsplit(".", 1)[0])
         if top == 0 or spread[j] < flat * top:
-            out.append((i, f"not observable: its gravity torque hardly varies (spread {spread[j] / 1000:.3g} N m, "
-                           f"largest {top / 1000:.3g} N m)"))
+            out.append((i, f"not observable: its {what} hardly varies (spread {spread[j] / 1000:.3g} {unit}, "
+                           f"largest {top / 1000:.3g} {unit})"))
         else:
             keep.append(i)
     return keep, out
@@ -237,7 +276,9 @@ def _one_sign(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[
 
 def _rows(prob: Problem, mask: np.ndarray) -> Problem:
     return replace(prob, q=prob.q[mask], gidx=prob.gidx[mask], torques=prob.torques[mask],
-                   unit_torques=None if prob.unit_torques is None else prob.unit_torques[mask])
+                   unit_torques=None if prob.unit_torques is None else prob.unit_torques[mask],
+                   gravity_basis=None if prob.gravity_basis is None else prob.gravity_basis[:, mask],
+                   flex=None if prob.flex is None else prob.flex.rows(mask))
 
 
 def cross_validated_rms(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, folds: int) -> float:
@@ -268,9 +309,10 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         raise VjmError(f"unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
     _enough_rows(model, data, frame, effects, folds)
     frames, p = initial_registration(model, data, frame, p0)
-    prob = _problem(model, data, frame, frames, p, "payload" in effects, "tilt" in effects)
+    use = _options(effects)
+    prob = _problem(model, data, frame, frames, p, **use)
     meas = data.points[frame]
-    full = full_layout(model, frame, prob.groups, "payload" in effects, "tilt" in effects, "coupling" in effects)
+    full = full_layout(model, frame, prob.groups, coupling="coupling" in effects, **use)
     active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
     x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
     m = meas.size
@@ -286,8 +328,8 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         x_all[best[0]] = best[1]
         J = jacobian_fast(prob, full, x_all)   # at the stage's start: the payload acts through the compliances
         cands = [i for i, k in enumerate(full.kinds) if k == name]
-        if name in ("compliance", "backlash"):
-            cands, flat_out = (_flat_joints if name == "compliance" else _one_sign)(prob, full, cands, flat)
+        if name in ("compliance", "backlash", "lateral", "varying", "thermal"):
+            cands, flat_out = (_one_sign if name == "backlash" else _flat_joints)(prob, full, cands, flat)
             removed += flat_out
         kept, rem = select(J, full, best[0], cands, tol)
         removed += rem
@@ -317,8 +359,8 @@ def _enough_rows(model, data, frame: str, effects, folds: int) -> None:
         raise VjmError(f"{data.source}: group {few[0] or '(none)'} has fewer than 3 rows: its instrument frame "
                        f"cannot be registered")
     size = sum(k in ("reg", "marker", *effects) for k in full_layout(model, frame, tuple(sorted(groups)),
-                                                                      "payload" in effects, "tilt" in effects,
-                                                                      "coupling" in effects).kinds)
+                                                                      coupling="coupling" in effects,
+                                                                      **_options(effects)).kinds)
     n = data.n * (folds - 1) // folds if folds else data.n
     if 3 * n <= size:
         raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "
@@ -339,8 +381,7 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
     """The calibration with the instrument frames of ``data``'s groups fitted on ``data`` (the robot's
     parameters frozen; the marker offset too unless ``marker``)."""
     frames, _ = initial_registration(cal.model, data, cal.frame, cal.marker)
-    prob = _problem(cal.model, data, cal.frame, frames, cal.marker, "payload.mass" in cal.values,
-                    "base.tilt_rx" in cal.values)
+    prob = _problem(cal.model, data, cal.frame, frames, cal.marker, **_uses(cal.values))
     full = full_layout(cal.model, cal.frame, prob.groups)
     keep = [i for i, k in enumerate(full.kinds) if k == "reg" or (marker and k == "marker")]
     lay = full.pick(keep)
@@ -359,8 +400,7 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
 
 def predict_points(cal: Calibration, data) -> np.ndarray:
     """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups."""
-    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0, "payload.mass" in cal.values,
-                    "base.tilt_rx" in cal.values)
+    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0, **_uses(cal.values))
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
     return predict(prob, lay, np.array(list(cal.values.values())))
 
