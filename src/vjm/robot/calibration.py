@@ -42,7 +42,7 @@ from ..errors import VjmError
 from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
 from .flex import TEMPERATURE, flex_loads
 
-STAGES = ("registration", "geometry", "coupling", "compliance", "lateral", "bending", "varying", "thermal", "tilt",
+STAGES = ("registration", "geometry", "compliance", "coupling", "lateral", "bending", "varying", "thermal", "tilt",
           "backlash", "payload")
 #: the stages acting through the loads of vjm.robot.flex
 FLEX = ("lateral", "bending", "varying", "thermal")
