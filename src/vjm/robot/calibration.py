@@ -11,11 +11,15 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
    registration and of the columns kept before (Gram-Schmidt); the others are combinations of those,
    removed and listed with the parameters they combine (a base frame against the first joint, a
    translation along parallel axes ...) -- never fitted as degenerate parameters;
-   Then **coupling** (asked only): a joint turning by ``k`` times another's value (a wrist's gear train, or
-   a column holding a combination of joints written as an ordinary joint), the same selection deciding;
 3. **compliance**: a torsional compliance per joint, the deflection ``-c g_j(q)`` under the nominal model's
    gravity torque.  A joint whose gravity torque hardly varies over the data (its spread below
    ``flat`` of the largest joint's) cannot be told from an offset: it is reported not observable.
+   Then **coupling** (asked only): a joint turning by ``k`` times another's value (a wrist's gear train, or
+   a column holding a combination of joints written as an ordinary joint), the same selection deciding
+   (after the compliance: tried before it, 30 couplings pass for an arm's sag);
+   Then the effects of :mod:`vjm.robot.flex` (asked only): **lateral** joint compliance, link **bending**,
+   compliance **varying** with the joint's value (their loads hardly varying: not observable), and the
+   **thermal** length scale (a ``meta_temperature`` column; its spread under 0.1 K: not observable);
 4. **tilt**: the base tilted against the gravity the model assumes (2 angles, about the base x and y axes):
    seen only through the compliances kept, the torques ``g(q)`` being those of the tilted gravity
    (geometrically a tilt is the instrument frame's rotation, taken by the registration);
