@@ -80,9 +80,26 @@ def _add_payload(m, frame: str, hidden: Hidden) -> None:
     m.appendBodyToJoint(f.parentJoint, pin.Inertia(hidden.payload, com, np.zeros((3, 3))), pin.SE3.Identity())
 
 
-def measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, rng=None, temperature=None) -> np.ndarray:
+def measure(urdf: str, frame, names, q: np.ndarray, hidden: Hidden, rng=None, temperature=None):
     """Marker positions (n, 3) mm in the instrument frame at commanded configurations q (n, len(names)),
-    ``names`` the joints' order in q (revolute joints, rad); ``temperature`` (n,) C for ``alpha``."""
+    ``names`` the joints' order in q (revolute joints, rad); ``temperature`` (n,) C for ``alpha``.
+
+    Several measured frames (a marker on each hand): ``frame`` a tuple and ``hidden.marker`` a dict
+    {frame: offset mm}; returns {frame: (n, 3)}."""
+    if not isinstance(frame, str):
+        out = {f: _measure(urdf, f, names, q, Hidden(**{**hidden.__dict__, "marker": np.asarray(hidden.marker[f]),
+                                                         "sigma": 0.0}), temperature) for f in frame}
+        rng = rng or np.random.default_rng(0)
+        return {f: v + rng.normal(scale=hidden.sigma, size=v.shape) if hidden.sigma > 0 else v for f, v in out.items()}
+    out1 = _measure(urdf, frame, names, q, hidden, temperature)
+    if hidden.sigma > 0:
+        rng = rng or np.random.default_rng(0)
+        out1 = out1 + rng.normal(scale=hidden.sigma, size=out1.shape)
+    return out1
+
+
+def _measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, temperature=None) -> np.ndarray:
+    """The noiseless marker positions of one frame (see :func:`measure`)."""
     m = perturbed_model(urdf, hidden)
     _add_payload(m, frame, hidden)
     d = m.createData()
@@ -123,9 +140,6 @@ def measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, rng=Non
         M = dk.oMf[fid]
         p = (M.rotation @ (hidden.marker / 1000.0) + M.translation) * 1000.0
         out[k] = hidden.R @ p + hidden.t
-    if hidden.sigma > 0:
-        rng = rng or np.random.default_rng(0)
-        out = out + rng.normal(scale=hidden.sigma, size=out.shape)
     return out
 
 

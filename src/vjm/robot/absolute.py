@@ -181,6 +181,38 @@ class Problem:
     flex: Any = None
 
 
+@dataclass(frozen=True, eq=False)
+class Points:
+    """Several measured frames on the same rows (a marker on each hand): one :class:`Problem` per frame,
+    their predictions stacked frame after frame ((k n, 3)); what the rows share (the model, q, groups,
+    torques, loads) is read from the first."""
+
+    parts: tuple
+
+    def __getattr__(self, name: str):
+        if name == "parts":
+            raise AttributeError(name)
+        return getattr(self.parts[0], name)
+
+
+_KIND_ORDER = ("reg", "marker", "geometry", "compliance", "backlash", "coupling", "lateral", "bending", "varying",
+               "thermal", "tilt", "payload")
+
+
+def merged_layout(model, frames, groups, **kw) -> Layout:
+    """The parameters of several measured frames: each frame's :func:`full_layout`, a parameter shared by
+    their paths (the registration, a common joint's) once, ordered by kind."""
+    seen: dict = {}
+    for f in frames:
+        lay = full_layout(model, f, groups, **kw)
+        for n, k, u in zip(lay.names, lay.kinds, lay.units):
+            seen.setdefault(n, (k, u))
+    order = sorted(range(len(seen)), key=lambda i: _KIND_ORDER.index(list(seen.values())[i][0]))
+    names = list(seen)
+    return Layout(tuple(names[i] for i in order), tuple(seen[names[i]][0] for i in order),
+                  tuple(seen[names[i]][1] for i in order))
+
+
 def chain_frames(model, q: np.ndarray, frame: str, values: dict, dq: np.ndarray | None = None,
                  flex=None) -> np.ndarray:
     """Frames (n, 4, 4) of ``frame`` with origin errors and offsets ``values`` ({"<joint>.<kind>": value},
@@ -213,7 +245,9 @@ def chain_frames(model, q: np.ndarray, frame: str, values: dict, dq: np.ndarray 
 
 def predict(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = None) -> np.ndarray:
     """The measured points (n, 3) mm in the instrument frames, for parameters ``x`` of ``layout`` (and
-    the values ``fixed`` of parameters not in it)."""
+    the values ``fixed`` of parameters not in it); of :class:`Points`, (k n, 3) frame after frame."""
+    if isinstance(prob, Points):
+        return np.concatenate([predict(p, layout, x, fixed) for p in prob.parts])
     vals = dict(fixed or {})
     vals.update(zip(layout.names, x))
     T = chain_frames(prob.model, prob.q, prob.frame, vals, deflections(prob, vals), prob.flex)
@@ -307,7 +341,7 @@ def steps(prob: Problem, layout: Layout) -> np.ndarray:
 def jacobian(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = None) -> np.ndarray:
     """d predict / d x, (3n, size) (rows: point 0 x y z, point 1 ...)."""
     h = steps(prob, layout)
-    J = np.empty((3 * len(prob.q), layout.size))
+    J = np.empty((predict(prob, layout, x, fixed).size, layout.size))
     for i in range(layout.size):
         e = np.zeros(layout.size)
         e[i] = h[i]
@@ -437,6 +471,8 @@ def jacobian_fast(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | No
     """:func:`jacobian` from one pass along the chain: joint axes for offsets and compliances, the frame
     columns for the marker, and differences of the small constant transforms only for the origin errors
     and the registration rotations (the same values to about 1e-9, some twenty times faster)."""
+    if isinstance(prob, Points):
+        return np.concatenate([jacobian_fast(p, layout, x, fixed) for p in prob.parts])
     vals = dict(fixed or {})
     vals.update(zip(layout.names, x))
     pb, cols = _base_columns(prob, vals)

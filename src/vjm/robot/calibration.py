@@ -43,7 +43,17 @@ from scipy.optimize import least_squares
 from scipy.stats import f as f_dist
 
 from ..errors import VjmError
-from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
+from .absolute import (
+    Layout,
+    Points,
+    Problem,
+    full_layout,
+    jacobian_fast,
+    kabsch,
+    merged_layout,
+    predict,
+    rotation_matrix,
+)
 from .flex import TEMPERATURE, flex_loads
 
 STAGES = ("registration", "geometry", "compliance", "coupling", "lateral", "bending", "varying", "thermal", "tilt",
@@ -85,10 +95,18 @@ class Calibration:
     stages: tuple = ()
     #: rows of the data set aside as outliers (indices), not fitted (:mod:`vjm.robot.robust`)
     set_aside: tuple = ()
+    #: the other measured frames and their markers' base offsets ((frame, p0), ...): several points per row
+    extra: tuple = ()
+
+    @property
+    def measured(self) -> tuple:
+        """((frame, base marker offset), ...) of every measured point, the first ``frame``'s."""
+        return ((self.frame, self.p0), *self.extra)
 
     def robot_values(self) -> dict:
         """The robot's fitted parameters (geometry and compliance), without the nuisance."""
-        return {k: v for k, v in self.values.items() if not k.startswith("reg[") and not k.startswith(f"{self.frame}.p")}
+        markers = tuple(f"{f}.p{c}" for f, _ in self.measured for c in "xyz")
+        return {k: v for k, v in self.values.items() if not k.startswith("reg[") and k not in markers}
 
     @property
     def marker(self) -> np.ndarray:
@@ -117,6 +135,35 @@ def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: boo
                    unit_torques(model, q, frame, p0) if payload else None,
                    np.stack([model.gravity_torques(q, e) for e in np.eye(3)]) if tilt else None,
                    flex_loads(model, q, frame, _temperature(data) if thermal else None) if flex or thermal else None)
+
+
+def _problems(model, data, measured, frames: dict, **opts):
+    """The :class:`Problem` of one measured point ``measured`` ((frame, p0),), or the :class:`Points` of several."""
+    parts = tuple(_problem(model, data, f, frames, p, **opts) for f, p in measured)
+    return parts[0] if len(parts) == 1 else Points(parts)
+
+
+def _layout(model, measured, groups, **kw) -> Layout:
+    frames = [f for f, _ in measured]
+    return full_layout(model, frames[0], groups, **kw) if len(frames) == 1 else merged_layout(model, frames, groups, **kw)
+
+
+def _measurements(data, measured) -> np.ndarray:
+    return np.concatenate([data.points[f] for f, _ in measured])
+
+
+def _initial(model, data, fr: tuple, p0) -> tuple[dict, list]:
+    """Instrument frames and each measured frame's marker offset: :func:`initial_registration` per frame,
+    then one Kabsch fit per group on all the points (the markers ``p0``, one per frame, if given)."""
+    if len(fr) == 1:
+        frames, p = initial_registration(model, data, fr[0], None if p0 is None else np.reshape(p0, (-1, 3))[0])
+        return frames, [p]
+    ps = [initial_registration(model, data, f)[1] for f in fr] if p0 is None else list(p0)
+    pb = np.concatenate([np.einsum("nij,j->ni", T[:, :3, :3], p) + T[:, :3, 3]
+                         for f, p in zip(fr, ps) for T in [model.forward(data.q_for(model.q_names), f).reshape(-1, 4, 4)]])
+    m = np.concatenate([data.points[f] for f in fr])
+    g = np.tile(np.array([str(x) for x in data.groups]), len(fr))
+    return {k: kabsch(pb[g == k], m[g == k]) for k in sorted(set(g))}, ps
 
 
 def _temperature(data) -> np.ndarray:
@@ -278,7 +325,9 @@ def _one_sign(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[
     return keep, out
 
 
-def _rows(prob: Problem, mask: np.ndarray) -> Problem:
+def _rows(prob, mask: np.ndarray):
+    if isinstance(prob, Points):
+        return Points(tuple(_rows(p, mask) for p in prob.parts))
     return replace(prob, q=prob.q[mask], gidx=prob.gidx[mask], torques=prob.torques[mask],
                    unit_torques=None if prob.unit_torques is None else prob.unit_torques[mask],
                    gravity_basis=None if prob.gravity_basis is None else prob.gravity_basis[:, mask],
@@ -288,12 +337,14 @@ def _rows(prob: Problem, mask: np.ndarray) -> Problem:
 def cross_validated_rms(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, folds: int) -> float:
     """RMS position error (mm) of ``layout``'s fit over ``folds`` interleaved folds, each predicted by the
     fit on the others (started from ``x0``)."""
-    fold = np.arange(len(meas)) % folds
+    n = len(prob.q)
+    fold = np.arange(n) % folds
+    k = len(meas) // n   # measured points per row, stacked frame after frame
     rss = 0.0
     for f in range(folds):
         tr = fold != f
-        x, _, _ = fit(_rows(prob, tr), layout, meas[tr], x0)
-        r = predict(_rows(prob, ~tr), layout, x) - meas[~tr]
+        x, _, _ = fit(_rows(prob, tr), layout, meas[np.tile(tr, k)], x0)
+        r = predict(_rows(prob, ~tr), layout, x) - meas[np.tile(~tr, k)]
         rss += float(np.sum(r * r))
     return float(np.sqrt(rss / len(meas)))
 
@@ -307,16 +358,19 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
     not kept."""
     if folds == 1 or folds < 0:
         raise VjmError(f"folds must be 0 (no cross-validation) or at least 2, got {folds}")
-    frame = frame or _only_frame(data)
+    fr = (frame or _only_frame(data),) if isinstance(frame, str) or frame is None else tuple(frame)
     bad = set(effects) - set(STAGES[1:])
     if bad:
         raise VjmError(f"unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
-    _enough_rows(model, data, frame, effects, folds)
-    frames, p = initial_registration(model, data, frame, p0)
+    if len(fr) > 1 and "payload" in effects:
+        raise VjmError("a payload is weighed at the marker: with several measured points, leave it out of the effects")
+    _enough_rows(model, data, fr, effects, folds)
+    frames, ps = _initial(model, data, fr, p0)
     use = _options(effects)
-    prob = _problem(model, data, frame, frames, p, **use)
-    meas = data.points[frame]
-    full = full_layout(model, frame, prob.groups, coupling="coupling" in effects, **use)
+    measured = tuple(zip(fr, ps))
+    prob = _problems(model, data, measured, frames, **use)
+    meas = _measurements(data, measured)
+    full = _layout(model, measured, prob.groups, coupling="coupling" in effects, **use)
     active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
     x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
     m = meas.size
@@ -350,11 +404,11 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         if ok:
             best = (trial, xt, sdt, rsst, cvt)
     lay = full.pick(best[0])
-    return Calibration(model, frame, dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, p,
-                       tuple((full.names[i], why) for i, why in removed), tuple(stages))
+    return Calibration(model, fr[0], dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, ps[0],
+                       tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:])
 
 
-def _enough_rows(model, data, frame: str, effects, folds: int) -> None:
+def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:
     """Refuse a set too small for the fit: 3 rows per group (a Kabsch start), and more coordinates than the
     parameters the effects may take (in each fold's training rows)."""
     groups = {str(g) for g in data.groups}
@@ -362,11 +416,11 @@ def _enough_rows(model, data, frame: str, effects, folds: int) -> None:
     if few:
         raise VjmError(f"{data.source}: group {few[0] or '(none)'} has fewer than 3 rows: its instrument frame "
                        f"cannot be registered")
-    size = sum(k in ("reg", "marker", *effects) for k in full_layout(model, frame, tuple(sorted(groups)),
-                                                                      coupling="coupling" in effects,
-                                                                      **_options(effects)).kinds)
+    size = sum(k in ("reg", "marker", *effects) for k in _layout(model, [(f, None) for f in fr], tuple(sorted(groups)),
+                                                                  coupling="coupling" in effects,
+                                                                  **_options(effects)).kinds)
     n = data.n * (folds - 1) // folds if folds else data.n
-    if 3 * n <= size:
+    if 3 * n * len(fr) <= size:
         raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "
                        f"{size} parameters: measure more poses")
 
@@ -383,35 +437,40 @@ def _only_frame(data) -> str:
 
 def register(cal: Calibration, data, marker: bool = False) -> Calibration:
     """The calibration with the instrument frames of ``data``'s groups fitted on ``data`` (the robot's
-    parameters frozen; the marker offset too unless ``marker``)."""
-    frames, _ = initial_registration(cal.model, data, cal.frame, cal.marker)
-    prob = _problem(cal.model, data, cal.frame, frames, cal.marker, **_uses(cal.values))
-    full = full_layout(cal.model, cal.frame, prob.groups)
+    parameters frozen; the marker offsets too unless ``marker``)."""
+    now = tuple((f, p + np.array([cal.values.get(f"{f}.p{c}", 0.0) for c in "xyz"])) for f, p in cal.measured)
+    frames, _ = _initial(cal.model, data, tuple(f for f, _ in now), [p for _, p in now])
+    prob = _problems(cal.model, data, now, frames, **_uses(cal.values))
+    full = _layout(cal.model, now, prob.groups)
     keep = [i for i, k in enumerate(full.kinds) if k == "reg" or (marker and k == "marker")]
     lay = full.pick(keep)
     fixed = cal.robot_values()
-    x, sd, _ = fit(prob, lay, data.points[cal.frame], np.zeros(lay.size), fixed)
+    x, sd, _ = fit(prob, lay, _measurements(data, now), np.zeros(lay.size), fixed)
     values = {k: v for k, v in cal.values.items() if not any(k.startswith(f"reg[{g}]") for g in prob.groups)}
+    measured = cal.measured
+    if marker:   # the markers' offsets start again from where they are, fitted with the registration
+        markers = {f"{f}.p{c}" for f, _ in now for c in "xyz"}
+        values = {k: v for k, v in values.items() if k not in markers}
+        measured = now
     std = {k: v for k, v in cal.std.items() if k in values}
-    p0 = cal.p0
-    if marker:
-        values = {k: v for k, v in values.items() if not k.startswith(f"{cal.frame}.p")}
-        p0 = cal.marker
     values.update(zip(lay.names, x))
     std.update(zip(lay.names, sd))
-    return replace(cal, values=values, std=std, frames={**cal.frames, **frames}, p0=p0)
+    return replace(cal, values=values, std=std, frames={**cal.frames, **frames}, p0=measured[0][1],
+                   extra=tuple(measured[1:]))
 
 
 def predict_points(cal: Calibration, data) -> np.ndarray:
-    """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups."""
-    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0, **_uses(cal.values))
+    """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups;
+    with several measured points (k n, 3), frame after frame (``cal.measured``)."""
+    prob = _problems(cal.model, data, cal.measured, cal.frames, **_uses(cal.values))
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
     return predict(prob, lay, np.array(list(cal.values.values())))
 
 
 def position_errors(cal: Calibration, data) -> np.ndarray:
-    """|measured - predicted| (n,) mm."""
-    return np.linalg.norm(data.points[cal.frame] - predict_points(cal, data), axis=1)
+    """|measured - predicted| (n,) mm; with several measured points per row, the largest of the row's."""
+    e = np.linalg.norm(_measurements(data, cal.measured) - predict_points(cal, data), axis=1)
+    return e.reshape(len(cal.measured), data.n).max(axis=0)
 
 
 def error_stats(e) -> dict:
