@@ -365,6 +365,8 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
     if len(fr) > 1 and "payload" in effects:
         raise VjmError("a payload is weighed at the marker: with several measured points, leave it out of the effects")
     _enough_rows(model, data, fr, effects, folds)
+    if "thermal" in effects:
+        _temperature(data)   # before any fitting
     frames, ps = _initial(model, data, fr, p0)
     use = _options(effects)
     measured = tuple(zip(fr, ps))
