@@ -1,7 +1,7 @@
 """Two measured points per row on a tree robot (a marker on each hand of a two-arm torso), against
 pinocchio's truth (tests/truth_serial.py): hidden joint offsets, an origin error, joint compliances under
 self-weight and a wrist column holding a coupling of two joints written as an ordinary joint, no sigma
-columns; then 5 % of the rows with the markers swapped between the hands."""
+columns; then 5 % of the rows of a rigid arm with the markers swapped between the hands."""
 import numpy as np
 import pytest
 
@@ -65,7 +65,7 @@ def _data(torso, hidden, n, seed):
 def test_two_hands_with_a_coupled_wrist_are_calibrated(torso):
     """The l3 column holds l3 + 0.03 l2 (a wrist's gear train written as an ordinary joint)."""
     k = 0.03
-    data = _data(torso, truth.Hidden(**HIDDEN, coupling={("l3", "l2"): k}), 200, 1)
+    data = _data(torso, truth.Hidden(**HIDDEN, coupling={("l3", "l2"): k}), 120, 1)
     assert not data.sigmas   # no sigma columns
     cal = calibrate(torso[1], data, HANDS, effects=("geometry", "compliance", "coupling"))
     assert [s.name for s in cal.stages if s.kept] == ["registration", "geometry", "compliance", "coupling"]
@@ -81,12 +81,15 @@ def test_two_hands_with_a_coupled_wrist_are_calibrated(torso):
 
 
 def test_rows_with_the_hands_markers_swapped_are_set_aside(torso):
-    data = _data(torso, truth.Hidden(**HIDDEN), 120, 2)
-    swapped = np.arange(5, 120, 20)   # 6 rows of 120: 5 %
+    rigid = truth.Hidden(**{**HIDDEN, "compliance": {}})
+    data = _data(torso, rigid, 100, 2)
+    swapped = np.arange(5, 100, 20)   # 5 rows of 100
     pts = {f: v.copy() for f, v in data.points.items()}
     pts["l_tool"][swapped], pts["r_tool"][swapped] = data.points["r_tool"][swapped], data.points["l_tool"][swapped]
     mixed = AbsolutePoses(data.joints, data.q, pts, group=data.group)
-    cal = calibrate_robust(torso[1], mixed, HANDS, effects=("geometry", "compliance"))
+    cal = calibrate_robust(torso[1], mixed, HANDS, effects=("geometry",))
     assert sorted(cal.set_aside) == swapped.tolist()
-    assert [s.name for s in cal.stages if s.kept] == ["registration", "geometry", "compliance"]
-    assert np.mean(position_errors(cal, data.subset(np.setdiff1d(np.arange(120), swapped)))) < 3 * SIGMA
+    assert [s.name for s in cal.stages if s.kept] == ["registration", "geometry"]
+    assert np.mean(position_errors(cal, data.subset(np.setdiff1d(np.arange(100), swapped)))) < 3 * SIGMA
+    plain = calibrate(torso[1], mixed, HANDS, effects=("geometry",))   # the swapped rows pull a plain fit off
+    assert np.mean(position_errors(plain, data.subset(np.setdiff1d(np.arange(100), swapped)))) > 10 * SIGMA
