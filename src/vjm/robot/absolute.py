@@ -207,10 +207,8 @@ def merged_layout(model, frames, groups, **kw) -> Layout:
         lay = full_layout(model, f, groups, **kw)
         for n, k, u in zip(lay.names, lay.kinds, lay.units):
             seen.setdefault(n, (k, u))
-    order = sorted(range(len(seen)), key=lambda i: _KIND_ORDER.index(list(seen.values())[i][0]))
-    names = list(seen)
-    return Layout(tuple(names[i] for i in order), tuple(seen[names[i]][0] for i in order),
-                  tuple(seen[names[i]][1] for i in order))
+    names = sorted(seen, key=lambda n: _KIND_ORDER.index(seen[n][0]))   # stable: each kind keeps its order
+    return Layout(tuple(names), tuple(seen[n][0] for n in names), tuple(seen[n][1] for n in names))
 
 
 def chain_frames(model, q: np.ndarray, frame: str, values: dict, dq: np.ndarray | None = None,

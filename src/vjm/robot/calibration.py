@@ -159,8 +159,12 @@ def _initial(model, data, fr: tuple, p0) -> tuple[dict, list]:
         frames, p = initial_registration(model, data, fr[0], None if p0 is None else np.reshape(p0, (-1, 3))[0])
         return frames, [p]
     ps = [initial_registration(model, data, f)[1] for f in fr] if p0 is None else list(p0)
-    pb = np.concatenate([np.einsum("nij,j->ni", T[:, :3, :3], p) + T[:, :3, 3]
-                         for f, p in zip(fr, ps) for T in [model.forward(data.q_for(model.q_names), f).reshape(-1, 4, 4)]])
+    q = data.q_for(model.q_names)
+    parts = []
+    for f, p in zip(fr, ps):
+        T = model.forward(q, f).reshape(-1, 4, 4)
+        parts.append(np.einsum("nij,j->ni", T[:, :3, :3], p) + T[:, :3, 3])
+    pb = np.concatenate(parts)
     m = np.concatenate([data.points[f] for f in fr])
     g = np.tile(np.array([str(x) for x in data.groups]), len(fr))
     return {k: kabsch(pb[g == k], m[g == k]) for k in sorted(set(g))}, ps
