@@ -23,10 +23,11 @@ from vjm.robot.poses import read_column_map, read_poses
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 IPA = os.path.join(ROOT, "data", "realdata", "ur10_ipa")
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_ur10 import FILES, split  # noqa: E402
+from bench_ur10 import FILES, FLEX_LIBRARY, split  # noqa: E402
 
-MODELS = (("registration only", ()), ("geometry", ("geometry",)),
-          ("geometry + joint compliance", ("geometry", "compliance", "payload")))
+MODELS = (("registration only", (), 0), ("geometry", ("geometry",), 0),
+          ("geometry + joint compliance", ("geometry", "compliance", "payload"), 0),
+          ("what the calibration names from the whole library", FLEX_LIBRARY, 5))
 
 
 def pairs(data) -> np.ndarray:
@@ -65,8 +66,9 @@ def main(argv=None):
     d = B.points["tool0"][P[:, 1]] - B.points["tool0"][P[:, 0]]
     gap = np.linalg.norm(d, axis=1)
     print(f"{len(P)} pairs; measured gap mean {gap.mean():.3f} / std {gap.std():.3f} / max {gap.max():.3f} mm")
-    for name, effects in MODELS:
-        cal = register(calibrate(model, A.subset(pick), "tool0", effects=effects), split(B, args.register)[0])
+    for name, effects, folds in MODELS:
+        cal = register(calibrate(model, A.subset(pick), "tool0", effects=effects, folds=folds),
+                       split(B, args.register)[0])
         p = predict_points(cal, B)
         r = np.linalg.norm(d - (p[P[:, 1]] - p[P[:, 0]]), axis=1)
         print(f"{name}: predicted gap mean {np.linalg.norm(p[P[:, 1]] - p[P[:, 0]], axis=1).mean():.3f} mm; "

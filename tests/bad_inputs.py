@@ -467,8 +467,10 @@ CASES = [
          CAL_FILES, "one fold"),
     Case("27", "vjm calibrate r.yaml p.csv --out o --register 2", "--register must be at least 3 poses", CAL_FILES,
          "validation files registered on 2 poses"),
-    Case("27", "vjm calibrate r.yaml p.csv --out o --effects geometry,thermal", "--effects: unknown effect(s) thermal",
+    Case("27", "vjm calibrate r.yaml p.csv --out o --effects geometry,creep", "--effects: unknown effect(s) creep",
          CAL_FILES, "an effect the library does not have"),
+    Case("27", "vjm calibrate r.yaml p.csv --out o --effects geometry,thermal", "p.csv: the thermal effect needs the "
+         "rows' temperature, a meta_temperature column (C)", CAL_FILES, "a thermal scale without a temperature column"),
     Case("27", "vjm calibrate r.yaml p.csv --out o", "p.csv: no column for joint(s) j2",
          {**CAL_FILES, "p.csv": POSES.replace("j2,", "jj,")}, "a data file without a joint's column"),
     Case("27", "vjm calibrate r.yaml p.csv --out o --frame l1", "--frame l1: p.csv measures l2", CAL_FILES,

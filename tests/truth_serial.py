@@ -7,6 +7,15 @@ A serial arm read by pinocchio from its URDF carries hidden effects:
 - joint compliance under self-weight and backlash: the link angles ``theta`` solve
   ``theta = q + offset - c g(theta) - b sign(g(theta))`` with pinocchio's generalized gravity ``g`` of the
   *perturbed* arm (fixed point, to 1e-14 rad; the clearance taken up on the side gravity pushes to);
+- compliance depending on the joint's value: the compliance ``c + c' q`` in the equilibrium above;
+- lateral joint compliance: each joint's bearing tilted after its motion by ``-c_lat M_perp``, ``M_perp`` the
+  part normal to the joint's axis of the moment pinocchio's RNEA passes through the joint (``data.f``);
+- link bending: a long link (its placement's largest component at least half the path's longest) an
+  Euler-Bernoulli cantilever along that component, loaded at its tip by the wrench RNEA passes to the next
+  joint (moved to the tip), which the bent tip carries (tip rotation ``(L M_perp + L^2/2 e x F) / EI``,
+  displacement ``(L^2/2 M_perp x e + L^3/3 (e x F) x e) / EI``);
+- a length scale with temperature: every joint placement's and the measured frame's translation times
+  ``1 + alpha (T - 20)``;
 - a base tilt: the gravity turned about the base's x and y axes;
 - joint couplings: a joint turning by k times another's commanded value (what the data call a joint is a
   combination of two);
@@ -41,6 +50,10 @@ class Hidden:
     backlash: dict = field(default_factory=dict)   # {joint: rad}, half the clearance
     tilt: tuple = (0.0, 0.0)   # rad: the base turned about its x and y axes against gravity
     coupling: dict = field(default_factory=dict)   # {(a, b): k}: joint a turns by k times b's commanded value
+    varying: dict = field(default_factory=dict)    # {joint: rad/(N m) per rad}: compliance c + c' q
+    lateral: dict = field(default_factory=dict)    # {joint: rad/(N m)}: its bearing's tilt under the normal moment
+    bending: dict = field(default_factory=dict)    # {joint carrying the link: 1/EI in 1/(N m^2)}
+    alpha: float = 0.0                             # 1/K: length scale with the rows' temperature
 
 
 def _rotation(w) -> np.ndarray:
@@ -67,9 +80,26 @@ def _add_payload(m, frame: str, hidden: Hidden) -> None:
     m.appendBodyToJoint(f.parentJoint, pin.Inertia(hidden.payload, com, np.zeros((3, 3))), pin.SE3.Identity())
 
 
-def measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, rng=None) -> np.ndarray:
+def measure(urdf: str, frame, names, q: np.ndarray, hidden: Hidden, rng=None, temperature=None):
     """Marker positions (n, 3) mm in the instrument frame at commanded configurations q (n, len(names)),
-    ``names`` the joints' order in q (revolute joints, rad)."""
+    ``names`` the joints' order in q (revolute joints, rad); ``temperature`` (n,) C for ``alpha``.
+
+    Several measured frames (a marker on each hand): ``frame`` a tuple and ``hidden.marker`` a dict
+    {frame: offset mm}; returns {frame: (n, 3)}."""
+    if not isinstance(frame, str):
+        out = {f: _measure(urdf, f, names, q, Hidden(**{**hidden.__dict__, "marker": np.asarray(hidden.marker[f]),
+                                                         "sigma": 0.0}), temperature) for f in frame}
+        rng = rng or np.random.default_rng(0)
+        return {f: v + rng.normal(scale=hidden.sigma, size=v.shape) if hidden.sigma > 0 else v for f, v in out.items()}
+    out1 = _measure(urdf, frame, names, q, hidden, temperature)
+    if hidden.sigma > 0:
+        rng = rng or np.random.default_rng(0)
+        out1 = out1 + rng.normal(scale=hidden.sigma, size=out1.shape)
+    return out1
+
+
+def _measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, temperature=None) -> np.ndarray:
+    """The noiseless marker positions of one frame (see :func:`measure`)."""
     m = perturbed_model(urdf, hidden)
     _add_payload(m, frame, hidden)
     d = m.createData()
@@ -84,6 +114,9 @@ def measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, rng=Non
     b = np.zeros(m.nq)
     for nm, v in hidden.backlash.items():
         b[m.idx_qs[m.getJointId(nm)]] = v
+    cv = np.zeros(m.nq)
+    for nm, v in hidden.varying.items():
+        cv[m.idx_qs[m.getJointId(nm)]] = v
     out = np.empty((len(q), 3))
     for k, row in enumerate(q):
         qc = np.zeros(m.nq)
@@ -93,19 +126,79 @@ def measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, rng=Non
         theta = qc + off
         for _ in range(100):
             g = pin.computeGeneralizedGravity(m, d, theta)
-            new = qc + off - c * g - b * np.sign(g)
+            new = qc + off - (c + cv * qc) * g - b * np.sign(g)
             done = np.max(np.abs(new - theta)) < 1e-14
             theta = new
             if done:
                 break
-        pin.framesForwardKinematics(m, d, theta)
-        M = d.oMf[fid]
+        mk = m
+        if hidden.lateral or hidden.bending or hidden.alpha:
+            dT = 0.0 if temperature is None else float(temperature[k]) - 20.0
+            mk = _flexed(m, d, theta, fid, hidden, dT)
+        dk = mk.createData()
+        pin.framesForwardKinematics(mk, dk, theta)
+        M = dk.oMf[fid]
         p = (M.rotation @ (hidden.marker / 1000.0) + M.translation) * 1000.0
         out[k] = hidden.R @ p + hidden.t
-    if hidden.sigma > 0:
-        rng = rng or np.random.default_rng(0)
-        out = out + rng.normal(scale=hidden.sigma, size=out.shape)
     return out
+
+
+def _flexed(m, d, theta, fid: int, hidden: Hidden, dT: float):
+    """A copy of the model whose placements carry the lateral tilts, the bent links and the thermal scale
+    at the link angles theta (the loads from pinocchio's RNEA at rest: ``data.f`` is the wrench the parent
+    passes to each joint's subtree, in the joint's frame about its origin)."""
+    pin.rnea(m, d, theta, np.zeros(m.nv), np.zeros(m.nv))
+    mk = pin.Model(m)
+    path = list(m.supports[m.frames[fid].parentJoint])[1:]
+    s = 1.0 + hidden.alpha * dT
+    for jid in path:
+        mk.jointPlacements[jid] = pin.SE3(m.jointPlacements[jid].rotation, s * m.jointPlacements[jid].translation)
+    fr = mk.frames[fid]
+    fr.placement = pin.SE3(fr.placement.rotation, s * fr.placement.translation)
+    mk.frames[fid] = fr
+    top = max(np.max(np.abs(m.jointPlacements[b].translation)) for b in path[1:])
+    for a, b in zip(path[:-1], path[1:]):
+        ei = hidden.bending.get(m.names[a], 0.0)
+        p = m.jointPlacements[b].translation
+        k = int(np.argmax(np.abs(p)))
+        if not ei or abs(p[k]) < 0.5 * top:
+            continue
+        e = np.zeros(3)
+        e[k] = np.sign(p[k])
+        L = abs(p[k])
+        tip = e * L
+        fa = d.liMi[b].act(d.f[b])                   # b's support wrench in a's frame, about a's origin
+        Ft, Mt = -fa.linear, -(fa.angular - np.cross(tip, fa.linear))   # the loads on the beam, about the tip
+        Mp = Mt - (Mt @ e) * e
+        exF = np.cross(e, Ft)
+        th = ei * (L * Mp + L**2 / 2 * exF)
+        u = ei * (L**2 / 2 * np.cross(Mp, e) + L**3 / 3 * np.cross(exF, e))
+        R = _rotation(th)
+        mk.jointPlacements[b] = pin.SE3(R, u + tip - R @ tip) * mk.jointPlacements[b]
+    for jid in path:
+        c = hidden.lateral.get(m.names[jid], 0.0)
+        if not c:
+            continue
+        ax = _axis(m, jid)
+        Mj = d.f[jid].angular
+        R = pin.SE3(_rotation(-c * (Mj - (Mj @ ax) * ax)), np.zeros(3))
+        for child in range(1, m.njoints):
+            if m.parents[child] == jid:
+                mk.jointPlacements[child] = R * mk.jointPlacements[child]
+        if m.frames[fid].parentJoint == jid:
+            fr = mk.frames[fid]
+            fr.placement = R * fr.placement
+            mk.frames[fid] = fr
+    return mk
+
+
+def _axis(m, jid: int) -> np.ndarray:
+    """A revolute joint's axis in its frame: the angular part of its motion subspace."""
+    d = m.createData()
+    q = pin.neutral(m)
+    pin.computeJointJacobians(m, d, q)
+    J = pin.getJointJacobian(m, d, jid, pin.LOCAL)
+    return np.asarray(J[3:, m.idx_vs[jid]], dtype=float)
 
 
 def gravity_torques(urdf: str, names, q: np.ndarray) -> np.ndarray:

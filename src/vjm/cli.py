@@ -260,7 +260,8 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
                   folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation in the choice "
                                                       "of effects (0: none; default 5, or 0 with --validate)"),
                   effects: str = typer.Option("geometry,compliance,payload", "--effects",
-                                              help="stages tried, in this order (also: coupling, tilt, backlash)"),
+                                              help="stages tried, in this order (also: coupling, lateral, bending, "
+                                                   "varying, thermal, tilt, backlash)"),
                   frame: Optional[str] = typer.Option(None, "--frame", help="the measured point (default: the "
                                                       "data's only one)"),
                   alpha: float = typer.Option(1e-3, "--alpha", help="F test level of an effect"),

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..transforms import elementary
+from .flex import beam_axes, beam_name, transforms
 from .tree import _rigid_inverse
 
 GEOMETRY = ("offset", "dx", "dy", "dz", "ex", "ey", "ez")
@@ -82,7 +83,7 @@ class Layout:
 
 
 def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = False,
-                coupling: bool = False) -> Layout:
+                coupling: bool = False, flex: bool = False, thermal: bool = False) -> Layout:
     """Every parameter of the measurement model of a point on ``frame`` (registration of each group
     first, the marker offset, then per joint of the path its offset and origin error, then the compliances,
     the backlashes, with ``coupling`` each joint's value coupled to each other's (``a.coupling[b]``: a
@@ -121,6 +122,12 @@ def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = F
                     names.append(f"{a}.coupling[{b}]")
                     kinds.append("coupling")
                     units.append("rad")
+    if flex:
+        _flex_layout(model, path, frame, names, kinds, units)
+    if thermal:
+        names.append("thermal.alpha")
+        kinds.append("thermal")
+        units.append("K")
     if tilt:
         for k in ("rx", "ry"):
             names.append(f"base.tilt_{k}")
@@ -131,6 +138,24 @@ def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = F
         kinds.append("payload")
         units.append("kg")
     return Layout(tuple(names), tuple(kinds), tuple(units))
+
+
+def _flex_layout(model, path, frame: str, names: list, kinds: list, units: list) -> None:
+    """The flex effects' parameters (:mod:`vjm.robot.flex`): lateral compliances, beams, varying compliances."""
+    for j in path:
+        if j.mimic is None:
+            names.append(f"{j.name}.lateral")
+            kinds.append("lateral")
+            units.append("lat")
+    for a, *_ in beam_axes(model, frame):
+        names.append(beam_name(model, a))
+        kinds.append("bending")
+        units.append("bend")
+    for j in path:
+        if j.mimic is None:
+            names.append(f"{j.name}.varying")
+            kinds.append("varying")
+            units.append("var")
 
 
 @dataclass(frozen=True, eq=False)
@@ -152,11 +177,46 @@ class Problem:
     unit_torques: np.ndarray | None = None
     #: the robot's gravity torques (3, n, nq) N mm for a unit gravity along each base axis (the base tilt's), or None
     gravity_basis: np.ndarray | None = None
+    #: the loads of the lateral compliances, link bending and temperature (:class:`vjm.robot.flex.Flex`), or None
+    flex: Any = None
 
 
-def chain_frames(model, q: np.ndarray, frame: str, values: dict, dq: np.ndarray | None = None) -> np.ndarray:
+@dataclass(frozen=True, eq=False)
+class Points:
+    """Several measured frames on the same rows (a marker on each hand): one :class:`Problem` per frame,
+    their predictions stacked frame after frame ((k n, 3)); what the rows share (the model, q, groups,
+    torques, loads) is read from the first."""
+
+    parts: tuple
+
+    def __getattr__(self, name: str):
+        if name == "parts":
+            raise AttributeError(name)
+        return getattr(self.parts[0], name)
+
+
+_KIND_ORDER = ("reg", "marker", "geometry", "compliance", "backlash", "coupling", "lateral", "bending", "varying",
+               "thermal", "tilt", "payload")
+
+
+def merged_layout(model, frames, groups, **kw) -> Layout:
+    """The parameters of several measured frames: each frame's :func:`full_layout`, a parameter shared by
+    their paths (the registration, a common joint's) once, ordered by kind."""
+    seen: dict = {}
+    for f in frames:
+        lay = full_layout(model, f, groups, **kw)
+        for n, k, u in zip(lay.names, lay.kinds, lay.units):
+            seen.setdefault(n, (k, u))
+    names = sorted(seen, key=lambda n: _KIND_ORDER.index(seen[n][0]))   # stable: each kind keeps its order
+    return Layout(tuple(names), tuple(seen[n][0] for n in names), tuple(seen[n][1] for n in names))
+
+
+def chain_frames(model, q: np.ndarray, frame: str, values: dict, dq: np.ndarray | None = None,
+                 flex=None) -> np.ndarray:
     """Frames (n, 4, 4) of ``frame`` with origin errors and offsets ``values`` ({"<joint>.<kind>": value},
-    missing ones 0) and extra joint values ``dq`` (n, nq) (the compliance's deflections)."""
+    missing ones 0), extra joint values ``dq`` (n, nq) (the compliance's deflections) and the flex effects
+    of ``values`` on the loads ``flex`` (:func:`vjm.robot.flex.transforms`)."""
+    pre, post, tool = transforms(flex, model, frame, values)
     tree = model.tree
     qn = list(tree.q_names)
     n = len(q)
@@ -173,18 +233,22 @@ def chain_frames(model, q: np.ndarray, frame: str, values: dict, dq: np.ndarray 
             master, mult, off = j.mimic
             k = qn.index(master)
             v = mult * (q[:, k] + (0.0 if dq is None else dq[:, k])) + off
-        T = (T @ C) @ elementary(j.kind, v + d[0])
+        T = ((T @ pre[ji]) @ C if ji in pre else T @ C) @ elementary(j.kind, v + d[0])
         if j.align is not None:
             T = T @ _rigid_inverse(j.align)
-    return T @ tree.frame(frame).placement
+        if ji in post:
+            T = T @ post[ji]
+    return (T if tool is None else T @ tool) @ tree.frame(frame).placement
 
 
 def predict(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = None) -> np.ndarray:
     """The measured points (n, 3) mm in the instrument frames, for parameters ``x`` of ``layout`` (and
-    the values ``fixed`` of parameters not in it)."""
+    the values ``fixed`` of parameters not in it); of :class:`Points`, (k n, 3) frame after frame."""
+    if isinstance(prob, Points):
+        return np.concatenate([predict(p, layout, x, fixed) for p in prob.parts])
     vals = dict(fixed or {})
     vals.update(zip(layout.names, x))
-    T = chain_frames(prob.model, prob.q, prob.frame, vals, deflections(prob, vals))
+    T = chain_frames(prob.model, prob.q, prob.frame, vals, deflections(prob, vals), prob.flex)
     p = prob.p0 + np.array([vals.get(f"{prob.frame}.p{k}", 0.0) for k in "xyz"])
     pb = np.einsum("nij,j->ni", T[:, :3, :3], p) + T[:, :3, 3]
     out = np.empty_like(pb)
@@ -227,8 +291,11 @@ def deflections(prob: Problem, vals: dict) -> np.ndarray:
     for i, name in enumerate(prob.model.tree.q_names):
         c = vals.get(f"{name}.compliance", 0.0)
         b = vals.get(f"{name}.backlash", 0.0)
+        cq = vals.get(f"{name}.varying", 0.0)
         if c:
             dq[:, i] -= c * tau[:, i]
+        if cq:
+            dq[:, i] -= cq * prob.q[:, i] * tau[:, i]
         if b:
             dq[:, i] -= b * np.sign(tau[:, i])
     qn = list(prob.model.tree.q_names)
@@ -239,23 +306,40 @@ def deflections(prob: Problem, vals: dict) -> np.ndarray:
     return dq
 
 
-def steps(prob: Problem, layout: Layout) -> np.ndarray:
-    """Central-difference steps: 1e-4 mm, 1e-7 rad, and a compliance step deflecting its joint by 1e-7 rad."""
+def load_scale(prob: Problem, name: str, unit: str) -> float:
+    """The largest deflection (rad) per unit of a load-driven parameter (compliances, flex effects): its
+    torque, moment, beam rotation or temperature offset over the rows."""
     qn = list(prob.model.tree.q_names)
+    joint = name.rsplit(".", 1)[0]
+    if unit == "c":
+        v = prob.torques[:, qn.index(joint)]
+    elif unit == "var":
+        v = prob.torques[:, qn.index(joint)] * prob.q[:, qn.index(joint)]
+    elif unit == "lat":
+        v = np.linalg.norm(prob.flex.lateral[:, prob.model.tree.joint_index(joint)], axis=1)
+    elif unit == "bend":
+        v = np.linalg.norm(next(b.theta for b in prob.flex.beams if b.name == name), axis=1)
+    else:   # "K": a relative length change of 1e-7
+        v = prob.flex.dT
+    return float(np.max(np.abs(v), initial=0.0))
+
+
+def steps(prob: Problem, layout: Layout) -> np.ndarray:
+    """Central-difference steps: 1e-4 mm, 1e-7 rad, and a load-driven parameter's step deflecting by 1e-7 rad."""
     out = np.empty(layout.size)
     for i, (name, u) in enumerate(zip(layout.names, layout.units)):
-        if u == "c":
-            tau = np.max(np.abs(prob.torques[:, qn.index(name[:-len(".compliance")])]), initial=0.0)
-            out[i] = 1e-7 / tau if tau > 0 else 1e-12
-        else:
+        if u in _STEP:
             out[i] = _STEP[u]
+        else:
+            load = load_scale(prob, name, u)
+            out[i] = 1e-7 / load if load > 0 else 1e-12
     return out
 
 
 def jacobian(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = None) -> np.ndarray:
     """d predict / d x, (3n, size) (rows: point 0 x y z, point 1 ...)."""
     h = steps(prob, layout)
-    J = np.empty((3 * len(prob.q), layout.size))
+    J = np.empty((predict(prob, layout, x, fixed).size, layout.size))
     for i in range(layout.size):
         e = np.zeros(layout.size)
         e[i] = h[i]
@@ -295,11 +379,15 @@ def _base_columns(prob: Problem, vals: dict) -> tuple[np.ndarray, dict]:
     q = prob.q
     tau = total_torques(prob, vals)
     dq = deflections(prob, vals)
+    pre, post, tool = transforms(prob.flex, prob.model, prob.frame, vals)
     T = np.broadcast_to(np.eye(4), (len(q), 4, 4))
     saved = []
     for ji in tree.path(tree.frame(prob.frame).joint):
         j = tree.joints[ji]
         d = np.array([vals.get(f"{j.name}.{k}", 0.0) for k in GEOMETRY])
+        F = T
+        if ji in pre:
+            T = T @ pre[ji]
         G = T @ j.placement
         A = G @ _delta(d[1:])
         if j.align is not None:
@@ -311,38 +399,78 @@ def _base_columns(prob: Problem, vals: dict) -> tuple[np.ndarray, dict]:
         T = A @ elementary(j.kind, mult * (q[:, k] + dq[:, k]) + off + d[0])
         if j.align is not None:
             T = T @ _rigid_inverse(j.align)
-        saved.append((j, G, A, d, k, mult))
-    T = T @ tree.frame(prob.frame).placement
+        if ji in post:
+            T = T @ post[ji]
+        saved.append((ji, j, F, G, A, T, d, k, mult))
+    last = T
+    T = (T if tool is None else T @ tool) @ tree.frame(prob.frame).placement
     p = prob.p0 + np.array([vals.get(f"{prob.frame}.p{c}", 0.0) for c in "xyz"])
     pb = np.einsum("nij,j->ni", T[:, :3, :3], p) + T[:, :3, 3]
     cols = {f"{prob.frame}.p{c}": T[:, :3, i] for i, c in enumerate("xyz")}
-    for j, G, A, d, k, mult in saved:
+    for ji, j, F, G, A, Tj, d, k, mult in saved:
         ax = _axis_column(j.kind, A, pb)
         cols[f"{j.name}.offset"] = ax
-        comp = f"{qn[k]}.compliance"
-        cols[comp] = cols.get(comp, 0.0) + mult * ax * (-tau[:, k:k + 1])
-        back = f"{qn[k]}.backlash"
-        cols[back] = cols.get(back, 0.0) + mult * ax * (-np.sign(tau[:, k:k + 1]))
-        for b in qn:
-            if b != qn[k]:
-                name = f"{qn[k]}.coupling[{b}]"
-                cols[name] = cols.get(name, 0.0) + mult * ax * q[:, qn.index(b), None]
-        if prob.gravity_basis is not None:
-            for axis, name in enumerate(("base.tilt_rx", "base.tilt_ry")):
-                dtau = np.einsum("kn,k->n", prob.gravity_basis[:, :, k], tilted_gravity(prob, vals, axis))
-                cols[name] = cols.get(name, 0.0) + mult * ax * (-vals.get(comp, 0.0) * dtau[:, None])
-        if prob.unit_torques is not None:
-            cu = -vals.get(comp, 0.0) * prob.unit_torques[:, k:k + 1]
-            cols["payload.mass"] = cols.get("payload.mass", 0.0) + mult * ax * cu
+        _torque_columns(prob, vals, cols, qn, k, mult * ax, tau)
         for kk, col in zip(GEOMETRY[1:], _origin_columns(G, d[1:], pb)):
             cols[f"{j.name}.{kk}"] = col
+        if prob.flex is not None:
+            _flex_columns(prob, vals, cols, (ji, j, F, G, Tj), pb)
+    if prob.flex is not None and prob.flex.dT is not None:
+        c = cols.get("thermal.alpha", 0.0)
+        cols["thermal.alpha"] = c + prob.flex.dT[:, None] * (last[:, :3, :3] @ tree.frame(prob.frame).placement[:3, 3])
     return pb, cols
+
+
+def _torque_columns(prob: Problem, vals: dict, cols: dict, qn: list, k: int, ax: np.ndarray, tau: np.ndarray) -> None:
+    """The columns of the parameters acting through joint k's value (its axis column ``ax`` times the
+    multiplier of a mimic): compliance, varying compliance, backlash, couplings, tilt, payload."""
+    q = prob.q
+    comp = f"{qn[k]}.compliance"
+    cols[comp] = cols.get(comp, 0.0) + ax * (-tau[:, k:k + 1])
+    var = f"{qn[k]}.varying"
+    cols[var] = cols.get(var, 0.0) + ax * (-tau[:, k:k + 1] * q[:, k:k + 1])
+    back = f"{qn[k]}.backlash"
+    cols[back] = cols.get(back, 0.0) + ax * (-np.sign(tau[:, k:k + 1]))
+    for b in qn:
+        if b != qn[k]:
+            name = f"{qn[k]}.coupling[{b}]"
+            cols[name] = cols.get(name, 0.0) + ax * q[:, qn.index(b), None]
+    ceff = vals.get(comp, 0.0) + vals.get(var, 0.0) * q[:, k]
+    if prob.gravity_basis is not None:
+        for axis, name in enumerate(("base.tilt_rx", "base.tilt_ry")):
+            dtau = np.einsum("kn,k->n", prob.gravity_basis[:, :, k], tilted_gravity(prob, vals, axis))
+            cols[name] = cols.get(name, 0.0) + ax * (-ceff * dtau)[:, None]
+    if prob.unit_torques is not None:
+        cu = -ceff * prob.unit_torques[:, k]
+        cols["payload.mass"] = cols.get("payload.mass", 0.0) + ax * cu[:, None]
+
+
+def _flex_columns(prob: Problem, vals: dict, cols: dict, at: tuple, pb: np.ndarray) -> None:
+    """The columns of joint ``ji``'s lateral compliance, the beam it carries and its share of the thermal
+    scale, from the frames ``F`` (before its placement's flex motion), ``G`` (after its placement) and
+    ``Tj`` (after its motion)."""
+    ji, j, F, G, Tj = at
+    flex = prob.flex
+    lat = np.einsum("nij,nj->ni", Tj[:, :3, :3], flex.lateral[:, ji])
+    cols[f"{j.name}.lateral"] = np.cross(lat, pb - Tj[:, :3, 3])
+    for bm in flex.beams:
+        if bm.joint == ji:
+            c = vals.get(bm.name, 0.0)
+            y = np.einsum("nji,nj->ni", Tj[:, :3, :3], pb - Tj[:, :3, 3])
+            loc = np.cross(bm.theta, y - bm.tip - c * bm.u) + bm.u
+            cols[bm.name] = np.einsum("nij,nj->ni", Tj[:, :3, :3], loc)
+    if flex.dT is not None:
+        # the placement's translation, scaled, moves what follows rigidly: in the frame just before it
+        Gr = G[:, :3, :3] @ j.placement[:3, :3].T
+        cols["thermal.alpha"] = cols.get("thermal.alpha", 0.0) + flex.dT[:, None] * (Gr @ j.placement[:3, 3])
 
 
 def jacobian_fast(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = None) -> np.ndarray:
     """:func:`jacobian` from one pass along the chain: joint axes for offsets and compliances, the frame
     columns for the marker, and differences of the small constant transforms only for the origin errors
     and the registration rotations (the same values to about 1e-9, some twenty times faster)."""
+    if isinstance(prob, Points):
+        return np.concatenate([jacobian_fast(p, layout, x, fixed) for p in prob.parts])
     vals = dict(fixed or {})
     vals.update(zip(layout.names, x))
     pb, cols = _base_columns(prob, vals)

@@ -11,11 +11,15 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
    registration and of the columns kept before (Gram-Schmidt); the others are combinations of those,
    removed and listed with the parameters they combine (a base frame against the first joint, a
    translation along parallel axes ...) -- never fitted as degenerate parameters;
-   Then **coupling** (asked only): a joint turning by ``k`` times another's value (a wrist's gear train, or
-   a column holding a combination of joints written as an ordinary joint), the same selection deciding;
 3. **compliance**: a torsional compliance per joint, the deflection ``-c g_j(q)`` under the nominal model's
    gravity torque.  A joint whose gravity torque hardly varies over the data (its spread below
    ``flat`` of the largest joint's) cannot be told from an offset: it is reported not observable.
+   Then **coupling** (asked only): a joint turning by ``k`` times another's value (a wrist's gear train, or
+   a column holding a combination of joints written as an ordinary joint), the same selection deciding
+   (after the compliance: tried before it, 30 couplings pass for an arm's sag);
+   Then the effects of :mod:`vjm.robot.flex` (asked only): **lateral** joint compliance, link **bending**,
+   compliance **varying** with the joint's value (their loads hardly varying: not observable), and the
+   **thermal** length scale (a ``meta_temperature`` column; its spread under 0.1 K: not observable);
 4. **tilt**: the base tilted against the gravity the model assumes (2 angles, about the base x and y axes):
    seen only through the compliances kept, the torques ``g(q)`` being those of the tilted gravity
    (geometrically a tilt is the instrument frame's rotation, taken by the registration);
@@ -39,9 +43,23 @@ from scipy.optimize import least_squares
 from scipy.stats import f as f_dist
 
 from ..errors import VjmError
-from .absolute import Layout, Problem, full_layout, jacobian_fast, kabsch, predict, rotation_matrix
+from .absolute import (
+    Layout,
+    Points,
+    Problem,
+    full_layout,
+    jacobian_fast,
+    kabsch,
+    merged_layout,
+    predict,
+    rotation_matrix,
+)
+from .flex import TEMPERATURE, flex_loads
 
-STAGES = ("registration", "geometry", "coupling", "compliance", "tilt", "backlash", "payload")
+STAGES = ("registration", "geometry", "compliance", "coupling", "lateral", "bending", "varying", "thermal", "tilt",
+          "backlash", "payload")
+#: the stages acting through the loads of vjm.robot.flex
+FLEX = ("lateral", "bending", "varying", "thermal")
 
 
 @dataclass(frozen=True)
@@ -77,10 +95,18 @@ class Calibration:
     stages: tuple = ()
     #: rows of the data set aside as outliers (indices), not fitted (:mod:`vjm.robot.robust`)
     set_aside: tuple = ()
+    #: the other measured frames and their markers' base offsets ((frame, p0), ...): several points per row
+    extra: tuple = ()
+
+    @property
+    def measured(self) -> tuple:
+        """((frame, base marker offset), ...) of every measured point, the first ``frame``'s."""
+        return ((self.frame, self.p0), *self.extra)
 
     def robot_values(self) -> dict:
         """The robot's fitted parameters (geometry and compliance), without the nuisance."""
-        return {k: v for k, v in self.values.items() if not k.startswith("reg[") and not k.startswith(f"{self.frame}.p")}
+        markers = tuple(f"{f}.p{c}" for f, _ in self.measured for c in "xyz")
+        return {k: v for k, v in self.values.items() if not k.startswith("reg[") and k not in markers}
 
     @property
     def marker(self) -> np.ndarray:
@@ -97,7 +123,7 @@ def unit_torques(model, q: np.ndarray, frame: str, p) -> np.ndarray:
 
 
 def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: bool = False,
-             tilt: bool = False) -> Problem:
+             tilt: bool = False, flex: bool = False, thermal: bool = False) -> Problem:
     q = data.q_for(model.q_names)
     groups = tuple(sorted({str(g) for g in data.groups}))
     missing = [g for g in groups if g not in frames]
@@ -107,7 +133,60 @@ def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: boo
     return Problem(model, frame, q, gidx, groups, tuple(frames[g][0] for g in groups),
                    tuple(frames[g][1] for g in groups), np.asarray(p0, dtype=float), model.gravity_torques(q),
                    unit_torques(model, q, frame, p0) if payload else None,
-                   np.stack([model.gravity_torques(q, e) for e in np.eye(3)]) if tilt else None)
+                   np.stack([model.gravity_torques(q, e) for e in np.eye(3)]) if tilt else None,
+                   flex_loads(model, q, frame, _temperature(data) if thermal else None) if flex or thermal else None)
+
+
+def _problems(model, data, measured, frames: dict, **opts):
+    """The :class:`Problem` of one measured point ``measured`` ((frame, p0),), or the :class:`Points` of several."""
+    parts = tuple(_problem(model, data, f, frames, p, **opts) for f, p in measured)
+    return parts[0] if len(parts) == 1 else Points(parts)
+
+
+def _layout(model, measured, groups, **kw) -> Layout:
+    frames = [f for f, _ in measured]
+    return full_layout(model, frames[0], groups, **kw) if len(frames) == 1 else merged_layout(model, frames, groups, **kw)
+
+
+def _measurements(data, measured) -> np.ndarray:
+    return np.concatenate([data.points[f] for f, _ in measured])
+
+
+def _initial(model, data, fr: tuple, p0) -> tuple[dict, list]:
+    """Instrument frames and each measured frame's marker offset: :func:`initial_registration` per frame,
+    then one Kabsch fit per group on all the points (the markers ``p0``, one per frame, if given)."""
+    if len(fr) == 1:
+        frames, p = initial_registration(model, data, fr[0], None if p0 is None else np.reshape(p0, (-1, 3))[0])
+        return frames, [p]
+    ps = [initial_registration(model, data, f)[1] for f in fr] if p0 is None else list(p0)
+    q = data.q_for(model.q_names)
+    parts = []
+    for f, p in zip(fr, ps):
+        T = model.forward(q, f).reshape(-1, 4, 4)
+        parts.append(np.einsum("nij,j->ni", T[:, :3, :3], p) + T[:, :3, 3])
+    pb = np.concatenate(parts)
+    m = np.concatenate([data.points[f] for f in fr])
+    g = np.tile(np.array([str(x) for x in data.groups]), len(fr))
+    return {k: kabsch(pb[g == k], m[g == k]) for k in sorted(set(g))}, ps
+
+
+def _temperature(data) -> np.ndarray:
+    if TEMPERATURE not in data.meta:
+        raise VjmError(f"{data.source}: the thermal effect needs the rows' temperature, a {TEMPERATURE} column (C)")
+    return np.asarray(data.meta[TEMPERATURE], dtype=float)
+
+
+def _options(effects) -> dict:
+    """The problem options the effects tried need."""
+    return {"payload": "payload" in effects, "tilt": "tilt" in effects,
+            "flex": any(e in effects for e in ("lateral", "bending", "varying")), "thermal": "thermal" in effects}
+
+
+def _uses(values: dict) -> dict:
+    """The problem options a calibration's parameters need: payload, tilt, flex, thermal."""
+    return {"payload": "payload.mass" in values, "tilt": "base.tilt_rx" in values,
+            "flex": any(k.rsplit(".", 1)[-1] in ("lateral", "bending", "varying") for k in values),
+            "thermal": "thermal.alpha" in values}
 
 
 def initial_registration(model, data, frame: str, p0=None, rounds: int = 8) -> tuple[dict, np.ndarray]:
@@ -207,15 +286,30 @@ def _f_test(rss0: float, p0: int, rss1: float, p1: int, m: int) -> float:
 
 
 def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[list, list]:
-    qn = list(prob.model.tree.q_names)
-    spread = np.std(prob.torques, axis=0)
-    top = float(np.max(spread, initial=0.0))
+    """The candidates whose load hardly varies (its spread below ``flat`` of the largest joint's) set apart as
+    not observable: the gravity torque for a compliance (and a varying one), the moment normal to the axis
+    for a lateral compliance, the temperature for the thermal scale (spread below 0.1 K)."""
+    tree = prob.model.tree
     keep, out = [], []
+    if not cands:
+        return keep, out
+    kind = layout.kinds[cands[0]]
+    if kind == "thermal":
+        sd = float(np.std(prob.flex.dT))
+        return ([], [(cands[0], f"not observable: the temperature hardly varies (spread {sd:.3g} K)")]) if sd < 0.1 \
+            else (list(cands), [])
+    if kind == "lateral":
+        spread = np.array([np.sum(np.std(prob.flex.lateral[:, tree.joint_index(n)], axis=0)) for n in tree.q_names])
+        what, unit = "moment normal to its axis", "N m"
+    else:
+        spread = np.std(prob.torques, axis=0)
+        what, unit = "gravity torque", "N m"
+    top = float(np.max(spread, initial=0.0))
     for i in cands:
-        j = qn.index(layout.names[i][:-len(".compliance")])
+        j = list(tree.q_names).index(layout.names[i].rsplit(".", 1)[0])
         if top == 0 or spread[j] < flat * top:
-            out.append((i, f"not observable: its gravity torque hardly varies (spread {spread[j] / 1000:.3g} N m, "
-                           f"largest {top / 1000:.3g} N m)"))
+            out.append((i, f"not observable: its {what} hardly varies (spread {spread[j] / 1000:.3g} {unit}, "
+                           f"largest {top / 1000:.3g} {unit})"))
         else:
             keep.append(i)
     return keep, out
@@ -235,20 +329,26 @@ def _one_sign(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[
     return keep, out
 
 
-def _rows(prob: Problem, mask: np.ndarray) -> Problem:
+def _rows(prob, mask: np.ndarray):
+    if isinstance(prob, Points):
+        return Points(tuple(_rows(p, mask) for p in prob.parts))
     return replace(prob, q=prob.q[mask], gidx=prob.gidx[mask], torques=prob.torques[mask],
-                   unit_torques=None if prob.unit_torques is None else prob.unit_torques[mask])
+                   unit_torques=None if prob.unit_torques is None else prob.unit_torques[mask],
+                   gravity_basis=None if prob.gravity_basis is None else prob.gravity_basis[:, mask],
+                   flex=None if prob.flex is None else prob.flex.rows(mask))
 
 
 def cross_validated_rms(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, folds: int) -> float:
     """RMS position error (mm) of ``layout``'s fit over ``folds`` interleaved folds, each predicted by the
     fit on the others (started from ``x0``)."""
-    fold = np.arange(len(meas)) % folds
+    n = len(prob.q)
+    fold = np.arange(n) % folds
+    k = len(meas) // n   # measured points per row, stacked frame after frame
     rss = 0.0
     for f in range(folds):
         tr = fold != f
-        x, _, _ = fit(_rows(prob, tr), layout, meas[tr], x0)
-        r = predict(_rows(prob, ~tr), layout, x) - meas[~tr]
+        x, _, _ = fit(_rows(prob, tr), layout, meas[np.tile(tr, k)], x0)
+        r = predict(_rows(prob, ~tr), layout, x) - meas[np.tile(~tr, k)]
         rss += float(np.sum(r * r))
     return float(np.sqrt(rss / len(meas)))
 
@@ -262,15 +362,21 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
     not kept."""
     if folds == 1 or folds < 0:
         raise VjmError(f"folds must be 0 (no cross-validation) or at least 2, got {folds}")
-    frame = frame or _only_frame(data)
+    fr = (frame or _only_frame(data),) if isinstance(frame, str) or frame is None else tuple(frame)
     bad = set(effects) - set(STAGES[1:])
     if bad:
         raise VjmError(f"unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
-    _enough_rows(model, data, frame, effects, folds)
-    frames, p = initial_registration(model, data, frame, p0)
-    prob = _problem(model, data, frame, frames, p, "payload" in effects, "tilt" in effects)
-    meas = data.points[frame]
-    full = full_layout(model, frame, prob.groups, "payload" in effects, "tilt" in effects, "coupling" in effects)
+    if len(fr) > 1 and "payload" in effects:
+        raise VjmError("a payload is weighed at the marker: with several measured points, leave it out of the effects")
+    _enough_rows(model, data, fr, effects, folds)
+    if "thermal" in effects:
+        _temperature(data)   # before any fitting
+    frames, ps = _initial(model, data, fr, p0)
+    use = _options(effects)
+    measured = tuple(zip(fr, ps))
+    prob = _problems(model, data, measured, frames, **use)
+    meas = _measurements(data, measured)
+    full = _layout(model, measured, prob.groups, coupling="coupling" in effects, **use)
     active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
     x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
     m = meas.size
@@ -286,8 +392,8 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         x_all[best[0]] = best[1]
         J = jacobian_fast(prob, full, x_all)   # at the stage's start: the payload acts through the compliances
         cands = [i for i, k in enumerate(full.kinds) if k == name]
-        if name in ("compliance", "backlash"):
-            cands, flat_out = (_flat_joints if name == "compliance" else _one_sign)(prob, full, cands, flat)
+        if name in ("compliance", "backlash", "lateral", "varying", "thermal"):
+            cands, flat_out = (_one_sign if name == "backlash" else _flat_joints)(prob, full, cands, flat)
             removed += flat_out
         kept, rem = select(J, full, best[0], cands, tol)
         removed += rem
@@ -304,11 +410,11 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
         if ok:
             best = (trial, xt, sdt, rsst, cvt)
     lay = full.pick(best[0])
-    return Calibration(model, frame, dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, p,
-                       tuple((full.names[i], why) for i, why in removed), tuple(stages))
+    return Calibration(model, fr[0], dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, ps[0],
+                       tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:])
 
 
-def _enough_rows(model, data, frame: str, effects, folds: int) -> None:
+def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:
     """Refuse a set too small for the fit: 3 rows per group (a Kabsch start), and more coordinates than the
     parameters the effects may take (in each fold's training rows)."""
     groups = {str(g) for g in data.groups}
@@ -316,11 +422,11 @@ def _enough_rows(model, data, frame: str, effects, folds: int) -> None:
     if few:
         raise VjmError(f"{data.source}: group {few[0] or '(none)'} has fewer than 3 rows: its instrument frame "
                        f"cannot be registered")
-    size = sum(k in ("reg", "marker", *effects) for k in full_layout(model, frame, tuple(sorted(groups)),
-                                                                      "payload" in effects, "tilt" in effects,
-                                                                      "coupling" in effects).kinds)
+    size = sum(k in ("reg", "marker", *effects) for k in _layout(model, [(f, None) for f in fr], tuple(sorted(groups)),
+                                                                  coupling="coupling" in effects,
+                                                                  **_options(effects)).kinds)
     n = data.n * (folds - 1) // folds if folds else data.n
-    if 3 * n <= size:
+    if 3 * n * len(fr) <= size:
         raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "
                        f"{size} parameters: measure more poses")
 
@@ -337,37 +443,40 @@ def _only_frame(data) -> str:
 
 def register(cal: Calibration, data, marker: bool = False) -> Calibration:
     """The calibration with the instrument frames of ``data``'s groups fitted on ``data`` (the robot's
-    parameters frozen; the marker offset too unless ``marker``)."""
-    frames, _ = initial_registration(cal.model, data, cal.frame, cal.marker)
-    prob = _problem(cal.model, data, cal.frame, frames, cal.marker, "payload.mass" in cal.values,
-                    "base.tilt_rx" in cal.values)
-    full = full_layout(cal.model, cal.frame, prob.groups)
+    parameters frozen; the marker offsets too unless ``marker``)."""
+    now = tuple((f, p + np.array([cal.values.get(f"{f}.p{c}", 0.0) for c in "xyz"])) for f, p in cal.measured)
+    frames, _ = _initial(cal.model, data, tuple(f for f, _ in now), [p for _, p in now])
+    prob = _problems(cal.model, data, now, frames, **_uses(cal.values))
+    full = _layout(cal.model, now, prob.groups)
     keep = [i for i, k in enumerate(full.kinds) if k == "reg" or (marker and k == "marker")]
     lay = full.pick(keep)
     fixed = cal.robot_values()
-    x, sd, _ = fit(prob, lay, data.points[cal.frame], np.zeros(lay.size), fixed)
+    x, sd, _ = fit(prob, lay, _measurements(data, now), np.zeros(lay.size), fixed)
     values = {k: v for k, v in cal.values.items() if not any(k.startswith(f"reg[{g}]") for g in prob.groups)}
+    measured = cal.measured
+    if marker:   # the markers' offsets start again from where they are, fitted with the registration
+        markers = {f"{f}.p{c}" for f, _ in now for c in "xyz"}
+        values = {k: v for k, v in values.items() if k not in markers}
+        measured = now
     std = {k: v for k, v in cal.std.items() if k in values}
-    p0 = cal.p0
-    if marker:
-        values = {k: v for k, v in values.items() if not k.startswith(f"{cal.frame}.p")}
-        p0 = cal.marker
     values.update(zip(lay.names, x))
     std.update(zip(lay.names, sd))
-    return replace(cal, values=values, std=std, frames={**cal.frames, **frames}, p0=p0)
+    return replace(cal, values=values, std=std, frames={**cal.frames, **frames}, p0=measured[0][1],
+                   extra=tuple(measured[1:]))
 
 
 def predict_points(cal: Calibration, data) -> np.ndarray:
-    """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups."""
-    prob = _problem(cal.model, data, cal.frame, cal.frames, cal.p0, "payload.mass" in cal.values,
-                    "base.tilt_rx" in cal.values)
+    """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups;
+    with several measured points (k n, 3), frame after frame (``cal.measured``)."""
+    prob = _problems(cal.model, data, cal.measured, cal.frames, **_uses(cal.values))
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
     return predict(prob, lay, np.array(list(cal.values.values())))
 
 
 def position_errors(cal: Calibration, data) -> np.ndarray:
-    """|measured - predicted| (n,) mm."""
-    return np.linalg.norm(data.points[cal.frame] - predict_points(cal, data), axis=1)
+    """|measured - predicted| (n,) mm; with several measured points per row, the largest of the row's."""
+    e = np.linalg.norm(_measurements(data, cal.measured) - predict_points(cal, data), axis=1)
+    return e.reshape(len(cal.measured), data.n).max(axis=0)
 
 
 def error_stats(e) -> dict:

@@ -93,6 +93,11 @@ def robot_file(cal, urdf_name: str) -> str:
         d["joints"] = joints
     head = ("# Calibrated by vjm.robot.calibration: joint stiffnesses (N mm/rad) fitted under self-weight;\n"
             "# the joints without one were rigid in the fit (not observable, or not fitted).\n")
+    flex = {k: v for k, v in cal.values.items()
+            if k.rsplit(".", 1)[-1] in ("lateral", "bending", "varying", "alpha", "backlash") or ".coupling[" in k}
+    if flex:   # fitted, but neither the URDF nor the robot file has a place for them: said, not dropped silently
+        head += ("# Fitted effects this file and the URDF do not carry (vjm.robot.flex, vjm.robot.absolute units):\n"
+                 + "".join(f"#   {k} = {v:.6g}\n" for k, v in flex.items()))
     return head + yaml.safe_dump(d, sort_keys=False)
 
 

@@ -1,0 +1,212 @@
+"""Elastic and thermal effects of a robot beyond its joints' torsion, for absolute-pose calibration.
+
+Each is a per-row small rigid motion inserted in the chain of :func:`vjm.robot.absolute.chain_frames`,
+driven by the nominal model's self-weight (or the temperature) and scaled by one fitted parameter:
+
+- **lateral joint compliance** ``<joint>.lateral`` (rad per N mm): the joint's bearing tilts under the
+  moment its subtree's weight puts on it, about the two axes normal to the joint's axis (an isotropic
+  bearing), the rotation ``-c M_perp`` applied in the joint's frame after its motion.  ``M`` is the support
+  moment (the parent's on the child, about the joint's origin; its component along the axis is the
+  joint's gravity torque);
+- **link bending** ``<link>.bending`` (1 / (N mm^2), that is 1/EI): a link whose joint-to-joint
+  placement is long (its largest component at least half the longest of the path: a UR's upper arm and
+  forearm) is an Euler-Bernoulli cantilever of length ``L`` along that component's axis ``e``, clamped at
+  its joint, loaded at its tip by the weight of what it carries (force ``F`` and moment ``M`` about the
+  tip).  Per unit ``1/EI`` the tip turns by ``L M_perp + L^2/2 e x F`` and moves by
+  ``L^2/2 M_perp x e + L^3/3 (e x F) x e`` (torsion about ``e`` is left out); the next joint's placement
+  follows the tip;
+- **compliance depending on the joint's value** ``<joint>.varying`` (rad per N mm per rad): the joint's
+  torsional compliance ``c + c' q`` (first order of any dependence), the deflection ``-c' q g(q)`` added;
+- **length scale with temperature** ``thermal.alpha`` (1/K): every joint placement's translation and the
+  measured frame's scaled by ``1 + alpha (T - 20 C)`` with the row's temperature ``T`` (a ``meta_temperature``
+  column).
+
+The loads are the nominal model's (its masses under its gravity) at the commanded configurations: the
+effects are small, their products with the calibration's corrections second order.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..transforms import elementary
+
+T_REF = 20.0   # C, the reference temperature of dimensional metrology (ISO 1)
+TEMPERATURE = "meta_temperature"
+
+
+@dataclass(frozen=True, eq=False)
+class Beam:
+    """A link bending as a cantilever: the joint ``joint`` carrying it (tree index), the next joint
+    ``child`` on the path, the tip (3,) mm in ``joint``'s frame, and per unit 1/EI the tip's rotation
+    ``theta`` (n, 3) rad and displacement ``u`` (n, 3) mm, in ``joint``'s frame."""
+
+    name: str
+    joint: int
+    child: int
+    tip: np.ndarray
+    theta: np.ndarray
+    u: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Flex:
+    """The loads of the flex effects at the rows' configurations: per tree joint the lateral deflection per
+    unit compliance ``lateral`` (n, nj, 3) rad per (rad/(N mm)) in the joint's frame (``-M_perp``), the
+    ``beams``, and the rows' temperature offsets ``dT`` (n,) K from :data:`T_REF` (None without a
+    temperature column)."""
+
+    lateral: np.ndarray
+    beams: tuple
+    dT: np.ndarray | None = None
+
+    def rows(self, mask: np.ndarray) -> Flex:
+        """The loads of the rows ``mask`` selects."""
+        return Flex(self.lateral[mask], tuple(replace(b, theta=b.theta[mask], u=b.u[mask]) for b in self.beams),
+                    None if self.dT is None else self.dT[mask])
+
+
+def rotations(w: np.ndarray) -> np.ndarray:
+    """Rotation matrices (n, 3, 3) of rotation vectors (n, 3) (Rodrigues)."""
+    a = np.linalg.norm(w, axis=1)
+    K = np.zeros((len(w), 3, 3))
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -w[:, 2], w[:, 1], -w[:, 0]
+    K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = w[:, 2], -w[:, 1], w[:, 0]
+    small = a < 1e-8
+    s = np.where(small, 1.0 - a**2 / 6, np.sin(a) / np.where(small, 1.0, a))
+    c = np.where(small, 0.5 - a**2 / 24, (1 - np.cos(a)) / np.where(small, 1.0, a) ** 2)
+    return np.eye(3) + s[:, None, None] * K + c[:, None, None] * (K @ K)
+
+
+def joint_value(j, q: np.ndarray, qn: list) -> np.ndarray:
+    """A tree joint's value at q (n, nq): its own coordinate, or its mimic's."""
+    if j.mimic is None:
+        return q[:, qn.index(j.name)]
+    master, mult, off = j.mimic
+    return mult * q[:, qn.index(master)] + off
+
+
+def world_frames(model, q: np.ndarray) -> np.ndarray:
+    """Every joint's frame after its motion (n, nj, 4, 4), nominal model, base frame."""
+    tree = model.tree
+    qn = list(tree.q_names)
+    W = np.empty((len(q), len(tree.joints), 4, 4))
+    for i, j in enumerate(tree.joints):
+        P = np.eye(4) if j.parent < 0 else W[:, j.parent]
+        C = j.placement if j.align is None else j.placement @ j.align
+        T = (P @ C) @ elementary(j.kind, joint_value(j, q, qn))
+        W[:, i] = T if j.align is None else T @ np.linalg.inv(j.align)
+    return W
+
+
+def support_wrenches(model, q: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The support force (n, nj, 3) N and moment about the joint's origin (n, nj, 3) N mm, base axes, that
+    each joint passes to its subtree under the nominal model's gravity (the negated weight of the subtree;
+    a joint's gravity torque is the moment's component along its axis)."""
+    tree = model.tree
+    g = np.asarray(model.gravity, dtype=float)
+    F = np.zeros((len(q), len(tree.joints), 3))
+    M = np.zeros_like(F)
+    for b in tree.bodies:
+        if b.joint < 0 or b.mass == 0:
+            continue
+        c = np.einsum("nij,j->ni", W[:, b.joint, :3, :3], np.asarray(b.com, dtype=float)) + W[:, b.joint, :3, 3]
+        w = b.mass * g
+        for j in tree.path(b.joint):
+            F[:, j] -= w
+            M[:, j] -= np.cross(c - W[:, j, :3, 3], w)
+    return F, M
+
+
+def beam_axes(model, frame: str) -> list:
+    """The links of the path to ``frame`` bending as beams: (joint, child joint, axis index, length mm) of
+    consecutive joints whose placement's largest component is at least half the path's longest."""
+    tree = model.tree
+    path = tree.path(tree.frame(frame).joint)
+    pairs = [(a, b, tree.joints[b].placement[:3, 3]) for a, b in zip(path[:-1], path[1:])]
+    top = max((float(np.max(np.abs(p))) for _, _, p in pairs), default=0.0)
+    out = []
+    for a, b, p in pairs:
+        k = int(np.argmax(np.abs(p)))
+        if top > 0 and abs(p[k]) >= 0.5 * top:
+            out.append((a, b, k, float(p[k])))
+    return out
+
+
+def beam_name(model, joint: int) -> str:
+    j = model.tree.joints[joint]
+    return f"{j.child or j.name}.bending"
+
+
+def _beam(model, a: int, b: int, k: int, L: float, W, F, M) -> Beam:
+    R = W[:, a, :3, :3]
+    e = np.zeros(3)
+    e[k] = np.sign(L)
+    tip = e * abs(L)
+    tip_w = np.einsum("nij,j->ni", R, tip) + W[:, a, :3, 3]
+    # the loads on the beam at its tip: the child's weight, the negated support wrench, about the tip
+    Ft = -np.einsum("nji,nj->ni", R, F[:, b])
+    Mt = -np.einsum("nji,nj->ni", R, M[:, b] + np.cross(W[:, b, :3, 3] - tip_w, F[:, b]))
+    Mp = Mt - np.outer(Mt @ e, e)
+    Lb = abs(L)
+    exF = np.cross(e, Ft)
+    theta = Lb * Mp + Lb**2 / 2 * exF
+    u = Lb**2 / 2 * np.cross(Mp, e) + Lb**3 / 3 * np.cross(exF, e)
+    return Beam(beam_name(model, a), a, b, tip, theta, u)
+
+
+def flex_loads(model, q: np.ndarray, frame: str, temperature=None) -> Flex:
+    """The :class:`Flex` loads of the path to ``frame`` at q (n, nq); ``temperature`` (n,) C or None."""
+    W = world_frames(model, q)
+    F, M = support_wrenches(model, q, W)
+    Ml = np.einsum("nkji,nkj->nki", W[:, :, :3, :3], M)   # in each joint's frame
+    lateral = np.zeros_like(Ml)
+    for i, j in enumerate(model.tree.joints):
+        a = _axis(j)
+        lateral[:, i] = -(Ml[:, i] - np.outer(Ml[:, i] @ a, a))
+    beams = tuple(_beam(model, a, b, k, L, W, F, M) for a, b, k, L in beam_axes(model, frame))
+    dT = None if temperature is None else np.asarray(temperature, dtype=float) - T_REF
+    return Flex(lateral, beams, dT)
+
+
+def _axis(j) -> np.ndarray:
+    """The joint's axis in its own frame (after the alignment's inverse)."""
+    a = np.zeros(3)
+    a["xyz".index(j.kind[1])] = 1.0
+    return a if j.align is None else j.align[:3, :3] @ a
+
+
+def transforms(flex: Flex | None, model, frame: str, vals: dict) -> tuple[dict, dict, np.ndarray | None]:
+    """The flex effects of ``vals`` as per-row transforms: ({joint: (n, 4, 4) before its placement},
+    {joint: (n, 4, 4) after its motion}, the measured frame's (n, 4, 4) before its placement or None)."""
+    pre: dict = {}
+    post: dict = {}
+    if flex is None:
+        return pre, post, None
+    tree = model.tree
+    for i in tree.path(tree.frame(frame).joint):
+        c = vals.get(f"{tree.joints[i].name}.lateral", 0.0)
+        if c:
+            T = np.broadcast_to(np.eye(4), (len(flex.lateral), 4, 4)).copy()
+            T[:, :3, :3] = rotations(c * flex.lateral[:, i])
+            post[i] = T
+    for bm in flex.beams:
+        c = vals.get(bm.name, 0.0)
+        if c:
+            T = np.broadcast_to(np.eye(4), (len(bm.theta), 4, 4)).copy()
+            R = rotations(c * bm.theta)
+            T[:, :3, :3] = R
+            T[:, :3, 3] = c * bm.u + bm.tip - R @ bm.tip
+            pre[bm.child] = T
+    alpha = vals.get("thermal.alpha", 0.0)
+    tool = None
+    if alpha and flex.dT is not None:
+        s = alpha * flex.dT
+        for i in tree.path(tree.frame(frame).joint):
+            T = np.broadcast_to(np.eye(4), (len(s), 4, 4)).copy()
+            T[:, :3, 3] = np.outer(s, tree.joints[i].placement[:3, 3])
+            pre[i] = pre[i] @ T if i in pre else T
+        tool = np.broadcast_to(np.eye(4), (len(s), 4, 4)).copy()
+        tool[:, :3, 3] = np.outer(s, tree.frame(frame).placement[:3, 3])
+    return pre, post, tool
