@@ -12,7 +12,7 @@ random reachable postures of the Q1-Q2 workspace cube x 6 axis loads of
 
 and copy the printed lines into docs/benchmarks.md (## diagnose).  The time
 is split into the nonlinear-equilibrium precompute of the
-``geometric_nonlinearity`` candidate (vjm.nonlinear, all measurements in
+``geometric_nonlinearity`` candidate (vjm.stiffness.nonlinear, all measurements in
 one batched Newton solve) and the rest (calibration, 7 candidates, forward selection,
 5-fold grouped CV, the outlier stage's check of the final residuals); CPU time includes worker processes.
 """
@@ -23,9 +23,9 @@ import time
 
 import numpy as np
 
-from vjm.discrepancy import modelops as mo
 from vjm.discrepancy.diagnose import diagnose
 from vjm.discrepancy.simulate import design_loads, design_poses, simulate
+from vjm.effects import modelops as mo
 
 
 def _cpu():

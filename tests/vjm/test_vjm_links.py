@@ -105,7 +105,7 @@ def test_old_link_name_still_works_and_warns():
         warnings.simplefilter("always")
         Link = vjm.Link
     assert Link is LinkSpring and any(issubclass(x.category, DeprecationWarning) for x in w)
-    from vjm import model as model_module
+    from vjm.model import machine as model_module
 
     with pytest.warns(DeprecationWarning):
         assert model_module.Link is LinkSpring

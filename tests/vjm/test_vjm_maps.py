@@ -10,7 +10,7 @@ import pytest
 from matplotlib.colors import LogNorm
 
 import vjm
-from vjm.maps import compute_map, contour_levels, workspace_grid
+from vjm.maps.compute import compute_map, contour_levels, workspace_grid
 from vjm.resources import seed_table
 
 

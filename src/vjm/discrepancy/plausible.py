@@ -18,8 +18,8 @@ import os
 
 import numpy as np
 
+from ..effects import modelops as mo
 from ..errors import VjmError
-from . import modelops as mo
 from .data import StiffnessObs
 from .predict import unique_postures
 

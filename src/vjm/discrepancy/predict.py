@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import effects as fx
-from . import modelops as mo
+from ..effects import library as fx
+from ..effects import modelops as mo
 from .data import Deflections, StiffnessObs
 from .fit.select import Param, Problem, Term
 
@@ -75,7 +75,7 @@ class Context:
         """(n, 6) twist of a unit slip (1 rad) in every passive-joint spring, each toward its moment.
 
         As :meth:`clearance_unit`, with the moments ``tau_s = a_s . w`` the passive joints carry
-        about their constrained directions (:func:`~vjm.discrepancy.modelops.joint_spring_influence`).
+        about their constrained directions (:func:`~vjm.effects.modelops.joint_spring_influence`).
         ``model``: the model being fitted (calibration and model-changing effects applied), whose
         load paths set the moments (a link's coupling changes how the load reaches the joints);
         ``key`` identifies it in the cache.  Default: the nominal model.

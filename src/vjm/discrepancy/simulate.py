@@ -39,10 +39,10 @@ import numpy as np
 from linkfea.checks import NON_NEGATIVE, Bounds, integer, number, optional_number
 from linkfea.compliance import WRENCH
 
+from ..effects import library as fx
+from ..effects import modelops as mo
 from ..errors import ArgumentError, VjmError
-from ..grid import SIMULATE_BYTES, in_chunks, plan
-from . import effects as fx
-from . import modelops as mo
+from ..maps.grid import SIMULATE_BYTES, in_chunks, plan
 from .data import ORIENT, Deflections
 from .levels import parse_levels
 from .predict import Context, unique_postures

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import modelops as mo
+from ..effects import modelops as mo
 from . import observe
 from .levels import load_levels
 from .predict import CALIBRATION, Context, Predictor

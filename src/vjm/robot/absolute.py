@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..transforms import elementary
+from ..kinematics.transforms import elementary
 from .tree import _rigid_inverse
 
 GEOMETRY = ("offset", "dx", "dy", "dz", "ex", "ey", "ez")

@@ -7,7 +7,7 @@ The TCP's deflection counts the platform rotation times the tool lever:
 
 * ``linear``: ``t = C(p) w`` (the model's springs, :meth:`vjm.Model.stiffness_map`),
   TCP translation ``t_p + t_r x R tool``.  The model's ``effects:`` are left out.
-* ``nonlinear``: the equilibrium of :mod:`vjm.nonlinear` (finite rotations; along a path warm-started
+* ``nonlinear``: the equilibrium of :mod:`vjm.stiffness.nonlinear` (finite rotations; along a path warm-started
   from the neighbouring point, :mod:`vjm.toolpath.equilibrium`), TCP
   translation ``u + (Exp(t_r) - I) R tool``, with the model's ``effects:``
   (what ``vjm diagnose`` writes into model_updated.yaml):
@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import VjmError
-from ..kinematics import rotation_matrix
+from ..kinematics.poses import rotation_matrix
 from .equilibrium import equilibria
 
 #: the effects this module knows how to apply (the additive effects of vjm diagnose)
@@ -106,7 +106,7 @@ class NonlinearTcp:
 def _nonlinear_block(model, P, Wp, start=None):
     """Nonlinear platform twists of one block, with gravity and actuator clearance; NaN rows where
     the equilibrium was not found; and the :class:`~.equilibrium.Solved` of the equilibria."""
-    from ..discrepancy import modelops as mo
+    from ..effects import modelops as mo
 
     W = np.array(Wp)
     weight = _effect(model, "gravity", "weight")

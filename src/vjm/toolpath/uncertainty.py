@@ -68,7 +68,7 @@ def read(model) -> Calibration | None:
     path = getattr(model, "path", None)
     if not path or not os.path.isfile(path):
         return None
-    from ..yamldata import read_yaml
+    from ..modelio.yamldata import read_yaml
 
     d = read_yaml(path)  # the model file, read once already: the same checks (tags, keys given twice)
     if not isinstance(d, dict) or d.get("calibration") is None:
@@ -78,8 +78,8 @@ def read(model) -> Calibration | None:
 
 def perturbed(model, cal: Calibration, i: int, h: float):
     """The model with parameter ``i`` of ``cal`` moved by ``h``."""
-    from ..discrepancy import effects as fx
-    from ..discrepancy import modelops as mo
+    from ..effects import library as fx
+    from ..effects import modelops as mo
 
     term, param = cal.names[i].split(".", 1)
     v = float(cal.values[i])

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import effects as fx
+from ...effects import library as fx
 from ..data import Deflections, StiffnessObs
 from ..fit.select import Problem, Term
 from ..plausible import check_reachable, check_units

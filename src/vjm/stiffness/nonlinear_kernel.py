@@ -1,0 +1,455 @@
+"""Compiled per-point Newton steps of the bordered equilibrium of :mod:`vjm.stiffness.nonlinear`, by numba.
+
+Along a path (:mod:`vjm.toolpath.equilibrium`) the batched numpy step spends its time in
+the overhead of small array operations and in one stacked solve per batch.  These kernels
+evaluate the *same* equations point by point in compiled loops: the chain products and the
+joint twist matrices (:func:`vjm.stiffness.nonlinear._chain_kinematics`), the closure residual, its
+gradient and the Hessian of ``lam . g`` (:func:`vjm.stiffness.nonlinear._linearize`), the bordered
+Newton matrix and its equilibrated solve (:func:`vjm.stiffness.nonlinear._newton_step`,
+:func:`vjm.stiffness.nonlinear._solve`) and the residual check
+(:func:`vjm.toolpath.equilibrium.residual_ok`).  The numpy functions stay the reference
+and the fallback (no numba, body loads); tests check that both give the same equilibria.
+
+Layout (see :func:`vjm.toolpath.equilibrium._Packed`): per chain a factor table (code
+0-5: tx ty tz rx ry rz, 6: a constant; variable; coefficient; 4x4 constant; the factor's
+joint index or -1) padded to the longest chain, and per point the chain data of
+``nonlinear._ChainData`` padded likewise.  ``cache=True``: a process compiles once (some
+seconds, on first use only), later ones load the machine code from disk.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+CONST = 6
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _mm3(A, B, out):  # pragma: no cover - compiled
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _platform_rotation(phi, R, D1, D2):  # pragma: no cover - compiled
+    """``Rx Ry Rz`` and its first and second derivatives (nonlinear.platform_rotation)."""
+    A = np.zeros((3, 3, 3, 3))  # A[i, k]: factor i times its generator to the power k
+    for i in range(3):
+        c, s = math.cos(phi[i]), math.sin(phi[i])
+        a, b = ((1, 2), (2, 0), (0, 1))[i]
+        A[i, 0, i, i] = 1.0
+        A[i, 0, a, a] = c
+        A[i, 0, b, b] = c
+        A[i, 0, a, b] = -s
+        A[i, 0, b, a] = s
+        Gm = np.zeros((3, 3))
+        Gm[a, b] = -1.0
+        Gm[b, a] = 1.0
+        _mm3(A[i, 0], Gm, A[i, 1])
+        _mm3(A[i, 1], Gm, A[i, 2])
+    tmp = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            o = np.zeros(3, np.int64)
+            o[i] += 1
+            o[j] += 1
+            _mm3(A[0, o[0]], A[1, o[1]], tmp)
+            _mm3(tmp, A[2, o[2]], D2[i, j])
+        o1 = np.zeros(3, np.int64)
+        o1[i] = 1
+        _mm3(A[0, o1[0]], A[1, o1[1]], tmp)
+        _mm3(tmp, A[2, o1[2]], D1[i])
+    _mm3(A[0, 0], A[1, 0], tmp)
+    _mm3(tmp, A[2, 0], R)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _chain(code, var, coef, Tc, jof, nf, v, F, X):  # pragma: no cover - compiled
+    """End frame F (4, 4) and world twist matrices X (nJ, 4, 4) of one chain at variables v."""
+    F[:] = 0.0
+    for i in range(4):
+        F[i, i] = 1.0
+    tmp = np.empty((4, 4))
+    for f in range(nf):
+        c = code[f]
+        if c == CONST:
+            for r in range(4):
+                for k in range(4):
+                    tmp[r, k] = F[r, 0] * Tc[f, 0, k] + F[r, 1] * Tc[f, 1, k] + F[r, 2] * Tc[f, 2, k] \
+                        + F[r, 3] * Tc[f, 3, k]
+            F[:] = tmp
+            continue
+        a = coef[f] * v[var[f]]
+        ax = c % 3
+        if c < 3:
+            for r in range(3):
+                F[r, 3] = F[r, 3] + F[r, ax] * a
+        else:
+            cs, sn = math.cos(a), math.sin(a)
+            i, j = ((1, 2), (2, 0), (0, 1))[ax]
+            for r in range(3):
+                fi, fj = F[r, i], F[r, j]
+                F[r, i] = fi * cs + fj * sn
+                F[r, j] = fj * cs - fi * sn
+        jj = jof[f]
+        Xj = X[jj]
+        Xj[:] = 0.0
+        e0, e1, e2 = F[0, ax], F[1, ax], F[2, ax]
+        if c >= 3:  # a revolute factor: omega = e, v = o x e
+            Xj[0, 1], Xj[0, 2], Xj[1, 2] = -e2, e1, -e0
+            Xj[1, 0], Xj[2, 0], Xj[2, 1] = e2, -e1, e0
+            o0, o1, o2 = F[0, 3], F[1, 3], F[2, 3]
+            Xj[0, 3] = o1 * e2 - o2 * e1
+            Xj[1, 3] = o2 * e0 - o0 * e2
+            Xj[2, 3] = o0 * e1 - o1 * e0
+        else:
+            Xj[0, 3], Xj[1, 3], Xj[2, 3] = e0, e1, e2
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _vee_into(M, out, k):  # pragma: no cover - compiled
+    out[k] = 0.5 * (M[2, 1] - M[1, 2])
+    out[k + 1] = 0.5 * (M[0, 2] - M[2, 0])
+    out[k + 2] = 0.5 * (M[1, 0] - M[0, 1])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def linearize(tab, pt, z, P, hess, g, G, Hs):  # pragma: no cover - compiled
+    """Closure residual g (nc,), gradient G (nc, nx + 6) and (``hess``) the Hessian Hs of ``lam . g``
+    (nx + 6, nx + 6) at the unknowns z = (x, u, lam) of one point (nonlinear._linearize)."""
+    code, var, coef, Tc, jof, nf, mk, nJk, col = tab
+    v0, R0, S, D, fixed = pt
+    nch = code.shape[0]
+    nx = G.shape[1] - 6
+    u = z[nx:nx + 6]
+    lam = z[nx + 6:]
+    Rxyz, D1, D2 = np.empty((3, 3)), np.empty((3, 3, 3)), np.empty((3, 3, 3, 3))
+    _platform_rotation(u[3:], Rxyz, D1, D2)
+    g[:] = 0.0
+    G[:] = 0.0
+    if hess:
+        Hs[:] = 0.0
+    nJmax = D.shape[2]
+    F = np.empty((4, 4))
+    X = np.zeros((nJmax, 4, 4))
+    dT = np.zeros((nJmax, 4, 4))
+    Rp, RpT, tmp, M = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    Gf = np.empty((nJmax, 6))
+    for k in range(nch):
+        m, nJ, c0, r0 = mk[k], nJk[k], col[k], 6 * k
+        v = v0[k].copy()
+        for a in range(m):
+            xa = z[c0 + a]
+            for b in range(v.size):
+                v[b] += xa * S[k, a, b]
+        _chain(code[k], var[k], coef[k], Tc[k], jof[k], nf[k], v, F, X)
+        for j in range(nJ):
+            for r in range(4):
+                for q in range(4):
+                    dT[j, r, q] = X[j, r, 0] * F[0, q] + X[j, r, 1] * F[1, q] + X[j, r, 2] * F[2, q] \
+                        + X[j, r, 3] * F[3, q]
+        _mm3(Rxyz, R0[k], Rp)
+        RpT[:] = Rp.T
+        for i in range(3):
+            g[r0 + i] = F[i, 3] - (P[i] + u[i])
+        _mm3(F[:3, :3], RpT, M)
+        _vee_into(M, g, r0 + 3)
+        for j in range(nJ):
+            for i in range(3):
+                Gf[j, i] = dT[j, i, 3]
+            _mm3(dT[j, :3, :3], RpT, M)
+            _vee_into(M, Gf[j], 3)
+        for a in range(m):
+            if fixed[c0 + a]:
+                continue
+            for i in range(6):
+                s = 0.0
+                for j in range(nJ):
+                    s += D[k, a, j] * Gf[j, i]
+                G[r0 + i, c0 + a] = s
+        for i in range(3):
+            G[r0 + i, nx + i] = -1.0
+            _mm3(D1[i], R0[k], tmp)
+            _mm3(F[:3, :3], tmp.T.copy(), M)
+            _vee_into(M, G[r0 + 3:r0 + 6, nx + 3 + i], 0)
+        if hess:
+            _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0[k], D1, D2, F, X, dT, D, fixed, Hs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0k, D1, D2, F, X, dT, D, fixed, Hs):  # pragma: no cover
+    """Chain k's part of the Hessian of ``lam . g`` (nonlinear._linearize, ``hessian``)."""
+    lp0, lp1, lp2 = lam[6 * k], lam[6 * k + 1], lam[6 * k + 2]
+    l0, l1, l2 = 0.5 * lam[6 * k + 3], 0.5 * lam[6 * k + 4], 0.5 * lam[6 * k + 5]
+    Sl = np.zeros((3, 3))
+    Sl[0, 1], Sl[0, 2], Sl[1, 2] = -l2, l1, -l0
+    Sl[1, 0], Sl[2, 0], Sl[2, 1] = l2, -l1, l0
+    Lam = np.zeros((3, 4))
+    _mm3(Sl, Rp, Lam[:, :3])
+    Lam[0, 3], Lam[1, 3], Lam[2, 3] = lp0, lp1, lp2
+    # Q[f, h] = <Lam, X_f X_h T> = sum_ik X_f[i, k] (Lam dT_h^T)[i, k], for f <= h
+    Y = np.zeros((nJ, 3, 4))
+    for h in range(nJ):
+        for i in range(3):
+            for q in range(4):
+                Y[h, i, q] = Lam[i, 0] * dT[h, q, 0] + Lam[i, 1] * dT[h, q, 1] + Lam[i, 2] * dT[h, q, 2] \
+                    + Lam[i, 3] * dT[h, q, 3]
+    Hf = np.empty((nJ, nJ))
+    for f in range(nJ):
+        for h in range(f, nJ):
+            s = 0.0
+            for i in range(3):
+                for q in range(4):
+                    s += X[f, i, q] * Y[h, i, q]
+            Hf[f, h] = s
+            Hf[h, f] = s
+    Dm = np.zeros((m, nJ))
+    for a in range(m):
+        if not fixed[c0 + a]:
+            for j in range(nJ):
+                Dm[a, j] = D[k, a, j]
+    DH = Dm @ Hf
+    Hs[c0:c0 + m, c0:c0 + m] = DH @ Dm.T
+    tmp, SlD1 = np.empty((3, 3)), np.empty((3, 3, 3))
+    for i in range(3):
+        _mm3(Sl, D1[i], tmp)
+        _mm3(tmp, R0k, SlD1[i])
+    Hxp = np.zeros((nJ, 3))
+    for f in range(nJ):
+        for i in range(3):
+            s = 0.0
+            for j in range(3):
+                for q in range(3):
+                    s += SlD1[i, j, q] * dT[f, j, q]
+            Hxp[f, i] = s
+    H2 = Dm @ Hxp
+    for a in range(m):
+        for i in range(3):
+            Hs[c0 + a, nx + 3 + i] = H2[a, i]
+            Hs[nx + 3 + i, c0 + a] = H2[a, i]
+    _hessian_phi(Sl, D2, R0k, F, nx, Hs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _hessian_phi(Sl, D2, R0k, F, nx, Hs):  # pragma: no cover - compiled
+    """A chain's part of the platform rotation's block of the Hessian."""
+    tmp, M = np.empty((3, 3)), np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            _mm3(Sl, D2[i, j], tmp)
+            _mm3(tmp, R0k, M)
+            s = 0.0
+            for a in range(3):
+                for b in range(3):
+                    s += M[a, b] * F[a, b]
+            Hs[nx + 3 + i, nx + 3 + j] += s
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _order(tab, nx, nz):  # pragma: no cover - compiled
+    """Unknowns chain by chain (springs, then the closure's multipliers), the platform pose last: the
+    bordered matrix is then block-arrow shaped and its elimination stays within a chain's block."""
+    perm = np.empty(nz, np.int64)
+    q = 0
+    mk, col = tab[6], tab[8]
+    for k in range(mk.size):
+        for a in range(mk[k]):
+            perm[q] = col[k] + a
+            q += 1
+        for a in range(6):
+            perm[q] = nx + 6 + 6 * k + a
+            q += 1
+    for a in range(6):
+        perm[q + a] = nx + a
+    return perm
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def newton_step(tab, pt, z, W, P, kappa, kd, xr):  # pragma: no cover - compiled
+    """The full-load Newton step dz of one point (nonlinear._newton_step with s = 1, nonlinear._solve:
+    the same matrix, row and column equilibration); NaN where the matrix is singular."""
+    nx, nz = kappa.size, z.size
+    nc = nz - nx - 6
+    g, G, Hs = np.empty(nc), np.empty((nc, nx + 6)), np.empty((nx + 6, nx + 6))
+    linearize(tab, pt, z, P, True, g, G, Hs)
+    A = np.zeros((nz, nz))  # [[kd - Hs, -G^T], [G, 0]]
+    b = np.empty(nz)
+    for i in range(nx + 6):
+        s = 0.0
+        for c in range(nc):
+            s += G[c, i] * z[nx + 6 + c]
+        b[i] = -(kappa[i] * (z[i] - xr[i]) - s) if i < nx else -(-W[i - nx] - s)
+        for j in range(nx + 6):
+            A[i, j] = -Hs[i, j]
+        for c in range(nc):
+            A[i, nx + 6 + c] = -G[c, i]
+            A[nx + 6 + c, i] = G[c, i]
+    for i in range(nx):
+        A[i, i] += kd[i]
+    for c in range(nc):
+        b[nx + 6 + c] = -g[c]
+    perm = _order(tab, nx, nz)
+    Ap = np.empty((nz, nz))
+    bp = np.empty(nz)
+    cs = np.zeros(nz)
+    for i in range(nz):
+        pi = perm[i]
+        big = 0.0
+        for j in range(nz):
+            big = max(big, abs(A[pi, j]))
+        rs = 1.0 / max(big, 1e-300)
+        bp[i] = b[pi] * rs
+        for j in range(nz):
+            v = A[pi, perm[j]] * rs
+            Ap[i, j] = v
+            cs[j] = max(cs[j], abs(v))
+    for j in range(nz):
+        cs[j] = 1.0 / max(cs[j], 1e-300)
+    for i in range(nz):
+        for j in range(nz):
+            Ap[i, j] *= cs[j]
+    yp = _lu_solve(Ap, bp)
+    y = np.empty(nz)
+    for i in range(nz):
+        y[perm[i]] = yp[i] * cs[i]
+    return y
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _lu_solve(A, b, tau=0.1):  # pragma: no cover - compiled
+    """x with A x = b by Gaussian elimination (A and b are overwritten); NaN if A is singular.
+
+    Threshold partial pivoting: the first row (in the given order) whose entry is at least ``tau``
+    of the column's largest; entries that are zero are skipped, so a block-structured matrix is
+    eliminated at the cost of its blocks."""
+    n = b.size
+    nzc = np.empty(n, np.int64)
+    for c in range(n):
+        best = 0.0
+        for r in range(c, n):
+            best = max(best, abs(A[r, c]))
+        if best == 0.0:
+            return np.full(n, np.nan)
+        p = c
+        while abs(A[p, c]) < tau * best:
+            p += 1
+        if p != c:
+            for q in range(n):
+                A[c, q], A[p, q] = A[p, q], A[c, q]
+            b[c], b[p] = b[p], b[c]
+        cnt = 0
+        for q in range(c + 1, n):
+            if A[c, q] != 0.0:
+                nzc[cnt] = q
+                cnt += 1
+        inv = 1.0 / A[c, c]
+        for r in range(c + 1, n):
+            f = A[r, c] * inv
+            if f != 0.0:
+                for t in range(cnt):
+                    q = nzc[t]
+                    A[r, q] -= f * A[c, q]
+                b[r] -= f * b[c]
+    x = np.empty(n)
+    for r in range(n - 1, -1, -1):
+        s = b[r]
+        for q in range(r + 1, n):
+            s -= A[r, q] * x[q]
+        x[r] = s / A[r, r]
+    return x
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def residual_ok(tab, pt, z, W, P, kappa, xr, lref, rtol, roundoff):  # pragma: no cover - compiled
+    """The equilibrium equations hold at z to ``rtol`` of each block's scale
+    (vjm.toolpath.equilibrium.residual_ok, one point)."""
+    for i in range(z.size):
+        if not math.isfinite(z[i]):
+            return False
+    nx, nz = kappa.size, z.size
+    nc = nz - nx - 6
+    g, G = np.empty(nc), np.empty((nc, nx + 6))
+    linearize(tab, pt, z, P, False, g, G, G[:0, :0])
+    lam = z[nx + 6:]
+    Gl = G.T @ lam
+    afs = agl = arx = 0.0
+    for i in range(nx):
+        fs = kappa[i] * (z[i] - xr[i])
+        afs, agl, arx = max(afs, abs(fs)), max(agl, abs(Gl[i])), max(arx, abs(fs - Gl[i]))
+    if not arx <= rtol * max(afs, agl):
+        return False
+    f_scale = max(abs(W[0]), abs(W[1]), abs(W[2])) + max(abs(W[3]), abs(W[4]), abs(W[5])) / lref
+    lmax = 0.0
+    for k in range(nc // 6):
+        for i in range(3):
+            lmax = max(lmax, abs(lam[6 * k + i]))
+    f_scale += lmax
+    ru_f = ru_m = 0.0
+    for i in range(3):
+        ru_f = max(ru_f, abs(-W[i] - Gl[nx + i]))
+        ru_m = max(ru_m, abs(-W[3 + i] - Gl[nx + 3 + i]))
+    if not (ru_f <= rtol * f_scale and ru_m <= rtol * f_scale * lref):
+        return False
+    gp = gr = up = ur = 0.0
+    for k in range(nc // 6):
+        for i in range(3):
+            gp, gr = max(gp, abs(g[6 * k + i])), max(gr, abs(g[6 * k + 3 + i]))
+    for i in range(3):
+        up, ur = max(up, abs(z[nx + i])), max(ur, abs(z[nx + 3 + i]))
+    return gp <= rtol * up + roundoff * lref and gr <= rtol * ur + roundoff
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _start_from(tab, S, zp, zi, nx):  # pragma: no cover - compiled
+    """Point i's start zi from its predecessor's state zp: the same chain-variable deformation (in
+    point i's spring bases, least squares as equilibrium._to_x), platform pose and chain wrenches."""
+    mk, col = tab[6], tab[8]
+    Sp, Si = S
+    for k in range(mk.size):
+        m, c0 = mk[k], col[k]
+        nv = Si.shape[2]
+        dv = np.zeros(nv)
+        for a in range(m):
+            for b in range(nv):
+                dv[b] += zp[c0 + a] * Sp[k, a, b]
+        Sk = np.ascontiguousarray(Si[k, :m])
+        A = Sk @ Sk.T
+        zi[c0:c0 + m] = _lu_solve(A, Sk @ dv)
+    zi[nx:] = zp[nx:]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def march(tab, v0, R0, S, D, fixed, kappa, kd, xr, W, P, trivial, z, pos, end, given, max_steps,
+          lref, rtol, roundoff, ok, steps):  # pragma: no cover - compiled
+    """Runs of consecutive points, each from ``pos[r]`` to ``end[r]`` (exclusive): every point starts
+    from its predecessor's equilibrium (the run's first from z as given when ``given[r]``), then takes
+    full-load Newton steps until the residual check passes (at most ``max_steps``).  A run stops at a
+    point that fails (``pos[r]`` is left there, ``ok`` False) for the caller's reference solve;
+    ``steps[r]`` counts the Newton steps."""
+    nx = kappa.shape[1]
+    for r in range(pos.size):
+        i = pos[r]
+        while i < end[r]:
+            if trivial[i]:
+                z[i] = 0.0
+                ok[i] = True
+                i += 1
+                continue
+            if not (given[r] and i == pos[r]):
+                _start_from(tab, (S[i - 1], S[i]), z[i - 1], z[i], nx)
+            pt = (v0[i], R0[i], S[i], D[i], fixed[i])
+            for _ in range(max_steps):
+                dz = newton_step(tab, pt, z[i], W[i], P[i], kappa[i], kd[i], xr[i])
+                for q in range(dz.size):
+                    z[i, q] += dz[q] if math.isfinite(dz[q]) else math.nan
+                steps[r] += 1
+                if residual_ok(tab, pt, z[i], W[i], P[i], kappa[i], xr[i], lref, rtol, roundoff):
+                    ok[i] = True
+                    break
+            if not ok[i]:
+                break
+            i += 1
+        pos[r] = i
