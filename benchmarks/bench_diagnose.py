@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+import vjm
 from vjm.discrepancy.diagnose import diagnose
 from vjm.discrepancy.simulate import design_loads, design_poses, simulate
 from vjm.effects import modelops as mo
@@ -35,7 +36,7 @@ def _cpu():
 
 
 def main(model_path="data/orthoglide/puu.yaml", rows=1002):
-    model = mo.load_model(model_path)
+    model = vjm.load_model(model_path)
     rng = np.random.default_rng(7)
     P0 = design_poses(model, f"random:{max(1, round(rows / 6))}", rng)
     L = design_loads("axes:100", len(P0), rng)

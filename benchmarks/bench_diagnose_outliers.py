@@ -50,7 +50,7 @@ def diagnose_both(model_path: str, data_path: str) -> tuple:
     from vjm.discrepancy.data import read_csv
     from vjm.discrepancy.stages.outliers import set_aside, with_outliers
     from vjm.discrepancy.workflow import run_stages
-    from vjm.effects.modelops import load_model
+    from vjm.modelio.read import load_model
 
     model, data = load_model(model_path), read_csv(data_path)
 

@@ -116,7 +116,7 @@ def test_units_far_beyond_any_effect_refused(tmp_path):
     """Translations in µm, rotations in degrees, compliances in µm/N: one hint about units; the data in mm
     and rad pass."""
     from vjm.discrepancy.plausible import check_units
-    from vjm.discrepancy.predict import unique_postures
+    from vjm.effects.context import unique_postures
 
     for text, fragment in ((MICRONS, r"translations are 1e\+03 x"), (DEGREES, "rotations are 57.3 x"),
                            (GOOD, None)):

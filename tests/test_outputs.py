@@ -52,7 +52,7 @@ def no_work(monkeypatch):
 
     for name, attr in [("linkfea.pipeline", "compute"), ("linkfea.compare", "fea_compliance"),
                        ("linkfea.sweep", "make_sweep"), ("vjm.modelio.read", "load_model"),
-                       ("vjm.effects.modelops", "load_model")]:
+                       ("vjm.discrepancy.simulate", "load_model")]:
         monkeypatch.setattr(mod(name), attr, started)
 
 

@@ -15,7 +15,7 @@ cannot tell them apart"; e.g. foot torsion, leg torsion and the U-joint
 springs act in nearly the same directions of every leg).  No other effect
 may be named.
 
-Every effect of the registry (``vjm.effects.library.REGISTRY``) has a
+Every effect of the registry (``vjm.effects.REGISTRY``) has a
 true machine here (``truth.LIBRARY``) or is listed in ``NOT_COVERED`` with
 the reason; the 3-PRPaR bar's effects are in test_diagnose_truth_prpar.py.
 Whether the true machine shows at all is decided on the truth itself
@@ -34,7 +34,7 @@ from typer.testing import CliRunner
 
 import vjm
 from vjm.cli import app
-from vjm.effects.library import REGISTRY
+from vjm.effects import REGISTRY
 
 ALPHA = 0.01
 NOMINAL = tr.NOMINAL

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import vjm
-from vjm.effects import library as fx
+from vjm import effects as fx
 from vjm.effects import modelops as mo
 from vjm.model.links import LinkSpring as Link
 

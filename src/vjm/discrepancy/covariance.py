@@ -13,7 +13,7 @@ import numpy as np
 
 from linkfea.atomic import plain, write_text
 
-from ..effects import library as fx
+from .. import effects as fx
 from .predict import CALIBRATION, calibration_term
 
 

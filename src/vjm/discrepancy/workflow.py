@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from linkfea.checks import Bounds, integer, number
 from linkfea.progress import renamed_progress
 
-from ..effects.modelops import load_model
 from ..errors import ArgumentError, VjmError
+from ..modelio.read import load_model
 from . import covariance
 from .data import Deflections, read_csv
 from .diagnosis import Diagnosis
@@ -110,7 +110,7 @@ DIAGNOSE_SECONDS_PER_ROW = 5.8e-3
 def diagnose_plan(n_rows: int, n_candidates: int | None = None):
     """The :class:`vjm.maps.grid.Plan` of a diagnosis of ``n_rows`` rows (``n_candidates``: None for the whole
     registry); VjmError naming the figures if it cannot fit in memory."""
-    from ..effects.library import REGISTRY
+    from ..effects import REGISTRY
     from ..maps.grid import plan
 
     share = 1.0 if n_candidates is None else min(1.0, max(1, n_candidates) / max(1, len(REGISTRY)))

@@ -1,97 +1,13 @@
-"""The effect library: candidate physical effects a stiffness model may miss.
-
-An effect is one small class registered with :func:`register`.  It declares a
-``name``, a one-line ``description``, its parameters (:class:`Param`, with
-the ``null`` value at which the effect is absent) and implements one of two
-hooks:
-
-* ``kind = "model"``: ``apply(model, theta) -> model``, a modified (still
-  immutable) VJM model.  The prediction is then ``t = C'(p) w`` with the
-  modified model's compliance, and the fitted effect is saved as real model
-  parameters.
-* ``kind = "additive"``: ``extra(ctx, theta, C) -> (n, 6)`` twists added to
-  ``C(p) w`` (``ctx`` is the :class:`~vjm.discrepancy.predict.Context` of the
-  data set, ``C`` the (n, 6, 6) compliance of each measurement).  The fitted
-  effect is saved under the model file's ``effects:`` mapping.
-
-Adding an effect (see docs/discrepancy.md)::
-
-    @register
-    class MyEffect(Effect):
-        name = "my_effect"
-        description = "one line saying what physical thing this is"
-        kind = "additive"
-        params = (Param("a", start=0.0, scale=1e-3, unit="mm"),)
-
-        def extra(self, ctx, theta, C):
-            return theta[0] * some_unit_twist(ctx)   # (n, 6)
-
-It is then a candidate of ``vjm diagnose`` and usable in ``vjm simulate
---effect my_effect:a=0.002``.
-"""
+"""The built-in effects: link modes and couplings, a flexible foot, elastic passive joints, a
+travel-dependent actuator (model-changing); a weight, actuator and passive-joint clearance, a stronger
+geometric nonlinearity (additive).  What an effect is: :mod:`vjm.effects.base`."""
 from __future__ import annotations
 
 import numpy as np
 
-from ..discrepancy.fit.select import Param
+from ..errors import VjmError
 from . import modelops as mo
-
-REGISTRY: dict = {}
-
-
-def register(cls):
-    """Class decorator adding an effect to the library (name must be unique)."""
-    inst = cls()
-    if not inst.name or inst.name in REGISTRY:
-        raise ValueError(f"effect name {inst.name!r} is empty or already registered")
-    REGISTRY[inst.name] = inst
-    return cls
-
-
-class Effect:
-    """Base class.  Subclasses set the class attributes and one hook."""
-
-    name: str = ""
-    description: str = ""
-    kind: str = "additive"  # "model" or "additive"
-    params: tuple = ()
-    # which data kinds the effect can explain: "deflection" and/or "stiffness"
-    data_kinds: tuple = ("deflection", "stiffness")
-    #: an additive effect whose ``extra`` also takes ``model=, key=``: the model being fitted
-    #: (calibration and model-changing effects applied) and a key identifying it for caching
-    needs_model: bool = False
-    #: parameters a model file's ``effects:`` entry may leave out (then at their null)
-    optional: tuple = ()
-
-    def param_specs(self, model, ctx=None) -> tuple:
-        """Parameters, possibly depending on the baseline model (e.g. its current value as null)
-        and on the data set (``ctx``, a :class:`~vjm.discrepancy.predict.Context`, e.g. the
-        actuator travel it covers); ``ctx`` None when no data is at hand (``vjm simulate``)."""
-        return self.params
-
-    def apply(self, model, theta):
-        return model
-
-    def extra(self, ctx, theta, C):
-        return np.zeros((ctx.n, 6))
-
-    def save(self, model, theta):
-        """Model carrying the fitted effect, as written to model_updated.yaml."""
-        if self.kind == "model":
-            return self.apply(model, theta)
-        vals = {p.name: float(v) for p, v in zip(self.param_specs(model), theta)}
-        return mo.with_effect_entry(model, self.name, vals)
-
-    def prepare(self, ctx) -> str | None:
-        """Precompute what the effect needs on the data set; a reason string if it cannot."""
-        return None
-
-    def applies_to(self, model, data_kind: str) -> str | None:
-        """None if the effect is a candidate for this model and data, else the reason it is not."""
-        if data_kind not in self.data_kinds:
-            return f"does not change the compliance matrix, so {data_kind} data cannot show it"
-        return None
-
+from .base import Effect, Nonlinear, Param, register
 
 # ---------------------------------------------------------------- model-kind effects
 #
@@ -295,6 +211,21 @@ class Gravity(Effect):
             t = t + np.einsum("nij,nj->ni", C[:, :, 3:], np.cross(Rm, g))
         return t
 
+    def load(self, model, values, P, W):
+        """In the equilibrium the weight is a load: ``W g`` on the platform point with the process
+        wrench, and on a 6-dof platform the moment ``(R m) x g`` of its first moment."""
+        W = np.array(W)
+        weight = float(self.theta(model, values)[0])
+        if weight:
+            W[:, :3] += weight * mo.gravity_direction(model)
+        m = np.array([float(values.get(f"first_moment_{a}", 0.0)) for a in "xyz"])
+        if m.any():
+            W[:, 3:] += np.cross(mo.platform_rotations(P) @ m, mo.gravity_direction(model))
+        return W
+
+    def nonlinear(self, model, values, ctx):
+        return Nonlinear()  # the weight is part of the load (see load)
+
 
 @register
 class Clearance(Effect):
@@ -313,6 +244,17 @@ class Clearance(Effect):
 
     def extra(self, ctx, theta, C):
         return theta[0] * ctx.clearance_unit()
+
+    def nonlinear(self, model, values, ctx):
+        """Every actuator slips by ``b`` toward the force it carries under the total load: imposed as
+        the rest value of its spring in the same equilibrium (not through the linear influence)."""
+        b = float(self.theta(model, values)[0])
+        if not b:
+            return Nonlinear()
+        tau = np.asarray(model.joint_forces(ctx.P, ctx.W)["actuator"]).reshape(len(ctx.P), -1)
+        tol = 1e-9 * max(float(np.max(np.abs(tau), initial=0.0)), 1e-300)
+        slip = (b * np.where(np.abs(tau) > tol, np.sign(tau), 0.0))[:, :, None]
+        return Nonlinear(offsets={mo.actuator_spring_name(model): slip})
 
 
 @register
@@ -353,18 +295,14 @@ class GeometricNonlinearity(Effect):
     screen = 0.1
 
     def prepare(self, ctx):
-        from ..errors import VjmError
-
         try:
             # cheap screen first: the nonlinear part grows like the square of the linear
             # deflection, so the rows deflecting most bound it
-            from . import modelops
-
             n = ctx.n
-            C = modelops.compliance_map(ctx.model, ctx.P)[ctx.idx]
+            C = mo.compliance_map(ctx.model, ctx.P)[ctx.idx]
             lin = np.linalg.norm(np.einsum("nij,nj->ni", C[:, :3], ctx.W), axis=1)
             probe = np.argsort(-lin)[: min(n, 6)]
-            d = modelops.nonlinear_delta(ctx.model, ctx.P[ctx.idx[probe]], ctx.W[probe])
+            d = mo.nonlinear_delta(ctx.model, ctx.P[ctx.idx[probe]], ctx.W[probe])
             big = float(np.max(np.abs(d[:, :3]))) if n else 0.0
             if ctx.noise_t is not None and big < self.screen * ctx.noise_t:
                 return (f"the model's own geometric nonlinearity at these loads is at most {big:.2g} mm, "
@@ -377,47 +315,6 @@ class GeometricNonlinearity(Effect):
     def extra(self, ctx, theta, C):
         return theta[0] * ctx.nonlinear_delta()
 
-
-def get(name: str, where: str = "effect") -> Effect:
-    """The registered effect ``name``; a VjmError naming the closest known name otherwise."""
-    from linkfea.checks import did_you_mean
-
-    from ..errors import VjmError
-
-    try:
-        return REGISTRY[name]
-    except (KeyError, TypeError):
-        raise VjmError(f"{where}: unknown effect {name!r}{did_you_mean(str(name), REGISTRY)}; "
-                       f"known: {', '.join(REGISTRY)}") from None
-
-
-def check_values(name: str, values, model, where: str, fit_range: bool = True) -> dict:
-    """``{param: value}`` of effect ``name``, checked against its parameters: known names, finite
-    numbers within each parameter's range.  VjmError naming ``where`` (and the parameter) otherwise.
-
-    ``fit_range=False`` (a simulated truth, which may lie beyond what a fit explores, to test
-    clipping) keeps only the sign of a parameter whose range is non-negative (a weight, a gap)."""
-    from linkfea.checks import ArgumentError, Bounds, did_you_mean, number
-
-    from ..errors import VjmError
-
-    eff = get(name, where)
-    if not isinstance(values, dict):
-        raise VjmError(f"{where}: expected a mapping parameter -> value, got {values!r}")
-    specs = {p.name: p for p in eff.param_specs(model)}
-    out = {}
-    for k, v in values.items():
-        if k not in specs:
-            raise VjmError(f"{where}: unknown parameter {k!r} of {name}{did_you_mean(str(k), specs)}; "
-                           f"known: {', '.join(specs)}")
-        p = specs[k]
-        if fit_range:
-            rng = Bounds(float(p.lower) if np.isfinite(p.lower) else None,
-                         float(p.upper) if np.isfinite(p.upper) else None, unit=p.unit)
-        else:
-            rng = Bounds(0.0 if p.lower >= 0 else None, None, unit=p.unit)
-        try:
-            out[k] = number(v, f"{where}.{k}", rng)
-        except ArgumentError as exc:
-            raise VjmError(str(exc)) from None
-    return out
+    def nonlinear(self, model, values, ctx):
+        """The equilibrium's own nonlinear part, scaled: ``C w + s (twist - C w)`` (s = 0: linear)."""
+        return Nonlinear(scale=float(self.theta(model, values)[0]))

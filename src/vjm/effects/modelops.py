@@ -1,8 +1,8 @@
-"""Everything the discrepancy workflow reads from, or changes in, a :class:`vjm.model.machine.Model`.
+"""The model edits and per-pose quantities of the effects: everything an effect (and the diagnosis'
+calibration) reads from, or changes in, a :class:`vjm.model.machine.Model`.
 
-One home for the coupling to the VJM core: effects and the calibration call
-these helpers, which only use the public model API (immutable ``Model``,
-``replace``, ``stiffness_map``, ``inverse_kinematics``, ``joint_forces``,
+One home for the coupling to the VJM core: the helpers only use the public model API (immutable
+``Model``, ``replace``, ``stiffness_map``, ``inverse_kinematics``, ``joint_forces``,
 ``vjm.stiffness.nonlinear``) so a change there is absorbed here.
 """
 from __future__ import annotations
@@ -11,21 +11,6 @@ import numpy as np
 
 from ..errors import VjmError
 from ..model.links import LinkSpring
-
-# --------------------------------------------------------------- files
-
-
-def load_model(path):
-    from .. import load_model as _load
-
-    return _load(path)
-
-
-def save_model(model, path) -> None:
-    from .. import save_model as _save
-
-    _save(model, path)
-
 
 # --------------------------------------------------------------- per-pose quantities
 
@@ -61,6 +46,17 @@ def actuator_influence(model, P) -> np.ndarray:
     m = len(P)
     cols = [np.asarray(model.joint_forces(P, np.broadcast_to(np.eye(6)[j], (m, 6)))["actuator"]) for j in range(6)]
     return np.stack(cols, axis=-1)
+
+
+def actuator_spring_name(model) -> str:
+    """The name of the actuated joints' spring, the same in every chain (the one an actuator slips in)."""
+    names = set()
+    for ch in model.chains:
+        a = ch.actuated[0]
+        names |= {s.name for s in ch.springs if s.vars == (a,)}
+    if len(names) != 1:
+        raise VjmError("clearance: the model's chains have no single actuator spring to slip")
+    return names.pop()
 
 
 #: compliance (rad/(N mm)) of the probe springs put into ideal passive joints to read the moment each
@@ -144,10 +140,6 @@ def workspace_box(model):
 
 def _link(C):
     return LinkSpring(np.asarray(C, float), None)
-
-
-def leg_is_flexible(model) -> bool:
-    return model.leg.compliance is not None
 
 
 def foot_is_rigid(model) -> bool:
@@ -340,15 +332,6 @@ def extension_torsion_limits(model, key: str) -> tuple[float, float]:
     return _coupling_limits(link_compliance(model, key), _extension_torsion_coupled)
 
 
-# old names (one release): the leg's extension-torsion coupling
-def leg_coupling(model) -> float:
-    return extension_torsion(model, "leg")
-
-
-def with_leg_coupling(model, kappa: float):
-    return with_extension_torsion(model, "leg", kappa)
-
-
 def cantilever_compliance(axial, bending_y, bending_z, torsion, length) -> np.ndarray:
     """6x6 tip compliance of a cantilever along x of free section stiffnesses (eq. 14 without shear).
 
@@ -400,16 +383,6 @@ def platform_rotations(P) -> np.ndarray:
     return np.broadcast_to(np.eye(3), (len(P), 3, 3))
 
 
-def with_foot_compliance_scale(model, s: float):
-    """Foot compliance = ``s`` x the leg's compliance (rigid at s = 0): the shape simulate's old
-    ``foot_compliance`` used; kept for model files and scripts that call it."""
-    if s <= 0:
-        return model.replace(foot=LinkSpring.rigid())
-    if model.leg.compliance is None:
-        raise VjmError("foot_compliance is shaped on the leg compliance, but the leg is rigid")
-    return model.replace(foot=_link(model.leg.compliance * s))
-
-
 def passive_compliance(model) -> float:
     k = model.joints.passive_stiffness
     return 0.0 if k is None else 1.0 / float(k)
@@ -420,10 +393,6 @@ def with_passive_compliance(model, c: float):
     from ..model.machine import Joints
 
     return model.replace(joints=Joints(None if c <= 0 else 1.0 / c))
-
-
-def actuator_slope(model) -> float:
-    return float(model.actuator.compliance_slope)
 
 
 def actuator_relative_slope(model) -> float:
@@ -454,13 +423,6 @@ def relative_slope_bounds(model, q, floor: float = 0.05, cap: float = 20.0):
     if dq.size and dq.min() < 0:
         hi = min(hi, (1.0 - floor) / -dq.min())
     return lo, hi
-
-
-def actuator_slope_bound(model) -> float:
-    """|slope| keeping the actuator compliance positive over +-L of travel around q_ref
-    (used only when no data says what the travel is)."""
-    L = float(model.geometry.get("L", 100.0))
-    return 0.9 / model.actuator.stiffness / L
 
 
 def with_actuator_slope(model, slope: float):

@@ -202,7 +202,7 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
     if extra:
         raise VjmError(f"actuator: unknown keys {sorted(extra)}")
     actuator, jo, effects = _common(d)
-    return Model(arch, geo, actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")), path=path,
+    return Model(architecture=arch, geometry=geo, actuator=actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")), path=path,
                  links=links)
 
 
@@ -224,9 +224,9 @@ def _common(d: dict):
 
 
 def check_effects(effects) -> dict:
-    """The ``effects:`` mapping, checked against the effect library (vjm.effects.library): each entry
+    """The ``effects:`` mapping, checked against the effect library (vjm.effects): each entry
     an additive effect with its own parameters, finite and within their ranges."""
-    from ..effects import library as fx
+    from .. import effects as fx
 
     if not isinstance(effects, dict):
         raise VjmError("effects must be a mapping name -> parameters")
@@ -263,7 +263,7 @@ def _described_from_dict(d: dict, base_dir: str, path: str | None) -> Model:
     desc = parse_description(d, geo, set(links))
     _check_geometry_used(geo, desc.raw)
     actuator, jo, effects = _common(d)
-    return Model(DESCRIBED, geo, actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")),
+    return Model(architecture=DESCRIBED, geometry=geo, actuator=actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")),
                  path=path, links=links, description=desc)
 
 
