@@ -31,11 +31,6 @@ def __getattr__(name):
         from .toolpath.dispatch import path
 
         return path
-    # ``vjm.Link``: the older name of LinkSpring (it shared its name with linkfea.cad.Link)
-    if name == "Link":
-        from .model.links import deprecated_link
-
-        return deprecated_link()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

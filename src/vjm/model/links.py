@@ -12,9 +12,6 @@ A spring computed by linkfea also carries the FEA's error bar (:attr:`LinkSpring
 estimated relative discretization error of each diagonal entry, :mod:`linkfea.estimate`);
 :mod:`vjm.sweep.spread` carries it to the machine's k_tran and k_rot.  Analytic beams, inline
 matrices and rigid links have none.
-
-``vjm.Link`` is the older name of :class:`LinkSpring` (it shared its name with the CAD
-input :class:`linkfea.cad.Link`); it still works and warns.
 """
 from __future__ import annotations
 
@@ -108,19 +105,6 @@ class LinkSpring:
         return cls(checked_compliance(C, "compliance"), None)
 
 
-def read_linkfea(path: str, key: str = "linkfea") -> Compliance:
-    """The Compliance (6x6, frame, units) of a ``linkfea compute`` result JSON, read by linkfea's one
-    reader (:func:`linkfea.result.read_compliance`); VjmError naming ``key`` if it is missing or bad."""
-    from linkfea.result import read_compliance
-
-    if not os.path.isfile(path):
-        raise VjmError(f"{key}: file not found: {path}")
-    try:
-        return read_compliance(path)
-    except LinkFeaError as exc:
-        raise VjmError(f"{key}: {exc}") from None  # linkfea names the file
-
-
 def linkfea_spring(path: str, key: str = "linkfea") -> LinkSpring:
     """The LinkSpring of a ``linkfea compute`` result JSON, read once by linkfea's one reader: its
     Compliance (6x6, frame, units), its source and its error bar
@@ -143,15 +127,6 @@ def linkfea_spring(path: str, key: str = "linkfea") -> LinkSpring:
     except (VjmError, TypeError, ValueError):
         raise VjmError(f"{key}: {path}: discretization_error.diagonal must be 6 relative errors in [0, 1), "
                        f"got {err!r}") from None
-
-
-def deprecated_link():
-    """``vjm.Link`` / ``vjm.model.machine.Link``: :class:`LinkSpring` under its older name, with a warning."""
-    import warnings
-
-    warnings.warn("vjm.Link is now vjm.LinkSpring (linkfea.cad.Link is the CAD input); the old name will go",
-                  DeprecationWarning, stacklevel=3)
-    return LinkSpring
 
 
 def _result_path(text: str) -> bool:

@@ -8,6 +8,7 @@ effects); every call such as :meth:`Model.stiffness_map` returns a fresh
 from __future__ import annotations
 
 import dataclasses
+import threading
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -75,15 +76,6 @@ class Actuator:
             raise VjmError(f"actuator.stiffness must be > 0, got {self.stiffness}")
 
 
-def __getattr__(name):
-    # ``vjm.model.machine.Link``: the older name of LinkSpring (it shared its name with linkfea.cad.Link)
-    if name == "Link":
-        from .links import deprecated_link
-
-        return deprecated_link()
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 @dataclass(frozen=True)
 class Joints:
     """Passive-joint elasticity: ``passive_stiffness`` N mm/rad about each joint's
@@ -97,7 +89,31 @@ class Joints:
             raise VjmError(f"joints.passive_stiffness must be a number > 0 (N mm/rad), got {k!r}")
 
 
-@dataclass(frozen=True, eq=False, init=False)
+class _KinematicsCache:
+    """Kinematics of recent small pose batches.
+
+    Shared between the models :meth:`Model.replace` derives with the same kinematic key (the
+    kinematics do not depend on the springs), so it is locked: ``vjm path`` evaluates one model
+    from a thread pool."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._kin: dict = {}
+
+    def kinematics(self, key, solve):
+        """The kinematics cached under ``key``, else ``solve()`` kept under it (the oldest dropped)."""
+        with self._lock:
+            kin = self._kin.get(key)
+        if kin is None:
+            kin = solve()  # outside the lock: two threads may solve the same poses, never block each other
+            with self._lock:
+                if len(self._kin) >= KIN_CACHE:
+                    self._kin.pop(next(iter(self._kin)))
+                self._kin[key] = kin
+        return kin
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Model:
     """Immutable VJM model of a parallel machine.
 
@@ -117,41 +133,28 @@ class Model:
     description : the machine description (:class:`vjm.modelio.description.Description`) of
         architecture ``"description"``, else None
 
-    ``Model(architecture, geometry, actuator, foot, leg, ...)`` (the older positional form) still
-    works: ``foot`` and ``leg`` go into ``links``.  A link may be given as anything
-    :func:`vjm.model.links.as_link` takes (a LinkResult, a Compliance, a result path ...).
+    Keyword arguments only; a link may be given as anything :func:`vjm.model.links.as_link` takes (a
+    LinkResult, a Compliance, a result path ...).
     """
 
     architecture: str
     geometry: dict
     actuator: Actuator
-    links: dict
+    links: dict = field(default_factory=dict)
     joints: Joints = field(default_factory=Joints)
     effects: dict = field(default_factory=dict)
     name: str = ""
     path: str | None = None
     description: Description | None = None
-    #: kinematics of recent small pose batches (see :meth:`kinematics`); not a parameter
-    _kin_cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
-    #: the load sharing of the last kinematics asked for (see :meth:`joint_forces`); not a parameter
+    #: kinematics of recent small pose batches (see :meth:`kinematics`), shared with the copies of the
+    #: same kinematic key; not a parameter
+    _kin_cache: _KinematicsCache = field(default_factory=_KinematicsCache, init=False, repr=False, compare=False)
+    #: the load sharing of the last kinematics asked for (see :meth:`joint_forces`); this model's own
     _sharing: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
-    def __init__(self, architecture, geometry, actuator, foot=None, leg=None, joints=None, effects=None,
-                 name="", path=None, links=None, description=None):
-        if links is not None and not isinstance(links, dict):
-            raise VjmError("links must be a mapping name -> vjm.LinkSpring")
-        merged = dict(links or {})
-        for key, link in (("foot", foot), ("leg", leg)):
-            if link is not None:
-                merged[key] = link
-        fields = dict(architecture=architecture, geometry=geometry, actuator=actuator, links=merged,
-                      joints=Joints() if joints is None else joints, effects={} if effects is None else effects,
-                      name=name, path=path, description=description, _kin_cache={}, _sharing={})
-        for k, v in fields.items():
-            object.__setattr__(self, k, v)
-        self.__post_init__()
-
     def __post_init__(self):
+        if not isinstance(self.links, dict):
+            raise VjmError("links must be a mapping name -> vjm.LinkSpring")
         if self.architecture not in ARCHITECTURES:
             raise VjmError(f"architecture: unknown {self.architecture!r}; known: {', '.join(ARCHITECTURES)}")
         arch = ARCHITECTURES[self.architecture]
@@ -323,15 +326,7 @@ class Model:
         frames = as_poses(P, self.dof)
         if frames.shape[0] > MAP_BLOCK:
             return self._solve_kinematics(frames)
-        key = frames.tobytes()
-        cache = self._kin_cache
-        kin = cache.get(key)
-        if kin is None:
-            kin = self._solve_kinematics(frames)
-            if len(cache) >= KIN_CACHE:
-                cache.pop(next(iter(cache)))
-            cache[key] = kin
-        return kin
+        return self._kin_cache.kinematics(frames.tobytes(), lambda: self._solve_kinematics(frames))
 
     def _check_kinematics(self, kin: Kinematics) -> Kinematics:
         if kin.key != self.kinematic_key:
