@@ -35,6 +35,8 @@ class Architecture:
     #: unit of the actuator stiffness (prismatic N/mm, rotary N mm/rad)
     actuator_unit = "N/mm"
 
+    #: named points marked on the maps, label -> (x, y, z) mm
+    landmarks: dict[str, tuple[float, float, float]] = {}
     #: default workspace box ((xmin, ymin, zmin), (xmax, ymax, zmax)) in mm, for maps
     workspace = ((-100.0, -100.0, -100.0), (100.0, 100.0, 100.0))
 

@@ -107,6 +107,8 @@ class OrthoglidePUU(Architecture):
     geometry_keys: tuple[str, ...] = ("L", "r")
     #: the Orthoglide's Cartesian workspace cube, Q1 to Q2 (seed Fig. 4c)
     workspace = ((-73.65,) * 3, (126.35,) * 3)
+    #: the seed's named points (its Table 1, data/seed_table1.csv): the isotropic posture and the cube's corners
+    landmarks = {"Q0 isotropic": (0.0, 0.0, 0.0), "Q1": (-73.65,) * 3, "Q2": (126.35,) * 3}
 
     def reachable(self, model, P):
         return _reach(model, as_points(P))

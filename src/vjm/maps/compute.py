@@ -61,21 +61,6 @@ def contour_levels(lo: float, hi: float, log: bool) -> np.ndarray:
     return cand[(cand > lo) & (cand < hi)]
 
 
-def landmarks(architecture: str) -> dict:
-    """The seed's named points of ``architecture`` (``{"Q0 isotropic": (x, y, z), "Q1": ..., ...}``, mm).
-
-    They come from the seed's Table 1; other architectures have none.
-    """
-    from ..studies.table1 import read_seed_table
-
-    try:
-        rows = read_seed_table()
-    except VjmError:
-        return {}
-    return {r["point"] + (" isotropic" if r["point"] == "Q0" else ""): (float(r["x"]), float(r["y"]), float(r["z"]))
-            for r in rows if r["architecture"] == architecture}
-
-
 def workspace_grid(model, n: int, slice_: Optional[str] = None):
     """Axes, points ``G`` (nx, ny, nz, 3) and the fixed axis ``(k, value)`` or None of an n-point grid
     over the model's workspace (:meth:`vjm.Model.grid`, whose :class:`~vjm.maps.grid.Grid` is the newer form)."""
@@ -258,7 +243,7 @@ def compute_map(model, P, axes, fixed=None, where: str = "grid", progress: Optio
             st[i], sr[i] = r.k_tran_spread, r.k_rot_spread
 
     in_chunks(len(idx), step, progress, "reachable points")
-    return StiffnessMap(model.architecture, list(axes), fixed, P, ok, K, kt, kr, landmarks(model.architecture),
+    return StiffnessMap(model.architecture, list(axes), fixed, P, ok, K, kt, kr, dict(model.arch.landmarks),
                         st, sr)
 
 
