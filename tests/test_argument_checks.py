@@ -54,7 +54,7 @@ def test_no_bounds_contain_nan(bounds):
      r"^noise_r must be a finite number >= 0 rad"),
     (lambda: vjm.maps.compute.workspace_grid(PUU, 1), r"^grid must be a whole number >= 2, got 1$"),
     (lambda: vjm.maps.compute.workspace_grid(PUU, 2.5), r"^grid must be a whole number >= 2, got 2.5$"),
-    (lambda: vjm.maps.compute.parse_slice("z=inf"), r"^slice expects axis=value"),
+    (lambda: vjm.maps.grid.parse_slice("z=inf"), r"^slice expects axis=value"),
 ])
 def test_vjm_api_names_the_argument(call, message):
     import vjm.discrepancy.diagnose

@@ -13,7 +13,8 @@ from linkfea.progress import renamed_progress
 from .errors import EquilibriumError, VjmError
 from .model.links import LinkSpring
 from .model.machine import Actuator, Joints, Model
-from .modelio.read import load_model, save_model, with_links
+from .modelio.read import load_model, with_links
+from .modelio.write import save_model
 from .stiffness.linear import StiffnessResult
 
 __all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "LinkSpring", "Joints", "StiffnessResult",

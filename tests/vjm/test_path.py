@@ -228,7 +228,7 @@ def test_band_from_covariance_is_the_weights_sensitivity_times_its_se(tmp_path):
     """A model with a calibration block {gravity.weight: 100 N, se 10 N}: the band on each deflection
     component is 1.96 * 10 * |dd/dW|, with dd/dW from two equilibria of vjm.stiffness.nonlinear solved here
     (weights 100 +- 1 N along -z); and 1.96 * 10 * |C(p) g| to first order."""
-    from vjm.modelio.read import model_to_dict
+    from vjm.modelio.write import model_to_dict
 
     m0 = vjm.load_model(PUU)
     m = m0.replace(effects={"gravity": {"weight": 100.0}})

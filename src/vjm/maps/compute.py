@@ -29,7 +29,6 @@ from linkfea.outputs import OutputSet, check_folder
 from ..errors import ArgumentError, VjmError
 from ..stiffness.linear import SPREAD_NOTE
 from .grid import MAP_BYTES, Progress, grid_plan, in_chunks
-from .grid import parse_slice as parse_slice
 
 #: points per axis of a workspace grid (``vjm map --grid``, ``vjm sweep --grid``)
 GRID = Bounds(2)

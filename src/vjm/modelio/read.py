@@ -35,7 +35,7 @@ the link) is taken as the spring frame, and kept with the link.
 a machine description (``chains:``) names further links there.  Both forms load
 into :attr:`vjm.Model.links`.
 
-A file :func:`save_model` writes begins with the comment lines of ``HEADER`` and ends
+A file :func:`~vjm.modelio.write.save_model` writes begins with the comment lines of ``HEADER`` and ends
 with ``# written by vjm; sha256 of the lines above: <hex>``: how a later save knows
 the file as its own, unchanged (:func:`vjm.modelio.write.own_model_file`).  Reading
 ignores both (comments).
@@ -56,9 +56,7 @@ from ..model.links import LinkSpring, as_link, checked_compliance, linkfea_sprin
 from ..model.machine import Actuator, Joints, Model, validate_compliance
 from ..resources import data_file
 from .description import parse_description
-from .write import HEADER as HEADER
-from .write import model_to_dict as model_to_dict
-from .write import save_model as save_model
+from .write import save_model
 
 #: ``calibration``: the covariance vjm diagnose writes with model_updated.yaml (read by vjm path, not by the Model)
 TOP_KEYS = ("architecture", "name", "geometry", "actuator", "foot", "leg", "links", "joints", "effects", "calibration")
