@@ -139,3 +139,25 @@ def test_an_effect_added_the_documented_way_works_in_path(monkeypatch, tmp_path)
     expected = base.copy()
     expected[:, 2] += 0.01
     assert np.allclose(moved, expected, rtol=0, atol=1e-12)
+
+
+def test_an_effect_added_the_documented_way_goes_from_diagnose_to_path(monkeypatch, tmp_path):
+    """The whole way: a drift hidden in simulated data is named by vjm diagnose, written into
+    model_updated.yaml, and vjm path applies it (its deflection moves by the fitted drift)."""
+    from vjm.discrepancy.simulate import design_loads
+    from vjm.discrepancy.workflow import diagnose
+
+    monkeypatch.setitem(fx.REGISTRY, _Drift.name, _Drift())
+    rng = np.random.default_rng(2)
+    P0 = rng.uniform(-40.0, 60.0, (12, 3))
+    L = design_loads("axes:100", len(P0), rng)
+    Pm, Wm = np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6)
+    data = simulate(PUU, [("test_drift", {"dz": 0.01})], Pm, Wm, noise_t=1e-3, noise_r=None, seed=3)
+    d = diagnose(PUU, data, effects=["test_drift", "clearance"], folds=2)
+    assert d.report.named_effects == ["test_drift"]
+    d.save(tmp_path / "report")
+    updated = vjm.load_model(tmp_path / "report" / "model_updated.yaml")
+    dz = updated.effects["test_drift"]["dz"]
+    assert abs(dz - 0.01) < 1e-3  # 10 noise sigmas of drift, fitted from 72 rows
+    moved, base = _path(updated), _path(updated.replace(effects={}))
+    assert np.allclose(moved[:, 2] - base[:, 2], dz, rtol=0, atol=1e-12)

@@ -1,11 +1,11 @@
 """Compiled (numba) stiffness of a parallel machine, pose by pose over a block: the map's fast path.
 
-The same arithmetic as the batched numpy path (:func:`vjm.stiffness.linear.chain_stiffness_frames` and
-:func:`vjm.stiffness.linear.assemble_soa`), one pose at a time in compiled loops, so that the small
+The same arithmetic as the batched numpy path (:func:`vjm.stiffness.chain_stiffness_frames` and
+:func:`vjm.stiffness.assemble_soa`), one pose at a time in compiled loops, so that the small
 6x6 work stays in registers and cache instead of some hundred array operations per block:
 
 * per chain: the end frame and Jacobian in one pass over the factors
-  (:func:`vjm.kinematics.ik_kernel._end_and_jacobian`, the shared helper), the wrench basis ``N`` of the
+  (:func:`vjm.ik_kernel._end_and_jacobian`, the shared helper), the wrench basis ``N`` of the
   passive joints by Householder QR and its conditioning bound, ``M = sum_s Z_s C_s Z_s^T`` with
   ``Z_s = N^T J_s``, its Cholesky inverse and relative pivot, ``K_i = N M^-1 N^T`` added to the
   machine's K;
@@ -16,7 +16,7 @@ A pose where a chain's bound or pivot falls below ``FAST_RTOL``, or where K is n
 is flagged; the caller redoes it with the numpy path (rank-revealing bordered solve, SVD,
 pseudo-inverse), so both paths make the same rank and invertibility decisions.  ``cache=True``
 keeps the machine code on disk: the first process after an install compiles it (a few seconds),
-later ones load it; :mod:`vjm.stiffness.linear` imports this module only for blocks of
+later ones load it; :mod:`vjm.stiffness` imports this module only for blocks of
 ``KERNEL_FROM`` poses or more.
 """
 from __future__ import annotations
@@ -72,7 +72,7 @@ def _reflect(X, a, V, j, beta, w):  # pragma: no cover - compiled
 def _wrench_basis(A, k, N, R, Ri, beta, bound, nx, w):  # pragma: no cover - compiled
     """Orthonormal basis N (6-k, 6, LANES) of the complement of the rows A[:k] (overwritten), and
     the lower bound ``1 / (||R^-1||_F ||R||_F)`` of sigma_min / sigma_max per lane (NaN or 0 for a
-    zero column), as vjm.stiffness.linear._wrench_basis."""
+    zero column), as vjm.stiffness._wrench_basis."""
     _householder(A, k, R, beta, nx, w)
     for a in range(6 - k):                    # N = H_0 ... H_{k-1} [0; I]
         for i in range(6):
@@ -107,7 +107,7 @@ def _wrench_basis(A, k, N, R, Ri, beta, bound, nx, w):  # pragma: no cover - com
 @njit(cache=True, nogil=True, error_model="numpy")
 def _cholesky(M, m, L, piv, t):  # pragma: no cover - compiled
     """Lower Cholesky factor L of M (m, m, LANES) and the smallest relative pivot min_j d_j / M_jj
-    per lane (-1 where a diagonal entry is not positive), as vjm.stiffness.linalg.spd_inverse."""
+    per lane (-1 where a diagonal entry is not positive), as vjm.linalg.spd_inverse."""
     piv[:] = math.inf
     for j in range(m):
         for q in range(LANES):
@@ -187,7 +187,7 @@ def _gather(code, var, coef, T, values, passive, svar, cpose, nfix, pts, p0, nl,
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _spring_sum(N, m, Jl, nd, soff, off, cb, Z, Y, M, t):  # pragma: no cover - compiled
-    """M = sum_s Z_s C_s Z_s^T (m, m, LANES) with Z = N^T J_s (vjm.stiffness.linear._reduced_stiffness)."""
+    """M = sum_s Z_s C_s Z_s^T (m, m, LANES) with Z = N^T J_s (vjm.stiffness._reduced_stiffness)."""
     for a in range(m):
         for c in range(nd):
             t[:] = 0.0
@@ -292,7 +292,7 @@ def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpo
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
-    """Largest eigenvalue of a symmetric 3x3 matrix, closed form (vjm.stiffness.linalg.sym3_max_eig_soa)."""
+    """Largest eigenvalue of a symmetric 3x3 matrix, closed form (vjm.linalg.sym3_max_eig_soa)."""
     q = (a00 + a11 + a22) / 3.0
     p1 = a01 ** 2 + a02 ** 2 + a12 ** 2
     b00, b11, b22 = a00 - q, a11 - q, a22 - q
@@ -308,7 +308,7 @@ def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
 @njit(cache=True, nogil=True, error_model="numpy")
 def _ldl(Kl, rtol, L, D, Dinv, di, LD, r, t):  # pragma: no cover - compiled
     """Jacobi scaling ``di`` and unpivoted LDL^T of the symmetrised Kl (6, 6, LANES), as
-    vjm.stiffness.linalg.psd_rank_inverse_soa; r counts the pivots above rtol, Dinv is 0 for the others."""
+    vjm.linalg.psd_rank_inverse_soa; r counts the pivots above rtol, Dinv is 0 for the others."""
     for i in range(6):
         for q in range(LANES):
             d = math.sqrt(max(Kl[i, i, q], 0.0))
@@ -361,7 +361,7 @@ def _ldl_inverse(L, Dinv, di, X, Cl, t):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def assemble_block(K, rtol, C, rank, inv, kt, kr):  # pragma: no cover - compiled
-    """C = K^-1 (n, 6, 6), rank, invertible, k_tran, k_rot per pose, as vjm.stiffness.linear.assemble_soa where
+    """C = K^-1 (n, 6, 6), rank, invertible, k_tran, k_rot per pose, as vjm.stiffness.assemble_soa where
     K is invertible; elsewhere rank counts the LDL^T pivots above ``rtol`` and the caller redoes C.
     Poses go LANES at a time (a short last group repeats its first pose)."""
     L, X, Cl, Kl = (np.zeros((6, 6, LANES)), np.zeros((6, 6, LANES)), np.empty((6, 6, LANES)),

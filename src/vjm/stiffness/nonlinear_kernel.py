@@ -1,12 +1,12 @@
-"""Compiled per-point Newton steps of the bordered equilibrium of :mod:`vjm.stiffness.nonlinear`, by numba.
+"""Compiled per-point Newton steps of the bordered equilibrium of :mod:`vjm.nonlinear`, by numba.
 
 Along a path (:mod:`vjm.toolpath.equilibrium`) the batched numpy step spends its time in
 the overhead of small array operations and in one stacked solve per batch.  These kernels
 evaluate the *same* equations point by point in compiled loops: the chain products and the
-joint twist matrices (:func:`vjm.stiffness.nonlinear._chain_kinematics`), the closure residual, its
-gradient and the Hessian of ``lam . g`` (:func:`vjm.stiffness.nonlinear._linearize`), the bordered
-Newton matrix and its equilibrated solve (:func:`vjm.stiffness.nonlinear._newton_step`,
-:func:`vjm.stiffness.nonlinear._solve`) and the residual check
+joint twist matrices (:func:`vjm.nonlinear._chain_kinematics`), the closure residual, its
+gradient and the Hessian of ``lam . g`` (:func:`vjm.nonlinear._linearize`), the bordered
+Newton matrix and its equilibrated solve (:func:`vjm.nonlinear._newton_step`,
+:func:`vjm.nonlinear._solve`) and the residual check
 (:func:`vjm.toolpath.equilibrium.residual_ok`).  The numpy functions stay the reference
 and the fallback (no numba, body loads); tests check that both give the same equilibria.
 

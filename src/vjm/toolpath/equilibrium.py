@@ -1,6 +1,6 @@
 """Nonlinear equilibria along a path, warm-started from the neighbouring point.
 
-The same equations and Newton step as :func:`vjm.stiffness.nonlinear.deflection_map` (which stays
+The same equations and Newton step as :func:`vjm.nonlinear.deflection_map` (which stays
 the reference and the cold start), organised for a sequence of nearby (pose, wrench) pairs:
 
 * a block of points is cut into ``SEGMENTS`` runs of consecutive points; the first point of
@@ -10,7 +10,7 @@ the reference and the cold start), organised for a sequence of nearby (pose, wre
 * from a warm start, Newton steps under the full load until the point's residual passes
   the check below (typically one step: the path moves the equilibrium by a small fraction
   of a deflection between two samples), at most ``WARM_STEPS``; a point still failing is
-  solved by :func:`vjm.stiffness.nonlinear.deflection_map` (load steps if needed) and counted;
+  solved by :func:`vjm.nonlinear.deflection_map` (load steps if needed) and counted;
 * the compensation's check equilibria start from the deflection's equilibrium at the same
   point (``start=``): the commanded pose differs from the programmed one by a deflection.
 
@@ -40,7 +40,7 @@ SEGMENTS = 128
 BATCH = 256
 #: Newton steps from a warm start before the point is solved cold
 WARM_STEPS = 3
-#: use the compiled kernels (:mod:`vjm.stiffness.nonlinear_kernel`) where numba is installed; False: the numpy path
+#: use the compiled kernels (:mod:`vjm.nonlinear_kernel`) where numba is installed; False: the numpy path
 KERNEL = True
 #: ... on blocks of at least this many points (a short path does not wait for the kernel's compilation
 #: or its load from the cache, ~1 s)
@@ -49,7 +49,7 @@ KERNEL_MIN = 1000
 
 @functools.cache
 def _kernel():
-    """The compiled Newton steps (:mod:`vjm.stiffness.nonlinear_kernel`), or None without numba (the numpy path)."""
+    """The compiled Newton steps (:mod:`vjm.nonlinear_kernel`), or None without numba (the numpy path)."""
     try:
         from ..stiffness import nonlinear_kernel
     except ImportError:  # pragma: no cover - numba is a dependency
@@ -167,7 +167,7 @@ def equilibria(model, P, W, offsets=None, start=None) -> Solved:
 
     ``start``: states (n, ns) of a previous call at nearby poses (same order) to start every point
     from; without it, the points are marched in runs (see the module docstring).
-    ``offsets`` as in :func:`vjm.stiffness.nonlinear.deflection_map`.
+    ``offsets`` as in :func:`vjm.nonlinear.deflection_map`.
     """
     b = _Block(model, np.asarray(P, dtype=float), W, offsets)
     kern = _kernel() if KERNEL and len(b.P) >= KERNEL_MIN and not any(cd.loads for cd in b.chains) else None
@@ -226,7 +226,7 @@ def equilibria(model, P, W, offsets=None, start=None) -> Solved:
 
 
 def _pack(b: _Block):
-    """The block's chains as the arrays of :mod:`vjm.stiffness.nonlinear_kernel`: the factor tables (padded to the
+    """The block's chains as the arrays of :mod:`vjm.nonlinear_kernel`: the factor tables (padded to the
     longest chain) and, per point, the chain data of ``nonlinear._ChainData`` (padded likewise)."""
     from ..kinematics.transforms import KINDS
 
