@@ -23,13 +23,17 @@ def unique_postures(P, decimals=6):
     return P[first], idx.reshape(-1)
 
 
+def slip_signs(tau) -> np.ndarray:
+    """The side each joint slips to under its forces ``tau``: their sign, 0 for forces below 1e-9 of the
+    largest ("zero": no preferred side, no slip)."""
+    tau = np.asarray(tau, float)
+    return np.where(np.abs(tau) > 1e-9 * np.abs(tau).max(initial=1e-300), np.sign(tau), 0.0)
+
+
 def slip_toward(A, W) -> np.ndarray:
     """(n, 6) ``sum_s a_s sign(a_s . w)``: every joint of influence ``A`` (n, k, 6) slipping by one unit
     toward the force it carries under ``W`` (n, 6); the work ``w . t`` is >= 0."""
-    tau = np.einsum("ncj,nj->nc", A, W)
-    # forces below 1e-9 of the largest are "zero": no preferred side, no slip
-    s = np.where(np.abs(tau) > 1e-9 * np.abs(tau).max(initial=1e-300), np.sign(tau), 0.0)
-    return np.einsum("nc,ncj->nj", s, A)
+    return np.einsum("nc,ncj->nj", slip_signs(np.einsum("ncj,nj->nc", A, W)), A)
 
 
 @dataclass

@@ -8,6 +8,7 @@ import numpy as np
 from ..errors import VjmError
 from . import modelops as mo
 from .base import Effect, Nonlinear, Param, register
+from .context import slip_signs
 
 # ---------------------------------------------------------------- model-kind effects
 #
@@ -252,9 +253,7 @@ class Clearance(Effect):
         if not b:
             return Nonlinear()
         tau = np.asarray(model.joint_forces(ctx.P, ctx.W)["actuator"]).reshape(len(ctx.P), -1)
-        tol = 1e-9 * max(float(np.max(np.abs(tau), initial=0.0)), 1e-300)
-        slip = (b * np.where(np.abs(tau) > tol, np.sign(tau), 0.0))[:, :, None]
-        return Nonlinear(offsets={mo.actuator_spring_name(model): slip})
+        return Nonlinear(offsets={mo.actuator_spring_name(model): (b * slip_signs(tau))[:, :, None]})
 
 
 @register
