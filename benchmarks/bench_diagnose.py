@@ -12,7 +12,7 @@ random reachable postures of the Q1-Q2 workspace cube x 6 axis loads of
 
 and copy the printed lines into docs/benchmarks.md (## diagnose).  The time
 is split into the nonlinear-equilibrium precompute of the
-``geometric_nonlinearity`` candidate (vjm.nonlinear, all measurements in
+``geometric_nonlinearity`` candidate (vjm.stiffness.nonlinear, all measurements in
 one batched Newton solve) and the rest (calibration, 7 candidates, forward selection,
 5-fold grouped CV, the outlier stage's check of the final residuals); CPU time includes worker processes.
 """
@@ -23,9 +23,10 @@ import time
 
 import numpy as np
 
-from vjm.discrepancy import modelops as mo
+import vjm
 from vjm.discrepancy.diagnose import diagnose
 from vjm.discrepancy.simulate import design_loads, design_poses, simulate
+from vjm.effects import modelops as mo
 
 
 def _cpu():
@@ -35,7 +36,7 @@ def _cpu():
 
 
 def main(model_path="data/orthoglide/puu.yaml", rows=1002):
-    model = mo.load_model(model_path)
+    model = vjm.load_model(model_path)
     rng = np.random.default_rng(7)
     P0 = design_poses(model, f"random:{max(1, round(rows / 6))}", rng)
     L = design_loads("axes:100", len(P0), rng)

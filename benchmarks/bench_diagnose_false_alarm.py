@@ -1,7 +1,7 @@
 """Benchmark: false-alarm rate and power of `vjm diagnose` on independent-truth data.
 
 Data come from tests/truth.py (richer 3-PUU model files solved by vjm and
-vjm.nonlinear plus terms written out there; nothing from vjm.discrepancy),
+vjm.stiffness.nonlinear plus terms written out there; nothing from vjm.discrepancy),
 each set with its own random postures of the Q1-Q2 cube, its own loads
 (opposite pairs of forces, moments and both, magnitudes 0.2-1 x 100 N /
 5000 N mm) and its own noise (1 um, 10 urad; sigma columns given).

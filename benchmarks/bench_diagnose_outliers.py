@@ -48,9 +48,9 @@ def diagnose_both(model_path: str, data_path: str) -> tuple:
     diagnosis is the outlier stage's first pass (``vjm.diagnose(..., outliers=False)`` returns exactly it;
     tests/discrepancy/test_diagnose_outliers.py), so the two are measured side by side at the cost of one."""
     from vjm.discrepancy.data import read_csv
-    from vjm.discrepancy.modelops import load_model
     from vjm.discrepancy.stages.outliers import set_aside, with_outliers
     from vjm.discrepancy.workflow import run_stages
+    from vjm.modelio.read import load_model
 
     model, data = load_model(model_path), read_csv(data_path)
 

@@ -3,9 +3,9 @@ the cold reference solver, side by side in one run (issue 29, item 2).
 
 The path: bench_path.py's zigzag (rows 0.5 mm apart over the 60 x 40 mm pocket at z = -1, the
 milling model, a 60 mm tool) on the 3-PUU.  "cold" is the solver before the warm start: every
-equilibrium of the deflection and of the compensation's checks by vjm.nonlinear.deflection_map
+equilibrium of the deflection and of the compensation's checks by vjm.stiffness.nonlinear.deflection_map
 (from the unloaded posture, to its 1e-11 step tolerance); "numpy" is vjm.toolpath.equilibrium's
-warm-started path in numpy (KERNEL = False), "compiled" the same path by vjm.nonlinear_kernel.
+warm-started path in numpy (KERNEL = False), "compiled" the same path by vjm.stiffness.nonlinear_kernel.
 Links: the beams of puu.yaml, or FEA results (``--foot out/foot/result.json --leg
 out/leg/result.json``, as `make demo` computes them).
 
@@ -32,7 +32,7 @@ import numpy as np
 from bench_path import MILL, PUU, TOOL, zigzag
 
 import vjm
-from vjm import nonlinear
+from vjm.stiffness import nonlinear
 from vjm.toolpath import deflect, run
 from vjm.toolpath import equilibrium as eq
 from vjm.toolpath.equilibrium import Solved
@@ -45,7 +45,7 @@ def cold_equilibria(model, P, W, offsets=None, start=None):
 
 
 #: the solvers compared: the reference from the unloaded posture at every equilibrium, the warm-started
-#: path in numpy (equilibrium.KERNEL = False) and compiled (vjm.nonlinear_kernel)
+#: path in numpy (equilibrium.KERNEL = False) and compiled (vjm.stiffness.nonlinear_kernel)
 MODES = ("cold", "numpy", "compiled")
 
 

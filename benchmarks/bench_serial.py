@@ -6,7 +6,7 @@ pinocchio's compiled kinematics in the same run.
   in numpy: the compiled kinematics as an anchor, the joint springs only);
 * self-weight deflection (equilibrium on the deflected geometry): ``RobotModel.self_weight(Q)`` (the
   compiled Newton of :mod:`vjm.robot.sagkernel`), the same equilibrium by the general solver
-  (``vjm.nonlinear.deflection_map`` with the body loads: the path every configuration took before, and
+  (``vjm.stiffness.nonlinear.deflection_map`` with the body loads: the path every configuration took before, and
   the fallback), and pinocchio's ``computeGeneralizedGravity`` per configuration plus the linear sag
   ``J K^-1 g(q)`` (no equilibrium iteration: what the compiled library gives for the linear answer).
 
@@ -71,9 +71,9 @@ def pin_sag(pm, pd, tool, Q, c):
 
 
 def general_sag(m, Q):
-    """The same equilibrium by vjm.nonlinear's general solver (the robot's weights as its body loads)."""
-    from vjm.nonlinear import deflection_map
+    """The same equilibrium by vjm.stiffness.nonlinear's general solver (the robot's weights as its body loads)."""
     from vjm.robot.weight import body_loads
+    from vjm.stiffness.nonlinear import deflection_map
 
     kin = m.kinematics(Q)
     loads = body_loads(m, kin.q, m.tools[0], np.asarray(m.gravity, dtype=float), m.payload)

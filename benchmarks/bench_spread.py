@@ -1,4 +1,4 @@
-"""Cost of the links' FEA error bars carried to the machine maps (vjm.spread), side by side.
+"""Cost of the links' FEA error bars carried to the machine maps (vjm.sweep.spread), side by side.
 
 For the bundled Orthoglide 3-PUU and 3-PRPaR with both links given an error bar (the foot's
 estimate at the default mesh, and 3% on the leg/bar), times ``Model.map`` on a 41 x 41 slice
@@ -15,7 +15,7 @@ import numpy as np
 
 import vjm
 from vjm import LinkSpring
-from vjm.table1 import report_lines, table1_rows
+from vjm.studies.table1 import report_lines, table1_rows
 
 REPEAT = 3
 FOOT_BAR = np.array([0.018, 0.040, 0.017, 0.058, 0.020, 0.016])

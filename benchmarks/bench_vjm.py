@@ -5,7 +5,7 @@ the same math (same chains, Jacobians, bordered solve with numpy.linalg per pose
 in the same run.  Each is timed ``REPEAT`` times and the best time is kept (as
 ``timeit`` does: the other runs only add the noise of other processes on the
 machine).  The batched map runs both paths side by side: the compiled kernels
-(``kernel="numba"``, :mod:`vjm.map_kernel`) and the numpy reference (``kernel="numpy"``), timed
+(``kernel="numba"``, :mod:`vjm.maps.map_kernel`) and the numpy reference (``kernel="numpy"``), timed
 in CPU time of this process (what other processes on a shared machine disturb least).
 Usage: ``python benchmarks/bench_vjm.py [N]``, ``... machines [N]`` (hexapod and description
 files), ``... compile`` (the kernels' one-time compile and their load from the cache).
@@ -20,8 +20,8 @@ import time
 import numpy as np
 
 import vjm
-from vjm.chain import jacobian
-from vjm.stiffness import spring_compliance
+from vjm.kinematics.chain import jacobian
+from vjm.stiffness.linear import spring_compliance
 
 REPEAT = 3
 #: issue 4 target
@@ -115,7 +115,7 @@ TARGET_HEXAPOD, TARGET_DESC_RATIO = 20_000, 3.0
 def machines(n=30):
     import scipy.spatial  # noqa: F401  (imported by the IK on first use: keep it out of the timing)
 
-    from vjm.kinematics import as_poses
+    from vjm.kinematics.poses import as_poses
 
     hexa = vjm.load_model("data/machines/hexapod_6ups.yaml")
     lo, hi = hexa.arch.workspace

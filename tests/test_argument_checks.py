@@ -52,14 +52,14 @@ def test_no_bounds_contain_nan(bounds):
      r"^noise_t must be >= 0 mm, got -1$"),
     (lambda: vjm.discrepancy.simulate.simulate(PUU, [], np.zeros((1, 3)), np.eye(6)[:1], 1e-3, float("nan"), 0),
      r"^noise_r must be a finite number >= 0 rad"),
-    (lambda: vjm.maps.workspace_grid(PUU, 1), r"^grid must be a whole number >= 2, got 1$"),
-    (lambda: vjm.maps.workspace_grid(PUU, 2.5), r"^grid must be a whole number >= 2, got 2.5$"),
-    (lambda: vjm.maps.parse_slice("z=inf"), r"^slice expects axis=value"),
+    (lambda: vjm.maps.compute.workspace_grid(PUU, 1), r"^grid must be a whole number >= 2, got 1$"),
+    (lambda: vjm.maps.compute.workspace_grid(PUU, 2.5), r"^grid must be a whole number >= 2, got 2.5$"),
+    (lambda: vjm.maps.grid.parse_slice("z=inf"), r"^slice expects axis=value"),
 ])
 def test_vjm_api_names_the_argument(call, message):
     import vjm.discrepancy.diagnose
     import vjm.discrepancy.simulate
-    import vjm.maps  # noqa: F401
+    import vjm.maps.compute  # noqa: F401
 
     with pytest.raises(VjmError, match=message) as info:
         call()
@@ -116,7 +116,7 @@ def test_units_far_beyond_any_effect_refused(tmp_path):
     """Translations in µm, rotations in degrees, compliances in µm/N: one hint about units; the data in mm
     and rad pass."""
     from vjm.discrepancy.plausible import check_units
-    from vjm.discrepancy.predict import unique_postures
+    from vjm.effects.context import unique_postures
 
     for text, fragment in ((MICRONS, r"translations are 1e\+03 x"), (DEGREES, "rotations are 57.3 x"),
                            (GOOD, None)):
@@ -137,8 +137,8 @@ def test_units_far_beyond_any_effect_refused(tmp_path):
 
 
 def test_reachable_posture_outside_the_workspace_box_is_a_warning():
-    from vjm.discrepancy import modelops as mo
     from vjm.discrepancy.plausible import workspace_flags
+    from vjm.effects import modelops as mo
 
     lo, hi = mo.workspace_box(PUU)
     P = np.array([[0.0, 0.0, 0.0], [lo[0] - 10.0, 0.0, 0.0]])
@@ -151,8 +151,8 @@ def test_reachable_posture_outside_the_workspace_box_is_a_warning():
 
 def test_diagnosis_warns_of_a_posture_outside_the_workspace_box(tmp_path):
     """End to end: the warning is in the report's flags and in the printed summary."""
-    from vjm.discrepancy import modelops as mo
     from vjm.discrepancy.diagnose import diagnose
+    from vjm.effects import modelops as mo
 
     lo, _ = mo.workspace_box(PUU)
     rng = np.random.default_rng(7)

@@ -11,7 +11,7 @@ from linkfea.errors import LinkFeaError, SolverError
 from linkfea.fem import solve_link
 from linkfea.fit import check_compliance
 from vjm.errors import EquilibriumError, VjmError, user_errors
-from vjm.nonlinear import deflection_map
+from vjm.stiffness.nonlinear import deflection_map
 
 PUU = "data/orthoglide/puu.yaml"
 

@@ -47,12 +47,12 @@ def no_work(monkeypatch):
         raise AssertionError("work started before the output path was checked")
 
     # modules that bind these functions by name at import: imported first, so that they keep the real ones
-    for name in ("vjm.discrepancy.workflow", "vjm.discrepancy.diagnose", "vjm.sweep", "vjm.maps"):
+    for name in ("vjm.discrepancy.workflow", "vjm.discrepancy.diagnose", "vjm.sweep.combine", "vjm.maps.compute"):
         mod(name)
 
     for name, attr in [("linkfea.pipeline", "compute"), ("linkfea.compare", "fea_compliance"),
-                       ("linkfea.sweep", "make_sweep"), ("vjm.modelfile", "load_model"),
-                       ("vjm.discrepancy.modelops", "load_model")]:
+                       ("linkfea.sweep", "make_sweep"), ("vjm.modelio.read", "load_model"),
+                       ("vjm.discrepancy.simulate", "load_model")]:
         monkeypatch.setattr(mod(name), attr, started)
 
 
@@ -136,7 +136,7 @@ def diagnosis():
     import vjm
     from vjm.discrepancy.diagnose import diagnose
     from vjm.discrepancy.simulate import design_loads, simulate
-    from vjm.links import LinkSpring as Link
+    from vjm.model.links import LinkSpring as Link
 
     model = vjm.load_model(PUU).replace(foot=Link.rigid())
     rng = np.random.default_rng(0)
@@ -352,7 +352,7 @@ def test_saving_a_model_never_replaces_a_file_vjm_did_not_write(how, tmp_path, d
 def test_the_report_model_file_is_recognised_as_vjms_own(tmp_path, diagnosis):
     """model_updated.yaml of a report carries the checksum line, so `updated_model.save` may replace it."""
     from vjm.discrepancy.diagnose import write_diagnosis
-    from vjm.modelwrite import own_model_file
+    from vjm.modelio.write import own_model_file
 
     write_diagnosis(diagnosis, tmp_path / "rep")
     assert own_model_file(tmp_path / "rep" / "model_updated.yaml")

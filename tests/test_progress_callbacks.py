@@ -18,8 +18,8 @@ ENTRY_POINTS = [
     ("linkfea", "compute"), ("linkfea", "compare"), ("linkfea.compare", "fea_compliance"),
     ("linkfea.mesh", "mesh_link"), ("linkfea.fem", "solve_link"), ("linkfea.sweep", "run_sweep"),
     ("linkfea.solvers", "auto_factorizer"),
-    ("vjm.toolpath.run", "path"), ("vjm.maps", "grid_map"), ("vjm.maps", "compute_map"),
-    ("vjm.sweep", "sweep"), ("vjm.sweep", "trade_offs"), ("vjm.model", "Model.map"),
+    ("vjm.toolpath.run", "path"), ("vjm.maps.compute", "grid_map"), ("vjm.maps.compute", "compute_map"),
+    ("vjm.sweep.combine", "sweep"), ("vjm.sweep.combine", "trade_offs"), ("vjm.model.machine", "Model.map"),
     ("vjm.discrepancy.workflow", "diagnose"), ("vjm.discrepancy.simulate", "simulate"),
     ("vjm.discrepancy.simulate", "run"), ("vjm.discrepancy.fit.select", "forward_select"),
 ]
@@ -103,7 +103,7 @@ def test_old_public_keyword_is_a_deprecated_alias(module, attr):
 def test_diagnose_log_keyword_still_reports_the_rounds():
     """``vjm.diagnose(..., log=f)`` warns and ``f`` gets the same lines as ``progress=f``."""
     from vjm.discrepancy.simulate import design_loads, simulate
-    from vjm.links import LinkSpring
+    from vjm.model.links import LinkSpring
 
     m = vjm.load_model("data/orthoglide/puu.yaml").replace(foot=LinkSpring.rigid())
     rng = np.random.default_rng(3)

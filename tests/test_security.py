@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from linkfea.cli import app as linkfea_app
 from vjm.cli import app as vjm_app
 from vjm.errors import VjmError
-from vjm.modelfile import load_model
+from vjm.modelio.read import load_model
 from vjm.resources import data_dir
 
 MARK = "MARKER"

@@ -8,7 +8,7 @@ machine does, not what its own effect code wrote.  The true deflections are
   ``data/orthoglide/puu.yaml`` format: a real beam foot of other proportions
   than the leg's, a foot compliance with its bending couplings, elastic passive
   joints, an actuator whose compliance grows along its travel ...) solved by
-  the vjm model (linear ``C(p) w``) or by :mod:`vjm.nonlinear` (finite
+  the vjm model (linear ``C(p) w``) or by :mod:`vjm.stiffness.nonlinear` (finite
   rotations: geometric nonlinearity);
 * plus terms written out here, with their own kinematics of the 3-PUU (its
   rigid inverse kinematics in closed form, not vjm's chains):
@@ -23,7 +23,7 @@ machine does, not what its own effect code wrote.  The true deflections are
     platform moves by ``dp = J^-1 (b sign(tau))`` without rotating;
   - ``joint_backlash``: every U joint's cross (3-PRPaR: every pivot) tilts by
     ``b`` (rad) about its constrained direction(s), toward the moment it carries
-    there.  Solved by :mod:`vjm.nonlinear` on the true machine with stiff joint springs: the
+    there.  Solved by :mod:`vjm.stiffness.nonlinear` on the true machine with stiff joint springs: the
     moments are read off the springs' rotations under the load, and the slips
     are imposed as the springs' rest values (``offsets``) in a second,
     load-free equilibrium of the whole overconstrained machine;
@@ -66,8 +66,8 @@ import numpy as np
 import yaml
 
 import vjm
-from vjm import nonlinear
-from vjm.modelfile import model_from_dict
+from vjm.modelio.read import model_from_dict
+from vjm.stiffness import nonlinear
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PUU = os.path.join(ROOT, "data", "orthoglide", "puu.yaml")
@@ -212,7 +212,7 @@ class Truth:
     Attributes
     ----------
     model : model-file mapping of the true springs (see :func:`nominal`, :func:`variant`)
-    nonlinear : solve the springs by :mod:`vjm.nonlinear` (finite rotations) instead of ``C w``
+    nonlinear : solve the springs by :mod:`vjm.stiffness.nonlinear` (finite rotations) instead of ``C w``
     weight : N, a weight on the platform along ``GRAVITY`` (>= 0)
     backlash : mm, each actuator slips by this in the direction of its force
     backlash_sign : ``"applied"`` (sign of the applied load's actuator force) or ``"total"``

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import vjm
-from vjm.transforms import rotation_vector
+from vjm.kinematics.transforms import rotation_vector
 
 OUT = Path("out/examples/serial_robot")
 OUT.mkdir(parents=True, exist_ok=True)

@@ -20,7 +20,7 @@ from .errors import LinkFeaError
 def skew(v) -> np.ndarray:
     """Cross-product matrices: ``skew(a) @ b == np.cross(a, b)``.
 
-    ``v`` (..., 3) gives (..., 3, 3); a complex ``v`` stays complex (vjm.nonlinear
+    ``v`` (..., 3) gives (..., 3, 3); a complex ``v`` stays complex (vjm.stiffness.nonlinear
     differentiates by complex step), anything else becomes float.
     """
     v = np.asarray(v)

@@ -11,17 +11,18 @@ k_tran = 0.000278 mm/N
 from linkfea.progress import renamed_progress
 
 from .errors import EquilibriumError, VjmError
-from .links import LinkSpring
-from .model import Actuator, Joints, Model
-from .modelfile import load_model, save_model, with_links
-from .stiffness import StiffnessResult
+from .model.links import LinkSpring
+from .model.machine import Actuator, Joints, Model
+from .modelio.read import load_model, with_links
+from .modelio.write import save_model
+from .stiffness.linear import StiffnessResult
 
 __all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "LinkSpring", "Joints", "StiffnessResult",
            "load_model", "save_model", "with_links", "diagnose", "path"]
 
 
 def __dir__():
-    # the public names only (submodules stay importable as vjm.maps etc.)
+    # the public names only (submodules stay importable as vjm.maps.compute etc.)
     return sorted(__all__)
 
 
@@ -31,11 +32,6 @@ def __getattr__(name):
         from .toolpath.dispatch import path
 
         return path
-    # ``vjm.Link``: the older name of LinkSpring (it shared its name with linkfea.cad.Link)
-    if name == "Link":
-        from .links import deprecated_link
-
-        return deprecated_link()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

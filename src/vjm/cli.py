@@ -34,7 +34,7 @@ def _fail(exc: Exception):
 
 
 def _load(model: Path, foot: Optional[Path], leg: Optional[Path]):
-    from .modelfile import load_model
+    from .modelio.read import load_model
     return load_model(model, foot=foot, leg=leg)
 
 
@@ -80,7 +80,7 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
     """Cartesian stiffness of MODEL at one point (--at), or of a robot at one configuration (--q)."""
     try:
         from .robot.model import RobotModel
-        from .spread import bars
+        from .sweep.spread import bars
 
         m = _load(model, foot, leg)
         if isinstance(m, RobotModel):
@@ -110,7 +110,7 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
     typer.echo(f"k_tran = {r.k_tran:.4g}{pm[0]} mm/N   (largest eigenvalue of C[:3,:3])")
     typer.echo(f"k_rot  = {r.k_rot:.4g}{pm[1]} rad/(N mm)   (largest eigenvalue of C[3:,3:])")
     if r.k_tran_spread is not None:
-        typer.echo("+-: spread from the links' FEA error bars (vjm.spread; beam and inline links contribute none)")
+        typer.echo("+-: spread from the links' FEA error bars (vjm.sweep.spread; beam and inline links contribute none)")
     typer.echo(f"rank(K) = {r.rank}, rank(J_q) per chain = {np.asarray(r.chain_rank).tolist()}")
 
 
@@ -175,7 +175,7 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
     from linkfea.checks import integer
     from linkfea.outputs import check_folder
 
-    from .maps import GRID, MAP_FILES
+    from .maps.compute import GRID, MAP_FILES
     from .robot.model import RobotModel
 
     robot_only = {"--joints": joints, "--q": q, "--box": box, "--tool": tool, "--self-weight": self_weight or None}
@@ -209,7 +209,7 @@ def table1(model_puu: Path = typer.Argument(..., help="3-PUU model YAML"),
            leg: Optional[Path] = typer.Option(None, "--leg", help="linkfea JSON for the 3-PUU leg"),
            bar: Optional[Path] = typer.Option(None, "--bar", help="linkfea JSON for one 3-PRPaR bar")):
     """Seed Table 1: our k_tran and k_rot at Q0, Q1, Q2 beside the paper's."""
-    from .table1 import check_order, report_lines, table1_rows
+    from .studies.table1 import check_order, report_lines, table1_rows
 
     try:
         models = [_load(model_puu, foot, leg), _load(model_prpar, foot, bar)]
@@ -230,7 +230,7 @@ def sweep_cmd(model: Path = typer.Argument(..., help="model YAML"),
               out: Path = typer.Option(..., "--out", help="output folder (tradeoffs.csv/.parquet, pareto.*)"),
               force: bool = FORCE):
     """Machine trade-offs: every combination of link designs, worst/mean k_tran and k_rot, mass, Pareto set."""
-    from .sweep import sweep
+    from .sweep.combine import sweep
 
     try:
         if foot is None and leg is None and bar is None:

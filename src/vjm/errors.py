@@ -20,7 +20,7 @@ class VjmError(ValueError):
 
 
 class EquilibriumError(VjmError, RuntimeError):
-    """The nonlinear equilibrium (:mod:`vjm.nonlinear`) was not found.
+    """The nonlinear equilibrium (:mod:`vjm.stiffness.nonlinear`) was not found.
 
     A ``RuntimeError``; also a :class:`VjmError`, so that callers catching
     ``VjmError`` (the CLI, the diagnosis) keep handling it.  Catch

@@ -67,9 +67,3 @@ def data_file(path, suffixes=(".yaml", ".csv")) -> Path:
 
 def _bundled_hits(root: Path, names) -> list[Path]:
     return sorted(q for n in names for q in root.rglob(n) if q.is_file()) if root.is_dir() else []
-
-
-def bundled_names() -> list[str]:
-    """The bundled data files, relative to :func:`data_dir` (for messages)."""
-    root = data_dir()
-    return sorted(str(q.relative_to(root)) for q in root.rglob("*") if q.is_file()) if root.is_dir() else []

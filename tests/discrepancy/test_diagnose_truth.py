@@ -1,7 +1,7 @@
 """Acceptance of `vjm diagnose` on data it did not simulate (tests/truth.py).
 
 Every data set here comes from the independent truth generator: richer model
-files of the Orthoglide 3-PUU solved by vjm (``C w``) or ``vjm.nonlinear``,
+files of the Orthoglide 3-PUU solved by vjm (``C w``) or ``vjm.stiffness.nonlinear``,
 plus a weight, a backlash and out-of-library terms written out in
 tests/truth.py, with 1 um / 10 urad Gaussian noise.  The diagnosis runs
 through the public command line (``vjm diagnose MODEL DATA --out DIR``, in
@@ -15,7 +15,7 @@ cannot tell them apart"; e.g. foot torsion, leg torsion and the U-joint
 springs act in nearly the same directions of every leg).  No other effect
 may be named.
 
-Every effect of the registry (``vjm.discrepancy.effects.REGISTRY``) has a
+Every effect of the registry (``vjm.effects.REGISTRY``) has a
 true machine here (``truth.LIBRARY``) or is listed in ``NOT_COVERED`` with
 the reason; the 3-PRPaR bar's effects are in test_diagnose_truth_prpar.py.
 Whether the true machine shows at all is decided on the truth itself
@@ -34,7 +34,7 @@ from typer.testing import CliRunner
 
 import vjm
 from vjm.cli import app
-from vjm.discrepancy.effects import REGISTRY
+from vjm.effects import REGISTRY
 
 ALPHA = 0.01
 NOMINAL = tr.NOMINAL

@@ -53,7 +53,7 @@ def test_delta_backlash_is_named_at_its_size(diagnosis):
 
 
 def test_clearance_of_turning_actuators_is_an_angle():
-    from vjm.discrepancy import effects as fx
+    from vjm import effects as fx
     from vjm.resources import data_file
 
     unit = {f: fx.get("clearance").param_specs(vjm.load_model(data_file(f)))[0].unit

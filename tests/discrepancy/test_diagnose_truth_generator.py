@@ -93,7 +93,7 @@ def test_signature_chi2_calibration_takes_a_scaled_model_whole(rows):
 
 
 def test_nonlinear_truth_equals_linear_at_small_loads(rows):
-    """vjm.nonlinear on the rich model -> C w as the load goes to zero; visible at full load."""
+    """vjm.stiffness.nonlinear on the rich model -> C w as the load goes to zero; visible at full load."""
     P, W = rows
     lin, nl = tr.Truth(rich_model()), tr.Truth(rich_model(), nonlinear=True)
 

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import vjm
-from vjm.discrepancy import effects as fx
-from vjm.discrepancy import modelops as mo
-from vjm.links import LinkSpring as Link
+from vjm import effects as fx
+from vjm.effects import modelops as mo
+from vjm.model.links import LinkSpring as Link
 
 FULL = vjm.load_model("data/orthoglide/puu.yaml")
 

@@ -134,8 +134,8 @@ def test_a_diagnosis_beyond_the_memory_is_refused_before_it_starts(tmp_path, mon
     """120,000 rows (a 27 MB file of ``vjm simulate``) passed 12 GB in 45 s: the estimate from the row count
     and the candidates (210 kB per row with all 25, measured) refuses it on a 16 GB machine at once; a smaller
     file is refused the same way when the memory is smaller, before any stage runs."""
-    from vjm import grid
     from vjm.discrepancy import workflow
+    from vjm.maps import grid
 
     monkeypatch.setattr(grid, "available_memory", lambda: 20e9)  # 16 GB usable (80%)
     with pytest.raises(VjmError, match=r"vjm diagnose would need about 25.2 GB of memory for 1.2e\+05 rows"):

@@ -23,10 +23,10 @@ import numpy as np
 import pytest
 
 import vjm
-from vjm.discrepancy import effects as fx
+from vjm import effects as fx
 from vjm.discrepancy.diagnose import diagnose
 from vjm.discrepancy.simulate import design_loads, simulate
-from vjm.links import LinkSpring as Link
+from vjm.model.links import LinkSpring as Link
 
 MODEL = vjm.load_model("data/orthoglide/puu.yaml").replace(foot=Link.rigid())
 _rng = np.random.default_rng(0)

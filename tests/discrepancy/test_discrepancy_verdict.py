@@ -21,7 +21,7 @@ from vjm.discrepancy.data import Deflections, read_csv, write_deflections
 from vjm.discrepancy.diagnose import diagnose
 from vjm.discrepancy.fit.select import FitResult, Param, Problem, Term, fit_terms, lack_of_fit
 from vjm.discrepancy.simulate import design_loads, simulate
-from vjm.links import LinkSpring as Link
+from vjm.model.links import LinkSpring as Link
 
 PUU = "data/orthoglide/puu.yaml"
 MODEL = vjm.load_model(PUU).replace(foot=Link.rigid())

@@ -11,13 +11,13 @@ import typer
 from typer.testing import CliRunner
 
 import vjm
-from vjm.discrepancy import modelops as mo
 from vjm.discrepancy.cli import register
 from vjm.discrepancy.data import Deflections, read_csv
 from vjm.discrepancy.diagnose import diagnose, run, write_diagnosis
 from vjm.discrepancy.simulate import design_loads, simulate
+from vjm.effects import modelops as mo
 from vjm.errors import VjmError
-from vjm.links import LinkSpring as Link
+from vjm.model.links import LinkSpring as Link
 
 PUU = "data/orthoglide/puu.yaml"
 MODEL = vjm.load_model(PUU).replace(foot=Link.rigid())

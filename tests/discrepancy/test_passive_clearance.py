@@ -1,10 +1,10 @@
 """Clearance in the passive joints: the moments the joints carry and the twist of their slip.
 
-``passive_clearance`` (vjm.discrepancy.effects) predicts, by the unit-load theorem, that a
+``passive_clearance`` (vjm.effects.library) predicts, by the unit-load theorem, that a
 joint slipping by ``e`` about its constrained direction moves the end-effector by
 ``a_s e``, where ``tau_s = a_s . w`` is the moment that joint carries under a wrench w
 (``modelops.joint_spring_influence``: linear Jacobians and the bordered solve).  The
-references here come from :mod:`vjm.nonlinear`, which shares neither: it minimises the
+references here come from :mod:`vjm.stiffness.nonlinear`, which shares neither: it minimises the
 spring energy over all joint coordinates with finite rotations, the slip imposed as the
 rest value of the joint's spring (``offsets``) and the moment read off the spring's rotation.
 """
@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 import vjm
-from vjm import nonlinear
-from vjm.discrepancy import effects as fx
-from vjm.discrepancy import modelops as mo
+from vjm import effects as fx
+from vjm.effects import modelops as mo
 from vjm.errors import VjmError
+from vjm.stiffness import nonlinear
 
 PUU = vjm.load_model("data/orthoglide/puu.yaml")
 PRPAR = vjm.load_model("data/orthoglide/prpar.yaml")
@@ -33,7 +33,7 @@ def test_slip_twist_equals_nonlinear_equilibrium_with_imposed_slip(model):
     names = mo.joint_spring_names(model)
     A = mo.joint_spring_influence(model, P)
     assert A.shape == (len(P), 3 * len(names), 6)
-    stiff = model.replace(joints=vjm.model.Joints(K_STIFF))
+    stiff = model.replace(joints=vjm.model.machine.Joints(K_STIFF))
     e = 1e-7
     for ci in range(3):
         for si, name in enumerate(names):
@@ -50,7 +50,7 @@ def test_joint_moments_equal_nonlinear_spring_rotation():
     ``a_s . w`` equals its spring's stiffness times the rotation it takes in the nonlinear
     equilibrium (1e-4: the linear limit; the loads keep the cubic terms far below)."""
     k = 1e7
-    model = PUU.replace(joints=vjm.model.Joints(k))
+    model = PUU.replace(joints=vjm.model.machine.Joints(k))
     W = np.array([[0.1, -0.05, 0.08, 10.0, -6.0, 4.0]] * len(P))
     A = mo.joint_spring_influence(model, P)
     tau = np.einsum("nsj,nj->ns", A, W)
@@ -62,7 +62,7 @@ def test_joint_moments_equal_nonlinear_spring_rotation():
 
 def test_slip_does_work_along_the_load():
     """Each joint slips toward its moment, so the slip twist does non-negative work on the load."""
-    from vjm.discrepancy.predict import Context
+    from vjm.effects.context import Context
 
     W = RNG.normal(size=(len(P), 6)) * np.array([100, 100, 100, 5000, 5000, 5000])
     ctx = Context(PUU, P, np.arange(len(P)), W)
@@ -71,13 +71,13 @@ def test_slip_does_work_along_the_load():
 
 
 def test_offsets_bad_input_is_one_clear_error():
-    stiff = PUU.replace(joints=vjm.model.Joints(K_STIFF))
+    stiff = PUU.replace(joints=vjm.model.machine.Joints(K_STIFF))
     with pytest.raises(VjmError, match="springs the model does not have"):
         nonlinear.deflection_map(stiff, P, np.zeros(6), offsets={"nope": np.zeros((3, 1))})
     with pytest.raises(VjmError, match="one row per chain"):
         nonlinear.deflection_map(stiff, P, np.zeros(6), offsets={"u1": np.zeros(1)})
     with pytest.raises(VjmError, match="rigid"):  # the ideal-joint model has no u1 spring; the foot is given
-        nonlinear.deflection_map(PUU.replace(foot=vjm.model.Link.rigid()), P, np.zeros(6),
+        nonlinear.deflection_map(PUU.replace(foot=vjm.LinkSpring.rigid()), P, np.zeros(6),
                                  offsets={"foot": np.zeros((3, 6))})
 
 
@@ -96,7 +96,7 @@ def test_slips_follow_the_moments_of_the_model_being_fitted():
     that machine, and the nominal model's slip twist does not."""
     import truth as tr
 
-    from vjm.discrepancy.predict import Context
+    from vjm.effects.context import Context
 
     given, true = tr.hide(("passive_clearance", 1e-7), "bar_extension_torsion")
     P, W = tr.design(**tr.DESIGNS["prpar"])
@@ -117,16 +117,9 @@ def test_fit_reads_the_uncalibrated_moments_only_where_the_calibration_leaves_th
     to round-off, those of the calibrated model (C w of the calibrated model plus the slip twist of
     that model's moments); on the 3-PRPaR (parallelograms) the calibrated model is used."""
     from vjm.discrepancy.fit.select import Term
-    from vjm.discrepancy.predict import (
-        CALIBRATION,
-        Context,
-        Predictor,
-        _slip_toward,
-        apply_calibration,
-        calibration_term,
-        unique_postures,
-    )
+    from vjm.discrepancy.predict import CALIBRATION, Predictor, apply_calibration, calibration_term
     from vjm.discrepancy.simulate import design_loads
+    from vjm.effects.context import Context, slip_toward, unique_postures
 
     rng = np.random.default_rng(3)
     L = design_loads("axes:100:10000", len(P), rng)
@@ -141,7 +134,7 @@ def test_fit_reads_the_uncalibrated_moments_only_where_the_calibration_leaves_th
         t = pred.twists((CALIBRATION, eff.name), theta)
         m = apply_calibration(model, np.array(cal))
         elastic = np.einsum("nij,nj->ni", m.stiffness_map(U).C[idx], W)
-        slip = 3e-5 * _slip_toward(mo.joint_spring_influence(m, U)[idx], W)
+        slip = 3e-5 * slip_toward(mo.joint_spring_influence(m, U)[idx], W)
         assert np.abs(slip).max() > 1e-3 * np.abs(elastic).max()  # the slips are not lost in C w
         assert np.abs(t - elastic - slip).max() <= 1e-12 * np.abs(slip).max()
     assert pred._calibration_free[(eff.name, ())] is free

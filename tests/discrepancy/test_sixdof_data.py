@@ -12,10 +12,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import vjm
-from vjm.discrepancy import effects as fx
+from vjm import effects as fx
 from vjm.discrepancy.data import read_csv, write_design
-from vjm.discrepancy.predict import Context, unique_postures
 from vjm.discrepancy.simulate import run
+from vjm.effects.context import Context, unique_postures
 from vjm.errors import VjmError
 from vjm.resources import data_file
 

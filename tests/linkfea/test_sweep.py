@@ -318,7 +318,7 @@ def test_vjm_sweep_equals_stiffness_map_per_combination(grid_run, tmp_path):
 
     import vjm
     from vjm.cli import app as vjm_app
-    from vjm.sweep import pareto_mask, workspace_points
+    from vjm.sweep.combine import pareto_mask, workspace_points
 
     out = tmp_path / "machine"
     r = CliRunner().invoke(vjm_app, ["sweep", PUU, "--foot", grid_run, "--leg", grid_run, "--grid", "5",

@@ -11,9 +11,10 @@ from typer.testing import CliRunner
 
 import vjm
 from linkfea.outputs import MANIFEST
-from vjm import VjmError, nonlinear
+from vjm import VjmError
 from vjm.cli import app
-from vjm.kinematics import rotation_matrix
+from vjm.kinematics.poses import rotation_matrix
+from vjm.stiffness import nonlinear
 from vjm.toolpath import Constant, Milling
 from vjm.toolpath import deflect as dfl
 from vjm.toolpath.points import read_csv_text
@@ -33,7 +34,7 @@ def _csv(tmp_path, P, W=None, name="p.csv", rot=None):
 
 
 def _tcp_loaded(model, cmd_tcp, W_tcp, tool):
-    """Loaded TCP positions (n, 3) of commanded TCP points by vjm.nonlinear directly, with the lever
+    """Loaded TCP positions (n, 3) of commanded TCP points by vjm.stiffness.nonlinear directly, with the lever
     written out here: platform point = cmd - tool, wrench moved by M += tool x F, TCP = p + u + R tool."""
     P = cmd_tcp - tool
     W = np.array(W_tcp, dtype=float)
@@ -81,7 +82,7 @@ def test_tool_lever_gives_a_symmetric_tcp_compliance(tmp_path):
 
 @pytest.mark.parametrize("tool", [(0.0, 0.0, 0.0), (0.0, 0.0, -80.0)])
 def test_compensation_checked_by_a_separate_equilibrium(tmp_path, tool):
-    """The compensated commands, solved again by vjm.nonlinear (lever written out in this test), put the
+    """The compensated commands, solved again by vjm.stiffness.nonlinear (lever written out in this test), put the
     loaded TCP on the programmed points within 1e-3 of the uncompensated deflection or 1 nm."""
     m = vjm.load_model(PUU)
     tool = np.array(tool)
@@ -168,7 +169,7 @@ def test_hexapod_pose_path_compensates_position_and_orientation(tmp_path):
     t = nonlinear.deflection_map(m, cmd, W)
     pos_err = np.linalg.norm(cmd[:, :3] + t[:, :3] - P, axis=1)
     Rl = rotation_matrix(t[:, 3:]) @ rotation_matrix(cmd[:, 3:])
-    rot_err = np.linalg.norm(vjm.transforms.rotation_vector(rotation_matrix(R) @ np.swapaxes(Rl, 1, 2)), axis=1)
+    rot_err = np.linalg.norm(vjm.kinematics.transforms.rotation_vector(rotation_matrix(R) @ np.swapaxes(Rl, 1, 2)), axis=1)
     d0 = np.linalg.norm(res.deflection[:, :3], axis=1)
     r0 = np.linalg.norm(res.deflection[:, 3:], axis=1)
     assert np.all((pos_err <= 1e-3 * d0) | (pos_err <= 1e-6))
@@ -225,9 +226,9 @@ def test_gcode_path_compensated_program_keeps_its_structure(tmp_path):
 
 def test_band_from_covariance_is_the_weights_sensitivity_times_its_se(tmp_path):
     """A model with a calibration block {gravity.weight: 100 N, se 10 N}: the band on each deflection
-    component is 1.96 * 10 * |dd/dW|, with dd/dW from two equilibria of vjm.nonlinear solved here
+    component is 1.96 * 10 * |dd/dW|, with dd/dW from two equilibria of vjm.stiffness.nonlinear solved here
     (weights 100 +- 1 N along -z); and 1.96 * 10 * |C(p) g| to first order."""
-    from vjm.modelfile import model_to_dict
+    from vjm.modelio.write import model_to_dict
 
     m0 = vjm.load_model(PUU)
     m = m0.replace(effects={"gravity": {"weight": 100.0}})

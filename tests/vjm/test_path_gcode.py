@@ -192,7 +192,7 @@ def test_the_sample_count_is_the_samples_made(chord_tol, step):
 def test_a_sampling_beyond_the_memory_is_refused_before_it_starts(kw, monkeypatch):
     """``--step 1e-6`` grew to 24 GB before the kernel killed it: the count is made first and refused with the
     figures (the memory limit set to 64 GB, so that the answer does not depend on this machine)."""
-    from vjm import grid
+    from vjm.maps import grid
     from vjm.toolpath.points import from_gcode
 
     monkeypatch.setattr(grid, "available_memory", lambda: 80e9)

@@ -1,16 +1,16 @@
-"""The compiled Newton steps (vjm.nonlinear_kernel) against the numpy equations they evaluate
-(vjm.nonlinear._linearize, _newton_step; vjm.toolpath.equilibrium.residual_ok), and the compiled
+"""The compiled Newton steps (vjm.stiffness.nonlinear_kernel) against the numpy equations they evaluate
+(vjm.stiffness.nonlinear._linearize, _newton_step; vjm.toolpath.equilibrium.residual_ok), and the compiled
 path equilibria against the numpy path (equilibrium.KERNEL = False) on the 3-PUU and the hexapod:
 the same starts, steps and counts, the same deflections to round-off."""
 import numpy as np
 import pytest
 
 import vjm
-from vjm import nonlinear as nl
+from vjm.stiffness import nonlinear as nl
 from vjm.toolpath import equilibrium as eq
 
 pytest.importorskip("numba")
-from vjm import nonlinear_kernel as K
+from vjm.stiffness import nonlinear_kernel as K
 
 PUU = "data/orthoglide/puu.yaml"
 HEXAPOD = "data/machines/hexapod_6ups.yaml"

@@ -1,11 +1,11 @@
 """Warm-started equilibria along a path (vjm.toolpath.equilibrium) against the reference solver
-(vjm.nonlinear.deflection_map, cold, to its own 1e-11 step tolerance), and the compensation of a
+(vjm.stiffness.nonlinear.deflection_map, cold, to its own 1e-11 step tolerance), and the compensation of a
 continuous path checked by a separate equilibrium solve at the written points."""
 import numpy as np
 
 import vjm
-from vjm import nonlinear
-from vjm.kinematics import rotation_matrix
+from vjm.kinematics.poses import rotation_matrix
+from vjm.stiffness import nonlinear
 from vjm.toolpath import Milling
 from vjm.toolpath import equilibrium as eq
 from vjm.toolpath.points import read_csv_text
@@ -86,7 +86,7 @@ def test_hexapod_marched_equilibria_agree_with_the_reference():
 
 
 def test_compensated_continuous_path_checked_by_a_separate_equilibrium(tmp_path):
-    """The written commands of a 300-point path, solved again by vjm.nonlinear with the tool lever written
+    """The written commands of a 300-point path, solved again by vjm.stiffness.nonlinear with the tool lever written
     out here, put the loaded TCP on the programmed points within 1e-3 of the deflection; the cold starts
     are reported."""
     m = vjm.load_model(PUU)

@@ -6,7 +6,7 @@ import pytest
 from scipy.optimize import brentq, fsolve
 
 from vjm.errors import EquilibriumError, VjmError
-from vjm.modelfile import model_from_dict as robot_from_dict
+from vjm.modelio.read import model_from_dict as robot_from_dict
 
 L1, L2, C1, C2 = 800.0, 600.0, 350.0, 250.0   # mm: link lengths, joint-to-centre-of-mass distances
 M1, M2 = 30.0, 15.0                            # kg

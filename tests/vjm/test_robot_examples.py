@@ -82,7 +82,7 @@ def test_a_mass_read_from_a_linkfea_result(tmp_path):
     import json
 
     from linkfea.frames import Frame
-    from vjm.modelfile import model_from_dict
+    from vjm.modelio.read import model_from_dict
 
     C = np.diag([1e-4, 1e-4, 1e-4, 1e-8, 1e-8, 1e-8])
     doc = {"schema": "linkfea.result/1", "compliance": C.tolist(), "frame": Frame(np.zeros(3), np.eye(3)).to_dict(),
@@ -103,10 +103,10 @@ def test_a_mass_read_from_a_linkfea_result(tmp_path):
 
 @pytest.mark.parametrize("path", ROBOTS)
 def test_compiled_stiffness_equals_the_chain_jacobian_formula(path):
-    """The kernel's C and K against C = sum_s J_s C_s J_s^T from vjm.chain.jacobian (numpy) and its inverse."""
-    from vjm.chain import jacobian
+    """The kernel's C and K against C = sum_s J_s C_s J_s^T from vjm.kinematics.chain.jacobian (numpy) and its inverse."""
+    from vjm.kinematics.chain import jacobian
     from vjm.robot.tree import chain_values
-    from vjm.stiffness import spring_compliance
+    from vjm.stiffness.linear import spring_compliance
 
     m = vjm.load_model(path)
     Q = _configs(m, 50, seed=9)
@@ -115,9 +115,9 @@ def test_compiled_stiffness_equals_the_chain_jacobian_formula(path):
     ch = kin.chains[0]
     C = spring_compliance(ch, jacobian(ch, chain_values(ch, m.tree, Q))[1], m.compliances(kin)[0])
     assert np.allclose(r.C, C, rtol=1e-12, atol=1e-14 * np.abs(C).max())
-    # K: the inverse of the same LDL^T as vjm.linalg's (some configurations are close to singular: the
+    # K: the inverse of the same LDL^T as vjm.stiffness.linalg's (some configurations are close to singular: the
     # wrist's, where K reaches 1e13 and an inverse by another route differs in its last digits)
-    from vjm.linalg import psd_rank_inverse
+    from vjm.stiffness.linalg import psd_rank_inverse
 
     Kref, rank, inv = psd_rank_inverse(C)
     assert np.array_equal(r.rank, rank) and np.array_equal(r.invertible, inv)

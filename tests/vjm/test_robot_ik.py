@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 import vjm
+from vjm.kinematics.transforms import rotation_vector
 from vjm.robot.ik import pose_targets
-from vjm.transforms import rotation_vector
 
 UR10 = "data/robots/ur10/ur10.yaml"
 

@@ -22,7 +22,7 @@ K = {"shoulder_pan_joint": 1.5e8, "shoulder_lift_joint": 1.5e8, "elbow_joint": 8
 HOME = [0.0, -1.2, 1.5, -1.8707963267948966, -1.5707963267948966, 0.0]
 TOOL = np.array([0.0, 0.0, 150.0])     # mm in tool0's axes
 # N at the TCP, world axes: a force (a dead load at the TCP, exact in vjm; an applied moment's work is
-# vjm.nonlinear's M . phi, exact to O(phi^2) only, so none here)
+# vjm.stiffness.nonlinear's M . phi, exact to O(phi^2) only, so none here)
 WRENCH = (40.0, -25.0, 15.0, 0.0, 0.0, 0.0)
 PROGRAM = """G21 G90 G17
 G0 X780 Y120 Z260
@@ -180,7 +180,7 @@ def test_seed_is_for_robots_only(tmp_path):
 
 
 def test_a_path_through_a_wrist_singularity_is_an_error_naming_the_line(tmp_path):
-    from vjm.transforms import rotation_vector
+    from vjm.kinematics.transforms import rotation_vector
 
     m = vjm.load_model(str(_model_file(tmp_path)))
     Q = np.tile(HOME, (30, 1))

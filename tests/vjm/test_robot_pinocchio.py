@@ -106,8 +106,8 @@ def test_kinematics_jacobians_and_gravity_match_pinocchio(path):
 def test_vjm_stiffness_matches_the_jacobian_formula_with_link_springs_by_adjoint():
     """UR10 with joint springs and two beam link springs: K from vjm against (J C J^T)^-1 built from
     pinocchio's joint Jacobian and each link spring's frame, moved to the tool by the adjoint map."""
-    from vjm.modelfile import model_from_dict
-    from vjm.yamldata import read_yaml
+    from vjm.modelio.read import model_from_dict
+    from vjm.modelio.yamldata import read_yaml
 
     d = read_yaml(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
     rng = np.random.default_rng(11)
@@ -172,7 +172,7 @@ def test_tree_has_a_stiffness_for_every_tool_and_a_rigid_urdf_has_zero_complianc
 
 def test_masses_from_the_model_file_add_to_the_urdf_inertials():
     """A point mass under masses: against pinocchio with the same mass appended to the joint's body."""
-    from vjm.modelfile import model_from_dict
+    from vjm.modelio.read import model_from_dict
 
     d = {"urdf": UR10, "masses": {"forearm_link": {"mass": 3.5, "com": [20.0, -10.0, 300.0]}}}
     model = model_from_dict(d)

@@ -1,14 +1,14 @@
 """The compiled self-weight Newton (vjm.robot.sagkernel) against the general equilibrium solver
-(vjm.nonlinear.deflection_map with the robot's body loads): the same equations, two codes."""
+(vjm.stiffness.nonlinear.deflection_map with the robot's body loads): the same equations, two codes."""
 import os
 
 import numpy as np
 
 import vjm
-from vjm.nonlinear import deflection_map
 from vjm.robot.model import JointSpring, Payload, RobotModel
 from vjm.robot.urdf import read_urdf
 from vjm.robot.weight import body_loads
+from vjm.stiffness.nonlinear import deflection_map
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 UR10 = os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml")

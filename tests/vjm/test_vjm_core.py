@@ -3,9 +3,9 @@ import numpy as np
 
 from linkfea.beam import cantilever_compliance, rect_section
 from linkfea.frames import transform_compliance
-from vjm.chain import ChainBuilder, forward, jacobian, jacobian_semi_analytic
-from vjm.stiffness import chain_stiffness, spring_compliance
-from vjm.transforms import elementary, generator, homogeneous, rotation_vector, vee
+from vjm.kinematics.chain import ChainBuilder, forward, jacobian, jacobian_semi_analytic
+from vjm.kinematics.transforms import elementary, generator, homogeneous, rotation_vector, vee
+from vjm.stiffness.linear import chain_stiffness, spring_compliance
 
 rng = np.random.default_rng(7)
 

@@ -5,12 +5,13 @@ import pytest
 from typer.testing import CliRunner
 
 import vjm
-from vjm import VjmError, grid
+from vjm import VjmError
 from vjm.cli import app
-from vjm.discrepancy import modelops as mo
 from vjm.discrepancy.simulate import axes_loads, design_loads, design_poses, grid_poses, random_poses
-from vjm.maps import compute_map, workspace_grid
-from vjm.sweep import workspace_points
+from vjm.effects import modelops as mo
+from vjm.maps import grid
+from vjm.maps.compute import compute_map, workspace_grid
+from vjm.sweep.combine import workspace_points
 
 PUU = "data/orthoglide/puu.yaml"
 

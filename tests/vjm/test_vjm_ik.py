@@ -1,12 +1,12 @@
-"""The numeric inverse kinematics on large batches (vjm.ik): anchors along a curve through the
-poses, the compiled kernels (vjm.ik_kernel) and the numpy path."""
+"""The numeric inverse kinematics on large batches (vjm.kinematics.ik): anchors along a curve through the
+poses, the compiled kernels (vjm.kinematics.ik_kernel) and the numpy path."""
 import numpy as np
 import pytest
 
 import vjm
-from vjm import ik
-from vjm.chain import forward
-from vjm.kinematics import as_poses
+from vjm.kinematics import ik
+from vjm.kinematics.chain import forward
+from vjm.kinematics.poses import as_poses
 
 HEXAPOD = "data/machines/hexapod_6ups.yaml"
 

@@ -7,8 +7,8 @@ import yaml
 
 import vjm
 from vjm import VjmError
-from vjm.links import LinkSpring as Link
-from vjm.model import Actuator, Joints
+from vjm.model.links import LinkSpring as Link
+from vjm.model.machine import Actuator, Joints
 
 PUU = "data/orthoglide/puu.yaml"
 PRPAR = "data/orthoglide/prpar.yaml"
@@ -195,7 +195,7 @@ def test_cli_bad_input_one_line_and_nothing_written(tmp_path, make_args):
 def test_yaml_key_given_twice_is_refused_and_merge_overrides_are_not(tmp_path):
     """A key twice in one mapping (block or flow style, nested or not; 1 and 1.0 are one key) names both
     lines; a key that overrides one brought in by a ``<<`` merge is YAML's own rule and stays."""
-    from vjm.yamldata import read_yaml
+    from vjm.modelio.yamldata import read_yaml
 
     for text, line, key, first in [("a: 1\nb: 2\na: 3\n", 3, "'a'", "first on line 1"),
                                    ("g:\n  L: 1\n  r: 2\n  L: 3\n", 4, "'L'", "first on line 2"),
@@ -220,7 +220,7 @@ def test_yaml_key_given_twice_is_refused_and_merge_overrides_are_not(tmp_path):
 def test_expression_evaluates_only_the_operation_asked(expr, value):
     """A product is not also raised to a power on the side (1000.0 ** 200.0 overflows, 0.0 ** -1.0 divides
     by zero): each binary operation computes only itself."""
-    from vjm.description import evaluate
+    from vjm.modelio.description import evaluate
 
     assert evaluate(expr, {}, "w") == value
 
@@ -228,7 +228,7 @@ def test_expression_evaluates_only_the_operation_asked(expr, value):
 @pytest.mark.parametrize("expr, words", [("(-8)**(1/3)", "has no real value ((-8) ** 0.333333: a negative"),
                                          ("0**-1", "has no value (0 ** -1 divides by zero)")])
 def test_expression_without_a_real_value_is_refused(expr, words):
-    from vjm.description import evaluate
+    from vjm.modelio.description import evaluate
 
     with pytest.raises(VjmError) as e:
         evaluate(expr, {}, "chain x, element 1")

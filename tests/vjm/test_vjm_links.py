@@ -4,7 +4,6 @@ The notebook path: compute the foot and the leg with linkfea, put them into a ma
 writing a file, and get the same Cartesian stiffness as through the result JSON files (the
 command-line path), to round-off.
 """
-import warnings
 
 import numpy as np
 import pytest
@@ -100,16 +99,36 @@ def test_inline_compliance_keeps_its_frame_through_a_file(links, tmp_path):
     assert np.allclose(back.foot.frame.axes, foot.frame.axes, rtol=0, atol=1e-15)
 
 
-def test_old_link_name_still_works_and_warns():
-    with warnings.catch_warnings(record=True) as w:
-        warnings.simplefilter("always")
-        Link = vjm.Link
-    assert Link is LinkSpring and any(issubclass(x.category, DeprecationWarning) for x in w)
-    from vjm import model as model_module
+def test_the_link_spring_has_one_name():
+    """``vjm.Link`` (the CAD input's name, linkfea.cad.Link) is gone: the spring is vjm.LinkSpring."""
+    from vjm.model import machine
 
-    with pytest.warns(DeprecationWarning):
-        assert model_module.Link is LinkSpring
-    assert "Link" not in vjm.__all__ and "LinkSpring" in vjm.__all__
+    for mod in (vjm, machine):
+        with pytest.raises(AttributeError):
+            mod.Link  # noqa: B018
+    assert "LinkSpring" in vjm.__all__ and vjm.LinkSpring is LinkSpring
+
+
+def test_a_model_takes_keywords_only_and_shares_locked_kinematics():
+    """No positional ``Model(...)``; a copy with other springs shares the kinematics cache, which
+    threads may fill at once, and gives the same stiffness as a fresh model."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from vjm.model.machine import Model
+
+    m = vjm.load_model("puu")
+    with pytest.raises(TypeError):
+        Model(m.architecture, m.geometry, m.actuator)  # type: ignore[misc]
+    soft = m.replace(actuator=type(m.actuator)(m.actuator.stiffness / 2))
+    assert soft._kin_cache is m._kin_cache
+    P = np.random.default_rng(1).uniform(-40.0, 40.0, (12, 3, 3))
+    with ThreadPoolExecutor(4) as ex:
+        got = list(ex.map(lambda p: soft.stiffness_map(p).C, P))
+    fresh = Model(architecture=m.architecture, geometry=m.geometry, actuator=soft.actuator, links=m.links,
+                  joints=m.joints)
+    assert fresh._kin_cache is not m._kin_cache
+    for p, C in zip(P, got):
+        assert np.array_equal(C, fresh.stiffness_map(p).C)
 
 
 def test_one_reader_for_result_files(links, tmp_path):

@@ -8,9 +8,9 @@ import yaml
 
 import vjm
 from vjm import VjmError
-from vjm.chain import forward
-from vjm.kinematics import as_poses, rotation_matrix
-from vjm.modelfile import model_from_dict
+from vjm.kinematics.chain import forward
+from vjm.kinematics.poses import as_poses, rotation_matrix
+from vjm.modelio.read import model_from_dict
 
 HEXAPOD = "data/machines/hexapod_6ups.yaml"
 PAIRS = {  # description file, built-in model file, random-pose box (lo, hi), z offset
@@ -112,10 +112,10 @@ def test_hexapod_rigid_legs_equal_inverse_jacobian_closed_form():
 
 def test_hexapod_linear_compliance_is_slope_of_nonlinear_equilibrium(hexapod):
     """6-dof platform, flexible struts (6-dof springs) and actuator springs: the linear C equals
-    the central-difference slope of vjm.nonlinear (finite rotations, loop closure of every chain,
+    the central-difference slope of vjm.stiffness.nonlinear (finite rotations, loop closure of every chain,
     its own derivatives) under +-20 N and +-2e4 N mm, column by column to 1e-4 relative, at a
     tilted pose."""
-    from vjm.nonlinear import deflection_map
+    from vjm.stiffness.nonlinear import deflection_map
     x = np.array([30.0, -40.0, 580.0, 0.05, -0.08, 0.1])
     C = hexapod.stiffness(x).C
     e = np.array([20.0, 20.0, 20.0, 2e4, 2e4, 2e4])

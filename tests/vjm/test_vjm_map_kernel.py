@@ -1,4 +1,4 @@
-"""The compiled stiffness map (vjm.map_kernel) against the batched numpy path, the reference."""
+"""The compiled stiffness map (vjm.maps.map_kernel) against the batched numpy path, the reference."""
 import os
 import subprocess
 import sys
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import vjm
-from vjm import stiffness
+from vjm.stiffness import linear as stiffness
 
 PUU = "data/orthoglide/puu.yaml"
 HEXAPOD = "data/machines/hexapod_6ups.yaml"
@@ -98,7 +98,7 @@ def test_kernel_choice(monkeypatch):
 
 
 def test_single_pose_does_not_load_the_kernel(tmp_path):
-    """`vjm stiffness --at` (and Model.stiffness) stay on the numpy path: vjm.map_kernel is not
+    """`vjm stiffness --at` (and Model.stiffness) stay on the numpy path: vjm.maps.map_kernel is not
     imported, so no compile or cache load is paid; a large map does import it."""
     code = (
         "import sys\n"
@@ -106,13 +106,13 @@ def test_single_pose_does_not_load_the_kernel(tmp_path):
         "from vjm.cli import app\n"
         f"r = CliRunner().invoke(app, ['stiffness', {PUU!r}, '--at', '0,0,0'])\n"
         "assert r.exit_code == 0, r.output\n"
-        "assert 'vjm.map_kernel' not in sys.modules\n"
+        "assert 'vjm.maps.map_kernel' not in sys.modules\n"
         "import numpy as np, vjm\n"
         f"m = vjm.load_model({PUU!r})\n"
         "m.stiffness(np.zeros(3))\n"
-        "assert 'vjm.map_kernel' not in sys.modules\n"
+        "assert 'vjm.maps.map_kernel' not in sys.modules\n"
         "m.stiffness_map(np.zeros((300, 3)))\n"
-        "print('vjm.map_kernel' in sys.modules)\n"
+        "print('vjm.maps.map_kernel' in sys.modules)\n"
     )
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
     env.pop(stiffness.KERNEL_ENV, None)

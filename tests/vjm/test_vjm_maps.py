@@ -10,7 +10,7 @@ import pytest
 from matplotlib.colors import LogNorm
 
 import vjm
-from vjm.maps import compute_map, contour_levels, workspace_grid
+from vjm.maps.compute import compute_map, contour_levels, workspace_grid
 from vjm.resources import seed_table
 
 
@@ -69,3 +69,17 @@ def test_isotropic_point_and_q1_q2_are_marked(puu_map):
         assert filled == (z == 0.0)
     assert "isotropic" in texts
     plt.close(ax.figure)
+
+
+def test_the_maps_landmarks_are_the_seed_tables_points():
+    """The maps mark the Orthoglide's named points from its architecture (the core reads no paper
+    study); they are the points of the seed's Table 1 that vjm table1 reads."""
+    from vjm.architectures import ARCHITECTURES
+    from vjm.studies.table1 import read_seed_table
+
+    rows = read_seed_table()
+    for name in ("orthoglide-3PUU", "orthoglide-3PRPaR"):
+        seed = {r["point"] + (" isotropic" if r["point"] == "Q0" else ""): (float(r["x"]), float(r["y"]), float(r["z"]))
+                for r in rows if r["architecture"] == name}
+        assert ARCHITECTURES[name].landmarks == seed
+    assert ARCHITECTURES["delta-3RRPaR"].landmarks == {}

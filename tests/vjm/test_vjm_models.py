@@ -4,8 +4,8 @@ import pytest
 
 import vjm
 from linkfea.frames import transform_stiffness
-from vjm.models.parallelogram import closed_form, parallelogram_stiffness
-from vjm.transforms import elementary
+from vjm.architectures.parallelogram import closed_form, parallelogram_stiffness
+from vjm.kinematics.transforms import elementary
 
 DATA = "data/orthoglide"
 
@@ -76,7 +76,7 @@ def test_q0_same_translation_and_parallelogram_much_stiffer_in_rotation(puu, prp
 def test_delta_inverse_kinematics_closes(delta):
     """The Delta chains, evaluated at the IK solution, close on the requested point
     (checked inside the model to 1e-6 mm) and the platform stays parallel to the base."""
-    from vjm.chain import forward
+    from vjm.kinematics.chain import forward
     P = _cube(20, -100, 100)
     P[:, 2] -= 450.0
     q, vals = delta.arch.inverse_kinematics(delta, P)
@@ -93,7 +93,7 @@ def test_fast_projection_equals_rank_revealing_bordered_solve(name, lo, hi, off,
     """The map's fast path (N (N^T S N)^-1 N^T from a QR of J_q) and the rank-revealing
     bordered solve of eq. 11 (SVD) are two routes to the same chain stiffness: forcing
     every pose through the bordered solve must give the same K (1e-11 relative) and ranks."""
-    import vjm.stiffness as st
+    import vjm.stiffness.linear as st
 
     m = request.getfixturevalue(name)
     P = _cube(60, lo, hi, seed=11)

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 import vjm
-from vjm.chain import forward
 from vjm.errors import VjmError
-from vjm.nonlinear import _linearize, _setup, deflection, deflection_map
-from vjm.transforms import elementary, vee
+from vjm.kinematics.chain import forward
+from vjm.kinematics.transforms import elementary, vee
+from vjm.stiffness.nonlinear import _linearize, _setup, deflection, deflection_map
 
 PUU = "data/orthoglide/puu.yaml"
 PRPAR = "data/orthoglide/prpar.yaml"
@@ -33,7 +33,7 @@ def _slope(m, p):
 
 @pytest.mark.parametrize("p", [(0.0, 0.0, 0.0), (30.0, -50.0, 80.0), (-73.65, -73.65, -73.65)])
 def test_linear_compliance_is_slope_of_nonlinear_equilibrium(puu, p):
-    """3-PUU.  vjm.nonlinear minimises spring energy minus work over all joint coordinates of
+    """3-PUU.  vjm.stiffness.nonlinear minimises spring energy minus work over all joint coordinates of
     the three chains, with finite rotations and loop closure (Newton on the KKT system, its own
     derivatives of the chain product): it shares neither the Jacobians nor the bordered
     solve with the linear model.  Central differences under +-10 N and +-100 N mm cancel the
@@ -66,7 +66,7 @@ def test_nonlinear_departs_from_linear_under_large_load(puu):
 
 
 def _closure_complex(cd, k, v, u, p0):
-    """Closure residual of chain k straight from eq. 1 (vjm.chain.forward), complex-safe."""
+    """Closure residual of chain k straight from eq. 1 (vjm.kinematics.chain.forward), complex-safe."""
     T = forward(cd.chain, v)
     R = elementary("rx", u[:, 3])[:, :3, :3] @ elementary("ry", u[:, 4])[:, :3, :3] \
         @ elementary("rz", u[:, 5])[:, :3, :3] @ cd.R0

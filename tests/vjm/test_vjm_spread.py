@@ -1,4 +1,4 @@
-"""The machine's error bars from its links' FEA error bars (vjm.spread).
+"""The machine's error bars from its links' FEA error bars (vjm.sweep.spread).
 
 References that do not come from the spread code: a closed form (a machine whose only spring
 is one link: its compliance, hence k_tran and k_rot, scale exactly with the link's), the bar's
@@ -16,8 +16,8 @@ from linkfea.compliance import UNITS
 from linkfea.frames import Frame
 from vjm import LinkSpring
 from vjm.cli import app
-from vjm.model import Actuator
-from vjm.table1 import report_lines, table1_rows
+from vjm.model.machine import Actuator
+from vjm.studies.table1 import report_lines, table1_rows
 
 #: the foot's estimated relative errors at the default mesh (out/foot/result.json of `make demo`)
 FOOT_BAR = np.array([0.018, 0.040, 0.017, 0.058, 0.020, 0.016])

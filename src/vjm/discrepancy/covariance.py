@@ -13,7 +13,7 @@ import numpy as np
 
 from linkfea.atomic import plain, write_text
 
-from . import effects as fx
+from .. import effects as fx
 from .predict import CALIBRATION, calibration_term
 
 
@@ -36,7 +36,7 @@ def record(prob, pred, final) -> dict | None:
 
 def save_model_with(model, calibration: dict | None, path) -> None:
     """Write ``model`` as the model file does, with the ``calibration:`` block appended (atomic)."""
-    from ..modelwrite import model_file_text, model_to_dict
+    from ..modelio.write import model_file_text, model_to_dict
 
     path = os.path.abspath(os.fspath(path))
     d = model_to_dict(model, os.path.dirname(path))

@@ -18,10 +18,10 @@ import os
 
 import numpy as np
 
+from ..effects import modelops as mo
+from ..effects.context import unique_postures
 from ..errors import VjmError
-from . import modelops as mo
 from .data import StiffnessObs
-from .predict import unique_postures
 
 #: a measured/predicted scale beyond this factor (or below its inverse) is taken for a units error
 UNITS_FACTOR = 30.0

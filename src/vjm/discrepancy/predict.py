@@ -2,9 +2,8 @@
 
 All measurements are predicted at once: the compliance is computed once per
 unique posture (``stiffness_map``), gathered per measurement and contracted
-with the wrenches by ``einsum``.  Quantities that depend only on the nominal
-model (actuator influence for ``clearance``, nonlinear-minus-linear deflection
-for ``geometric_nonlinearity``) are computed once, lazily, per data set.
+with the wrenches by ``einsum``; each effect adds its part on the data set's
+:class:`~vjm.effects.context.Context`.
 """
 from __future__ import annotations
 
@@ -12,88 +11,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import effects as fx
-from . import modelops as mo
+from ..effects import REGISTRY
+from ..effects import modelops as mo
+from ..effects.context import Context
 from .data import Deflections, StiffnessObs
 from .fit.select import Param, Problem, Term
 
 CALIBRATION = "calibration"
-
-
-def unique_postures(P, decimals=6):
-    """Unique postures (m, 3) and the index (n,) of each row into them."""
-    P = np.asarray(P, float)
-    key = np.round(P, decimals)
-    _, first, idx = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    # the first row of each group, unrounded: U[idx] reproduces P exactly for repeated postures
-    return P[first], idx.reshape(-1)
-
-
-def _slip_toward(A, W) -> np.ndarray:
-    """(n, 6) ``sum_s a_s sign(a_s . w)``: every joint of influence ``A`` (n, k, 6) slipping by one unit
-    toward the force it carries under ``W`` (n, 6); the work ``w . t`` is >= 0."""
-    tau = np.einsum("ncj,nj->nc", A, W)
-    # forces below 1e-9 of the largest are "zero": no preferred side, no slip
-    s = np.where(np.abs(tau) > 1e-9 * np.abs(tau).max(initial=1e-300), np.sign(tau), 0.0)
-    return np.einsum("nc,ncj->nj", s, A)
-
-
-@dataclass
-class Context:
-    """Per-data-set precomputations on the nominal model (cached lazily)."""
-
-    model: object
-    P: np.ndarray  # (m, 3) unique postures
-    idx: np.ndarray  # (n,) measurement -> posture
-    W: np.ndarray  # (n, 6) wrenches (zeros for stiffness observations)
-    noise_t: float | None = None  # typical translation noise, mm (for screening candidates)
-    _cache: dict = field(default_factory=dict, repr=False)
-
-    @property
-    def n(self) -> int:
-        return int(self.idx.size)
-
-    def q(self) -> np.ndarray:
-        """(m, n_chains) actuator coordinates of the unique postures (nominal geometry)."""
-        if "q" not in self._cache:
-            self._cache["q"] = mo.actuator_coords(self.model, self.P)
-        return self._cache["q"]
-
-    def clearance_unit(self) -> np.ndarray:
-        """(n, 6) twist of a unit backlash in every actuator, each slipping in the direction of its force.
-
-        By the unit-load theorem an imposed slip ``e`` of actuator i moves the
-        end-effector by ``a_i e``, where ``a_i`` maps the applied wrench to that
-        actuator's force (``tau_i = a_i . w``).  With the slip following the
-        force sign, ``t = sum_i a_i sign(a_i . w)``, whose work ``w . t`` is >= 0.
-        """
-        if "clear" not in self._cache:
-            self._cache["clear"] = _slip_toward(mo.actuator_influence(self.model, self.P)[self.idx], self.W)
-        return self._cache["clear"]
-
-    def passive_clearance_unit(self, model=None, key=None) -> np.ndarray:
-        """(n, 6) twist of a unit slip (1 rad) in every passive-joint spring, each toward its moment.
-
-        As :meth:`clearance_unit`, with the moments ``tau_s = a_s . w`` the passive joints carry
-        about their constrained directions (:func:`~vjm.discrepancy.modelops.joint_spring_influence`).
-        ``model``: the model being fitted (calibration and model-changing effects applied), whose
-        load paths set the moments (a link's coupling changes how the load reaches the joints);
-        ``key`` identifies it in the cache.  Default: the nominal model.
-        """
-        if model is None:
-            model, key = self.model, "nominal"
-        k = ("pclear", key)
-        if k not in self._cache:
-            if len(self._cache) > 64:
-                self._cache = {n: v for n, v in self._cache.items() if not (isinstance(n, tuple) and n[0] == "pclear")}
-            self._cache[k] = _slip_toward(mo.joint_spring_influence(model, self.P)[self.idx], self.W)
-        return self._cache[k]
-
-    def nonlinear_delta(self) -> np.ndarray:
-        """(n, 6) nonlinear-equilibrium deflection minus the linear ``C w`` of the nominal model."""
-        if "nl" not in self._cache:
-            self._cache["nl"] = mo.nonlinear_delta(self.model, self.P[self.idx], self.W)
-        return self._cache["nl"]
 
 
 def calibration_term(model) -> Term:
@@ -147,8 +71,8 @@ class Predictor:
             if nm == CALIBRATION:
                 model = apply_calibration(model, th)
         for nm, th in blocks:
-            if nm != CALIBRATION and fx.REGISTRY[nm].kind == "model":
-                model = fx.REGISTRY[nm].apply(model, th)
+            if nm != CALIBRATION and REGISTRY[nm].kind == "model":
+                model = REGISTRY[nm].apply(model, th)
         return model, blocks
 
     def compliance(self, names, theta):
@@ -156,7 +80,7 @@ class Predictor:
         parameters only (finite differences on additive parameters then cost no stiffness map)."""
         model, blocks = self.build_model(names, theta)
         key = tuple((nm, th.tobytes()) for nm, th in blocks
-                    if nm == CALIBRATION or fx.REGISTRY[nm].kind == "model")
+                    if nm == CALIBRATION or REGISTRY[nm].kind == "model")
         C = self._cache.get(key)
         if C is None:
             C = mo.compliance_map(model, self.ctx.P)
@@ -171,7 +95,7 @@ class Predictor:
         C = Cu[self.ctx.idx]
         t = np.einsum("nij,nj->ni", C, self.ctx.W)
         for nm, th in blocks:
-            eff = fx.REGISTRY[nm] if nm != CALIBRATION else None
+            eff = REGISTRY[nm] if nm != CALIBRATION else None
             if eff is not None and eff.kind == "additive":
                 if eff.needs_model:
                     m, k = self.model_for(eff, blocks, model, key, C)
@@ -192,14 +116,14 @@ class Predictor:
         by percents).  The nominal calibration is the one used then, so the numbers do not
         depend on the order in which a fit visits its parameters.
         """
-        changes = [(nm, th) for nm, th in blocks if nm != CALIBRATION and fx.REGISTRY[nm].kind == "model"]
+        changes = [(nm, th) for nm, th in blocks if nm != CALIBRATION and REGISTRY[nm].kind == "model"]
         dkey = (eff.name, tuple(nm for nm, _ in changes))
         free = self._calibration_free.get(dkey)
         if free is False or all(nm != CALIBRATION for nm, _ in blocks):
             return model, key
         base = self.model
         for nm, th in changes:
-            base = fx.REGISTRY[nm].apply(base, th)
+            base = REGISTRY[nm].apply(base, th)
         bkey = ("uncalibrated", *((nm, th.tobytes()) for nm, th in changes))
         if free is None:
             unit = np.ones(len(eff.param_specs(self.model, self.ctx)))

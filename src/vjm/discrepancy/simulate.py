@@ -39,13 +39,14 @@ import numpy as np
 from linkfea.checks import NON_NEGATIVE, Bounds, integer, number, optional_number
 from linkfea.compliance import WRENCH
 
+from .. import effects as fx
+from ..effects import modelops as mo
+from ..effects.context import Context, unique_postures
 from ..errors import ArgumentError, VjmError
-from ..grid import SIMULATE_BYTES, in_chunks, plan
-from . import effects as fx
-from . import modelops as mo
+from ..maps.grid import SIMULATE_BYTES, in_chunks, plan
+from ..modelio.read import load_model
 from .data import ORIENT, Deflections
 from .levels import parse_levels
-from .predict import Context, unique_postures
 
 
 def parse_effect(spec: str):
@@ -379,7 +380,7 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
     check_arguments(noise_t, noise_r, seed)
     tilt = number(tilt, "tilt", TILT, ArgumentError)
     check_file(out, is_simulated_csv, "a CSV written by vjm simulate")
-    model = mo.load_model(model_path)
+    model = load_model(model_path)
     if tilt and model.dof != 6:
         raise ArgumentError("tilt", f"{tilt:g} rad: the machine's platform only translates (3 dof)")
     effects = [parse_effect(s) for s in effect_specs]

@@ -34,10 +34,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import modelops as mo
+from ..effects import modelops as mo
+from ..effects.context import Context
 from . import observe
 from .levels import load_levels
-from .predict import CALIBRATION, Context, Predictor
+from .predict import CALIBRATION, Predictor
 
 #: candidate postures drawn in the workspace box
 POOL = 160
@@ -189,7 +190,7 @@ def suggest(model, pred, data_ctx_rows, final_values, rep, n, forces_only=False,
     P0 = pred.ctx.P
     tilt = np.max(np.abs(P0[:, 3:]), axis=0) if P0.shape[1] == 6 else None
     Pp, Wp, F, M = _pool(model, pred.ctx.W, forces_only, rng, tilt)
-    from .predict import unique_postures
+    from ..effects.context import unique_postures
 
     U, idx = unique_postures(Pp)
     ctx = Context(model, U, idx, Wp, pred.ctx.noise_t)

@@ -13,10 +13,10 @@ from linkfea.checks import Bounds, integer, number
 from linkfea.progress import renamed_progress
 
 from ..errors import ArgumentError, VjmError
+from ..modelio.read import load_model
 from . import covariance
 from .data import Deflections, read_csv
 from .diagnosis import Diagnosis
-from .modelops import load_model
 from .stages.calibrate import calibrate
 from .stages.candidates import candidates
 from .stages.confounding import confounding
@@ -108,10 +108,10 @@ DIAGNOSE_SECONDS_PER_ROW = 5.8e-3
 
 
 def diagnose_plan(n_rows: int, n_candidates: int | None = None):
-    """The :class:`vjm.grid.Plan` of a diagnosis of ``n_rows`` rows (``n_candidates``: None for the whole
+    """The :class:`vjm.maps.grid.Plan` of a diagnosis of ``n_rows`` rows (``n_candidates``: None for the whole
     registry); VjmError naming the figures if it cannot fit in memory."""
-    from ..grid import plan
-    from .effects import REGISTRY
+    from ..effects import REGISTRY
+    from ..maps.grid import plan
 
     share = 1.0 if n_candidates is None else min(1.0, max(1, n_candidates) / max(1, len(REGISTRY)))
     return plan("vjm diagnose", n_rows, DIAGNOSE_BYTES_PER_ROW * share, DIAGNOSE_SECONDS_PER_ROW, unit="rows",

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..transforms import elementary
+from ..kinematics.transforms import elementary
 from .flex import beam_axes, beam_name, transforms
 from .tree import _rigid_inverse
 

@@ -15,7 +15,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from ..errors import VjmError
-from ..transforms import elementary
+from ..kinematics.transforms import elementary
 from .absolute import GEOMETRY, _delta
 from .tree import _rigid_inverse, origin_transform
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import VjmError
-from ..grid import Grid, Workspace
+from ..maps.grid import Grid, Workspace
 from .ik import IKResult, pose_targets, solve
 
 #: configurations sampled for the default box (the tool's reach)
@@ -91,14 +91,14 @@ class CartesianMap:
                 "unreachable": int((~self.reached).sum()), "singular": int((self.reached & self.singular).sum())}
 
     def stiffness_map(self):
-        """k_tran and k_rot as a :class:`vjm.maps.StiffnessMap` (its pictures: log scale, contours)."""
-        from ..maps import StiffnessMap
+        """k_tran and k_rot as a :class:`vjm.maps.compute.StiffnessMap` (its pictures: log scale, contours)."""
+        from ..maps.compute import StiffnessMap
 
         return StiffnessMap(self.name, list(self.grid.axes), self.grid.fixed, self.points, self.ok, self.K,
                             self.k_tran, self.k_rot)
 
     def plot(self, name: str = "k_tran", ax=None):
-        """``k_tran`` or ``k_rot`` (:meth:`vjm.maps.StiffnessMap.plot`), or ``sag``: the sag's length (mm)
+        """``k_tran`` or ``k_rot`` (:meth:`vjm.maps.compute.StiffnessMap.plot`), or ``sag``: the sag's length (mm)
         on the grid's slice (a 3-D grid: its middle z slice)."""
         if name != "sag":
             return self.stiffness_map().plot(name, ax=ax)

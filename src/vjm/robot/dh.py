@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..description import evaluate
 from ..errors import VjmError
-from ..transforms import elementary
+from ..kinematics.transforms import elementary
+from ..modelio.description import evaluate
 from .tree import Body, Frame, Tree, TreeJoint, origin_transform
 
 ROW_KEYS = ("name", "type", "a", "alpha", "d", "theta", "beta", "limits", "mass", "com")

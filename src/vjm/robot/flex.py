@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..transforms import elementary
+from ..kinematics.transforms import elementary
 
 T_REF = 20.0   # C, the reference temperature of dimensional metrology (ISO 1)
 TEMPERATURE = "meta_temperature"

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import VjmError
-from ..kinematics import rotation_matrix
-from ..transforms import rotation_vector
+from ..kinematics.poses import rotation_matrix
+from ..kinematics.transforms import rotation_vector
 
 #: length (mm) weighting the rotation error against the position error
 LENGTH = 1000.0

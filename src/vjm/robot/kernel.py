@@ -1,11 +1,11 @@
 """Compiled (numba) tool compliance and stiffness of a serial chain, one configuration at a time.
 
 ``C = sum_s J_s C_s J_s^T`` at the tool (world axes, at the tool point), then ``K = C^-1``: the
-chain's product is walked factor by factor as in :func:`vjm.chain._frame_product` (frames as 3x4
+chain's product is walked factor by factor as in :func:`vjm.kinematics.chain._frame_product` (frames as 3x4
 matrices), each joint or spring factor's axis and origin kept, and the Jacobian columns
 (``e x (p_end - o), e`` for a rotation, ``e`` for a translation; a variable met twice adds its
-columns) contracted with the springs' compliances -- the closed form of :func:`vjm.chain.jacobian`.
-The inverse is :func:`vjm.linalg.psd_rank_inverse`'s: Jacobi scaling, unpivoted LDL^T, every pivot
+columns) contracted with the springs' compliances -- the closed form of :func:`vjm.kinematics.chain.jacobian`.
+The inverse is :func:`vjm.stiffness.linalg.psd_rank_inverse`'s: Jacobi scaling, unpivoted LDL^T, every pivot
 above ``rtol``; a configuration where one is not is flagged, and the caller redoes it with the
 rank-revealing numpy path (pseudo-inverse, rank).
 """
@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..ik_kernel import CONST, jacobian_columns
-from ..transforms import KINDS
+from ..kinematics.ik_kernel import CONST, jacobian_columns
+from ..kinematics.transforms import KINDS
 
 
 def encode(chain):
@@ -120,7 +120,7 @@ def _inverse(C, K, rtol):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _max_eig3(C, o):  # pragma: no cover - compiled
-    """Largest eigenvalue of the symmetric 3x3 block ``C[o:o+3, o:o+3]``: :func:`vjm.linalg.sym3_max_eig`'s
+    """Largest eigenvalue of the symmetric 3x3 block ``C[o:o+3, o:o+3]``: :func:`vjm.stiffness.linalg.sym3_max_eig`'s
     closed form (trigonometric)."""
     q = (C[o, o] + C[o + 1, o + 1] + C[o + 2, o + 2]) / 3.0
     a01, a02, a12 = C[o, o + 1], C[o, o + 2], C[o + 1, o + 2]

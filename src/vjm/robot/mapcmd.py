@@ -23,7 +23,7 @@ from linkfea.atomic import file_sha256, plain
 from linkfea.outputs import OutputSet, check_folder
 
 from ..errors import ArgumentError, VjmError
-from ..grid import Workspace, grid_plan, plan
+from ..maps.grid import Workspace, grid_plan, plan
 
 #: the output set's name in the folder's manifest, and summary.json's writer
 WRITER = "vjm map"

@@ -3,16 +3,16 @@
 :class:`RobotModel` holds a :class:`~vjm.robot.tree.Tree` (from a URDF or a DH table) and its
 springs: one per joint (torsional, or axial for a prismatic joint; constant or a function of the
 joint's value), optional 6x6 joint springs (a bearing's bending about the other axes) and link
-springs (vjm's :class:`~vjm.links.LinkSpring`: a linkfea result, a beam, a 6x6 matrix).  With
+springs (vjm's :class:`~vjm.model.links.LinkSpring`: a linkfea result, a beam, a 6x6 matrix).  With
 none of them the robot is rigid: kinematics and gravity still work.
 
 Its stiffness has the interface of a parallel machine's :class:`vjm.Model`: ``stiffness(q)``
-returns the same :class:`~vjm.stiffness.StiffnessResult` (K, C in world axes at the tool point),
+returns the same :class:`~vjm.stiffness.linear.StiffnessResult` (K, C in world axes at the tool point),
 batched over configurations ``q`` (n, nq) instead of poses.  The chain from the base to a tool
-frame is a :class:`vjm.chain.Chain` (eq. 1) and, a serial chain having no passive joint, its
+frame is a :class:`vjm.kinematics.chain.Chain` (eq. 1) and, a serial chain having no passive joint, its
 compliance is ``C = sum_s J_s C_s J_s^T`` (eq. 10 with ``J_q`` empty); ``K = C^-1``.  A direction
 no spring deflects is rigid: C is then singular, K its pseudo-inverse and ``invertible`` False.
-The self-weight equilibrium on the deflected geometry is :func:`vjm.nonlinear.deflection_map`,
+The self-weight equilibrium on the deflected geometry is :func:`vjm.stiffness.nonlinear.deflection_map`,
 the one equilibrium solver, with the links' weights as body loads.
 """
 from __future__ import annotations
@@ -23,13 +23,13 @@ from functools import cached_property
 
 import numpy as np
 
-from ..chain import forward, jacobian
 from ..errors import VjmError, VjmWarning
-from ..kinematics import Kinematics
-from ..linalg import psd_rank_inverse
-from ..links import LinkSpring
-from ..stiffness import StiffnessResult
-from ..transforms import rotation_vector
+from ..kinematics.chain import forward, jacobian
+from ..kinematics.poses import Kinematics
+from ..kinematics.transforms import rotation_vector
+from ..model.links import LinkSpring
+from ..stiffness.linalg import psd_rank_inverse
+from ..stiffness.linear import StiffnessResult
 from .tree import ChainSprings, Tree, chain_values, path_chain
 
 #: standard gravity, m/s^2, along -z of the base frame unless the model or the call says otherwise
@@ -58,7 +58,7 @@ class JointSpring:
         elif self.table is not None:
             k = np.interp(q, self.table[0], self.table[1])
         else:
-            from ..description import evaluate
+            from ..modelio.description import evaluate
 
             k = np.array([evaluate(str(self.expression), {"q": float(v)}, where) for v in q])
         bad = ~(k > 0)
@@ -99,7 +99,7 @@ class RobotModel:
     ----------
     tree : the kinematic tree (mm, kg)
     joint_springs : joint name -> :class:`JointSpring` (joints without one are rigid)
-    joint6 : joint name -> 6x6 :class:`~vjm.links.LinkSpring` after the joint (its bearing)
+    joint6 : joint name -> 6x6 :class:`~vjm.model.links.LinkSpring` after the joint (its bearing)
     links : spring name -> :class:`PlacedSpring`
     payload : a :class:`Payload` or None
     gravity : (3,) m/s^2 in the base frame
@@ -306,7 +306,7 @@ class RobotModel:
     def _stiffness_block(self, ch, qb: np.ndarray, out, a0: int) -> None:
         """Configurations ``a0 : a0 + len(qb)`` of :meth:`stiffness`, written into ``out``: C and K from the
         compiled kernel (:mod:`vjm.robot.kernel`); a configuration whose C it cannot invert (a direction no
-        spring deflects) is redone by the rank-revealing :func:`vjm.linalg.psd_rank_inverse`."""
+        spring deflects) is redone by the rank-revealing :func:`vjm.stiffness.linalg.psd_rank_inverse`."""
         from .kernel import stiffness_kernel
 
         b0 = a0 + len(qb)

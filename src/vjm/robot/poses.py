@@ -144,7 +144,7 @@ def column_map_from_dict(d, where: str = "column map") -> ColumnMap:
 
 def read_column_map(path) -> ColumnMap:
     """Read a column map YAML file."""
-    from ..yamldata import read_yaml
+    from ..modelio.yamldata import read_yaml
 
     return column_map_from_dict(read_yaml(path, "column map"), str(path))
 

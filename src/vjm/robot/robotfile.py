@@ -53,7 +53,7 @@ def _vec3(v, where: str) -> np.ndarray:
 
 def _joint_spring(spec, where: str) -> JointSpring:
     if isinstance(spec, str):
-        from ..description import evaluate
+        from ..modelio.description import evaluate
 
         evaluate(spec, {"q": 0.0}, where)  # read once now: a typo fails at load, not in a map
         return JointSpring(expression=spec)
@@ -165,7 +165,7 @@ def _payload(d, tree: Tree) -> Payload:
 
 def robot_from_dict(d: dict, base_dir: str, path: str | None, parse_link) -> RobotModel:
     """A validated :class:`RobotModel` from the mapping of a robot model file (read through
-    :func:`vjm.modelfile.model_from_dict`, which passes its ``<link>`` reader ``parse_link``)."""
+    :func:`vjm.modelio.read.model_from_dict`, which passes its ``<link>`` reader ``parse_link``)."""
     extra = set(d) - set(ROBOT_KEYS)
     if extra:
         raise VjmError(f"unknown top-level keys {sorted(extra)} for a robot; known: {list(ROBOT_KEYS)}")

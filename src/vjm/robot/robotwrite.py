@@ -12,7 +12,7 @@ def save_robot(model, path) -> None:
 
     from linkfea.atomic import write_text
 
-    from ..modelwrite import HEADER
+    from ..modelio.write import HEADER
 
     if model.raw is None:
         raise VjmError("this robot model was not read from a file; write its YAML by hand (see vjm.robot.robotfile)")

@@ -1,6 +1,6 @@
 """Compiled (numba) self-weight equilibrium of a serial chain, one configuration at a time.
 
-The same equilibrium as :func:`vjm.nonlinear.deflection_map` with body loads: the stationary point of
+The same equilibrium as :func:`vjm.stiffness.nonlinear.deflection_map` with body loads: the stationary point of
 ``1/2 sum theta_s^T K_s theta_s - sum F_b . p_b(theta)`` (the springs' deformations ``theta`` added to
 the chain's variables, dead loads ``F_b`` at points ``p_b`` fixed after a factor of the chain, a tool
 force being one of them), by Newton's method with its exact Hessian.  A joint factor ``f`` moves a
@@ -10,7 +10,7 @@ cumulative force ``sum F`` and ``sum F p^T`` at each factor, so a configuration 
 
 Newton starts from the undeflected chain, so its first step is the linear sag (with the geometric
 stiffness of the weights); steps that turn a rotational variable more than ``max_rot`` are shortened,
-as in :mod:`vjm.nonlinear`.  Convergence: a full Newton step whose tool twist ``J dtheta`` is below
+as in :mod:`vjm.stiffness.nonlinear`.  Convergence: a full Newton step whose tool twist ``J dtheta`` is below
 ``tol`` times the tool's deflection (or below the round-off floor).  A configuration that does not
 converge within ``max_iter`` steps is
 flagged: the caller solves it with the general solver (load steps, rigid directions).

@@ -167,7 +167,7 @@ def simulate_robot(model_path, effects, poses, loads: str, noise_t: float, noise
     tilt: those options, given, are refused rather than ignored."""
     from linkfea.outputs import check_file, is_simulated_csv
 
-    from ..modelfile import load_model
+    from ..modelio.read import load_model
     from .model import RobotModel
 
     check_file(out, is_simulated_csv, "a CSV written by vjm simulate")  # before any work, robot or not

@@ -5,7 +5,7 @@ A :class:`Tree` is pinocchio's model reduced to what the virtual joint method ne
 them (tool frames, spring frames) and the bodies' masses and centres of mass.  Every quantity
 here is in mm, kg and rad: a URDF's metres are converted where it is read (:mod:`vjm.robot.urdf`).
 
-From the tree, :func:`path_chain` writes the :class:`vjm.chain.Chain` from the base to one
+From the tree, :func:`path_chain` writes the :class:`vjm.kinematics.chain.Chain` from the base to one
 frame -- the product of constant placements, joint factors and virtual springs (eq. 1) -- so
 that a serial robot's Jacobians, stiffness and nonlinear equilibrium come from the same chain
 machinery as a parallel machine's.
@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..chain import Chain, ChainBuilder
 from ..errors import VjmError
-from ..transforms import KINDS, elementary
+from ..kinematics.chain import Chain, ChainBuilder
+from ..kinematics.transforms import KINDS, elementary
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic")
 

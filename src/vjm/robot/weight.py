@@ -3,7 +3,7 @@
 The links' weights (and a payload's) are dead loads ``m g`` at their centres of mass; as the
 springs deflect, the centres of mass move and the gravity torques change.  The equilibrium is
 the stationary point of ``1/2 sum theta^T K theta - sum m g . p_com(theta) - w . tool``, solved
-by :func:`vjm.nonlinear.deflection_map` -- the same Newton solver (exact Hessian, load steps on
+by :func:`vjm.stiffness.nonlinear.deflection_map` -- the same Newton solver (exact Hessian, load steps on
 failure) as a parallel machine's, the weights entering as its body loads.  Each configuration is
 first solved by the compiled Newton of those same equations on the chain's own variables
 (:mod:`vjm.robot.sagkernel`, :func:`fast_sag`); what it does not converge, and what it does not
@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..chain import forward
 from ..errors import VjmError
-from ..nonlinear import MAX_ROT_STEP, ROUNDOFF
-from ..transforms import rotation_vector
+from ..kinematics.chain import forward
+from ..kinematics.transforms import rotation_vector
+from ..stiffness.nonlinear import MAX_ROT_STEP, ROUNDOFF
 from .tree import ChainSprings, chain_values, path_chain
 
 
@@ -63,7 +63,7 @@ def check_inertials(model) -> None:
 
 
 def body_loads(model, q: np.ndarray, tool: str, gravity, payload) -> list:
-    """The body loads (factor index, point, force) of the chain to ``tool`` (see vjm.nonlinear)."""
+    """The body loads (factor index, point, force) of the chain to ``tool`` (see vjm.stiffness.nonlinear)."""
     _, marks = model.chain(tool)
     g = np.asarray(gravity, dtype=float)
     loads = []
@@ -82,7 +82,7 @@ def body_loads(model, q: np.ndarray, tool: str, gravity, payload) -> list:
 
 def _stiffness6(c6: np.ndarray):
     """Stiffnesses (m6, 6, 6) of 6-dof springs of compliances c6, or None if one has a rigid direction
-    (the general solver's business: see :func:`vjm.nonlinear._spring_basis`)."""
+    (the general solver's business: see :func:`vjm.stiffness.nonlinear._spring_basis`)."""
     d = np.sqrt(np.abs(np.einsum("mii->mi", c6)))
     if np.any(d == 0.0):
         return None
@@ -139,7 +139,7 @@ def point_load(model, q: np.ndarray, tool: str, frame: str, point, force):
 
 def self_weight(model, q, tool, gravity, payload, wrench, tol, max_iter, return_info, strict):
     """:meth:`vjm.robot.RobotModel.self_weight` (see the module docstring)."""
-    from ..nonlinear import deflection_map
+    from ..stiffness.nonlinear import deflection_map
 
     check_inertials(model)
     tool = model._tool(tool)

@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import EquilibriumError, VjmError
-from ..kinematics import rotation_matrix
-from ..transforms import rotation_vector
+from ..kinematics.poses import rotation_matrix
+from ..kinematics.transforms import rotation_vector
 from .deflect import linear, nonlinear_tcp_solved
 
 #: a point has converged when its loaded TCP is this fraction of its deflection from the programmed one ...

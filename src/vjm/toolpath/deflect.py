@@ -7,20 +7,12 @@ The TCP's deflection counts the platform rotation times the tool lever:
 
 * ``linear``: ``t = C(p) w`` (the model's springs, :meth:`vjm.Model.stiffness_map`),
   TCP translation ``t_p + t_r x R tool``.  The model's ``effects:`` are left out.
-* ``nonlinear``: the equilibrium of :mod:`vjm.nonlinear` (finite rotations; along a path warm-started
-  from the neighbouring point, :mod:`vjm.toolpath.equilibrium`), TCP
-  translation ``u + (Exp(t_r) - I) R tool``, with the model's ``effects:``
-  (what ``vjm diagnose`` writes into model_updated.yaml):
-
-  - ``gravity: {weight: W}``: ``W g`` (N, along ``geometry.gravity``, default -z) on the
-    platform point, with the process wrench; on a 6-dof platform with ``first_moment_x/y/z``
-    (``m``, N mm, platform axes: weight x lever arm) also the moment ``(R m) x g``;
-  - ``clearance: {backlash: b}``: every actuator slips by ``b`` (mm) toward the force it
-    carries under the total load, imposed as the rest value of its spring in the same
-    equilibrium;
-  - ``passive_clearance: {backlash: b}``: the passive joints slip by ``b`` (rad) toward their
-    moments, added through their unit-load influence (linear, as vjm diagnose fits it);
-  - ``geometric_nonlinearity: {scale: s}``: ``C w + s (nonlinear - C w)``.
+* ``nonlinear``: the equilibrium of :mod:`vjm.stiffness.nonlinear` (finite rotations; along a path
+  warm-started from the neighbouring point, :mod:`vjm.toolpath.equilibrium`), TCP translation
+  ``u + (Exp(t_r) - I) R tool``, with the model's ``effects:`` (what ``vjm diagnose`` writes into
+  model_updated.yaml), each applied by its own :meth:`~vjm.effects.Effect.load` and
+  :meth:`~vjm.effects.Effect.nonlinear` (a weight joins the load, an actuator's slip is the rest value
+  of its spring, ...: see :mod:`vjm.effects.library`).
 
 Every function takes the commanded poses of the TCP (not of the platform).
 """
@@ -32,19 +24,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import VjmError
-from ..kinematics import rotation_matrix
+from ..kinematics.poses import rotation_matrix
 from .equilibrium import equilibria
 
-#: the effects this module knows how to apply (the additive effects of vjm diagnose)
-EFFECTS = ("gravity", "clearance", "passive_clearance", "geometric_nonlinearity")
 #: (pose, wrench) pairs per block of the nonlinear solver (marched in SEGMENTS runs: KKT matrices of 128 pairs)
 BLOCK = 4096
 
 
 def check_effects(model) -> None:
-    unknown = sorted(set(model.effects) - set(EFFECTS))
-    if unknown:
-        raise VjmError(f"the model's effects {unknown} are not known to vjm path (known: {', '.join(EFFECTS)})")
+    """Every entry of the model's ``effects:`` is a registered additive effect (the model file's reader
+    checks the same; a model built in Python may carry anything)."""
+    from .. import effects as fx
+
+    for name in model.effects:
+        if fx.get(name, f"effects.{name}").kind != "additive":
+            raise VjmError(f"effects.{name}: {name} changes the model itself; apply it to the model")
 
 
 def platform_poses(model, tcp_poses, tool) -> tuple[np.ndarray, np.ndarray]:
@@ -60,17 +54,6 @@ def platform_poses(model, tcp_poses, tool) -> tuple[np.ndarray, np.ndarray]:
     return (np.hstack([P, np.zeros_like(P)]) if model.dof == 6 else P), lever
 
 
-def _effect(model, name: str, key: str, optional: bool = False) -> float:
-    """Parameter ``key`` of the model's effect ``name`` (0 without the effect, or an optional key left out)."""
-    e = model.effects.get(name)
-    if e is None or (optional and isinstance(e, dict) and key not in e):
-        return 0.0
-    try:
-        return float(e[key])
-    except (KeyError, TypeError, ValueError):
-        raise VjmError(f"effects.{name} must give a number {key}, got {e!r}") from None
-
-
 def linear(model, tcp_poses, W_tcp, tool, kin=None) -> np.ndarray:
     """TCP deflection twists (n, 6) ``C(p) w`` with the tool lever (no effects)."""
     from .wrench import at_platform
@@ -80,16 +63,6 @@ def linear(model, tcp_poses, W_tcp, tool, kin=None) -> np.ndarray:
     t = np.einsum("nij,nj->ni", C, at_platform(W_tcp, lever))
     t[:, :3] += np.cross(t[:, 3:], lever)
     return t
-
-
-def _actuator_springs(model) -> str:
-    names = set()
-    for ch in model.chains:
-        a = ch.actuated[0]
-        names |= {s.name for s in ch.springs if s.vars == (a,)}
-    if len(names) != 1:
-        raise VjmError("clearance: the model's chains have no single actuator spring to slip")
-    return names.pop()
 
 
 @dataclass(frozen=True)
@@ -104,35 +77,32 @@ class NonlinearTcp:
 
 
 def _nonlinear_block(model, P, Wp, start=None):
-    """Nonlinear platform twists of one block, with gravity and actuator clearance; NaN rows where
-    the equilibrium was not found; and the :class:`~.equilibrium.Solved` of the equilibria."""
-    from ..discrepancy import modelops as mo
+    """Nonlinear platform twists of one block with the model's effects; NaN rows where the equilibrium
+    was not found; and the :class:`~.equilibrium.Solved` of the equilibria.
 
+    Each effect first adds to the load (:meth:`~vjm.effects.Effect.load`), then says how it enters the
+    equilibrium under the total load (:meth:`~vjm.effects.Effect.nonlinear`): rest values of springs,
+    a scale of the nonlinear part, a twist added after."""
+    from .. import effects as fx
+
+    effects = [(fx.get(name, f"effects.{name}"), values) for name, values in model.effects.items()]
     W = np.array(Wp)
-    weight = _effect(model, "gravity", "weight")
-    if weight:
-        W[:, :3] += weight * mo.gravity_direction(model)
-    m = np.array([_effect(model, "gravity", f"first_moment_{a}", optional=True) for a in "xyz"])
-    if m.any():
-        W[:, 3:] += np.cross(mo.platform_rotations(P) @ m, mo.gravity_direction(model))
-    offsets = None
-    b = _effect(model, "clearance", "backlash")
-    if b:
-        tau = np.asarray(model.joint_forces(P, W)["actuator"]).reshape(len(P), -1)
-        tol = 1e-9 * max(float(np.max(np.abs(tau), initial=0.0)), 1e-300)
-        offsets = {_actuator_springs(model): (b * np.where(np.abs(tau) > tol, np.sign(tau), 0.0))[:, :, None]}
-    solved = equilibria(model, P, W, offsets=offsets, start=start)
+    for eff, values in effects:
+        W = eff.load(model, values, P, W)
+    ctx = fx.Context(model, P, np.arange(len(P)), W)
+    parts = [eff.nonlinear(model, values, ctx) for eff, values in effects]
+    offsets: dict = {}
+    for part in parts:
+        offsets.update(part.offsets or {})
+    solved = equilibria(model, P, W, offsets=offsets or None, start=start)
     t = solved.twist
-    s = model.effects.get("geometric_nonlinearity")
-    if s is not None or _effect(model, "passive_clearance", "backlash"):
-        lin = np.einsum("nij,nj->ni", model.stiffness_map(P).C, W)
-        if s is not None:
-            t = lin + _effect(model, "geometric_nonlinearity", "scale") * (t - lin)
-        bp = _effect(model, "passive_clearance", "backlash")
-        if bp:
-            from ..discrepancy.predict import _slip_toward
-
-            t = t + bp * _slip_toward(mo.joint_spring_influence(model, P), W)
+    scales = [part.scale for part in parts if part.scale is not None]
+    if scales:
+        lin = np.einsum("nij,nj->ni", ctx.compliance()[ctx.idx], W)
+        t = lin + float(np.prod(scales)) * (t - lin)
+    for part in parts:
+        if part.twist is not None:
+            t = t + part.twist
     return t, solved
 
 

@@ -29,8 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import nonlinear as nl
-from ..transforms import rotation_vector
+from ..kinematics.transforms import rotation_vector
+from ..stiffness import nonlinear as nl
 
 #: relative residual of every equation block at an accepted equilibrium
 RTOL = 1e-5
@@ -51,7 +51,7 @@ KERNEL_MIN = 1000
 def _kernel():
     """The compiled Newton steps (:mod:`vjm.nonlinear_kernel`), or None without numba (the numpy path)."""
     try:
-        from .. import nonlinear_kernel
+        from ..stiffness import nonlinear_kernel
     except ImportError:  # pragma: no cover - numba is a dependency
         return None
     return nonlinear_kernel
@@ -228,7 +228,7 @@ def equilibria(model, P, W, offsets=None, start=None) -> Solved:
 def _pack(b: _Block):
     """The block's chains as the arrays of :mod:`vjm.nonlinear_kernel`: the factor tables (padded to the
     longest chain) and, per point, the chain data of ``nonlinear._ChainData`` (padded likewise)."""
-    from ..transforms import KINDS
+    from ..kinematics.transforms import KINDS
 
     ch = b.chains
     n, nch = len(b.P), len(ch)

@@ -175,8 +175,8 @@ per point at 50,000 on this 2-core machine under load)."""
 
 
 def path_plan(n: float):
-    """The :class:`vjm.grid.Plan` of ``vjm path`` over ``n`` points; VjmError if they cannot fit in memory."""
-    from ..grid import plan
+    """The :class:`vjm.maps.grid.Plan` of ``vjm path`` over ``n`` points; VjmError if they cannot fit in memory."""
+    from ..maps.grid import plan
 
     return plan("vjm path", n, PATH_BYTES, PATH_SECONDS, unit="toolpath points",
                 hint="use a larger --step (straight moves) or --chord-tol (arcs)")

@@ -14,7 +14,7 @@ robot's own weight, the deflection along the path and the compensated program.
   (:data:`vjm.robot.ik.SINGULAR`), and, on a 6-joint arm, with the tool Jacobian's determinant of
   the seed's sign (the sign flips only through a singular posture, i.e. a change of
   configuration).  The first point failing is an error naming its line.
-* **Deflection.** The equilibrium of :func:`vjm.nonlinear.deflection_map` on the deflected geometry
+* **Deflection.** The equilibrium of :func:`vjm.stiffness.nonlinear.deflection_map` on the deflected geometry
   (as :meth:`vjm.robot.RobotModel.self_weight`), its body loads the links' weights, the payload's and
   the process force at the TCP (dead loads at their material points: the force's lever turns with
   the tool), the process moment on the tool frame.  The
@@ -34,10 +34,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import EquilibriumError, VjmError
-from ..kinematics import rotation_matrix
+from ..kinematics.poses import rotation_matrix
+from ..kinematics.transforms import rotation_vector
 from ..robot import ik
 from ..robot.model import SAG_TOL, RobotModel
-from ..transforms import rotation_vector
 from . import gcode as gc
 from . import run
 from .compensate import ABS_TOL, MAX_ITER, REL_TOL, Compensation
@@ -178,11 +178,11 @@ def _check_configuration(rt: RobotTool, q, ok, sign, T_tcp, where, what) -> None
 
 def deflect(rt: RobotTool, q, W_tcp, where) -> np.ndarray:
     """TCP deflection twists (n, 6) at joint values q under TCP wrenches W (n, 6) and the robot's weight:
-    the equilibrium on the deflected geometry (:func:`vjm.nonlinear.deflection_map`), the weights and the
+    the equilibrium on the deflected geometry (:func:`vjm.stiffness.nonlinear.deflection_map`), the weights and the
     process force dead loads at their material points (the force at the TCP), the process moment on the
     tool frame."""
-    from ..nonlinear import deflection_map
     from ..robot.weight import body_loads, point_load
+    from ..stiffness.nonlinear import deflection_map
 
     m = rt.model
     kin = m.kinematics(q, rt.frame)

@@ -68,7 +68,7 @@ def read(model) -> Calibration | None:
     path = getattr(model, "path", None)
     if not path or not os.path.isfile(path):
         return None
-    from ..yamldata import read_yaml
+    from ..modelio.yamldata import read_yaml
 
     d = read_yaml(path)  # the model file, read once already: the same checks (tags, keys given twice)
     if not isinstance(d, dict) or d.get("calibration") is None:
@@ -78,8 +78,9 @@ def read(model) -> Calibration | None:
 
 def perturbed(model, cal: Calibration, i: int, h: float):
     """The model with parameter ``i`` of ``cal`` moved by ``h``."""
-    from ..discrepancy import effects as fx
-    from ..discrepancy import modelops as mo
+    from .. import effects as fx
+    from ..effects import modelops as mo
+    from ..effects.library import LinkMode
 
     term, param = cal.names[i].split(".", 1)
     v = float(cal.values[i])
@@ -103,7 +104,7 @@ def perturbed(model, cal: Calibration, i: int, h: float):
     full = cal.terms.get(term, {})
     theta = np.array([float(full.get(p.name, cal.values[i] if p.name == param else p.start)) for p in specs])
     j = [p.name for p in specs].index(param)
-    if isinstance(eff, fx.LinkMode):  # a factor on what the model holds
+    if isinstance(eff, LinkMode):  # a factor on what the model holds
         theta = np.ones(len(specs))
         theta[j] = (v + h) / v
     else:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .. import effects as fx
+from ... import effects as fx
 from .observability import Observability
 from .problem import Setup
 from .select import Selected

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...effects import modelops as mo
 from ...errors import VjmError
-from .. import modelops as mo
 from ..data import StiffnessObs
 from ..locate import localize
 from ..predict import deflection_problem, stiffness_problem

@@ -31,7 +31,7 @@ from scipy import stats
 
 from linkfea.compliance import TWIST
 
-from .. import effects as fx
+from ... import effects as fx
 from ..data import QUANTITIES, Deflections, StiffnessObs
 from ..predict import CALIBRATION, Predictor, apply_calibration
 from .norms import robust_scale

@@ -13,11 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import effects as fx
+from ... import effects as fx
+from ...effects.context import Context
 from ..data import Deflections, StiffnessObs
 from ..fit.select import Problem, Term
 from ..plausible import check_reachable, check_units
-from ..predict import CALIBRATION, Context, Predictor, calibration_term
+from ..predict import CALIBRATION, Predictor, calibration_term
 from .kinds import DataKind, Weights
 
 

@@ -1,7 +1,7 @@
 """The updated model: the nominal one with the fitted calibration and the named effects."""
 from __future__ import annotations
 
-from .. import effects as fx
+from ... import effects as fx
 from ..predict import CALIBRATION, apply_calibration
 from .problem import Setup
 from .select import Selected

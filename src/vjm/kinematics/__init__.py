@@ -1,0 +1,1 @@
+"""Kinematics: elementary transforms, serial chains and their Jacobians, per-pose kinematics, inverse kinematics."""

@@ -1,0 +1,1 @@
+"""Paper reproductions built on vjm: the seed's Table 1."""
