@@ -138,7 +138,7 @@ def check(model, req: Request):
     """Every option checked before any work: ``(kind, tool, seed, spec)``, ``spec`` the joints' names,
     ranges and counts of a ``"joint"`` map, or the grid (None: the tool's reach, laid later) and the tool's
     rotation (None: as at the seed) of a ``"cartesian"`` one."""
-    from ..kinematics import rotation_matrix
+    from ..kinematics.poses import rotation_matrix
 
     tool = model._tool(req.tool)
     seed = seed_of(model, req.q)
