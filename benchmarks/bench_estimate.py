@@ -1,4 +1,4 @@
-"""Effectivity and cost of the discretization error estimate (linkfea.estimate); the iterative solver.
+"""Effectivity and cost of the discretization error estimate (linkfea.fem.estimate); the iterative solver.
 
 Effectivity = estimated / true relative error of each diagonal entry.  True errors come from
 references the estimate plays no part in:
@@ -59,12 +59,12 @@ def _cost(timing):
 def bar():
     from meshes import bar_link_mesh
 
-    from linkfea.beam import cantilever_compliance, rect_section, rect_torsion_constant
-    from linkfea.convergence import richardson
-    from linkfea.estimate import estimate_error
-    from linkfea.fem import lame, solve_link
-    from linkfea.fit import compliance_from_solution
-    from linkfea.materials import get_material
+    from linkfea.beam.closed_form import cantilever_compliance, rect_section, rect_torsion_constant
+    from linkfea.fem.convergence import richardson
+    from linkfea.fem.estimate import estimate_error
+    from linkfea.fem.fit import compliance_from_solution
+    from linkfea.fem.problem import lame, solve_link
+    from linkfea.mechanics.materials import get_material
 
     steel = get_material("steel")
     lam, mu = lame(steel)
@@ -95,7 +95,7 @@ def _bracket_run(step, H, seg):
     import brackets
 
     import linkfea
-    import linkfea.mesh_gmsh as G
+    import linkfea.mesh.gmsh as G
 
     saved = G.SEGMENTS_PER_CIRCLE
     G.SEGMENTS_PER_CIRCLE = seg
@@ -109,9 +109,9 @@ def bracket():
     import brackets
 
     from linkfea.cad import build_link
-    from linkfea.convergence import richardson
+    from linkfea.fem.convergence import richardson
     from linkfea.mesh import default_mesh_size
-    from linkfea.mesh_gmsh import SEGMENTS_PER_CIRCLE
+    from linkfea.mesh.gmsh import SEGMENTS_PER_CIRCLE
 
     with tempfile.TemporaryDirectory() as tmp:
         step = brackets.bracket_step(tmp)

@@ -54,11 +54,11 @@ def _mesh(args, say):
 
 
 def child(args) -> None:
-    from linkfea.fem import solve_link
-    from linkfea.fit import compliance_from_solution
-    from linkfea.iterative import cg_amg_factorizer, cg_p1mg_factorizer
-    from linkfea.materials import get_material
-    from linkfea.solvers import default_factorizer
+    from linkfea.fem.fit import compliance_from_solution
+    from linkfea.fem.problem import solve_link
+    from linkfea.mechanics.materials import get_material
+    from linkfea.solvers.factorizers import default_factorizer
+    from linkfea.solvers.iterative import cg_amg_factorizer, cg_p1mg_factorizer
 
     t_start = time.perf_counter()
 

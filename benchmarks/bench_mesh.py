@@ -126,7 +126,7 @@ def foot_convergence():
     """The foot's converged compliance: meshes refined along the concave (re-entrant) edges, where the
     stress is singular, at corner sizes h_c = 1.4, 0.93, 0.70 mm (bulk edge 4.65 mm, grading 1 mm/mm),
     Richardson in h_c with the observed order; then the default mesh and uniform refinements against it."""
-    import linkfea.mesh_gmsh as G
+    import linkfea.mesh.gmsh as G
     from linkfea.cad import build_link
     from linkfea.mesh import default_mesh_size
     from linkfea.pipeline import compute
@@ -145,7 +145,7 @@ def foot_convergence():
     finally:
         G.CORNER_SIZE_FACTOR, G.FEATURE_GRADING = saved
     (h1, _, c1), (h2, _, c2), (h3, _, c3) = rows
-    from linkfea.convergence import richardson
+    from linkfea.fem.convergence import richardson
 
     rich = richardson([h1, h2, h3], [c1, c2, c3])  # per diagonal entry, observed order solved for
     ref = rich.extrapolated
@@ -165,9 +165,9 @@ def foot_fillet(r: float = 2.5):
     the fillets, the edge length H elsewhere: the sequence scales both together, (2H, 8), (sqrt2 H,
     8 sqrt2), (H, 16) = the default mesh, and Richardson over it gives the reference.  Then meshes
     that resolve the fillets more coarsely (fewer elements per turn at the default H)."""
-    import linkfea.mesh_gmsh as G
+    import linkfea.mesh.gmsh as G
     from linkfea.cad import build_link
-    from linkfea.convergence import richardson
+    from linkfea.fem.convergence import richardson
     from linkfea.mesh import default_mesh_size
     from linkfea.pipeline import compute
 
@@ -222,7 +222,7 @@ def main(argv=None):
     import gmsh
     import pytetwild
 
-    from linkfea.solvers import _point_pypardiso_at_mkl
+    from linkfea.solvers.factorizers import _point_pypardiso_at_mkl
 
     _point_pypardiso_at_mkl()  # the cold CLI child measures pypardiso's import as the CLI does it
     print(f"python {platform.python_version()}, gmsh {gmsh.__version__}, pytetwild "

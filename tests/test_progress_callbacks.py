@@ -10,14 +10,14 @@ import pytest
 
 import linkfea
 import vjm
-from linkfea.progress import renamed_progress
-from linkfea.sweep_budget import LineProgress
+from linkfea.runtime.progress import renamed_progress
+from linkfea.sweep.budget import LineProgress
 
 #: the public functions that run long enough to report progress, by module and attribute
 ENTRY_POINTS = [
-    ("linkfea", "compute"), ("linkfea", "compare"), ("linkfea.compare", "fea_compliance"),
-    ("linkfea.mesh", "mesh_link"), ("linkfea.fem", "solve_link"), ("linkfea.sweep", "run_sweep"),
-    ("linkfea.solvers", "auto_factorizer"),
+    ("linkfea", "compute"), ("linkfea", "compare"), ("linkfea.beam.compare", "fea_compliance"),
+    ("linkfea.mesh", "mesh_link"), ("linkfea.fem.problem", "solve_link"), ("linkfea.sweep", "run_sweep"),
+    ("linkfea.solvers.factorizers", "auto_factorizer"),
     ("vjm.toolpath.run", "path"), ("vjm.maps", "grid_map"), ("vjm.maps", "compute_map"),
     ("vjm.sweep", "sweep"), ("vjm.sweep", "trade_offs"), ("vjm.model", "Model.map"),
     ("vjm.discrepancy.workflow", "diagnose"), ("vjm.discrepancy.simulate", "simulate"),

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from linkfea.errors import LinkFeaError, LinkFeaWarning
-from linkfea.resources import cad_dir, find_script
+from linkfea.runtime.errors import LinkFeaError, LinkFeaWarning
+from linkfea.runtime.resources import cad_dir, find_script
 from vjm.errors import VjmWarning
 from vjm.resources import data_dir, data_file
 
@@ -140,7 +140,7 @@ def test_a_local_copy_of_the_bundled_file_needs_no_warning(tmp_path, monkeypatch
 def test_shipped_files_have_one_place_decided_by_where_the_package_runs(tmp_path, monkeypatch):
     """From this source tree: the top-level cad/ and data/.  An installed package (here a stand-in in a
     site folder, without its _cad folder): its own folder, never the checkout's files beside it."""
-    from linkfea.resources import CHECKOUT, shipped_dir
+    from linkfea.runtime.resources import CHECKOUT, shipped_dir
 
     assert cad_dir() == CHECKOUT / "cad" and data_dir() == CHECKOUT / "data"
     site = tmp_path / "site"

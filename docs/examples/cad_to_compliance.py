@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 
 import linkfea
-from linkfea.beam import cantilever_compliance, rect_section
-from linkfea.materials import get_material
+from linkfea.beam.closed_form import cantilever_compliance, rect_section
+from linkfea.mechanics.materials import get_material
 
 OUT = Path("out/examples/cad_to_compliance")
 L = 100.0

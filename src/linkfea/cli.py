@@ -10,8 +10,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .errors import LinkFeaError, LinkFeaWarning, warnings_as_lines
-from .io import TWIST, WRENCH
+from .result.schema import TWIST, WRENCH
+from .runtime.errors import LinkFeaError, LinkFeaWarning, warnings_as_lines
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Link compliance by finite elements: CAD -> P2 tets -> 6x6 compliance at the link's frame.")
@@ -37,7 +37,7 @@ def matrix_table(M: np.ndarray, title: str, rows, cols) -> Table:
 
 
 def error_table(diagonal: np.ndarray, err: np.ndarray) -> Table:
-    """The diagonal with its estimated discretization error (linkfea.estimate)."""
+    """The diagonal with its estimated discretization error (linkfea.fem.estimate)."""
     t = Table(title=f"estimated discretization error, whole matrix {100 * float(np.max(err)):.2g}% "
                     "(C is too small by about)")
     t.add_column("")
@@ -50,7 +50,7 @@ def error_table(diagonal: np.ndarray, err: np.ndarray) -> Table:
 
 def _fail(msg, traceback: bool = False) -> None:
     """One ``error:`` line, exit 2; with ``traceback``, a link script's own traceback before it."""
-    from .checks import cli_message
+    from .runtime.checks import cli_message
 
     details = getattr(msg, "details", "")
     if traceback and details:
@@ -98,7 +98,7 @@ def compute(
     from .cad import parse_param_args
     from .options import ComputeOptions
     from .pipeline import compute as run
-    from .resultset import check_result_out, write_result_set
+    from .result.fileset import check_result_out, write_result_set
 
     console = Console(stderr=True, quiet=quiet)
     try:
@@ -128,8 +128,8 @@ is written, but its estimated error is above what was asked (as ``vjm diagnose``
 
 def _fraction(text: str) -> float:
     """``"1%"`` or ``"0.01"`` -> 0.01, checked against the options' range; the message echoes ``text``."""
-    from .checks import ArgumentError, number
     from .options import TOLERANCE
+    from .runtime.checks import ArgumentError, number
 
     t = text.strip()
     try:
@@ -193,9 +193,9 @@ def compare_cmd(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or summary"),
     traceback: bool = _traceback_option(),
 ):
-    """Beam or FEA? The FEA compliance against N-beam models cut from the CAD (see linkfea.compare)."""
+    """Beam or FEA? The FEA compliance against N-beam models cut from the CAD (see linkfea.beam.compare)."""
+    from .beam.compare import compare as run
     from .cad import parse_param_args
-    from .compare import compare as run
 
     console = Console(stderr=True, quiet=quiet)
     try:
@@ -249,8 +249,8 @@ def sweep_cmd(
     traceback: bool = _traceback_option(),
 ):
     """Run the pipeline over a grid or sample of link parameters on Dask (resumable)."""
+    from .files.outputs import check_folder
     from .options import ComputeOptions
-    from .outputs import check_folder
     from .sweep import SWEEP_FILES, make_sweep, run_sweep
 
     try:
@@ -279,7 +279,7 @@ def sweep_cmd(
 
 def main(argv=None) -> int:
     """Console entry point (``linkfea``): the exit status; a usage error is one ``error:`` line."""
-    from .clirun import run
+    from .runtime.clirun import run
 
     return run(app, argv, "linkfea")
 

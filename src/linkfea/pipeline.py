@@ -7,14 +7,14 @@ import warnings
 from pathlib import Path
 from typing import Callable
 
-from .errors import LinkFeaError, LinkFeaWarning
-from .materials import get_material
+from .mechanics.materials import get_material
 from .options import BLOCK_RATIO as BLOCK_RATIO  # the options' ranges, also importable from here
 from .options import ENVELOPE as ENVELOPE
 from .options import MAX_DOFS, ComputeOptions
 from .options import MESH_SIZE as MESH_SIZE
-from .progress import or_quiet
-from .result import LinkResult
+from .result.linkresult import LinkResult
+from .runtime.errors import LinkFeaError, LinkFeaWarning
+from .runtime.progress import or_quiet
 
 __all__ = ["ComputeOptions", "LinkResult", "compute"]
 REFINE_GROWTH = 2.5
@@ -22,8 +22,8 @@ REFINE_GROWTH = 2.5
 
 
 def _solve_once(link, material, H, opts: ComputeOptions, cache_dir, progress, size_at=None):
-    from .fem import solve_link
-    from .fit import compliance_from_solution
+    from .fem.fit import compliance_from_solution
+    from .fem.problem import solve_link
     from .mesh import DEFAULT_EPSILON, mesh_link
 
     mode, block_ratio = opts.mode, opts.block_ratio
@@ -32,7 +32,7 @@ def _solve_once(link, material, H, opts: ComputeOptions, cache_dir, progress, si
     mesh = mesh_link(link, H, with_block=(mode == "block"), epsilon=epsilon, cache_dir=cache_dir, progress=progress,
                      mesher=opts.mesher, size_at=size_at)
     t_mesh = time.perf_counter() - t0
-    from .solvers import factorizer_named
+    from .solvers.factorizers import factorizer_named
 
     sol = solve_link(mesh, material, mode=mode, block_ratio=block_ratio, progress=progress, assembler=opts.assembler,
                      solver=factorizer_named(opts.solver))
@@ -49,11 +49,11 @@ def _solve_once(link, material, H, opts: ComputeOptions, cache_dir, progress, si
 
 
 def _estimate(sol, comp, material, mode, block_ratio, mesh):
-    """The recovered-stress estimate of the compliance's discretization error (linkfea.estimate)."""
+    """The recovered-stress estimate of the compliance's discretization error (linkfea.fem.estimate)."""
     import numpy as np
 
-    from .estimate import estimate_error
-    from .fem import lame
+    from .fem.estimate import estimate_error
+    from .fem.problem import lame
 
     lam, mu = lame(material)
     scale = np.where(np.asarray(mesh.block, dtype=bool), block_ratio, 1.0) if mode == "block" else None
@@ -72,7 +72,7 @@ def _mesh_info(mesh, sol) -> dict:
 def _refine(run, tolerance, max_dofs, solve_with, progress):
     """Refine by the error indicator until every diagonal estimate is below ``tolerance`` or the
     DOF budget would be passed; returns the last run and the record of the steps."""
-    from .refine import size_function
+    from .mesh.refine import size_function
 
     mesh, sol, comp, timing, est = run
     steps = [{"n_dofs": int(sol.n_dofs), "error": float(est.matrix), "seconds": float(sum(timing.values()))}]
@@ -105,7 +105,7 @@ def _error_diagnostics(diagnostics: dict, est, link, mode: str) -> float:
 
 def sharp_edges_note(link) -> dict:
     """The link body's sharp re-entrant (concave) edges and what they mean for the result."""
-    from .mesh_gmsh import concave_edges
+    from .mesh.gmsh import concave_edges
 
     try:
         n = len(concave_edges(link.body))
@@ -119,9 +119,9 @@ def sharp_edges_note(link) -> dict:
 
 def _source_file(spec) -> Path:
     """The absolute path of the file ``spec`` names: a STEP or surface file, or a script (bare names
-    resolved by :func:`linkfea.resources.find_script`)."""
+    resolved by :func:`linkfea.runtime.resources.find_script`)."""
     from .cad import is_step, resolve_script
-    from .surface import is_surface
+    from .cad.surface import is_surface
 
     if is_step(spec) or is_surface(spec):
         p = Path(str(spec))
@@ -168,14 +168,14 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
         gmsh meshes the CAD faces exactly (default for scripts and STEP); pytetwild meshes a
         tessellation (default for STL, OBJ and PLY surfaces).
     assembler : {"kernel", "skfem"}
-        Stiffness assembly (see :func:`linkfea.fem.solve_link`); ``skfem`` is the slower
+        Stiffness assembly (see :func:`linkfea.fem.problem.solve_link`); ``skfem`` is the slower
         reference path, equal to round-off.
     solver : {"auto", "direct", "iterative"}
-        PARDISO (``direct``), CG with pyamg multigrid (``iterative``, :mod:`linkfea.iterative`), or
+        PARDISO (``direct``), CG with pyamg multigrid (``iterative``, :mod:`linkfea.solvers.iterative`), or
         ``auto``: direct unless its peak memory, estimated before the solve, exceeds the memory at
         hand.  ``result.solver`` records the choice and CG's convergence.
     tolerance : float, optional
-        Refine (gmsh, local sizes from the error indicator, :mod:`linkfea.refine`) until the
+        Refine (gmsh, local sizes from the error indicator, :mod:`linkfea.mesh.refine`) until the
         estimated error of every diagonal entry is below it (0.01 = 1%), or the next mesh would
         pass ``max_dofs``; ``diagnostics["refinement"]`` says which, with each step's DOF and error.
     options : ComputeOptions, optional
@@ -183,8 +183,8 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     epsilon : float, optional
         Deprecated name of ``envelope``.
     """
-    from .atomic import file_sha256
     from .cad import build_link
+    from .files.atomic import file_sha256
     from .mesh import default_mesh_size
 
     if epsilon is not None:
@@ -213,7 +213,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
 
     diagnostics: dict = {}
     if opts.convergence:
-        from .convergence import richardson
+        from .fem.convergence import richardson
 
         sizes = [2.0 * H, math.sqrt(2.0) * H, H]
         runs = []
@@ -239,7 +239,7 @@ def compute(spec, params: dict | None = None, mesh_size: float | None = None, mo
     diagnostics.update(symmetry_error=float(comp.symmetry_error), fit_residual=float(comp.fit_residual),
                        min_eigenvalue=float(comp.min_eigenvalue))
     timing = {"cad": t_cad, **timing, "total": time.perf_counter() - t_all}
-    from .io import versions
+    from .result.schema import versions
 
     mesh_info = _mesh_info(mesh, sol)
     return LinkResult(value=comp.compliance, name=link.name, source=str(source), source_sha256=file_sha256(source),

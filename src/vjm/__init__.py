@@ -8,7 +8,7 @@
 >>> print(f"k_tran = {r.k_tran:.3g} mm/N")  # the seed's Table 1: 2.78e-4 (actuator fitted to it)
 k_tran = 0.000278 mm/N
 """
-from linkfea.progress import renamed_progress
+from linkfea.runtime.progress import renamed_progress
 
 from .errors import EquilibriumError, VjmError
 from .links import LinkSpring

@@ -1,4 +1,4 @@
-"""The beam-versus-FEA comparison is a typed value (:mod:`linkfea.comparison`) that serialises to the
+"""The beam-versus-FEA comparison is a typed value (:mod:`linkfea.beam.comparison`) that serialises to the
 compare.json format: same keys, same order, same bytes after a round trip through the file."""
 import dataclasses
 import json
@@ -7,10 +7,10 @@ import warnings
 import numpy as np
 import pytest
 
+from linkfea.beam.compare import build_comparison, compare_link
+from linkfea.beam.comparison import BeamFit, Comparison
 from linkfea.cad import build_link
-from linkfea.compare import build_comparison, compare_link
-from linkfea.comparison import BeamFit, Comparison
-from linkfea.errors import LinkFeaError
+from linkfea.runtime.errors import LinkFeaError
 
 #: compare.json's keys, in the file's order (the format users read; README "Beam or FEA?")
 TOP_KEYS = ["link", "source", "params", "material", "frame", "beam_axis", "beam_length", "base_station",

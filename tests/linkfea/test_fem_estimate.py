@@ -1,4 +1,4 @@
-"""The recovered-stress estimate of the compliance's discretization error (linkfea.estimate).
+"""The recovered-stress estimate of the compliance's discretization error (linkfea.fem.estimate).
 
 References that do not come from the estimate: the same bar on finer structured meshes
 (Richardson over three of them), whose limit is checked against Timoshenko's cantilever and
@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
-from linkfea.beam import cantilever_compliance, rect_section, rect_torsion_constant
-from linkfea.convergence import richardson
-from linkfea.estimate import SAFETY_FACTOR, estimate_error
-from linkfea.fem import lame, solve_link
-from linkfea.fit import compliance_from_solution
+from linkfea.beam.closed_form import cantilever_compliance, rect_section, rect_torsion_constant
+from linkfea.fem.convergence import richardson
+from linkfea.fem.estimate import SAFETY_FACTOR, estimate_error
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import lame, solve_link
 
 L, W, HH = 200.0, 20.0, 10.0
 SIZES = [(20, 4, 2), (30, 6, 3), (40, 8, 4)]  # cells of 10, 6.7 and 5 mm

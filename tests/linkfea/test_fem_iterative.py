@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
-from linkfea import multigrid
-from linkfea.errors import LinkFeaError
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
-from linkfea.iterative import cg_amg_factorizer, cg_p1mg_factorizer, choose, direct_peak_bytes
-from linkfea.solvers import auto_factorizer, factorizer_named
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
+from linkfea.runtime.errors import LinkFeaError
+from linkfea.solvers import multigrid
+from linkfea.solvers.factorizers import auto_factorizer, factorizer_named
+from linkfea.solvers.iterative import cg_amg_factorizer, cg_p1mg_factorizer, choose, direct_peak_bytes
 
 
 def _scaled(A, B):
@@ -58,7 +58,7 @@ def test_the_choice_follows_the_memory_estimate(steel, monkeypatch):
     assert choose(60_000, budget=8e9) == "direct" and choose(3_000_000, budget=8e9) == "iterative"
     assert choose(100_000, budget=1.0) == "direct"  # small links always factor: results do not depend on free memory
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
-    import linkfea.iterative as iterative
+    import linkfea.solvers.iterative as iterative
 
     monkeypatch.setattr(iterative, "MIN_ITERATIVE_DOFS", 0)
     monkeypatch.setenv("LINKFEA_MEMORY", "1e-6")  # nothing fits: iterative
@@ -75,7 +75,7 @@ def test_the_choice_follows_the_memory_estimate(steel, monkeypatch):
 def test_the_choice_takes_the_iterative_path_where_it_is_faster():
     """Under 150k DOF always direct; from 250k always iterative (faster and lighter, measured);
     in between by the memory estimate.  Both estimates grow with the size, the iterative one linearly."""
-    from linkfea.iterative import iterative_peak_bytes
+    from linkfea.solvers.iterative import iterative_peak_bytes
 
     assert choose(149_999, budget=1.0) == "direct"
     assert choose(200_000, budget=1e12) == "direct" and choose(200_000, budget=1.0) == "iterative"

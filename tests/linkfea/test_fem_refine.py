@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
-from linkfea.errors import LinkFeaError
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
+from linkfea.mesh.refine import marked
 from linkfea.pipeline import compute
-from linkfea.refine import marked
+from linkfea.runtime.errors import LinkFeaError
 
 
 def test_tolerance_reaches_its_target_on_the_bar(steel, tmp_path):

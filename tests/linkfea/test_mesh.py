@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from linkfea.cad import build_link, parse_selector
-from linkfea.errors import LinkFeaError
 from linkfea.mesh import mesh_link, select_facets, tet_faces, tet_volumes, tri_areas_normals
+from linkfea.runtime.errors import LinkFeaError
 
 H = 5.0
 

@@ -12,12 +12,12 @@ import pytest
 from brackets import BASE, BASE_AREA, LINK_BASE, LINK_FACE_AREA, LINK_TIP, TIP, TIP_AREA, bracket_step, flat_link_step
 
 from linkfea.cad import build_link
-from linkfea.errors import LinkFeaError
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
-from linkfea.materials import get_material
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
+from linkfea.mechanics.materials import get_material
 from linkfea.mesh import AREA_GATE, check_interface_areas, mesh_link, tri_areas_normals
-from linkfea.mesh_gmsh import EDGE_SEGMENTS_PER_CIRCLE, SEGMENTS_PER_CIRCLE, match_surfaces
+from linkfea.mesh.gmsh import EDGE_SEGMENTS_PER_CIRCLE, SEGMENTS_PER_CIRCLE, match_surfaces
+from linkfea.runtime.errors import LinkFeaError
 
 ROUND_OFF = 1e-6
 
@@ -248,7 +248,7 @@ def test_the_mesh_estimate_is_at_the_low_end_of_the_real_mesh(spec, size):
 def test_a_mesh_beyond_the_memory_is_refused_before_meshing(params, size, monkeypatch):
     """``--mesh-size 1e-3``, ``-p width=1e-4`` (default size 6e-5 mm) and ``-p length=1e6`` ran gmsh for
     minutes: the estimate refuses them before the mesher starts, naming the figures."""
-    import linkfea.mesh_gmsh as mg
+    import linkfea.mesh.gmsh as mg
 
     def never(*a, **k):
         raise AssertionError("gmsh started")

@@ -7,8 +7,8 @@ import time
 import numpy as np
 import pytest
 
-from linkfea.errors import LinkFeaError
 from linkfea.options import ComputeOptions
+from linkfea.runtime.errors import LinkFeaError
 
 
 @pytest.mark.parametrize("kw, message", [
@@ -44,7 +44,7 @@ def test_options_are_frozen_and_normalised():
 
 def test_block_ratio_rule_is_the_same_in_the_solver():
     """The solver applies the options' rule (> 1), not a looser one of its own."""
-    from linkfea.fem import solve_link
+    from linkfea.fem.problem import solve_link
 
     with pytest.raises(LinkFeaError, match=r"^block_ratio must be > 1, got 0.5$"):
         solve_link(object(), None, mode="block", block_ratio=0.5)

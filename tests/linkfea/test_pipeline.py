@@ -1,14 +1,14 @@
 """The link stage end to end: cad/bar.py -> pytetwild -> P2 -> 6x6, against beam theory.
 
 Reference: the Timoshenko cantilever tip compliance (seed eq. 14 plus the
-shear term L/(G kappa A) with Cowper's kappa), in linkfea.beam.
+shear term L/(G kappa A) with Cowper's kappa), in linkfea.beam.closed_form.
 """
 import math
 
 import numpy as np
 import pytest
 
-from linkfea.beam import cantilever_compliance, rect_section
+from linkfea.beam.closed_form import cantilever_compliance, rect_section
 from linkfea.pipeline import compute
 
 E, NU = 210e3, 0.3
@@ -96,8 +96,8 @@ def test_a_partly_dropped_clamp_is_visible(rigid):
     (what a tight facet tolerance does on a real part) softens the bar by far more than 2%."""
     import dataclasses
 
-    from linkfea.fem import solve_link
-    from linkfea.fit import compliance_from_solution
+    from linkfea.fem.fit import compliance_from_solution
+    from linkfea.fem.problem import solve_link
 
     m = rigid.mesh
     half = m.base_facets[m.points[m.base_facets].mean(axis=1)[:, 1] > 0]

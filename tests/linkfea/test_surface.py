@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from linkfea.cad import build_link
-from linkfea.errors import LinkFeaError
+from linkfea.runtime.errors import LinkFeaError
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +84,7 @@ def test_surface_that_is_not_one_solid_body_is_refused_first(tmp_path, triangles
 
     from bad_inputs import BAR, FLAT, _box, stl
 
-    from linkfea.surface import read_surface
+    from linkfea.cad.surface import read_surface
 
     tris = {"two": BAR + _box((200, 0, 0), (300, 20, 10)), "crossing": BAR + _box((40, -40, 0), (60, 60, 10)),
             "flat": FLAT, "nan": [((float("nan"), 0, 0),) + BAR[0][1:]] + BAR[1:]}[triangles]

@@ -11,7 +11,7 @@ import pytest
 
 import linkfea
 import vjm
-from linkfea.compliance import Compliance
+from linkfea.mechanics.compliance import Compliance
 from vjm import LinkSpring, VjmError
 
 H = 12.0  # mm: coarse P2 meshes (a few thousand DOF each); the comparison is between two routes
@@ -113,7 +113,7 @@ def test_old_link_name_still_works_and_warns():
 
 
 def test_one_reader_for_result_files(links, tmp_path):
-    """linkfea.load and vjm's link reader both go through linkfea.io.read_result: a result whose
+    """linkfea.load and vjm's link reader both go through linkfea.result.schema.read_result: a result whose
     compliance is not positive definite is refused by both, with linkfea's message."""
     import json
 

@@ -9,8 +9,8 @@ import dataclasses
 import os
 from dataclasses import dataclass
 
-from linkfea.checks import Bounds, integer, number
-from linkfea.progress import renamed_progress
+from linkfea.runtime.checks import Bounds, integer, number
+from linkfea.runtime.progress import renamed_progress
 
 from ..errors import ArgumentError, VjmError
 from . import covariance

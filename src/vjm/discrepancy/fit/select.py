@@ -45,7 +45,7 @@ from typing import Any, Callable
 import numpy as np
 from scipy import optimize, stats
 
-from linkfea.progress import renamed_progress
+from linkfea.runtime.progress import renamed_progress
 
 from .components import REWEIGHT_ROUNDS, REWEIGHT_TOL, component_labels, group_fields, group_var
 
