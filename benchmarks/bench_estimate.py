@@ -63,7 +63,8 @@ def bar():
     from linkfea.fem.convergence import richardson
     from linkfea.fem.estimate import estimate_error
     from linkfea.fem.fit import compliance_from_solution
-    from linkfea.fem.problem import lame, solve_link
+    from linkfea.fem.p2 import lame
+    from linkfea.fem.problem import solve_link
     from linkfea.mechanics.materials import get_material
 
     steel = get_material("steel")

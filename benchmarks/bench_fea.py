@@ -68,8 +68,9 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     from linkfea.fem.fit import compliance_from_solution
-    from linkfea.fem.problem import pardiso_factorizer, solve_link
+    from linkfea.fem.problem import solve_link
     from linkfea.mechanics.materials import get_material
+    from linkfea.solvers.factorizers import pardiso_factorizer
 
     steel = get_material("steel")
     timing = {}

@@ -28,7 +28,9 @@ from typing import Optional
 import numpy as np
 
 from linkfea.fem.fit import fit_rigid_motion
-from linkfea.fem.problem import interface_nodes, link_p2, rigid_motion_matrix
+from linkfea.fem.p2 import link_p2
+from linkfea.fem.problem import interface_nodes
+from linkfea.mechanics.frames import rigid_motion_matrix
 from linkfea.mechanics.materials import Material
 from linkfea.runtime.errors import LinkFeaError, SolverError
 
@@ -174,7 +176,7 @@ def solve_calculix(mesh, material: Material, mode: str = "rigid", block_ratio: f
 
     Parameters
     ----------
-    mesh : linkfea.mesh.LinkMesh
+    mesh : linkfea.mesh.linkmesh.LinkMesh
     material : Material
     mode : {"rigid", "block"}
     block_ratio : float

@@ -53,7 +53,7 @@ def _estimate(sol, comp, material, mode, block_ratio, mesh):
     import numpy as np
 
     from .fem.estimate import estimate_error
-    from .fem.problem import lame
+    from .fem.p2 import lame
 
     lam, mu = lame(material)
     scale = np.where(np.asarray(mesh.block, dtype=bool), block_ratio, 1.0) if mode == "block" else None

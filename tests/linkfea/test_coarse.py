@@ -6,15 +6,10 @@ import scipy.sparse as sp
 from meshes import bar_link_mesh
 
 from linkfea.fem.coarse import p1_coarse_space, p1_interpolation
-from linkfea.fem.p2 import assemble_upper
-from linkfea.fem.problem import (
-    _near_nullspace,
-    interface_nodes,
-    lame,
-    link_p2,
-    rigid_motion_matrix,
-    symmetric_from_upper,
-)
+from linkfea.fem.p2 import assemble_upper, lame, link_p2
+from linkfea.fem.problem import _near_nullspace, interface_nodes
+from linkfea.mechanics.frames import rigid_motion_matrix
+from linkfea.solvers.sparse import symmetric_from_upper
 
 
 @pytest.fixture(scope="module")

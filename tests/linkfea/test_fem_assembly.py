@@ -5,8 +5,10 @@ import skfem
 from meshes import bar_link_mesh, box_mesh, skfem_dof_order
 from skfem.models.elasticity import linear_elasticity
 
-from linkfea.fem.problem import assemble_upper, lame, p2_mesh, rigid_motion_matrix, symmetric_from_upper
+from linkfea.fem.p2 import assemble_upper, lame, p2_mesh
+from linkfea.mechanics.frames import rigid_motion_matrix
 from linkfea.runtime.errors import LinkFeaError
+from linkfea.solvers.sparse import symmetric_from_upper
 
 
 def _perturbed_box():

@@ -11,8 +11,16 @@ import skfem
 from meshes import box_mesh, skfem_dof_order
 from skfem.models.elasticity import linear_elasticity
 
-from linkfea.fem.p2 import CURVED_QUADRATURE_DEGREE, _isoparametric_gradients, _quadrature, p2_mesh
-from linkfea.fem.problem import assemble_upper, lame, rigid_motion_matrix, symmetric_from_upper
+from linkfea.fem.p2 import (
+    CURVED_QUADRATURE_DEGREE,
+    _isoparametric_gradients,
+    _quadrature,
+    assemble_upper,
+    lame,
+    p2_mesh,
+)
+from linkfea.mechanics.frames import rigid_motion_matrix
+from linkfea.solvers.sparse import symmetric_from_upper
 
 
 def _curved_box():

@@ -13,7 +13,8 @@ from linkfea.beam.closed_form import cantilever_compliance, rect_section, rect_t
 from linkfea.fem.convergence import richardson
 from linkfea.fem.estimate import SAFETY_FACTOR, estimate_error
 from linkfea.fem.fit import compliance_from_solution
-from linkfea.fem.problem import lame, solve_link
+from linkfea.fem.p2 import lame
+from linkfea.fem.problem import solve_link
 
 L, W, HH = 200.0, 20.0, 10.0
 SIZES = [(20, 4, 2), (30, 6, 3), (40, 8, 4)]  # cells of 10, 6.7 and 5 mm

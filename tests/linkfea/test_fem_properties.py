@@ -86,7 +86,7 @@ def test_scipy_fallback_solver_agrees(steel):
     """The SuperLU fallback gives the same compliance as PARDISO (injectable solver).
 
     Skips only where pypardiso is not installed; an installed PARDISO that fails is a failure."""
-    from linkfea.fem.problem import pardiso_factorizer, scipy_factorizer
+    from linkfea.solvers.factorizers import pardiso_factorizer, scipy_factorizer
 
     pytest.importorskip("pypardiso")
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)

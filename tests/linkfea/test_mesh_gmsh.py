@@ -15,8 +15,9 @@ from linkfea.cad import build_link
 from linkfea.fem.fit import compliance_from_solution
 from linkfea.fem.problem import solve_link
 from linkfea.mechanics.materials import get_material
-from linkfea.mesh import AREA_GATE, check_interface_areas, mesh_link, tri_areas_normals
+from linkfea.mesh import mesh_link
 from linkfea.mesh.gmsh import EDGE_SEGMENTS_PER_CIRCLE, SEGMENTS_PER_CIRCLE, match_surfaces
+from linkfea.mesh.linkmesh import AREA_GATE, check_interface_areas, tri_areas_normals
 from linkfea.runtime.errors import LinkFeaError
 
 ROUND_OFF = 1e-6
@@ -180,7 +181,7 @@ def test_smooth_border_edges_are_the_fillet_borders(bracket):
     bracket, the two 12 mm edges of each face that run into a fillet (base: along z at y = +-6 on
     x = 0, centres z = 6; tip: along x at y = +-6 on z = 105, centres x = 74), not the two sharp
     ones; the foot's flange and boss faces have none (all their borders are sharp edges)."""
-    from linkfea.mesh import smooth_border_edges
+    from linkfea.mesh.pytetwild import smooth_border_edges
 
     link = build_link(str(bracket), base=BASE, tip=TIP, with_block=False)
     for faces, centres in ((link.base_faces, [[0, -6, 6], [0, 6, 6]]),
@@ -199,7 +200,7 @@ def test_two_meshers_one_answer_on_a_filleted_link(tmp_path):
     area gate at first (it drops a strip along the tangent borders), refines those borders until
     the gate passes, and then its 6x6 diagonal agrees with gmsh's CAD-exact mesh within 1%.
     Both the area (CAD) and the agreement (an independent mesher) are external references."""
-    from linkfea.mesh import smooth_border_edges
+    from linkfea.mesh.pytetwild import smooth_border_edges
     from linkfea.pipeline import compute
 
     step = flat_link_step(tmp_path)

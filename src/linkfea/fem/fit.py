@@ -12,9 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mechanics.compliance import Compliance, check
-from ..mechanics.frames import Frame, twist_transform
+from ..mechanics.frames import Frame, rigid_motion_matrix, twist_transform
 from ..runtime.errors import LinkFeaError
-from .problem import rigid_motion_matrix
 
 
 def _rigid_basis(points, origin, axes) -> np.ndarray:

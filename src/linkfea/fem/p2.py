@@ -136,7 +136,7 @@ def p2_mesh(points: np.ndarray, tets: np.ndarray, curved_edges: Optional[np.ndar
 
 
 def link_p2(mesh) -> P2Mesh:
-    """The P2 mesh of a :class:`linkfea.mesh.LinkMesh`, with its second-order geometry if it has one."""
+    """The P2 mesh of a :class:`linkfea.mesh.linkmesh.LinkMesh`, with its second-order geometry if it has one."""
     return p2_mesh(mesh.points, mesh.tets, getattr(mesh, "curved_edges", None), getattr(mesh, "curved_points", None))
 
 
@@ -394,12 +394,6 @@ def assemble_upper(p2: P2Mesh, lam: float, mu: float, scale: Optional[np.ndarray
     cols[pos[keep]] = (3 * uc[:, None] + bj)[keep]
     idx_dtype = np.int32 if nnz < 2**31 - 1 else np.int64
     return sp.csr_matrix((data, cols.astype(idx_dtype), indptr.astype(idx_dtype)), shape=(3 * N, 3 * N))
-
-
-def symmetric_from_upper(U: sp.spmatrix) -> sp.csr_matrix:
-    """Full symmetric matrix from its upper triangle with diagonal."""
-    U = sp.csr_matrix(U)
-    return (U + sp.triu(U, k=1, format="csr").T).tocsr()
 
 
 def lame(material: Material):

@@ -1,6 +1,6 @@
 """Quadratic-tetrahedron linear elasticity of a link under 6 unit wrenches.
 
-The link mesh (:class:`linkfea.mesh.LinkMesh`) is promoted to 10-node
+The link mesh (:class:`linkfea.mesh.linkmesh.LinkMesh`) is promoted to 10-node
 quadratic tets and assembled by :mod:`linkfea.fem.p2`; the system is factored by
 :mod:`linkfea.solvers.factorizers`.  This module holds the boundary conditions, the
 reference modes and the solve.
@@ -35,11 +35,10 @@ from ..options import BLOCK_RATIO, MODES
 from ..runtime import checks
 from ..runtime.errors import LinkFeaError, SolverError
 from ..runtime.progress import or_quiet
-from ..solvers.factorizers import default_factorizer, pardiso_factorizer, scipy_factorizer  # noqa: F401
+from ..solvers.factorizers import default_factorizer
+from ..solvers.sparse import symmetric_from_upper
 from .coarse import p1_coarse_space
-
-# p2_mesh, lame, the factorizers ...: imported from here by callers since before the split.
-from .p2 import P2Mesh, assemble_upper, assemble_upper_skfem, lame, link_p2, p2_mesh, symmetric_from_upper  # noqa: F401
+from .p2 import P2Mesh, assemble_upper, assemble_upper_skfem, lame, link_p2
 
 ASSEMBLERS = {"kernel": assemble_upper, "skfem": assemble_upper_skfem}
 """Stiffness assemblies on scikit-fem's P2 discretization: the fast kernel and scikit-fem's own."""
@@ -163,7 +162,7 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
 
     Parameters
     ----------
-    mesh : linkfea.mesh.LinkMesh
+    mesh : linkfea.mesh.linkmesh.LinkMesh
     material : Material
     mode : {"rigid", "block"}
         Exact rigid coupling (reduction ``P^T K P``) or the pseudo-rigid block.

@@ -21,25 +21,8 @@ from ..runtime.child import run_in_child
 from ..runtime.errors import LinkFeaError
 from ..runtime.progress import or_quiet
 from . import gmsh as mesh_gmsh
-from .linkmesh import (  # noqa: F401  (re-exported)
-    AREA_GATE,
-    LinkMesh,
-    check_interface_areas,
-    finish_mesh,
-    radius_ratio,
-    tet_faces,
-    tet_volumes,
-    tri_areas_normals,
-)
-from .pytetwild import (  # noqa: F401  (re-exported)
-    GRADING,
-    MESH_VERSION,
-    cache_dir_default,
-    mesh_with_pytetwild,
-    select_facets,
-    sizing_field,
-    smooth_border_edges,
-)
+from .linkmesh import AREA_GATE, LinkMesh, finish_mesh
+from .pytetwild import mesh_with_pytetwild
 
 DEFAULT_EPSILON = 1e-3
 """fTetWild envelope relative to the bounding-box diagonal (its own default)."""
@@ -135,7 +118,7 @@ def mesh_link(link, mesh_size: float | None = None, with_block: bool = True, eps
     use_cache : bool
         Read and write the cache.
     sizing : bool
-        Refine near curved faces too small for ``mesh_size`` (:func:`sizing_field`; pytetwild only,
+        Refine near curved faces too small for ``mesh_size`` (:func:`linkfea.mesh.pytetwild.sizing_field`; pytetwild only,
         gmsh refines by curvature).
     progress : callable, optional
         Called with a short message at each stage.

@@ -57,7 +57,7 @@ class LinkResult:
         SHA-256 of the script, STEP or surface file that was used ('' if unknown); ``source`` is
         its absolute path.
     link, mesh, solution, fit, estimate
-        The CAD :class:`~linkfea.cad.link.Link`, the :class:`~linkfea.mesh.LinkMesh`, the
+        The CAD :class:`~linkfea.cad.link.Link`, the :class:`~linkfea.mesh.linkmesh.LinkMesh`, the
         :class:`~linkfea.fem.problem.FeaSolution`, the :class:`~linkfea.fem.fit.FittedCompliance` and the
         :class:`~linkfea.fem.estimate.ErrorEstimate` (with its per-element indicator);
         None for a result read by :func:`load` (the JSON keeps their summaries).

@@ -13,7 +13,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.p2 import symmetric_from_upper
+from .sparse import symmetric_from_upper
 from .sparse_mkl import point_pypardiso_at_mkl as _point_pypardiso_at_mkl
 
 log = logging.getLogger(__name__)

@@ -29,8 +29,8 @@ from typing import Callable, Optional
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.p2 import symmetric_from_upper
 from ..runtime.errors import LinkFeaError, SolverError
+from .sparse import symmetric_from_upper
 
 log = logging.getLogger(__name__)
 

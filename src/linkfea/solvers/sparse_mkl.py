@@ -151,7 +151,7 @@ def operator(M: sp.spmatrix, symmetric_upper: bool = False):
         except RuntimeError as exc:  # pragma: no cover
             log.warning("MKL sparse products unavailable (%s); scipy's", exc)
     if symmetric_upper:
-        from ..fem.p2 import symmetric_from_upper
+        from .sparse import symmetric_from_upper
 
         return symmetric_from_upper(M).tocsr()
     return sp.csr_matrix(M)

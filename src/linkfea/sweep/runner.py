@@ -61,7 +61,7 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
     on_result : called with each design's document right after it is written
     force : write into a folder that also holds files of other origin (never touching them)
     """
-    from ..mesh import cache_dir_default
+    from ..mesh.pytetwild import cache_dir_default
 
     workers = checks.optional_integer(workers, "workers", checks.Bounds(1))
     check_memory_limit(memory_limit)
