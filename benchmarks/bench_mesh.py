@@ -89,6 +89,7 @@ def foot_end_to_end(warm_runs: int = 3):
     """(a) The pipeline in a warm process (imports done, a first call made: a notebook's second call,
     a sweep worker); (b) the cold CLI process, its wall time and its imports itemized."""
     from linkfea.pipeline import compute
+    from linkfea import ComputeOptions
 
     print("\n## foot end to end (rigid, gmsh, default mesh)")
     t0 = time.perf_counter()
@@ -140,7 +141,7 @@ def foot_convergence():
         for hc in (1.4, 0.93, 0.70):
             G.CORNER_SIZE_FACTOR = hc / H
             r = compute("orthoglide_foot")
-            rows.append((hc, r.solution.n_dofs, np.diag(r.matrix)))
+            rows.append((hc, r.solution.n_dofs, np.diag(r.compliance)))
             print(f"corner {hc:.2f} mm: {r.solution.n_dofs} DOF, diagonal {np.array2string(rows[-1][2], precision=6)}")
     finally:
         G.CORNER_SIZE_FACTOR, G.FEATURE_GRADING = saved
@@ -153,8 +154,8 @@ def foot_convergence():
     print(f"reference (Richardson in the corner size): {np.array2string(ref, precision=6)}")
     print(f"corner 0.70 mm mesh vs reference: {np.array2string(100 * (c3 / ref - 1), precision=2)} %")
     for label, h in (("default", H), ("uniform edge / 1.6", H / 1.6)):
-        r = compute("orthoglide_foot", mesh_size=h)
-        e = 100 * (np.diag(r.matrix) / ref - 1)
+        r = compute("orthoglide_foot", ComputeOptions(mesh_size=h))
+        e = 100 * (np.diag(r.compliance) / ref - 1)
         print(f"{label} ({h:.3g} mm, {r.solution.n_dofs} DOF) vs reference, % per diagonal entry: "
               f"{np.array2string(e, precision=2)}")
 
@@ -180,11 +181,11 @@ def foot_fillet(r: float = 2.5):
     def run(k, n):
         G.SEGMENTS_PER_CIRCLE = n
         t0 = time.perf_counter()
-        res = compute("orthoglide_foot", params=params, mesh_size=k * H)
+        res = compute("orthoglide_foot", ComputeOptions(mesh_size=k * H), params=params)
         t = time.perf_counter() - t0
         print(f"edge {k * H:.3g} mm, {n:.3g} per turn: {res.solution.n_dofs} DOF, compute() {t:.1f} s "
-              f"({_stages(res.timing)}); diagonal {np.array2string(np.diag(res.matrix), precision=6)}", flush=True)
-        return res.solution.n_dofs, np.diag(res.matrix)
+              f"({_stages(res.timing)}); diagonal {np.array2string(np.diag(res.compliance), precision=6)}", flush=True)
+        return res.solution.n_dofs, np.diag(res.compliance)
 
     try:
         for k in (2.0, 2 ** 0.5, 1.0):
@@ -208,7 +209,7 @@ def tube_block():
 
     print("\n## tube bar in block mode (cad/bar.py section=tube, gmsh)")
     t0, c0 = time.perf_counter(), time.process_time()
-    r = compute("bar", params={"section": "tube"}, mode="block")
+    r = compute("bar", ComputeOptions(mode="block"), params={"section": "tube"})
     t, c = time.perf_counter() - t0, time.process_time() - c0
     print(f"{r.solution.n_dofs} DOF; total {t:.2f} s wall, {c:.2f} s CPU ({', '.join(f'{k} {v:.2f}' for k, v in r.timing.items())}); "
           f"tip area error {r.mesh.quality['tip_area_error']:+.2e}")

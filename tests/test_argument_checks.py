@@ -79,7 +79,7 @@ def test_linkfea_api_names_the_argument_before_any_work(kw, message):
 
     t0 = time.perf_counter()
     with pytest.raises(LinkFeaError, match=message):
-        linkfea.compute("bar", **kw)
+        linkfea.compute("bar", linkfea.ComputeOptions(**kw))
     assert time.perf_counter() - t0 < 5.0  # refused before the CAD is built
 
 

@@ -62,12 +62,13 @@ def test_two_different_local_scripts_are_ambiguous(tmp_path, monkeypatch):
 
 
 def test_result_records_the_script_that_ran(tmp_path, monkeypatch):
+    from linkfea import ComputeOptions
     from linkfea.pipeline import compute
 
     local = _local_bar(tmp_path)
     monkeypatch.chdir(tmp_path)
     with pytest.warns(LinkFeaWarning, match="from this folder"):
-        res = compute("bar", mesh_size=10.0)
+        res = compute("bar", ComputeOptions(mesh_size=10.0))
     assert res.frame.origin[0] == pytest.approx(150.0)  # the local 150 mm bar ran, not the bundled 200 mm one
     assert res.source == str(local.resolve())
     assert res.source_sha256 == hashlib.sha256(local.read_bytes()).hexdigest()

@@ -1,7 +1,7 @@
 """linkfea: a link CAD to its 6x6 compliance by finite elements.
 
 >>> import linkfea
->>> r = linkfea.compute("bar", mesh_size=5.0)        # doctest: +SKIP
+>>> r = linkfea.compute("bar", linkfea.ComputeOptions(mesh_size=5.0))  # doctest: +SKIP
 >>> r.compliance, r.stiffness, r.frame               # doctest: +SKIP
 >>> r.save("bar.json"); linkfea.load("bar.json")     # doctest: +SKIP
 >>> linkfea.compare("bar", "1,2,4").errors           # doctest: +SKIP

@@ -117,7 +117,7 @@ def compute(
         con = Console(width=max(Console().width, 100))
         show(res, con)
         con.print(f"wrote {', '.join(str(p) for p in written)}")
-    if not res.diagnostics.get("refinement", {"reached": True})["reached"]:
+    if not (res.diagnostics.refinement or {"reached": True})["reached"]:
         raise typer.Exit(code=TOLERANCE_NOT_REACHED)  # written, with the warning line the pipeline gave
 
 
@@ -139,8 +139,8 @@ def _fraction(text: str) -> float:
                            f"such as 0.01; got {text!r}") from None
 
 
-def _convergence_text(solver: dict) -> str:
-    c = solver.get("convergence")
+def _convergence_text(solver) -> str:
+    c = None if solver is None else solver.convergence
     if not c:
         return ""
     return (f" ({c['levels']} multigrid levels, CG iterations {', '.join(str(i) for i in c['iterations'])}, "
@@ -157,21 +157,21 @@ def show(res, console: Console) -> None:
     err = res.error_diagonal
     if err is not None:
         console.print(error_table(np.diag(res.compliance), err))
-    sharp = (res.diagnostics.get("sharp_edges") or {}).get("note")
+    sharp = (res.diagnostics.sharp_edges or {}).get("note")
     if sharp:
         console.print(sharp)
-    ref = res.diagnostics.get("refinement")
+    ref = res.diagnostics.refinement
     if ref:
         console.print("refinement: " + ref["note"] + "; " + ", ".join(
             f"{st['n_dofs']} DOF {100 * st['error']:.2g}%" for st in ref["steps"]) + f" ({ref['seconds']:.1f} s)")
     d = res.diagnostics
-    ee = d.get("error_estimate")
+    ee = d.error_estimate
     m = res.mesh_info
-    console.print(f"mesh: {m['n_nodes']} vertices, {m['n_tets']} tets, {m['n_dofs']} DOF, "
-                  f"edge {m['edge_length']:.3g} mm; symmetry error {d['symmetry_error']:.2e}, "
-                  f"fit residual {d['fit_residual']:.2e}, Richardson estimate "
+    console.print(f"mesh: {m.n_nodes} vertices, {m.n_tets} tets, {m.n_dofs} DOF, "
+                  f"edge {m.edge_length:.3g} mm; symmetry error {d.symmetry_error:.2e}, "
+                  f"fit residual {d.fit_residual:.2e}, Richardson estimate "
                   + (f"{ee:.2e}" if ee is not None else "not computed (use --convergence)")
-                  + f"; solver {res.solver.get('factorizer')}" + _convergence_text(res.solver))
+                  + f"; solver {res.solver and res.solver.factorizer}" + _convergence_text(res.solver))
     console.print("timing (s): " + ", ".join(f"{k} {v:.2f}" for k, v in res.timing.items()))
     if res.source_sha256:
         console.print(f"source: {res.source} (sha256 {res.source_sha256[:16]}...)")

@@ -28,7 +28,7 @@ def cache(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def bar(cache):
-    return linkfea.compute("bar", mesh_size=H, cache_dir=cache)
+    return linkfea.compute("bar", linkfea.ComputeOptions(mesh_size=H), cache_dir=cache)
 
 
 def test_compute_gives_the_cli_matrix(bar, cache, tmp_path):
@@ -43,7 +43,7 @@ def test_compute_gives_the_cli_matrix(bar, cache, tmp_path):
                         "-q", "--out", str(out)], capture_output=True, text=True, env=env, timeout=300)
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
-    assert doc["mesh"]["cache_key"] == bar.mesh_info["cache_key"]
+    assert doc["mesh"]["cache_key"] == bar.mesh_info.cache_key
     assert _scaled(np.array(doc["compliance"]), bar.compliance) < 1e-9
     assert _scaled(np.array(doc["stiffness"]), bar.stiffness) < 1e-9 * np.max(np.abs(bar.stiffness))
     np.testing.assert_array_equal(doc["frame"]["origin"], bar.frame.origin)
@@ -57,8 +57,8 @@ def test_result_values_are_a_cantilever(bar):
         assert bar.compliance[i, i] == pytest.approx(Cb[i, i], rel=0.03), i
     np.testing.assert_allclose(bar.compliance @ bar.stiffness, np.eye(6), atol=1e-8)
     np.testing.assert_allclose(bar.frame.origin, [200.0, 0.0, 0.0])
-    assert bar.mesh_info["n_dofs"] == bar.solution.n_dofs and bar.mesh is not None
-    assert {"symmetry_error", "fit_residual", "min_eigenvalue", "error_estimate"} <= set(bar.diagnostics)
+    assert bar.mesh_info.n_dofs == bar.solution.n_dofs and bar.mesh is not None
+    assert {"symmetry_error", "fit_residual", "min_eigenvalue", "error_estimate"} <= set(bar.diagnostics.to_dict())
     assert isinstance(bar.value, Compliance) and not bar.compliance.flags.writeable
 
 
@@ -120,7 +120,7 @@ def test_compare_object(cache, tmp_path):
     assert cmp.plot(ax=ax) is ax and len(ax.lines) == 4
     plt.close(fig)
     paths = cmp.save(tmp_path / "cmp")
-    assert json.loads((tmp_path / "cmp" / "compare.json").read_text()) == json.loads(json.dumps(cmp.record))
+    assert json.loads((tmp_path / "cmp" / "compare.json").read_text()) == json.loads(json.dumps(cmp.to_dict()))
     assert set(paths) == {"compare.json", "compare.md", "compare.png"}
     assert "Timoshenko" in repr(cmp) and "<table>" in cmp._repr_html_()
 
@@ -194,9 +194,9 @@ def test_the_iterative_solver_on_a_small_link(bar, cache, mode, tmp_path, monkey
     with the direct solve, through the API and the command line (exit 0, the same matrix)."""
     from linkfea.cli import main
 
-    direct = bar if mode == "rigid" else linkfea.compute("bar", mesh_size=H, cache_dir=cache, mode=mode)
-    it = linkfea.compute("bar", mesh_size=H, cache_dir=cache, mode=mode, solver="iterative")
-    assert it.solver["factorizer"] == "cg+p1mg"
+    direct = bar if mode == "rigid" else linkfea.compute("bar", linkfea.ComputeOptions(mesh_size=H, mode=mode), cache_dir=cache)
+    it = linkfea.compute("bar", linkfea.ComputeOptions(mesh_size=H, mode=mode, solver="iterative"), cache_dir=cache)
+    assert it.solver.factorizer == "cg+p1mg"
     assert _scaled(it.compliance, direct.compliance) < 1e-6
     monkeypatch.setenv("LINKFEA_CACHE_DIR", str(cache))
     out = tmp_path / "r.json"

@@ -2,7 +2,6 @@
 compare.json format: same keys, same order, same bytes after a round trip through the file."""
 import dataclasses
 import json
-import warnings
 
 import numpy as np
 import pytest
@@ -77,18 +76,6 @@ def test_typed_reading(bar):
         cmp.beam(3)
     with pytest.raises(dataclasses.FrozenInstanceError):
         cmp.link = "other"
-
-
-def test_dictionary_access_is_deprecated_but_works(bar):
-    _, _, _, cmp = bar
-    with pytest.warns(DeprecationWarning, match=r"comparison\['beams'\] is deprecated"):
-        beams = cmp["beams"]
-    assert beams == cmp.to_dict()["beams"]
-    with pytest.warns(DeprecationWarning, match="Comparison.record is deprecated"):
-        assert cmp.record == cmp.to_dict()
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        cmp.to_dict(), cmp.beams, cmp.errors
 
 
 def test_from_dict_names_missing_keys(bar):

@@ -107,7 +107,7 @@ def test_skfem_assembler_gives_the_same_compliance(steel, mode):
         bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
     a = solve_link(mesh, steel, mode=mode)
     b = solve_link(mesh, steel, mode=mode, assembler="skfem")
-    assert a.solver["assembler"] == "kernel" and b.solver["assembler"] == "skfem"
+    assert a.solver.assembler == "kernel" and b.solver.assembler == "skfem"
     Ca, Cb = compliance_from_solution(a).matrix, compliance_from_solution(b).matrix
     d = np.sqrt(np.outer(np.diag(Ca), np.diag(Ca)))
     assert np.max(np.abs(Ca - Cb) / d) < (1e-9 if mode == "rigid" else 1e-7)

@@ -102,12 +102,13 @@ def test_pipeline_reports_the_estimate_and_the_sharp_edges(tmp_path):
 
     import cadquery as cq
 
+    from linkfea import ComputeOptions
     from linkfea.pipeline import compute, sharp_edges_note
 
-    res = compute("bar", mesh_size=10.0, cache_dir=tmp_path)
+    res = compute("bar", ComputeOptions(mesh_size=10.0), cache_dir=tmp_path)
     err = res.error_diagonal
     assert err is not None and err.shape == (6,) and np.all((err > 0) & (err < 0.2))
-    assert res.diagnostics["sharp_edges"]["count"] == 0
+    assert res.diagnostics.sharp_edges["count"] == 0
     assert "estimate" in res.timing
     doc = json.loads(json.dumps(res.to_dict()))
     assert doc["diagnostics"]["discretization_error"]["diagonal"] == pytest.approx(list(err))

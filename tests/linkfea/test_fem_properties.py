@@ -92,7 +92,7 @@ def test_scipy_fallback_solver_agrees(steel):
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
     sa = solve_link(mesh, steel, solver=scipy_factorizer)
     sb = solve_link(mesh, steel, solver=pardiso_factorizer)
-    assert sa.solver["factorizer"] == "superlu" and sb.solver["factorizer"] == "pardiso"
+    assert sa.solver.factorizer == "superlu" and sb.solver.factorizer == "pardiso"
     a, b = compliance_from_solution(sa).matrix, compliance_from_solution(sb).matrix
     assert _scaled_diff(a, b) < 1e-9
 
@@ -111,7 +111,7 @@ def test_default_solver_is_recorded_and_a_fallback_is_said(steel, monkeypatch, c
     except ImportError:
         expected = "superlu"
     ok = solve_link(mesh, steel)
-    assert ok.solver["factorizer"] == expected
+    assert ok.solver.factorizer == expected
 
     def broken(U):
         raise RuntimeError("PARDISO error -3 (simulated)")
@@ -119,8 +119,8 @@ def test_default_solver_is_recorded_and_a_fallback_is_said(steel, monkeypatch, c
     monkeypatch.setattr(solvers, "pardiso_factorizer", broken)
     with caplog.at_level(logging.WARNING, logger="linkfea.solvers.factorizers"), pytest.warns(RuntimeWarning, match="SuperLU"):
         fb = solve_link(mesh, steel)
-    assert fb.solver["factorizer"] == "superlu"
-    assert "error -3" in fb.solver["fallback_reason"]
+    assert fb.solver.factorizer == "superlu"
+    assert "error -3" in fb.solver.fallback_reason
     assert any("falling back to SuperLU" in r.getMessage() for r in caplog.records)
     assert _scaled_diff(compliance_from_solution(fb).matrix, compliance_from_solution(ok).matrix) < 1e-9
 

@@ -164,13 +164,14 @@ def test_block_mode_on_a_bore_tip_converges_to_rigid_mode():
 def test_filleted_bracket_mesh_convergence(bracket):
     """The default gmsh mesh against one with 1.5x smaller elements: every diagonal entry of the
     6x6 within 0.5% (P2 on CAD-exact faces; the clamp and the coupled face are complete)."""
+    from linkfea import ComputeOptions
     from linkfea.mesh import default_mesh_size
     from linkfea.pipeline import compute
 
     link = build_link(str(bracket), base=BASE, tip=TIP, with_block=False)
     H = default_mesh_size(link)
-    coarse = compute(str(bracket), base=BASE, tip=TIP)
-    fine = compute(str(bracket), base=BASE, tip=TIP, mesh_size=H / 1.5)
+    coarse = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP))
+    fine = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP, mesh_size=H / 1.5))
     assert coarse.mesh.mesher == "gmsh" and fine.solution.n_dofs > 1.5 * coarse.solution.n_dofs
     d = np.abs(np.diag(coarse.matrix) / np.diag(fine.matrix) - 1)
     assert d.max() <= 0.005, d
@@ -200,6 +201,7 @@ def test_two_meshers_one_answer_on_a_filleted_link(tmp_path):
     area gate at first (it drops a strip along the tangent borders), refines those borders until
     the gate passes, and then its 6x6 diagonal agrees with gmsh's CAD-exact mesh within 1%.
     Both the area (CAD) and the agreement (an independent mesher) are external references."""
+    from linkfea import ComputeOptions
     from linkfea.mesh.pytetwild import smooth_border_edges
     from linkfea.pipeline import compute
 
@@ -207,8 +209,8 @@ def test_two_meshers_one_answer_on_a_filleted_link(tmp_path):
     link = build_link(str(step), base=LINK_BASE, tip=LINK_TIP, with_block=False)
     assert sum(f.Area() for f in link.base_faces) == pytest.approx(LINK_FACE_AREA, rel=1e-9)
     assert len(smooth_border_edges(link.body, link.base_faces + link.tip_faces)) == 4
-    g = compute(str(step), base=LINK_BASE, tip=LINK_TIP)
-    p = compute(str(step), base=LINK_BASE, tip=LINK_TIP, mesher="pytetwild", cache_dir=tmp_path / "cache")
+    g = compute(str(step), ComputeOptions(base=LINK_BASE, tip=LINK_TIP))
+    p = compute(str(step), ComputeOptions(base=LINK_BASE, tip=LINK_TIP, mesher="pytetwild"), cache_dir=tmp_path / "cache")
     assert g.mesh.mesher == "gmsh" and p.mesh.mesher == "pytetwild"
     assert p.mesh.quality["interface_border_size"] is not None  # the first mesh missed the gate
     assert max(abs(p.mesh.quality["base_area_error"]), abs(p.mesh.quality["tip_area_error"])) <= AREA_GATE
@@ -222,10 +224,11 @@ def test_two_meshers_one_answer_on_a_filleted_link(tmp_path):
 def test_two_meshers_one_answer_on_the_filleted_bracket(bracket, tmp_path):
     """gmsh (default) and pytetwild refined along the interface borders until its area gate passes:
     the same 6x6 diagonal within 1% (measured 0.53% at 38k / 97k DOF)."""
+    from linkfea import ComputeOptions
     from linkfea.pipeline import compute
 
-    g = compute(str(bracket), base=BASE, tip=TIP)
-    p = compute(str(bracket), base=BASE, tip=TIP, mesher="pytetwild", cache_dir=tmp_path)
+    g = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP))
+    p = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP, mesher="pytetwild"), cache_dir=tmp_path)
     assert p.mesh.mesher == "pytetwild" and p.mesh.quality["interface_border_size"] is not None
     assert max(abs(p.mesh.quality["base_area_error"]), abs(p.mesh.quality["tip_area_error"])) <= AREA_GATE
     d = np.abs(np.diag(p.matrix) / np.diag(g.matrix) - 1)

@@ -40,11 +40,12 @@ def test_surface_formats_selectors_and_frame(bar_stl, fmt):
 def test_stl_of_the_bar_gives_the_cad_compliance(bar_stl, tmp_path):
     """pytetwild on the STL triangles vs gmsh on the CAD: within 1% entry by entry (relative to
     sqrt(Cii Cjj)); the interfaces are exact, so the area gate passes without refinement."""
+    from linkfea import ComputeOptions
     from linkfea.pipeline import compute
 
-    s = compute(str(bar_stl), base="plane:x=0", tip="plane:x=200", mesh_size=5.0, cache_dir=tmp_path)
+    s = compute(str(bar_stl), ComputeOptions(base="plane:x=0", tip="plane:x=200", mesh_size=5.0), cache_dir=tmp_path)
     assert s.mesh.mesher == "pytetwild"
-    c = compute("bar", mesh_size=5.0)
+    c = compute("bar", ComputeOptions(mesh_size=5.0))
     assert c.mesh.mesher == "gmsh"
     d = np.sqrt(np.outer(np.diag(c.matrix), np.diag(c.matrix)))
     assert np.abs((s.matrix - c.matrix) / d).max() <= 0.01

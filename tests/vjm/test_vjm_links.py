@@ -21,9 +21,8 @@ POSES = np.array([[0.0, 0.0, 0.0], [40.0, -20.0, 10.0], [-50.0, 60.0, 90.0]])
 @pytest.fixture(scope="module")
 def links(tmp_path_factory):
     cache = tmp_path_factory.mktemp("meshes")
-    foot = linkfea.compute("orthoglide_foot", mesh_size=H, cache_dir=cache)
-    leg = linkfea.compute("parallelogram_bar", params={"height": 16, "boss_height": 20}, mesh_size=H,
-                          cache_dir=cache)
+    foot = linkfea.compute("orthoglide_foot", linkfea.ComputeOptions(mesh_size=H), cache_dir=cache)
+    leg = linkfea.compute("parallelogram_bar", linkfea.ComputeOptions(mesh_size=H), params={"height": 16, "boss_height": 20}, cache_dir=cache)
     return foot, leg
 
 

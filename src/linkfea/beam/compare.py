@@ -106,10 +106,11 @@ def fea_compliance(spec, params=None, mesh_size=None, mode="rigid", material=Non
     Runs :func:`linkfea.pipeline.compute` (the one home of CAD -> mesh -> P2
     solve -> rigid fit) and keeps what the comparison record needs.
     """
+    from ..options import ComputeOptions
     from ..pipeline import compute as run
 
-    res = run(spec, params=params, mesh_size=mesh_size, mode=mode, material=material, base=base, tip=tip,
-              progress=progress)
+    opts = ComputeOptions(mesh_size=mesh_size, mode=mode, material=material, base=base, tip=tip)
+    res = run(spec, opts, params=params, progress=progress)
     return fea_info(res)
 
 
@@ -122,8 +123,8 @@ def fea_info(res) -> tuple:
     info = {"mode": res.mode, "block_ratio": res.block_ratio,
             "mesh": {"n_nodes": int(mesh.n_nodes), "n_tets": int(mesh.n_tets), "n_dofs": int(res.solution.n_dofs),
                      "edge_length": float(mesh.edge_length), "element": "P2 tetrahedron (10 nodes)"},
-            "diagnostics": {k: d.get(k) for k in ("symmetry_error", "fit_residual", "min_eigenvalue",
-                                                  "error_estimate")},
+            "diagnostics": {k: getattr(d, k) for k in ("symmetry_error", "fit_residual", "min_eigenvalue",
+                                                       "error_estimate")},
             "timing_s": {k: float(v) for k, v in res.timing.items()}}
     return np.asarray(C, dtype=float), link, info
 

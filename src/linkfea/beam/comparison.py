@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import html
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -130,19 +129,6 @@ class Comparison:
         values: dict = {f.name: d[_key(f)] for f in dataclasses.fields(cls)}
         values["beams"] = tuple(BeamFit.from_dict(b) for b in d["beams"])
         return cls(**values)
-
-    @property
-    def record(self) -> dict:
-        """Deprecated: the compare.json dictionary, now :meth:`to_dict`."""
-        warnings.warn("Comparison.record is deprecated: use the fields (comparison.beams ...) or to_dict()",
-                      DeprecationWarning, stacklevel=2)
-        return self.to_dict()
-
-    def __getitem__(self, key: str):
-        """Deprecated: ``comparison["beams"]`` reads compare.json's key; use the fields or :meth:`to_dict`."""
-        warnings.warn(f"comparison[{key!r}] is deprecated: use the fields (comparison.beams ...) or to_dict()",
-                      DeprecationWarning, stacklevel=2)
-        return self.to_dict()[key]
 
     @property
     def fea(self) -> np.ndarray:

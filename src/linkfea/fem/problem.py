@@ -35,7 +35,8 @@ from ..options import BLOCK_RATIO, MODES
 from ..runtime import checks
 from ..runtime.errors import LinkFeaError, SolverError
 from ..runtime.progress import or_quiet
-from ..solvers.factorizers import default_factorizer
+from ..solvers.factorization import Factorization, SolverRecord
+from ..solvers.factorizers import default_factorizer, needs
 from ..solvers.sparse import symmetric_from_upper
 from .coarse import p1_coarse_space
 from .p2 import P2Mesh, assemble_upper, assemble_upper_skfem, lame, link_p2
@@ -72,9 +73,8 @@ class FeaSolution:
     mode : str
     timing : dict
         Seconds spent in ``assemble``, ``factor`` and ``solve``.
-    solver : dict
-        ``factorizer`` that ran (``pardiso``, ``superlu``, or the name of an injected one) and
-        ``fallback_reason`` (None unless PARDISO was wanted but not used).
+    solver : SolverRecord
+        The assembly and the factorizer that ran, with its fallback reason, convergence and choice.
     ref_twists : ndarray (6, 6) or None
         Rigid mode only: reference-node twists (frame axes), column ``k`` for load ``k``.
     """
@@ -90,7 +90,7 @@ class FeaSolution:
     mode: str
     timing: dict = field(default_factory=dict)
     ref_twists: Optional[np.ndarray] = None
-    solver: dict = field(default_factory=dict)
+    solver: Optional[SolverRecord] = None
 
 
 def _block_flags(mesh) -> np.ndarray:
@@ -169,12 +169,12 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
     block_ratio : float
         Block stiffness multiplier in ``"block"`` mode.
     solver : callable, optional
-        A factorizer ``solver(U) -> solve(B)``, where ``U`` is the upper
-        triangle (CSR) of the SPD system and ``B`` an (n, 6) right-hand side.
-        Defaults to :func:`default_factorizer` (PARDISO, else SuperLU).  A factorizer that sets
-        ``wants_coarse_space`` (the iterative solver) also gets ``coarse``, a function that builds
-        the P1 coarse space of the solved system (:func:`linkfea.fem.coarse.p1_coarse_space`), and
-        ``progress``.
+        A factorizer ``solver(U) -> Factorization`` (:mod:`linkfea.solvers.factorizers`), where ``U`` is the
+        upper triangle (CSR) of the SPD system; the factorization solves an (n, 6) right-hand side.
+        Defaults to :func:`~linkfea.solvers.factorizers.default_factorizer` (PARDISO, else SuperLU).
+        A factorizer that needs the P1 coarse space (the iterative solver,
+        :func:`~linkfea.solvers.factorizers.needs`) also gets ``coarse``, a function that builds it
+        (:func:`linkfea.fem.coarse.p1_coarse_space`), and ``progress``.
     progress : callable, optional
         Called with a stage name ("assemble", "factor", "solve") when it starts.
     assembler : {"kernel", "skfem"}
@@ -269,20 +269,18 @@ def solve_link(mesh, material: Material, mode: str = "rigid", block_ratio: float
         displacements=u.T.reshape(6, n_nodes, 3),
         ref_nodes=ref_nodes, clamped_nodes=clamped, n_dofs=int(A.shape[0]),
         n_vertices=p2.n_vertices, frame=frame, mode=mode, timing=timing, ref_twists=ref_twists,
-        solver={"assembler": assembler,
-                "factorizer": getattr(solve, "factorizer", getattr(factorizer, "__name__", "custom")),
-                "fallback_reason": getattr(solve, "fallback_reason", None),
-                **{k: getattr(solve, k) for k in ("convergence", "choice") if hasattr(solve, k)}},
+        solver=SolverRecord.of(assembler, solve),
     )
 
 
-def _factor(factorizer, A, near_nullspace, coarse, progress):
+def _factor(factorizer, A, near_nullspace, coarse, progress) -> Factorization:
     """``factorizer(A)``, with the rigid-body modes or the P1 coarse space (a function that builds
     it, :func:`linkfea.fem.coarse.p1_coarse_space`) for a factorizer that wants them (multigrid)."""
     try:
-        if getattr(factorizer, "wants_coarse_space", False):
+        wants = needs(factorizer)
+        if wants == "coarse_space":
             return factorizer(A, coarse=coarse, progress=progress)
-        if getattr(factorizer, "wants_near_nullspace", False):
+        if wants == "near_nullspace":
             return factorizer(A, near_nullspace=near_nullspace(), progress=progress)
         return factorizer(A)
     except SolverError:

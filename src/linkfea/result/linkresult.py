@@ -18,7 +18,9 @@ from ..mechanics.compliance import TWIST, UNITS_SHORT, WRENCH, Compliance
 from ..mechanics.frames import Frame
 from ..mechanics.materials import Material
 from ..runtime.errors import LinkFeaError
+from ..solvers.factorization import SolverRecord
 from .post import PICTURE_CASE
+from .records import Diagnostics, MeshInfo
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,15 +39,15 @@ class LinkResult:
     mode : str
         ``rigid`` or ``block`` tip coupling.
     block_ratio : float or None
-    mesh_info : dict
-        n_nodes, n_tets, n_dofs, n_p2_nodes, edge_length, envelope, element, quality, cache_key.
-    diagnostics : dict
+    mesh_info : MeshInfo
+        mesher, n_nodes, n_tets, n_dofs, n_p2_nodes, edge_length, envelope, element, quality, cache_key.
+    diagnostics : Diagnostics
         symmetry_error, fit_residual, min_eigenvalue, error_estimate (None unless convergence ran), notes;
-        ``discretization_error`` (always: the recovered-stress estimate per diagonal entry, see
+        ``discretization_error`` (the recovered-stress estimate per diagonal entry, see
         :attr:`error_diagonal`) and ``sharp_edges`` (count of sharp re-entrant CAD edges and what it means).
-    solver : dict
-        The linear solver that ran: ``factorizer`` (pardiso or superlu) and, if PARDISO was
-        wanted but failed, ``fallback_reason``.
+    solver : SolverRecord or None
+        The linear solver that ran: ``factorizer`` (pardiso, superlu, cg+p1mg) and, if PARDISO was
+        wanted but failed, ``fallback_reason``; ``choice`` and ``convergence`` when there are.
     timing : dict
         Seconds per stage: cad, mesh, assemble, factor, solve, fit (finest mesh), total.
     versions : dict
@@ -72,9 +74,9 @@ class LinkResult:
     material: Material
     mode: str
     block_ratio: Optional[float]
-    mesh_info: dict
-    diagnostics: dict
-    solver: dict = field(default_factory=dict)
+    mesh_info: MeshInfo
+    diagnostics: Diagnostics
+    solver: Optional[SolverRecord] = None
     timing: dict = field(default_factory=dict)
     versions: dict = field(default_factory=dict)
     volume: Optional[float] = None
@@ -90,11 +92,6 @@ class LinkResult:
     @property
     def compliance(self) -> np.ndarray:
         """6x6 compliance ``t = C w`` (mm/N, rad/N, mm/(N mm), rad/(N mm) by block), order Fx..Mz."""
-        return self.value.matrix
-
-    @property
-    def matrix(self) -> np.ndarray:
-        """Same as :attr:`compliance` (older name)."""
         return self.value.matrix
 
     @property
@@ -115,8 +112,8 @@ class LinkResult:
     def error_diagonal(self) -> Optional[np.ndarray]:
         """Estimated relative discretization error of each diagonal entry (order Fx..Mz): the
         computed compliance is too small by about this fraction (:mod:`linkfea.fem.estimate`).
-        None for a result saved before the estimate existed."""
-        d = (self.diagnostics.get("discretization_error") or {}).get("diagonal")
+        None for a result saved without it."""
+        d = (self.diagnostics.discretization_error or {}).get("diagonal")
         return None if d is None else np.asarray(d, dtype=float)
 
     @property
@@ -150,9 +147,9 @@ class LinkResult:
             "order": {"wrench": WRENCH, "twist": TWIST},
             "units": self.units,
             "frame": self.frame.to_dict(),
-            "mesh": dict(self.mesh_info),
-            "diagnostics": dict(self.diagnostics),
-            "solver": dict(self.solver),
+            "mesh": self.mesh_info.to_dict(),
+            "diagnostics": self.diagnostics.to_dict(),
+            "solver": {} if self.solver is None else self.solver.to_dict(),
             "timing": dict(self.timing),
             "versions": dict(self.versions),
         })
@@ -216,7 +213,7 @@ class LinkResult:
     def __repr__(self) -> str:
         o = np.round(self.frame.origin, 4).tolist()
         x = np.round(self.frame.axes[0], 4).tolist()
-        n = self.mesh_info.get("n_dofs")
+        n = self.mesh_info.n_dofs
         return (f"LinkResult({self.name!r}, {self.material.name}, mode {self.mode}, {n} DOF; "
                 f"frame origin {o} mm, x axis {x})\n"
                 f"compliance C ({UNITS_SHORT}):\n{np.array2string(self.compliance, precision=4, max_line_width=120)}\n"
@@ -233,13 +230,14 @@ class LinkResult:
         o = np.round(self.frame.origin, 4).tolist()
         x = np.round(self.frame.axes[0], 4).tolist()
         d = self.diagnostics
-        ee = d.get("error_estimate")
+        ee = d.error_estimate
         m = self.mesh_info
+        factorizer = None if self.solver is None else self.solver.factorizer
         info = (f"<p><b>{html.escape(self.name)}</b> ({html.escape(self.material.name)}, E = {self.material.E:g} MPa, "
                 f"nu = {self.material.nu:g}; mode {self.mode}); frame origin {o} mm, x axis {x} (CAD coordinates)."
-                f"<br>mesh: {m.get('n_tets')} P2 tets, {m.get('n_dofs')} DOF, edge {m.get('edge_length', 0):.3g} mm; "
-                f"solver {html.escape(str(self.solver.get('factorizer')))}; symmetry error "
-                f"{d.get('symmetry_error', float('nan')):.2e}, fit residual {d.get('fit_residual', float('nan')):.2e}, "
+                f"<br>mesh: {m.n_tets} P2 tets, {m.n_dofs} DOF, edge {m.edge_length:.3g} mm; "
+                f"solver {html.escape(str(factorizer))}; symmetry error "
+                f"{d.symmetry_error:.2e}, fit residual {d.fit_residual:.2e}, "
                 f"Richardson estimate {'not computed' if ee is None else f'{ee:.2e}'}</p>")
         return (info + self._error_html() + table(self.compliance, f"compliance C ({UNITS_SHORT})", TWIST, WRENCH)
                 + table(self.stiffness, "stiffness K = C^-1 (N/mm, N/rad, N, N mm/rad by block)", WRENCH, TWIST))
@@ -250,7 +248,7 @@ class LinkResult:
             return ""
         head = "".join(f"<th>{t}/{w}</th>" for t, w in zip(TWIST, WRENCH))
         vals = "".join(f"<td>{100 * v:.2g}%</td>" for v in err)
-        sharp = (self.diagnostics.get("sharp_edges") or {}).get("note", "")
+        sharp = (self.diagnostics.sharp_edges or {}).get("note", "")
         return (f"<table><caption>estimated discretization error of the diagonal (the computed compliance is too "
                 f"small by about this much; whole matrix {100 * max(err):.2g}%)</caption><tr>{head}</tr>"
                 f"<tr>{vals}</tr></table>" + (f"<p>{html.escape(sharp)}</p>" if sharp else ""))
@@ -288,8 +286,9 @@ def load(path) -> LinkResult:
             value=compliance_of(doc, path),
             name=str(doc["name"]), source=str(doc["source"]), params=dict(doc.get("params") or {}),
             material=material, mode=str(doc["mode"]), block_ratio=doc.get("block_ratio"),
-            mesh_info=dict(doc.get("mesh") or {}), diagnostics=dict(doc.get("diagnostics") or {}),
-            solver=dict(doc.get("solver") or {}), timing=dict(doc.get("timing") or {}),
+            mesh_info=MeshInfo.from_dict(doc["mesh"]), diagnostics=Diagnostics.from_dict(doc["diagnostics"]),
+            solver=SolverRecord.from_dict(doc["solver"]) if doc.get("solver") else None,
+            timing=dict(doc.get("timing") or {}),
             versions=dict(doc.get("versions") or {}), path=path,
             volume=None if doc.get("volume_mm3") is None else float(doc["volume_mm3"]),
             source_sha256=str(doc.get("source_sha256") or ""))

@@ -1,18 +1,22 @@
 """Sparse factorizers of the reduced P2 stiffness: MKL PARDISO (SPD, upper triangle) and SuperLU.
 
-A factorizer takes the upper triangle (CSR, symmetric positive definite) and returns
-``solve(B)``; the returned function carries ``factorizer`` (its name) and, after a fallback,
-``fallback_reason``, which :func:`linkfea.fem.problem.solve_link` records.
+A factorizer takes the upper triangle (CSR, symmetric positive definite) and returns a
+:class:`~linkfea.solvers.factorization.Factorization`: ``solve(B)`` with what the result records of it (the factorizer's name, the
+reason of a fallback, the iterative solvers' convergence, the automatic choice), which
+:func:`linkfea.fem.problem.solve_link` copies into its :class:`~linkfea.solvers.factorization.SolverRecord`.  What a factorizer needs
+besides the matrix (the P1 coarse space, the rigid-body modes) is said by :data:`NEEDS`.
 """
 from __future__ import annotations
 
 import logging
 import warnings
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
 
+from .factorization import Factorization
 from .sparse import symmetric_from_upper
 from .sparse_mkl import point_pypardiso_at_mkl as _point_pypardiso_at_mkl
 
@@ -34,7 +38,7 @@ unrefined Cholesky solution already agrees with it to 3e-11 (relative, reference
 non-zeros, ``iparm(21) = 1`` Bunch-Kaufman pivoting (unused for SPD)."""
 
 
-def pardiso_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
+def pardiso_factorizer(U: sp.csr_matrix) -> Factorization:
     """Factor with MKL PARDISO, real symmetric positive definite (mtype=2), upper triangle."""
     _point_pypardiso_at_mkl()
     import pypardiso
@@ -60,11 +64,10 @@ def pardiso_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
             solver.free_memory(everything=True)
             solver.factorized_A = sp.csr_matrix((0, 0))
 
-    setattr(solve, "factorizer", "pardiso")  # noqa: B010  (read back by solve_link)
-    return solve
+    return Factorization(solve, "pardiso")
 
 
-def scipy_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
+def scipy_factorizer(U: sp.csr_matrix) -> Factorization:
     """Factor with SuperLU on the full symmetric matrix (fallback; slower)."""
     from scipy.sparse.linalg import splu
 
@@ -74,16 +77,12 @@ def scipy_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
     def solve(B):
         return lu.solve(np.asarray(B, dtype=float))
 
-    setattr(solve, "factorizer", "superlu")  # noqa: B010
-    return solve
+    return Factorization(solve, "superlu")
 
 
-def default_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
-    """PARDISO if available and successful, else SuperLU; a fallback is logged and recorded.
-
-    The returned ``solve`` carries ``factorizer`` (``"pardiso"`` or ``"superlu"``) and, after a
-    fallback, ``fallback_reason``; :func:`solve_link` copies both into ``FeaSolution.solver``.
-    """
+def default_factorizer(U: sp.csr_matrix) -> Factorization:
+    """PARDISO if available and successful, else SuperLU; a fallback is logged and recorded in the
+    factorization's ``fallback_reason``."""
     try:
         return pardiso_factorizer(U)
     except ImportError as exc:  # pypardiso is not installed (e.g. not x86-64): the documented fallback
@@ -93,27 +92,31 @@ def default_factorizer(U: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
         reason = f"PARDISO failed: {type(exc).__name__}: {exc}"
         log.warning("%s; falling back to SuperLU (slower)", reason)
         warnings.warn(f"{reason}; falling back to SuperLU", RuntimeWarning, stacklevel=2)
-    solve = scipy_factorizer(U)
-    setattr(solve, "fallback_reason", reason)  # noqa: B010
-    return solve
+    return replace(scipy_factorizer(U), fallback_reason=reason)
 
 
-def auto_factorizer(U: sp.csr_matrix, coarse=None, progress=None) -> Callable[[np.ndarray], np.ndarray]:
+def auto_factorizer(U: sp.csr_matrix, coarse=None, progress=None) -> Factorization:
     """The direct factorization if its estimated peak memory fits (:func:`linkfea.solvers.iterative.choose`),
-    else CG with multigrid; the choice and its figures are recorded in ``solve.choice``."""
+    else CG with multigrid; the choice and its figures are recorded in the factorization's ``choice``."""
     from . import iterative
 
     n = U.shape[0]
     budget = iterative.available_bytes()
     kind = iterative.choose(n, budget)
-    solve = default_factorizer(U) if kind == "direct" else iterative.cg_p1mg_factorizer(U, coarse, progress=progress)
-    setattr(solve, "choice", {"chosen": kind, "estimated_direct_peak_gb": iterative.direct_peak_bytes(n) / 1e9,  # noqa: B010
+    f = default_factorizer(U) if kind == "direct" else iterative.cg_p1mg_factorizer(U, coarse, progress=progress)
+    return replace(f, choice={"chosen": kind, "estimated_direct_peak_gb": iterative.direct_peak_bytes(n) / 1e9,
                               "estimated_iterative_peak_gb": iterative.iterative_peak_bytes(n) / 1e9,
                               "budget_gb": budget / 1e9})
-    return solve
 
 
-setattr(auto_factorizer, "wants_coarse_space", True)  # noqa: B010
+def needs(factorizer: Callable) -> str:
+    """What ``factorizer`` takes besides the matrix: ``"coarse_space"`` (a function that builds the P1
+    coarse space, and ``progress``), ``"near_nullspace"`` (the rigid-body modes, and ``progress``) or ``""``."""
+    from .iterative import cg_amg_factorizer, cg_p1mg_factorizer
+
+    if factorizer in (auto_factorizer, cg_p1mg_factorizer):
+        return "coarse_space"
+    return "near_nullspace" if factorizer is cg_amg_factorizer else ""
 
 
 def factorizer_named(kind: str) -> Callable:

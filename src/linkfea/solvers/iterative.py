@@ -2,15 +2,15 @@
 between the iterative path and the direct factorization.
 
 Factorizers in the sense of :mod:`linkfea.solvers.factorizers`: they take the upper triangle (CSR, SPD) and
-return ``solve(B)``; the returned ``solve`` records its convergence (iterations and final
-relative residual per load case) in ``convergence``.
+return a :class:`~linkfea.solvers.factorizers.Factorization` whose ``convergence`` the solve fills in
+(iterations and final relative residual per load case).
 
 - :func:`cg_p1mg_factorizer` (``--solver iterative``): the 6 load cases in lockstep CG
   (:mod:`linkfea.solvers.krylov`) preconditioned by a V-cycle with Chebyshev smoothing on the P2
   system, its P1 Galerkin operator as the first coarse level (:mod:`linkfea.fem.coarse`) and pyamg
   smoothed aggregation with the rigid-body modes below (:mod:`linkfea.solvers.multigrid`).
-  :func:`linkfea.fem.problem.solve_link` passes the coarse space (a factorizer that sets
-  ``wants_coarse_space``).
+  :func:`linkfea.fem.problem.solve_link` passes the coarse space
+  (:func:`linkfea.solvers.factorizers.needs`).
 - :func:`cg_amg_factorizer`: scipy's CG per load case with pyamg smoothed aggregation on the P2
   matrix itself (rigid-body modes as ``near_nullspace``); the earlier path, kept for the
   benchmarks' comparison and for callers that have only the matrix.
@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..runtime.errors import LinkFeaError, SolverError
+from .factorization import Factorization
 from .sparse import symmetric_from_upper
 
 log = logging.getLogger(__name__)
@@ -154,12 +155,7 @@ def cg_p1mg_factorizer(U: sp.csr_matrix, coarse=None, rtol: float = RTOL,
                               f"residual {r.relative_residual[k]:.2e}); use the direct solver (--solver direct)")
         return r.X
 
-    setattr(solve, "factorizer", "cg+p1mg")  # noqa: B010
-    setattr(solve, "convergence", stats)  # noqa: B010
-    return solve
-
-
-setattr(cg_p1mg_factorizer, "wants_coarse_space", True)  # noqa: B010
+    return Factorization(solve, "cg+p1mg", convergence=stats)
 
 
 def cg_amg_factorizer(U: sp.csr_matrix, near_nullspace: Optional[np.ndarray] = None,
@@ -215,9 +211,4 @@ def cg_amg_factorizer(U: sp.csr_matrix, near_nullspace: Optional[np.ndarray] = N
             X[:, k] = x
         return X
 
-    setattr(solve, "factorizer", "cg+amg")  # noqa: B010
-    setattr(solve, "convergence", stats)  # noqa: B010
-    return solve
-
-
-setattr(cg_amg_factorizer, "wants_near_nullspace", True)  # noqa: B010
+    return Factorization(solve, "cg+amg", convergence=stats)
