@@ -25,9 +25,10 @@ import numpy as np
 
 from linkfea.files.outputs import OutputSet, check_folder
 from linkfea.runtime.checks import Bounds, integer
+from linkfea.runtime.progress import Progress
 
 from .errors import ArgumentError, VjmError
-from .grid import MAP_BYTES, Progress, grid_plan, in_chunks
+from .grid import MAP_BYTES, grid_plan, in_chunks
 from .grid import parse_slice as parse_slice
 from .stiffness import SPREAD_NOTE
 

@@ -27,9 +27,10 @@ import numpy as np
 from linkfea.files.atomic import plain
 from linkfea.files.outputs import OutputSet, check_folder
 from linkfea.runtime.checks import integer
+from linkfea.runtime.progress import Progress
 
 from .errors import ArgumentError, VjmError
-from .grid import SECONDS_PER_POINT, SWEEP_BYTES, Progress, grid_plan, in_chunks, plan
+from .grid import SECONDS_PER_POINT, SWEEP_BYTES, grid_plan, in_chunks, plan
 from .links import LinkSpring
 from .maps import GRID
 from .model import Model

@@ -68,8 +68,8 @@ class MeshEstimate:
 
     def check(self, budget: float | None = None) -> None:
         """Refuse a mesh whose solve cannot fit in ``budget`` bytes (default: what the solver may use now)."""
+        from ..runtime.memory import human_bytes
         from ..solvers.iterative import available_bytes
-        from ..sweep.budget import human_bytes
 
         budget = available_bytes() if budget is None else budget
         if self.memory > budget:

@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..runtime.errors import LinkFeaError, SolverError
+from ..runtime.memory import available_memory
 from .factorization import Factorization
 from .sparse import symmetric_from_upper
 
@@ -65,18 +66,11 @@ def iterative_peak_bytes(n_dofs: float) -> float:
 
 
 def available_bytes() -> float:
-    """Memory the solve may use: ``LINKFEA_MEMORY`` (GB) if set, else 60% of MemAvailable."""
+    """Memory the solve may use: ``LINKFEA_MEMORY`` (GB) if set, else 60% of the memory available now."""
     env = os.environ.get("LINKFEA_MEMORY")
     if env:
         return float(env) * 1e9
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return 0.6 * float(line.split()[1]) * 1024
-    except OSError:  # pragma: no cover (not Linux)
-        pass
-    return 8e9
+    return 0.6 * available_memory()
 
 
 MIN_ITERATIVE_DOFS = 150_000

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..runtime.errors import LinkFeaError
+from ..runtime.memory import available_memory, human_bytes, human_duration
 
 BYTES_PER_DESIGN = 16_000
 """Client and scheduler memory per design besides the source bytes (see the module docstring)."""
@@ -39,34 +40,6 @@ UNCOUNTABLE = 10 ** 18
 
 ANNOUNCE_SECONDS = 60.0
 """A run expected to take longer than this says so before it starts."""
-
-
-def available_memory() -> int:
-    """Bytes of memory available now (Linux ``MemAvailable``; else the physical memory)."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-
-
-def human_bytes(n: float) -> str:
-    """``1.5e10`` -> ``'15 GB'`` (decimal units, as Dask's memory limits)."""
-    for unit, f in (("PB", 1e15), ("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
-        if n >= f:
-            return f"{n / f:.3g} {unit}"
-    return f"{n:.0f} B"
-
-
-def human_duration(s: float) -> str:
-    """``90`` -> ``'1.5 min'``, ``4e8`` -> ``'13 years'``."""
-    for unit, f in (("years", 3.156e7), ("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
-        if s >= f:
-            return f"{s / f:.2g} {unit}"
-    return f"{s:.0f} s"
 
 
 @dataclass(frozen=True)
