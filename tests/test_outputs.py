@@ -149,8 +149,6 @@ def diagnosis():
 def test_report_folder_gets_the_users_umask_and_no_temporaries(tmp_path, diagnosis):
     from vjm.discrepancy.diagnose import write_diagnosis
 
-    (tmp_path / ".tmp_report_abc").mkdir()  # left by a killed run of an earlier version
-    (tmp_path / ".old_report_def").mkdir()
     old = os.umask(0o027)
     try:
         write_diagnosis(diagnosis, tmp_path / "rep")
@@ -271,15 +269,6 @@ def test_results_written_outside_a_manifest_are_recognised_as_the_tools_own(tmp_
     (tmp_path / "other.json").write_text(json.dumps({"schema": "someone/1"}))
     with pytest.raises(LinkFeaError, match="other.json"):
         check_folder(tmp_path, ["report.json"])
-
-
-def test_a_sweep_folder_of_an_earlier_version_is_still_the_tools_own(tmp_path):
-    """Written before manifests existed: known by its table's schema, so a rerun resumes it."""
-    (tmp_path / "results").mkdir()
-    (tmp_path / "results" / "0123456789abcdef.json").write_text("{}")
-    (tmp_path / "sweep.json").write_text(json.dumps({"schema": "linkfea.sweep-table/1"}))
-    (tmp_path / "sweep.csv").write_text("index\n")
-    check_folder(tmp_path, ["sweep.csv", "results/"])
 
 
 # --------------------------------------------------------------------------- bytes decide, not names

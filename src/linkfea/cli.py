@@ -10,12 +10,11 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .result.schema import TWIST, WRENCH
+from .mechanics.compliance import TWIST, WRENCH
 from .runtime.errors import LinkFeaError, LinkFeaWarning, warnings_as_lines
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Link compliance by finite elements: CAD -> P2 tets -> 6x6 compliance at the link's frame.")
-err_console = Console(stderr=True)
 #: Python arguments whose CLI flag is not their name with dashes (today none: ComputeOptions' names are the flags)
 FLAGS: dict[str, str] = {}
 

@@ -24,8 +24,6 @@ from ..runtime.errors import LinkFeaError
 
 # Local edges of a tet, in the P2 node order 4..9.
 TET_EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]])
-# Local edges of a triangle.
-TRI_EDGES = np.array([[0, 1], [1, 2], [0, 2]])
 
 
 # --------------------------------------------------------------------------

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import signal
 import stat
 import time
@@ -46,8 +45,6 @@ MANIFEST = ".linkfea-outputs.json"
 MANIFEST_SCHEMA = "linkfea.outputs/1"
 JOURNAL_PREFIX = ".linkfea-journal."
 JOURNAL_SCHEMA = "linkfea.journal/1"
-#: temporary folders of the report writer of earlier versions: a rerun removes them
-LEGACY_TEMPORARIES = (".tmp_report_", ".old_report_")
 #: where ``LINKFEA_FAULT`` can kill a process: every member written to its temporary; the journal
 #: written; the first member renamed into place; all renamed (journal not yet removed); one sweep
 #: design's result written
@@ -57,11 +54,6 @@ _hits: dict[str, int] = {}
 RESULT_SCHEMA_PREFIX = "linkfea.result/"
 SIMULATED_CSV_MARK = "# simulated by vjm simulate"
 RECOGNISE_MAX_BYTES = 50_000_000
-#: sweep folders of versions before the manifest, known by their table's schema: resumable as before
-LEGACY_SETS = {"sweep.json": ("linkfea.sweep-table/", ("sweep.parquet", "sweep.csv", "sweep.json", "sweep.png",
-                                                       "results")),
-               "pareto.json": ("vjm.sweep/", ("tradeoffs.parquet", "tradeoffs.csv", "pareto.csv", "pareto.json",
-                                              "pareto.png"))}
 
 
 def fault(point: str) -> None:
@@ -187,8 +179,7 @@ def is_simulated_csv(path) -> bool:
 def recognised(folder) -> set[str]:
     """Files in ``folder`` that the tools wrote outside any manifest, known by their content: link
     results (``linkfea compute``, ``LinkResult.save``) with the companions whose sha256 they record
-    (:func:`own_companions`), CSVs of ``vjm simulate``, and the sweep folders of earlier versions
-    (:data:`LEGACY_SETS`)."""
+    (:func:`own_companions`) and CSVs of ``vjm simulate``."""
     folder = Path(folder)
     names = set()
     for e in os.listdir(folder):
@@ -197,8 +188,6 @@ def recognised(folder) -> set[str]:
         schema = str(doc.get("schema", ""))
         if schema.startswith(RESULT_SCHEMA_PREFIX):
             names |= {e} | own_companions(p, doc)
-        elif e in LEGACY_SETS and schema.startswith(LEGACY_SETS[e][0]):
-            names |= set(LEGACY_SETS[e][1])  # a folder written before manifests existed
         elif e.endswith(".csv") and is_simulated_csv(p):
             names.add(e)
     return names
@@ -285,17 +274,6 @@ def recover(folder) -> None:
         pass
 
 
-def _remove_legacy_temporaries(parent: Path) -> None:
-    """The report writer of earlier versions swapped whole folders through ``.tmp_report_*`` and
-    ``.old_report_*`` beside the report folder; a kill left them behind.  They are the tool's own."""
-    try:
-        for entry in os.listdir(parent):
-            if entry.startswith(LEGACY_TEMPORARIES) and (parent / entry).is_dir():
-                shutil.rmtree(parent / entry, ignore_errors=True)  # own file: an earlier version's report swap
-    except OSError:
-        pass
-
-
 # --------------------------------------------------------------------------- checks before any work
 def check_writable(folder, option: str = "--out") -> None:
     """Refuse a place where nothing can be written: the nearest existing ancestor of ``folder``
@@ -327,7 +305,6 @@ def check_folder(out, names: Iterable[str], force: bool = False, option: str = "
     if out.exists() and not out.is_dir():
         raise LinkFeaError(f"{option} {out} exists and is not a directory: this command writes a folder")
     check_writable(out, option)
-    _remove_legacy_temporaries(out.absolute().parent)
     if not out.is_dir():
         return out
     recover(out)

@@ -1,4 +1,4 @@
-"""The link result JSON: schema, atomic write and validated read.
+"""The link result JSON: schema, writing a JSON document atomically, and the validated read.
 
 Schema (``"schema": "linkfea.result/1"``)::
 
@@ -30,13 +30,12 @@ import numpy as np
 
 from ..files.atomic import plain, write_text
 from ..files.outputs import roll_forward_file
-from ..mechanics.compliance import TWIST, UNITS, WRENCH, check
+from ..mechanics.compliance import check
 from ..mechanics.frames import Frame
 from ..runtime.errors import LinkFeaError
 
 SCHEMA = "linkfea.result/1"
-__all__ = ["SCHEMA", "TWIST", "UNITS", "WRENCH", "read_result", "result_dict", "versions", "write_json_atomic",
-           "write_result"]
+__all__ = ["SCHEMA", "read_result", "versions", "write_json_atomic"]
 
 
 def versions() -> dict:
@@ -49,21 +48,11 @@ def versions() -> dict:
     return out
 
 
-def result_dict(res) -> dict:
-    """The JSON document of a :class:`linkfea.result.linkresult.LinkResult` (see :meth:`LinkResult.to_dict`)."""
-    return res.to_dict()
-
-
 def write_json_atomic(path, doc: dict) -> Path:
     """Write JSON to a temporary file beside ``path``, then ``os.replace`` it."""
     path = Path(path)
     write_text(path, json.dumps(plain(doc), indent=2) + "\n")
     return path
-
-
-def write_result(path, res) -> Path:
-    """Write a link result as JSON (atomic)."""
-    return write_json_atomic(path, result_dict(res))
 
 
 #: largest |C K - I| of a result's compliance C and stiffness K (both written at full precision)

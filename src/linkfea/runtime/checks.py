@@ -80,7 +80,6 @@ class Bounds:
 #: common ranges
 POSITIVE = Bounds(0, lo_open=True)
 NON_NEGATIVE = Bounds(0)
-PROBABILITY_OPEN = Bounds(0, 1, lo_open=True, hi_open=True)
 
 
 def number(value, name: str, bounds: Bounds = Bounds(), error: type[ArgumentError] = ArgumentError) -> float:
@@ -118,19 +117,6 @@ def optional_integer(value, name: str, bounds: Bounds = Bounds(),
                      error: type[ArgumentError] = ArgumentError) -> int | None:
     """:func:`integer`, with None passed through (the default)."""
     return None if value is None else integer(value, name, bounds, error)
-
-
-def finite_vector(values, name: str, error: type[ArgumentError] = ArgumentError):
-    """A sequence of finite real numbers as a float numpy array (points, rotation vectors)."""
-    import numpy as np
-
-    try:
-        a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise error(name, f"must be numbers, got {values!r}") from None
-    if not np.all(np.isfinite(a)):
-        raise error(name, f"must be finite numbers, got {np.asarray(values).tolist()!r}")
-    return a
 
 
 def flag(argument: str) -> str:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from ..result.schema import TWIST, WRENCH
+from ..mechanics.compliance import TWIST, WRENCH
 from ..runtime.errors import LinkFeaError
 
 #: compliance columns of the table: C_<twist>_<wrench>, t = C w

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..files.atomic import plain
 from ..files.outputs import OutputSet
-from ..result.schema import TWIST, WRENCH
+from ..mechanics.compliance import TWIST, WRENCH
 from .designs import Design, Sweep
 from .plot import C_COLUMNS, DIAGONAL, plot_sweep
 from .store import read_design_result, result_path

@@ -40,7 +40,7 @@ def _source_here(task: dict) -> str:
 def run_design(task: dict) -> dict:
     """Run the whole pipeline for one design; the JSON document of its result.
 
-    A success is :func:`linkfea.result.schema.result_dict` (the ``linkfea compute``
+    A success is :meth:`linkfea.result.linkresult.LinkResult.to_dict` (the ``linkfea compute``
     schema) plus a ``sweep`` block; a failure is a small document with the
     one-line error.  Exceptions of the design never escape (Dask would retry
     them); only a dying worker ends a task without a document.
@@ -50,11 +50,10 @@ def run_design(task: dict) -> dict:
             "worker": f"{socket.gethostname()}:{os.getpid()}"}
     try:
         from ..pipeline import compute
-        from ..result.schema import result_dict
 
         res = compute(_source_here(task), params=dict(task["params"]), cache_dir=task.get("cache_dir"),
                       options=ComputeOptions.from_mapping(task["options"]))
-        doc = result_dict(res)
+        doc = res.to_dict()
         doc["source"] = task["spec"]
         doc["sweep"] = {**info, "status": "ok", "error": None, "seconds": time.perf_counter() - t0}
         return doc
