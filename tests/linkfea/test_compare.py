@@ -163,6 +163,6 @@ def test_foot_comparison_end_to_end(tmp_path):
                 assert np.all(np.isfinite(r["principal"][blk]["relative_error"]))
                 assert np.all(np.isfinite(r["principal"][blk]["angle_deg"]))
             np.testing.assert_allclose(r["entry_error"], (np.array(m[ckey]) - C) / np.outer(d, d), atol=1e-12)
-    assert rec["beams"][0]["n"] == 1
+    assert rec.beams[0].n == 1
     assert (out / "compare.png").stat().st_size > 10_000
     assert "| Timoshenko | 8 |" in (out / "compare.md").read_text()

@@ -173,7 +173,7 @@ def test_filleted_bracket_mesh_convergence(bracket):
     coarse = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP))
     fine = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP, mesh_size=H / 1.5))
     assert coarse.mesh.mesher == "gmsh" and fine.solution.n_dofs > 1.5 * coarse.solution.n_dofs
-    d = np.abs(np.diag(coarse.matrix) / np.diag(fine.matrix) - 1)
+    d = np.abs(np.diag(coarse.compliance) / np.diag(fine.compliance) - 1)
     assert d.max() <= 0.005, d
 
 
@@ -214,7 +214,7 @@ def test_two_meshers_one_answer_on_a_filleted_link(tmp_path):
     assert g.mesh.mesher == "gmsh" and p.mesh.mesher == "pytetwild"
     assert p.mesh.quality["interface_border_size"] is not None  # the first mesh missed the gate
     assert max(abs(p.mesh.quality["base_area_error"]), abs(p.mesh.quality["tip_area_error"])) <= AREA_GATE
-    d = np.abs(np.diag(p.matrix) / np.diag(g.matrix) - 1)
+    d = np.abs(np.diag(p.compliance) / np.diag(g.compliance) - 1)
     assert d.max() <= 0.01, d
 
 
@@ -231,7 +231,7 @@ def test_two_meshers_one_answer_on_the_filleted_bracket(bracket, tmp_path):
     p = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP, mesher="pytetwild"), cache_dir=tmp_path)
     assert p.mesh.mesher == "pytetwild" and p.mesh.quality["interface_border_size"] is not None
     assert max(abs(p.mesh.quality["base_area_error"]), abs(p.mesh.quality["tip_area_error"])) <= AREA_GATE
-    d = np.abs(np.diag(p.matrix) / np.diag(g.matrix) - 1)
+    d = np.abs(np.diag(p.compliance) / np.diag(g.compliance) - 1)
     assert d.max() <= 0.01, d
 
 
