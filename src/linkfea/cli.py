@@ -94,7 +94,7 @@ def compute(
     traceback: bool = _traceback_option(),
 ):
     """Compute a link's 6x6 compliance and stiffness at its reference frame."""
-    from .cad import parse_param_args
+    from .cad.params import parse_param_args
     from .options import ComputeOptions
     from .pipeline import compute as run
     from .result.fileset import check_result_out, write_result_set
@@ -194,7 +194,7 @@ def compare_cmd(
 ):
     """Beam or FEA? The FEA compliance against N-beam models cut from the CAD (see linkfea.beam.compare)."""
     from .beam.compare import compare as run
-    from .cad import parse_param_args
+    from .cad.params import parse_param_args
 
     console = Console(stderr=True, quiet=quiet)
     try:

@@ -8,7 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from linkfea.cad import Box, Plane, build_link, load_step, parse_selector, select_faces, validate_solid
+from linkfea.cad import Box, Plane, build_link
+from linkfea.cad.selectors import parse_selector, select_faces
+from linkfea.cad.step import load_step, validate_solid
 from linkfea.runtime.errors import LinkFeaError
 
 

@@ -8,7 +8,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from linkfea.cad import build_link, parse_selector
+from linkfea.cad import build_link
+from linkfea.cad.selectors import parse_selector
 from linkfea.mesh import mesh_link
 from linkfea.mesh.linkmesh import tet_faces, tet_volumes, tri_areas_normals
 from linkfea.mesh.pytetwild import select_facets

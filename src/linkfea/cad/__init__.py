@@ -1,13 +1,11 @@
-"""Links from CadQuery scripts or STEP files.
+"""The CAD stage: a link's geometry as a :class:`~linkfea.cad.link.Link`, from a CadQuery script,
+a STEP file or a triangle surface (:func:`build_link`, the one place that dispatches on the input).
 
-:func:`build_link` makes the CAD-side value of the link stage, a :class:`linkfea.cad.link.Link`
-(re-exported here, the name cad/ scripts use), from a script, a STEP file or a triangle surface.
-
-The concerns live in their own modules and are re-exported here:
-:mod:`linkfea.cad.link` (the link value and its checks),
-:mod:`linkfea.cad.selectors` (selector syntax and face picking),
-:mod:`linkfea.cad.step` (STEP loading and validation, frame and block from the tip
-faces) and :mod:`linkfea.cad.params` (script parameters).
+Its parts: :mod:`linkfea.cad.link` (the link value and its checks), :mod:`linkfea.cad.selectors`
+(selector syntax and face picking), :mod:`linkfea.cad.step` (STEP loading and validation, frame and
+block from the tip faces), :mod:`linkfea.cad.surface` (STL, OBJ, PLY) and :mod:`linkfea.cad.params`
+(script parameters).  A link script imports what it needs from here: ``Link``, the selectors ``Plane``
+and ``Box`` and ``resolve_params``.
 """
 from __future__ import annotations
 
@@ -20,18 +18,9 @@ from ..mechanics.materials import get_material
 from ..runtime.errors import LinkFeaError, ScriptError
 from ..runtime.resources import cad_dir, find_script
 from .link import Link, check_link
-from .params import parse_param_args, resolve_params  # noqa: F401  (re-exported)
-from .selectors import (  # noqa: F401  (re-exported)
-    DEFAULT_TOL,
-    Box,
-    Plane,
-    Selector,
-    faces_area_centroid,
-    faces_mean_normal,
-    parse_selector,
-    select_faces,
-)
-from .step import interface_frame_and_block, load_step, tessellate, validate_solid  # noqa: F401  (re-exported)
+from .params import resolve_params  # noqa: F401  (for link scripts)
+from .selectors import Box, Plane, parse_selector  # noqa: F401  (Box, Plane: for link scripts)
+from .step import interface_frame_and_block, load_step
 from .surface import is_surface, load_surface
 
 CAD_DIR = cad_dir()
