@@ -2,7 +2,7 @@
 
 The top-level ``cad/`` (bundled link scripts) and ``data/`` (model files, seed Table 1)
 folders are shipped inside the packages, as ``linkfea/_cad`` and ``vjm/_data``, so that an
-installed package finds them with importlib.resources (``linkfea.resources``) while the
+installed package finds them with importlib.resources (``linkfea.runtime.resources``) while the
 source tree keeps its layout.  The package list is computed so that new subpackages of
 ``src/`` are picked up without editing this file.
 """

@@ -1,4 +1,4 @@
-"""Effectivity and cost of the discretization error estimate (linkfea.estimate); the iterative solver.
+"""Effectivity and cost of the discretization error estimate (linkfea.fem.estimate); the iterative solver.
 
 Effectivity = estimated / true relative error of each diagonal entry.  True errors come from
 references the estimate plays no part in:
@@ -59,12 +59,13 @@ def _cost(timing):
 def bar():
     from meshes import bar_link_mesh
 
-    from linkfea.beam import cantilever_compliance, rect_section, rect_torsion_constant
-    from linkfea.convergence import richardson
-    from linkfea.estimate import estimate_error
-    from linkfea.fem import lame, solve_link
-    from linkfea.fit import compliance_from_solution
-    from linkfea.materials import get_material
+    from linkfea.beam.closed_form import cantilever_compliance, rect_section, rect_torsion_constant
+    from linkfea.fem.convergence import richardson
+    from linkfea.fem.estimate import estimate_error
+    from linkfea.fem.fit import compliance_from_solution
+    from linkfea.fem.p2 import lame
+    from linkfea.fem.problem import solve_link
+    from linkfea.mechanics.materials import get_material
 
     steel = get_material("steel")
     lam, mu = lame(steel)
@@ -95,12 +96,12 @@ def _bracket_run(step, H, seg):
     import brackets
 
     import linkfea
-    import linkfea.mesh_gmsh as G
+    import linkfea.mesh.gmsh as G
 
     saved = G.SEGMENTS_PER_CIRCLE
     G.SEGMENTS_PER_CIRCLE = seg
     try:
-        return linkfea.compute(step, mesh_size=H, base=brackets.BASE, tip=brackets.TIP, cache_dir=None)
+        return linkfea.compute(step, linkfea.ComputeOptions(mesh_size=H, base=brackets.BASE, tip=brackets.TIP), cache_dir=None)
     finally:
         G.SEGMENTS_PER_CIRCLE = saved
 
@@ -109,9 +110,9 @@ def bracket():
     import brackets
 
     from linkfea.cad import build_link
-    from linkfea.convergence import richardson
+    from linkfea.fem.convergence import richardson
     from linkfea.mesh import default_mesh_size
-    from linkfea.mesh_gmsh import SEGMENTS_PER_CIRCLE
+    from linkfea.mesh.gmsh import SEGMENTS_PER_CIRCLE
 
     with tempfile.TemporaryDirectory() as tmp:
         step = brackets.bracket_step(tmp)
@@ -120,9 +121,9 @@ def bracket():
         for f in (np.sqrt(2.0), 1.0, 1 / np.sqrt(2.0), 0.5):
             r = _bracket_run(step, H * f, SEGMENTS_PER_CIRCLE / f)
             e, plain = _cost(r.timing)
-            print(f"bracket {H * f:.3g} mm, {r.mesh_info['n_dofs']} DOF: solve {plain:.2f} s, estimate {e:.2f} s "
+            print(f"bracket {H * f:.3g} mm, {r.mesh_info.n_dofs} DOF: solve {plain:.2f} s, estimate {e:.2f} s "
                   f"({100 * e / plain:.0f}%)", flush=True)
-            runs.append((r.mesh_info["n_dofs"], np.diag(r.compliance), r.error_diagonal))
+            runs.append((r.mesh_info.n_dofs, np.diag(r.compliance), r.error_diagonal))
     rich = richardson([n ** (-1 / 3) for n, *_ in runs[1:]], [d for _, d, _ in runs[1:]])
     print("observed orders (in DOF^-1/3)", np.round(rich.order, 2))
     for n, d, est in runs[:3]:
@@ -134,13 +135,13 @@ def bracket():
 def foot(mesh_size=None):
     import linkfea
 
-    r = linkfea.compute("orthoglide_foot", mesh_size=mesh_size)
+    r = linkfea.compute("orthoglide_foot", linkfea.ComputeOptions(mesh_size=mesh_size))
     dofs, lower = FOOT_LOWER_BOUND[mesh_size]
-    if r.mesh_info["n_dofs"] != dofs:
-        print(f"warning: {r.mesh_info['n_dofs']} DOF, the study's mesh had {dofs}")
+    if r.mesh_info.n_dofs != dofs:
+        print(f"warning: {r.mesh_info.n_dofs} DOF, the study's mesh had {dofs}")
     e, plain = _cost(r.timing)
-    print(f"foot {r.mesh_info['edge_length']:.3g} mm: solve {plain:.2f} s, estimate {e:.2f} s ({100 * e / plain:.0f}%), "
-          f"sharp edges {r.diagnostics['sharp_edges']['count']} ({r.timing['edges']:.2f} s)")
+    print(f"foot {r.mesh_info.edge_length:.3g} mm: solve {plain:.2f} s, estimate {e:.2f} s ({100 * e / plain:.0f}%), "
+          f"sharp edges {r.diagnostics.sharp_edges['count']} ({r.timing['edges']:.2f} s)")
     true = np.array(lower) + np.array(FOOT_BEYOND)
     _row("foot: estimate %", dofs, 100 * r.error_diagonal)
     _row("foot: effectivity (at most, against the lower bound)", dofs, 100 * r.error_diagonal / true)
@@ -152,12 +153,12 @@ def iterative(mesh_size=None, spec="orthoglide_foot", both=True):
     out = {}
     for kind in (("direct", "iterative") if both else ("iterative",)):
         t0 = time.perf_counter()
-        r = linkfea.compute(spec, mesh_size=mesh_size, solver=kind)
+        r = linkfea.compute(spec, linkfea.ComputeOptions(mesh_size=mesh_size, solver=kind))
         wall = time.perf_counter() - t0
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
         out[kind] = r
-        conv = r.solver.get("convergence") or {}
-        print(f"{kind}: {r.mesh_info['n_dofs']:,} DOF, {wall:.1f} s (factor {r.timing['factor']:.1f}, solve "
+        conv = r.solver.convergence or {}
+        print(f"{kind}: {r.mesh_info.n_dofs:,} DOF, {wall:.1f} s (factor {r.timing['factor']:.1f}, solve "
               f"{r.timing['solve']:.1f}), process peak so far {peak:.2f} GB, CG iterations "
               f"{conv.get('iterations')}", flush=True)
     if both:

@@ -67,9 +67,10 @@ def main(argv=None):
     ap.add_argument("--threads", type=int, default=os.cpu_count())
     args = ap.parse_args(argv)
 
-    from linkfea.fem import pardiso_factorizer, solve_link
-    from linkfea.fit import compliance_from_solution
-    from linkfea.materials import get_material
+    from linkfea.fem.fit import compliance_from_solution
+    from linkfea.fem.problem import solve_link
+    from linkfea.mechanics.materials import get_material
+    from linkfea.solvers.factorizers import pardiso_factorizer
 
     steel = get_material("steel")
     timing = {}
@@ -119,7 +120,7 @@ def main(argv=None):
     print(f"  symmetry error {comp.symmetry_error:.2e}, fit residual {comp.fit_residual:.2e}")
 
     if not args.no_ccx and shutil.which("ccx"):
-        from linkfea.calculix import solve_calculix
+        from calculix import solve_calculix
 
         t0 = time.perf_counter()
         res = solve_calculix(mesh, steel, mode=args.mode, threads=args.threads)

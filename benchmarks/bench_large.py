@@ -54,11 +54,11 @@ def _mesh(args, say):
 
 
 def child(args) -> None:
-    from linkfea.fem import solve_link
-    from linkfea.fit import compliance_from_solution
-    from linkfea.iterative import cg_amg_factorizer, cg_p1mg_factorizer
-    from linkfea.materials import get_material
-    from linkfea.solvers import default_factorizer
+    from linkfea.fem.fit import compliance_from_solution
+    from linkfea.fem.problem import solve_link
+    from linkfea.mechanics.materials import get_material
+    from linkfea.solvers.factorizers import default_factorizer
+    from linkfea.solvers.iterative import cg_amg_factorizer, cg_p1mg_factorizer
 
     t_start = time.perf_counter()
 
@@ -72,8 +72,8 @@ def child(args) -> None:
     sol = solve_link(mesh, get_material(material), solver=factorizer, progress=say)
     C = compliance_from_solution(sol).matrix
     ru = resource.getrusage(resource.RUSAGE_SELF)
-    conv = sol.solver.get("convergence") or {}
-    out = {"solver": args.child, "factorizer": sol.solver.get("factorizer"), "dofs": sol.n_dofs,
+    conv = sol.solver.convergence or {}
+    out = {"solver": args.child, "factorizer": sol.solver.factorizer, "dofs": sol.n_dofs,
            "wall": time.perf_counter() - t_start, "cpu": ru.ru_utime + ru.ru_stime, "mesh": t_mesh,
            **{k: sol.timing.get(k) for k in ("assemble", "factor", "solve")},
            "iterations": conv.get("iterations"), "levels": conv.get("level_sizes", conv.get("levels")),

@@ -89,6 +89,7 @@ def foot_end_to_end(warm_runs: int = 3):
     """(a) The pipeline in a warm process (imports done, a first call made: a notebook's second call,
     a sweep worker); (b) the cold CLI process, its wall time and its imports itemized."""
     from linkfea.pipeline import compute
+    from linkfea import ComputeOptions
 
     print("\n## foot end to end (rigid, gmsh, default mesh)")
     t0 = time.perf_counter()
@@ -126,7 +127,7 @@ def foot_convergence():
     """The foot's converged compliance: meshes refined along the concave (re-entrant) edges, where the
     stress is singular, at corner sizes h_c = 1.4, 0.93, 0.70 mm (bulk edge 4.65 mm, grading 1 mm/mm),
     Richardson in h_c with the observed order; then the default mesh and uniform refinements against it."""
-    import linkfea.mesh_gmsh as G
+    import linkfea.mesh.gmsh as G
     from linkfea.cad import build_link
     from linkfea.mesh import default_mesh_size
     from linkfea.pipeline import compute
@@ -140,12 +141,12 @@ def foot_convergence():
         for hc in (1.4, 0.93, 0.70):
             G.CORNER_SIZE_FACTOR = hc / H
             r = compute("orthoglide_foot")
-            rows.append((hc, r.solution.n_dofs, np.diag(r.matrix)))
+            rows.append((hc, r.solution.n_dofs, np.diag(r.compliance)))
             print(f"corner {hc:.2f} mm: {r.solution.n_dofs} DOF, diagonal {np.array2string(rows[-1][2], precision=6)}")
     finally:
         G.CORNER_SIZE_FACTOR, G.FEATURE_GRADING = saved
     (h1, _, c1), (h2, _, c2), (h3, _, c3) = rows
-    from linkfea.convergence import richardson
+    from linkfea.fem.convergence import richardson
 
     rich = richardson([h1, h2, h3], [c1, c2, c3])  # per diagonal entry, observed order solved for
     ref = rich.extrapolated
@@ -153,8 +154,8 @@ def foot_convergence():
     print(f"reference (Richardson in the corner size): {np.array2string(ref, precision=6)}")
     print(f"corner 0.70 mm mesh vs reference: {np.array2string(100 * (c3 / ref - 1), precision=2)} %")
     for label, h in (("default", H), ("uniform edge / 1.6", H / 1.6)):
-        r = compute("orthoglide_foot", mesh_size=h)
-        e = 100 * (np.diag(r.matrix) / ref - 1)
+        r = compute("orthoglide_foot", ComputeOptions(mesh_size=h))
+        e = 100 * (np.diag(r.compliance) / ref - 1)
         print(f"{label} ({h:.3g} mm, {r.solution.n_dofs} DOF) vs reference, % per diagonal entry: "
               f"{np.array2string(e, precision=2)}")
 
@@ -165,9 +166,9 @@ def foot_fillet(r: float = 2.5):
     the fillets, the edge length H elsewhere: the sequence scales both together, (2H, 8), (sqrt2 H,
     8 sqrt2), (H, 16) = the default mesh, and Richardson over it gives the reference.  Then meshes
     that resolve the fillets more coarsely (fewer elements per turn at the default H)."""
-    import linkfea.mesh_gmsh as G
+    import linkfea.mesh.gmsh as G
     from linkfea.cad import build_link
-    from linkfea.convergence import richardson
+    from linkfea.fem.convergence import richardson
     from linkfea.mesh import default_mesh_size
     from linkfea.pipeline import compute
 
@@ -180,11 +181,11 @@ def foot_fillet(r: float = 2.5):
     def run(k, n):
         G.SEGMENTS_PER_CIRCLE = n
         t0 = time.perf_counter()
-        res = compute("orthoglide_foot", params=params, mesh_size=k * H)
+        res = compute("orthoglide_foot", ComputeOptions(mesh_size=k * H), params=params)
         t = time.perf_counter() - t0
         print(f"edge {k * H:.3g} mm, {n:.3g} per turn: {res.solution.n_dofs} DOF, compute() {t:.1f} s "
-              f"({_stages(res.timing)}); diagonal {np.array2string(np.diag(res.matrix), precision=6)}", flush=True)
-        return res.solution.n_dofs, np.diag(res.matrix)
+              f"({_stages(res.timing)}); diagonal {np.array2string(np.diag(res.compliance), precision=6)}", flush=True)
+        return res.solution.n_dofs, np.diag(res.compliance)
 
     try:
         for k in (2.0, 2 ** 0.5, 1.0):
@@ -208,7 +209,7 @@ def tube_block():
 
     print("\n## tube bar in block mode (cad/bar.py section=tube, gmsh)")
     t0, c0 = time.perf_counter(), time.process_time()
-    r = compute("bar", params={"section": "tube"}, mode="block")
+    r = compute("bar", ComputeOptions(mode="block"), params={"section": "tube"})
     t, c = time.perf_counter() - t0, time.process_time() - c0
     print(f"{r.solution.n_dofs} DOF; total {t:.2f} s wall, {c:.2f} s CPU ({', '.join(f'{k} {v:.2f}' for k, v in r.timing.items())}); "
           f"tip area error {r.mesh.quality['tip_area_error']:+.2e}")
@@ -222,7 +223,7 @@ def main(argv=None):
     import gmsh
     import pytetwild
 
-    from linkfea.solvers import _point_pypardiso_at_mkl
+    from linkfea.solvers.factorizers import _point_pypardiso_at_mkl
 
     _point_pypardiso_at_mkl()  # the cold CLI child measures pypardiso's import as the CLI does it
     print(f"python {platform.python_version()}, gmsh {gmsh.__version__}, pytetwild "

@@ -7,8 +7,8 @@ continues it beyond the tip.  All lengths in mm.
 import cadquery as cq
 
 from linkfea.cad import Link, Plane, resolve_params
-from linkfea.errors import LinkFeaError
-from linkfea.frames import Frame
+from linkfea.runtime.errors import LinkFeaError
+from linkfea.mechanics.frames import Frame
 
 PARAMS = {
     "length": 200.0,          # mm, base (x=0) to tip (x=length)

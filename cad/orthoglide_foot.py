@@ -13,8 +13,8 @@ edges, an idealisation whose stress is singular there.
 import cadquery as cq
 
 from linkfea.cad import Link, Plane, resolve_params
-from linkfea.errors import LinkFeaError
-from linkfea.frames import Frame
+from linkfea.runtime.errors import LinkFeaError
+from linkfea.mechanics.frames import Frame
 
 PARAMS = {
     "length": 140.0,          # mm, flange face (x=0) to boss end face (x=length)
@@ -69,7 +69,7 @@ def build(**params) -> Link:
 
 def _fillet_concave(body, r: float):
     """Round every concave edge of ``body`` with radius ``r`` (one OCC fillet operation)."""
-    from linkfea.mesh_gmsh import concave_edges
+    from linkfea.mesh.gmsh import concave_edges
 
     try:
         out = body.fillet(r, concave_edges(body))

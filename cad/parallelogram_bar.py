@@ -11,8 +11,8 @@ the spring frame of a parallelogram bar in vjm, whose pivots turn about y
 import cadquery as cq
 
 from linkfea.cad import Box, Link, resolve_params
-from linkfea.errors import LinkFeaError
-from linkfea.frames import Frame
+from linkfea.runtime.errors import LinkFeaError
+from linkfea.mechanics.frames import Frame
 
 PARAMS = {
     "pitch": 310.0,          # mm, between pin centres

@@ -7,7 +7,7 @@ import pytest
 # Shared test helpers live next to the tests (tests/meshes.py, truth.py, brackets.py).
 sys.path.insert(0, os.path.dirname(__file__))
 
-from linkfea.materials import get_material
+from linkfea.mechanics.materials import get_material
 
 
 @pytest.fixture(scope="session")

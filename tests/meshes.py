@@ -13,8 +13,8 @@ import itertools
 
 import numpy as np
 
-from linkfea.frames import Frame
-from linkfea.mesh import LinkMesh
+from linkfea.mechanics.frames import Frame
+from linkfea.mesh.linkmesh import LinkMesh
 
 _FACES = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
 

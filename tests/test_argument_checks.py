@@ -8,8 +8,8 @@ import pytest
 from bad_inputs import DEGREES, GOOD, MICRONS, PLACES
 
 import vjm
-from linkfea import checks
-from linkfea.errors import LinkFeaError
+from linkfea.runtime import checks
+from linkfea.runtime.errors import LinkFeaError
 from vjm.discrepancy.data import Deflections, StiffnessObs, read_csv
 from vjm.errors import VjmError
 
@@ -79,7 +79,7 @@ def test_linkfea_api_names_the_argument_before_any_work(kw, message):
 
     t0 = time.perf_counter()
     with pytest.raises(LinkFeaError, match=message):
-        linkfea.compute("bar", **kw)
+        linkfea.compute("bar", linkfea.ComputeOptions(**kw))
     assert time.perf_counter() - t0 < 5.0  # refused before the CAD is built
 
 
@@ -95,7 +95,7 @@ def test_sweep_api_names_the_argument():
 
 
 def test_result_json_schema_and_stiffness_checked(tmp_path):
-    from linkfea.io import read_result
+    from linkfea.result.schema import read_result
 
     C = np.diag([1e-4, 1e-4, 2e-4, 1e-7, 1e-7, 2e-7])
     doc = {"schema": "linkfea.result/1", "compliance": C.tolist(), "stiffness": np.linalg.inv(C).tolist(),

@@ -6,10 +6,10 @@ import pytest
 from meshes import bar_link_mesh
 
 import vjm
-from linkfea.beam import Section
-from linkfea.errors import LinkFeaError, SolverError
-from linkfea.fem import solve_link
-from linkfea.fit import check_compliance
+from linkfea.beam.closed_form import Section
+from linkfea.fem.fit import check_compliance
+from linkfea.fem.problem import solve_link
+from linkfea.runtime.errors import LinkFeaError, SolverError
 from vjm.errors import EquilibriumError, VjmError, user_errors
 from vjm.stiffness.nonlinear import deflection_map
 

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from linkfea.beam import cantilever_compliance, rect_section
-from linkfea.materials import get_material
+from linkfea.beam.closed_form import cantilever_compliance, rect_section
+from linkfea.mechanics.materials import get_material
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "docs" / "examples"
 

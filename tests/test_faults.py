@@ -1,5 +1,5 @@
 """Fault injection: whole commands SIGKILLed inside their write path (``LINKFEA_FAULT=<point>``,
-see linkfea.outputs.FAULT_POINTS), then checked: every output set is the old one or the new one,
+see linkfea.files.outputs.FAULT_POINTS), then checked: every output set is the old one or the new one,
 a rerun succeeds, and no temporary is left after it.
 
 Which run wrote a file is read from the file itself, independently of the tool's own records:
@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 
 import linkfea
-from linkfea.errors import LinkFeaError
-from linkfea.outputs import MANIFEST, read_manifest, recover, sha256
+from linkfea.files.outputs import MANIFEST, read_manifest, recover, sha256
+from linkfea.runtime.errors import LinkFeaError
 
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent

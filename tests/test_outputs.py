@@ -14,9 +14,9 @@ import pytest
 from typer.testing import CliRunner
 
 from linkfea.cli import app as linkfea_app
-from linkfea.errors import LinkFeaError
-from linkfea.outputs import MANIFEST, OutputSet, check_folder, read_manifest, recover, sha256
-from linkfea.resultset import check_companion, companion_mismatch
+from linkfea.files.outputs import MANIFEST, OutputSet, check_folder, read_manifest, recover, sha256
+from linkfea.result.fileset import check_companion, companion_mismatch
+from linkfea.runtime.errors import LinkFeaError
 from vjm.cli import app as vjm_app
 
 PUU = "data/orthoglide/puu.yaml"
@@ -50,7 +50,7 @@ def no_work(monkeypatch):
     for name in ("vjm.discrepancy.workflow", "vjm.discrepancy.diagnose", "vjm.sweep.combine", "vjm.maps.compute"):
         mod(name)
 
-    for name, attr in [("linkfea.pipeline", "compute"), ("linkfea.compare", "fea_compliance"),
+    for name, attr in [("linkfea.pipeline", "compute"), ("linkfea.beam.compare", "fea_compliance"),
                        ("linkfea.sweep", "make_sweep"), ("vjm.modelio.read", "load_model"),
                        ("vjm.discrepancy.simulate", "load_model")]:
         monkeypatch.setattr(mod(name), attr, started)
@@ -149,8 +149,6 @@ def diagnosis():
 def test_report_folder_gets_the_users_umask_and_no_temporaries(tmp_path, diagnosis):
     from vjm.discrepancy.diagnose import write_diagnosis
 
-    (tmp_path / ".tmp_report_abc").mkdir()  # left by a killed run of an earlier version
-    (tmp_path / ".old_report_def").mkdir()
     old = os.umask(0o027)
     try:
         write_diagnosis(diagnosis, tmp_path / "rep")
@@ -209,7 +207,7 @@ def test_a_failing_writer_leaves_the_old_set_and_no_temporary(tmp_path):
 WRITER = """
 import sys
 from pathlib import Path
-from linkfea.outputs import OutputSet
+from linkfea.files.outputs import OutputSet
 with OutputSet(sys.argv[1], "t") as s:
     for n in ("a.txt", "b.txt", "c.txt"):
         Path(s.path(n)).write_text(sys.argv[2])
@@ -273,15 +271,6 @@ def test_results_written_outside_a_manifest_are_recognised_as_the_tools_own(tmp_
         check_folder(tmp_path, ["report.json"])
 
 
-def test_a_sweep_folder_of_an_earlier_version_is_still_the_tools_own(tmp_path):
-    """Written before manifests existed: known by its table's schema, so a rerun resumes it."""
-    (tmp_path / "results").mkdir()
-    (tmp_path / "results" / "0123456789abcdef.json").write_text("{}")
-    (tmp_path / "sweep.json").write_text(json.dumps({"schema": "linkfea.sweep-table/1"}))
-    (tmp_path / "sweep.csv").write_text("index\n")
-    check_folder(tmp_path, ["sweep.csv", "results/"])
-
-
 # --------------------------------------------------------------------------- bytes decide, not names
 def test_a_file_of_the_set_edited_since_is_the_users_and_never_removed(tmp_path):
     """A rerun removes the files of its previous run that it no longer writes, but only while their bytes are
@@ -302,7 +291,7 @@ def test_a_file_of_the_set_edited_since_is_the_users_and_never_removed(tmp_path)
 def test_a_rerun_without_pictures_keeps_a_picture_the_json_does_not_record(tmp_path):
     """`linkfea compute --no-picture` removes the .vtu/.png of the earlier result only if their bytes are the
     ones that result recorded: a picture the user put there instead stays."""
-    from linkfea.outputs import own_companions
+    from linkfea.files.outputs import own_companions
 
     (tmp_path / "r.vtu").write_text("the tool's mesh")
     (tmp_path / "r.png").write_text("the user's picture")
@@ -363,7 +352,7 @@ def test_the_report_model_file_is_recognised_as_vjms_own(tmp_path, diagnosis):
 
 # --------------------------------------------------------------------------- input files, full disks
 def test_input_files_are_read_only_when_regular_and_bounded(tmp_path):
-    from linkfea.atomic import read_user_file
+    from linkfea.files.atomic import read_user_file
 
     (tmp_path / "m.csv").write_text("x,y,z\n" * 100)
     assert len(read_user_file(tmp_path / "m.csv", "measurement file")) == 600
@@ -396,7 +385,7 @@ def test_the_vtu_writer_reports_a_full_disk_instead_of_crashing(tmp_path):
     import errno
     from types import SimpleNamespace
 
-    from linkfea.post import write_vtu
+    from linkfea.result.post import write_vtu
 
     pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, 0, 0], [.5, .5, 0], [0, .5, 0], [0, 0, .5],
                     [.5, 0, .5], [0, .5, .5]], float)

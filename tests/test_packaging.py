@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from linkfea.beam import cantilever_compliance, rect_section
-from linkfea.materials import get_material
+from linkfea.beam.closed_form import cantilever_compliance, rect_section
+from linkfea.mechanics.materials import get_material
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.slow

@@ -1,23 +1,19 @@
-"""Progress callbacks have one name, ``progress``, across the public API of linkfea and vjm; the older
-name ``log`` (``vjm.diagnose``, ``forward_select``) still works and warns."""
+"""Progress callbacks have one name, ``progress``, across the public API of linkfea and vjm."""
 import importlib
 import inspect
 import pkgutil
-import warnings
 
-import numpy as np
 import pytest
 
 import linkfea
 import vjm
-from linkfea.progress import renamed_progress
-from linkfea.sweep_budget import LineProgress
+from linkfea.sweep.budget import LineProgress
 
 #: the public functions that run long enough to report progress, by module and attribute
 ENTRY_POINTS = [
-    ("linkfea", "compute"), ("linkfea", "compare"), ("linkfea.compare", "fea_compliance"),
-    ("linkfea.mesh", "mesh_link"), ("linkfea.fem", "solve_link"), ("linkfea.sweep", "run_sweep"),
-    ("linkfea.solvers", "auto_factorizer"),
+    ("linkfea", "compute"), ("linkfea", "compare"), ("linkfea.beam.compare", "fea_compliance"),
+    ("linkfea.mesh", "mesh_link"), ("linkfea.fem.problem", "solve_link"), ("linkfea.sweep", "run_sweep"),
+    ("linkfea.solvers.factorizers", "auto_factorizer"),
     ("vjm.toolpath.run", "path"), ("vjm.maps.compute", "grid_map"), ("vjm.maps.compute", "compute_map"),
     ("vjm.sweep.combine", "sweep"), ("vjm.sweep.combine", "trade_offs"), ("vjm.model.machine", "Model.map"),
     ("vjm.discrepancy.workflow", "diagnose"), ("vjm.discrepancy.simulate", "simulate"),
@@ -71,56 +67,6 @@ def test_no_public_function_takes_an_old_name_for_the_callback():
                 found.append(f"{qual}({p.name}=None)")
     assert n > 300  # the walk saw the packages
     assert not found, found
-
-
-def test_deprecated_name_warns_and_is_passed_on():
-    @renamed_progress("log")
-    def run(x, progress=None):
-        progress(f"x = {x}")
-        return x
-
-    lines = []
-    with pytest.warns(DeprecationWarning, match=r"run\(log=\.\.\.\) is deprecated: use progress"):
-        assert run(3, log=lines.append) == 3
-    assert lines == ["x = 3"]
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        run(4, progress=lines.append)
-    assert lines == ["x = 3", "x = 4"]
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        with pytest.raises(TypeError, match="progress and its deprecated name log"):
-            run(5, progress=print, log=print)
-    assert run.deprecated_progress_names == ("log",)
-
-
-@pytest.mark.parametrize("module,attr", [("vjm", "diagnose"), ("vjm.discrepancy.workflow", "diagnose"),
-                                         ("vjm.discrepancy.fit.select", "forward_select")])
-def test_old_public_keyword_is_a_deprecated_alias(module, attr):
-    assert _get(module, attr).deprecated_progress_names == ("log",)
-
-
-def test_diagnose_log_keyword_still_reports_the_rounds():
-    """``vjm.diagnose(..., log=f)`` warns and ``f`` gets the same lines as ``progress=f``."""
-    from vjm.discrepancy.simulate import design_loads, simulate
-    from vjm.model.links import LinkSpring
-
-    m = vjm.load_model("data/orthoglide/puu.yaml").replace(foot=LinkSpring.rigid())
-    rng = np.random.default_rng(3)
-    P0 = rng.uniform(-60.0, 90.0, (12, 3))
-    L = design_loads("axes:100", len(P0), rng)
-    data = simulate(m, [("gravity", {"weight": 10.0})], np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6),
-                    1e-3, None, 1)
-    old, new = [], []
-    with pytest.warns(DeprecationWarning, match="log=.*progress") as rec:
-        d_old = vjm.diagnose(m, data, effects=["gravity", "clearance"], log=old.append)
-    assert [w.filename for w in rec] == [__file__]  # the warning names the caller's line
-    d_new = vjm.diagnose(m, data, effects=["gravity", "clearance"], progress=new.append)
-    assert old and old == new
-    assert any(line.startswith("round 1") for line in new)
-    assert d_old.named == d_new.named == ["gravity"]
-    with pytest.raises(TypeError):
-        vjm.diagnose(m, data, progress=print, log=print)
 
 
 def test_sweep_progress_as_lines():

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from linkfea.errors import LinkFeaError, LinkFeaWarning
-from linkfea.resources import cad_dir, find_script
+from linkfea.runtime.errors import LinkFeaError, LinkFeaWarning
+from linkfea.runtime.resources import cad_dir, find_script
 from vjm.errors import VjmWarning
 from vjm.resources import data_dir, data_file
 
@@ -62,12 +62,13 @@ def test_two_different_local_scripts_are_ambiguous(tmp_path, monkeypatch):
 
 
 def test_result_records_the_script_that_ran(tmp_path, monkeypatch):
+    from linkfea import ComputeOptions
     from linkfea.pipeline import compute
 
     local = _local_bar(tmp_path)
     monkeypatch.chdir(tmp_path)
     with pytest.warns(LinkFeaWarning, match="from this folder"):
-        res = compute("bar", mesh_size=10.0)
+        res = compute("bar", ComputeOptions(mesh_size=10.0))
     assert res.frame.origin[0] == pytest.approx(150.0)  # the local 150 mm bar ran, not the bundled 200 mm one
     assert res.source == str(local.resolve())
     assert res.source_sha256 == hashlib.sha256(local.read_bytes()).hexdigest()
@@ -140,7 +141,7 @@ def test_a_local_copy_of_the_bundled_file_needs_no_warning(tmp_path, monkeypatch
 def test_shipped_files_have_one_place_decided_by_where_the_package_runs(tmp_path, monkeypatch):
     """From this source tree: the top-level cad/ and data/.  An installed package (here a stand-in in a
     site folder, without its _cad folder): its own folder, never the checkout's files beside it."""
-    from linkfea.resources import CHECKOUT, shipped_dir
+    from linkfea.runtime.resources import CHECKOUT, shipped_dir
 
     assert cad_dir() == CHECKOUT / "cad" and data_dir() == CHECKOUT / "data"
     site = tmp_path / "site"

@@ -12,12 +12,12 @@ from pathlib import Path
 import numpy as np
 
 import linkfea
-from linkfea.beam import cantilever_compliance, rect_section
-from linkfea.materials import get_material
+from linkfea.beam.closed_form import cantilever_compliance, rect_section
+from linkfea.mechanics.materials import get_material
 
 OUT = Path("out/examples/cad_to_compliance")
 L = 100.0
-res = linkfea.compute("bar", params={"length": L}, mesh_size=5.0)
+res = linkfea.compute("bar", linkfea.ComputeOptions(mesh_size=5.0), params={"length": L})
 print(res)                           # the matrices with their units (a table in Jupyter)
 C = res.compliance                   # 6x6 at the tip frame: mm/N, rad/N, mm/(N mm), rad/(N mm)
 print("frame origin (CAD, mm):", res.frame.origin)

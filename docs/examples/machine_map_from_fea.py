@@ -16,7 +16,7 @@ import linkfea
 import vjm
 
 OUT = Path("out/examples/machine_map_from_fea")
-foot = linkfea.compute("orthoglide_foot", mesh_size=8.0)
+foot = linkfea.compute("orthoglide_foot", linkfea.ComputeOptions(mesh_size=8.0))
 foot.save(OUT / "foot.json", vtu=False)                   # compliance, frame and units, as `linkfea compute` writes
 
 model = vjm.load_model("data/orthoglide/puu.yaml", foot=foot)  # the result itself: the same K as foot.json gives

@@ -2,18 +2,18 @@
 
 Run from the project root: ``.venv/bin/python docs/tools/beam_vs_fea_report.py [names...] > /tmp/results.md``;
 the PNGs go to ``docs/img/beam_vs_fea_<name>.png``, the Markdown to stdout (paste it under Results).
-The numbers come from :func:`linkfea.compare.compare`, the same code as ``linkfea compare``.
+The numbers come from :func:`linkfea.beam.compare.compare`, the same code as ``linkfea compare``.
 """
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
-from linkfea.atomic import write_bytes
+from linkfea.beam.compare import DEFAULT_BEAMS, compare
+from linkfea.beam.report import figure_png, markdown_table
 from linkfea.cad import CAD_DIR
-from linkfea.compare import DEFAULT_BEAMS, compare
-from linkfea.errors import LinkFeaError
-from linkfea.report import figure_png, markdown_table
+from linkfea.files.atomic import write_bytes
+from linkfea.runtime.errors import LinkFeaError
 
 
 def library_report(names=None, beams=None, img_dir="docs/img", mesh_size=None) -> str:

@@ -10,12 +10,11 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .errors import LinkFeaError, LinkFeaWarning, warnings_as_lines
-from .io import TWIST, WRENCH
+from .mechanics.compliance import TWIST, WRENCH
+from .runtime.errors import LinkFeaError, LinkFeaWarning, warnings_as_lines
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Link compliance by finite elements: CAD -> P2 tets -> 6x6 compliance at the link's frame.")
-err_console = Console(stderr=True)
 #: Python arguments whose CLI flag is not their name with dashes (today none: ComputeOptions' names are the flags)
 FLAGS: dict[str, str] = {}
 
@@ -37,7 +36,7 @@ def matrix_table(M: np.ndarray, title: str, rows, cols) -> Table:
 
 
 def error_table(diagonal: np.ndarray, err: np.ndarray) -> Table:
-    """The diagonal with its estimated discretization error (linkfea.estimate)."""
+    """The diagonal with its estimated discretization error (linkfea.fem.estimate)."""
     t = Table(title=f"estimated discretization error, whole matrix {100 * float(np.max(err)):.2g}% "
                     "(C is too small by about)")
     t.add_column("")
@@ -50,7 +49,7 @@ def error_table(diagonal: np.ndarray, err: np.ndarray) -> Table:
 
 def _fail(msg, traceback: bool = False) -> None:
     """One ``error:`` line, exit 2; with ``traceback``, a link script's own traceback before it."""
-    from .checks import cli_message
+    from .runtime.checks import cli_message
 
     details = getattr(msg, "details", "")
     if traceback and details:
@@ -95,10 +94,10 @@ def compute(
     traceback: bool = _traceback_option(),
 ):
     """Compute a link's 6x6 compliance and stiffness at its reference frame."""
-    from .cad import parse_param_args
+    from .cad.params import parse_param_args
     from .options import ComputeOptions
     from .pipeline import compute as run
-    from .resultset import check_result_out, write_result_set
+    from .result.fileset import check_result_out, write_result_set
 
     console = Console(stderr=True, quiet=quiet)
     try:
@@ -117,7 +116,7 @@ def compute(
         con = Console(width=max(Console().width, 100))
         show(res, con)
         con.print(f"wrote {', '.join(str(p) for p in written)}")
-    if not res.diagnostics.get("refinement", {"reached": True})["reached"]:
+    if not (res.diagnostics.refinement or {"reached": True})["reached"]:
         raise typer.Exit(code=TOLERANCE_NOT_REACHED)  # written, with the warning line the pipeline gave
 
 
@@ -128,8 +127,8 @@ is written, but its estimated error is above what was asked (as ``vjm diagnose``
 
 def _fraction(text: str) -> float:
     """``"1%"`` or ``"0.01"`` -> 0.01, checked against the options' range; the message echoes ``text``."""
-    from .checks import ArgumentError, number
     from .options import TOLERANCE
+    from .runtime.checks import ArgumentError, number
 
     t = text.strip()
     try:
@@ -139,8 +138,8 @@ def _fraction(text: str) -> float:
                            f"such as 0.01; got {text!r}") from None
 
 
-def _convergence_text(solver: dict) -> str:
-    c = solver.get("convergence")
+def _convergence_text(solver) -> str:
+    c = None if solver is None else solver.convergence
     if not c:
         return ""
     return (f" ({c['levels']} multigrid levels, CG iterations {', '.join(str(i) for i in c['iterations'])}, "
@@ -157,21 +156,21 @@ def show(res, console: Console) -> None:
     err = res.error_diagonal
     if err is not None:
         console.print(error_table(np.diag(res.compliance), err))
-    sharp = (res.diagnostics.get("sharp_edges") or {}).get("note")
+    sharp = (res.diagnostics.sharp_edges or {}).get("note")
     if sharp:
         console.print(sharp)
-    ref = res.diagnostics.get("refinement")
+    ref = res.diagnostics.refinement
     if ref:
         console.print("refinement: " + ref["note"] + "; " + ", ".join(
             f"{st['n_dofs']} DOF {100 * st['error']:.2g}%" for st in ref["steps"]) + f" ({ref['seconds']:.1f} s)")
     d = res.diagnostics
-    ee = d.get("error_estimate")
+    ee = d.error_estimate
     m = res.mesh_info
-    console.print(f"mesh: {m['n_nodes']} vertices, {m['n_tets']} tets, {m['n_dofs']} DOF, "
-                  f"edge {m['edge_length']:.3g} mm; symmetry error {d['symmetry_error']:.2e}, "
-                  f"fit residual {d['fit_residual']:.2e}, Richardson estimate "
+    console.print(f"mesh: {m.n_nodes} vertices, {m.n_tets} tets, {m.n_dofs} DOF, "
+                  f"edge {m.edge_length:.3g} mm; symmetry error {d.symmetry_error:.2e}, "
+                  f"fit residual {d.fit_residual:.2e}, Richardson estimate "
                   + (f"{ee:.2e}" if ee is not None else "not computed (use --convergence)")
-                  + f"; solver {res.solver.get('factorizer')}" + _convergence_text(res.solver))
+                  + f"; solver {res.solver and res.solver.factorizer}" + _convergence_text(res.solver))
     console.print("timing (s): " + ", ".join(f"{k} {v:.2f}" for k, v in res.timing.items()))
     if res.source_sha256:
         console.print(f"source: {res.source} (sha256 {res.source_sha256[:16]}...)")
@@ -193,9 +192,9 @@ def compare_cmd(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or summary"),
     traceback: bool = _traceback_option(),
 ):
-    """Beam or FEA? The FEA compliance against N-beam models cut from the CAD (see linkfea.compare)."""
-    from .cad import parse_param_args
-    from .compare import compare as run
+    """Beam or FEA? The FEA compliance against N-beam models cut from the CAD (see linkfea.beam.compare)."""
+    from .beam.compare import compare as run
+    from .cad.params import parse_param_args
 
     console = Console(stderr=True, quiet=quiet)
     try:
@@ -249,8 +248,8 @@ def sweep_cmd(
     traceback: bool = _traceback_option(),
 ):
     """Run the pipeline over a grid or sample of link parameters on Dask (resumable)."""
+    from .files.outputs import check_folder
     from .options import ComputeOptions
-    from .outputs import check_folder
     from .sweep import SWEEP_FILES, make_sweep, run_sweep
 
     try:
@@ -279,7 +278,7 @@ def sweep_cmd(
 
 def main(argv=None) -> int:
     """Console entry point (``linkfea``): the exit status; a usage error is one ``error:`` line."""
-    from .clirun import run
+    from .runtime.clirun import run
 
     return run(app, argv, "linkfea")
 

@@ -5,15 +5,15 @@
 ranges stated here, before any CAD or mesh work: the solver and mesh stages trust it.
 
 The block ratio ``E_block / E`` must be > 1: the pseudo-rigid block is stiffer than the link
-(1 would be the link's own material, below 1 a soft pad).  :func:`linkfea.fem.solve_link`
+(1 would be the link's own material, below 1 a soft pad).  :func:`linkfea.fem.problem.solve_link`
 checks the same :data:`BLOCK_RATIO`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-from . import checks
-from .errors import LinkFeaError
+from .runtime import checks
+from .runtime.errors import LinkFeaError
 
 #: valid ranges of the numeric options
 MESH_SIZE = checks.Bounds(0, lo_open=True, unit="mm")
@@ -46,7 +46,7 @@ class ComputeOptions:
 
     ``envelope`` None is the mesher's default (:data:`linkfea.mesh.DEFAULT_EPSILON`), ``mesher``
     None the default of the input (gmsh for scripts and STEP, pytetwild for surfaces).
-    Made with bad values, it raises :class:`linkfea.errors.LinkFeaError` naming the option.
+    Made with bad values, it raises :class:`linkfea.runtime.errors.LinkFeaError` naming the option.
     """
 
     mesh_size: float | None = None
@@ -100,7 +100,7 @@ class ComputeOptions:
 
         if self.mesher is not None:
             return self
-        from .surface import is_surface
+        from .cad.surface import is_surface
 
         return replace(self, mesher="pytetwild" if is_surface(spec) else "gmsh")
 

@@ -8,7 +8,6 @@
 >>> print(f"k_tran = {r.k_tran:.3g} mm/N")  # the seed's Table 1: 2.78e-4 (actuator fitted to it)
 k_tran = 0.000278 mm/N
 """
-from linkfea.progress import renamed_progress
 
 from .errors import EquilibriumError, VjmError
 from .model.links import LinkSpring
@@ -35,7 +34,6 @@ def __getattr__(name):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-@renamed_progress("log")
 def diagnose(model, data, **options):
     """What did the model leave out?  ``vjm diagnose`` as a function.
 
@@ -44,7 +42,7 @@ def diagnose(model, data, **options):
     model : a :class:`Model`, the path of a model file or a bundled model name ("puu").
     data : measurements (``vjm.discrepancy.data.Deflections`` / ``StiffnessObs``) or a CSV path.
     options : ``alpha``, ``effects``, ``suggest``, ``forces_only``, ``progress`` (a callable given a line per
-        selection round; ``log`` is its deprecated name) ... of :func:`vjm.discrepancy.workflow.diagnose`.
+        selection round) ... of :func:`vjm.discrepancy.workflow.diagnose`.
 
     Returns
     -------

@@ -21,7 +21,7 @@ app = typer.Typer(add_completion=False, help="Virtual-joint-method stiffness of 
 @app.callback()
 def _root():
     """Virtual-joint-method stiffness of parallel machines."""
-    from linkfea.errors import LinkFeaWarning, warnings_as_lines
+    from linkfea.runtime.errors import LinkFeaWarning, warnings_as_lines
 
     from .errors import VjmWarning
 
@@ -95,7 +95,7 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
     except user_errors() as exc:
         _fail(exc)
     if as_json:
-        from linkfea.atomic import file_sha256
+        from linkfea.files.atomic import file_sha256
 
         doc = r.to_dict()
         if m.path:  # which model file was used (a bare name may find a local or a bundled one)
@@ -172,8 +172,8 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
             foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG, force: bool = FORCE):
     """k_tran and k_rot over the workspace box: PNG maps and an .npz of K, k_tran, k_rot; robots: over two
     joints (--joints) or a Cartesian grid through the IK."""
-    from linkfea.checks import integer
-    from linkfea.outputs import check_folder
+    from linkfea.files.outputs import check_folder
+    from linkfea.runtime.checks import integer
 
     from .maps.compute import GRID, MAP_FILES
     from .robot.model import RobotModel
@@ -273,7 +273,7 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
     from dataclasses import replace
 
     try:
-        from linkfea.outputs import check_folder
+        from linkfea.files.outputs import check_folder
 
         from .robot import calibreport as cr
         from .robot.poses import read_column_map, read_poses
@@ -319,7 +319,7 @@ _register_extensions()
 
 def main(argv=None) -> int:
     """Console entry point (``vjm``): the exit status; a usage error is one ``error:`` line."""
-    from linkfea.clirun import run
+    from linkfea.runtime.clirun import run
 
     return run(app, argv, "vjm")
 

@@ -7,7 +7,7 @@
 >>> issubclass(VjmError, ValueError), issubclass(EquilibriumError, RuntimeError)
 (True, True)
 """
-from linkfea.checks import ArgumentError as _ArgumentError
+from linkfea.runtime.checks import ArgumentError as _ArgumentError
 
 
 class VjmError(ValueError):
@@ -34,13 +34,13 @@ class VjmWarning(UserWarning):
 
 
 class ArgumentError(VjmError, _ArgumentError):
-    """A numeric argument of the wrong type or outside its range (see :mod:`linkfea.checks`):
+    """A numeric argument of the wrong type or outside its range (see :mod:`linkfea.runtime.checks`):
     both a :class:`VjmError` and linkfea's ``ArgumentError``, so a CLI can name the flag."""
 
 
 def user_errors():
     """The exceptions a CLI reports as one line: ours, linkfea's (link results, file output), OS errors."""
-    from linkfea.errors import LinkFeaError
+    from linkfea.runtime.errors import LinkFeaError
 
     return (VjmError, LinkFeaError, OSError)
 
@@ -48,6 +48,6 @@ def user_errors():
 def one_line(exc: BaseException) -> str:
     """The message of ``exc`` on one line (YAML and CSV parsers put newlines in theirs); a bad numeric
     argument is named by its CLI flag (``--noise-t``), not its Python name."""
-    from linkfea.checks import cli_message
+    from linkfea.runtime.checks import cli_message
 
     return cli_message(exc)

@@ -1,7 +1,7 @@
 """vjm's shipped data: the model files (``data/orthoglide/*.yaml``) and the seed's Table 1.
 
 In the source tree they are in ``data/``; an installed wheel carries them as ``vjm/_data``
-(see :mod:`linkfea.resources`).  :func:`data_file` lets every command take the README's
+(see :mod:`linkfea.runtime.resources`).  :func:`data_file` lets every command take the README's
 paths (``data/orthoglide/puu.yaml``) or short names (``puu``) from any folder.
 """
 from __future__ import annotations
@@ -10,7 +10,7 @@ import os
 import warnings
 from pathlib import Path
 
-from linkfea.resources import shipped_dir
+from linkfea.runtime.resources import shipped_dir
 
 from .errors import VjmError, VjmWarning
 

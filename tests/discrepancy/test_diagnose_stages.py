@@ -9,7 +9,7 @@ import json
 import pytest
 
 import vjm
-from linkfea.atomic import plain
+from linkfea.files.atomic import plain
 from vjm.discrepancy.cli import run
 from vjm.discrepancy.data import Deflections, StiffnessObs, read_csv
 from vjm.discrepancy.stages.kinds import DeflectionKind, StiffnessKind, kind_of

@@ -113,7 +113,7 @@ def test_inline_foot_equals_beam_form(rows):
     P, _ = rows
     beam = tr.build(tr.variant(tr.nominal(), foot=BRACKET))
     mine = tr.build(tr.variant(tr.nominal(), foot=tr.inline(tr.rect_beam_compliance(90, 40, 16))))
-    # 1e-9: the torsion series is summed to 100 terms here, to 50 in linkfea.beam
+    # 1e-9: the torsion series is summed to 100 terms here, to 50 in linkfea.beam.closed_form
     np.testing.assert_allclose(mine.foot.compliance, beam.foot.compliance, rtol=1e-9, atol=1e-20)
     np.testing.assert_allclose(mine.stiffness_map(P).C, beam.stiffness_map(P).C, rtol=1e-9, atol=1e-18)
     C = tr.rect_beam_compliance(90, 40, 16)

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import linkfea
-from linkfea.beam import cantilever_compliance, rect_section
-from linkfea.compliance import SYMMETRY_RTOL, Compliance
-from linkfea.errors import LinkFeaError
+from linkfea.beam.closed_form import cantilever_compliance, rect_section
+from linkfea.mechanics.compliance import SYMMETRY_RTOL, Compliance
+from linkfea.runtime.errors import LinkFeaError
 
 H = 8.0  # mm: a coarse P2 mesh of the 200 x 20 x 10 mm bar (about 5k DOF)
 
@@ -28,7 +28,7 @@ def cache(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def bar(cache):
-    return linkfea.compute("bar", mesh_size=H, cache_dir=cache)
+    return linkfea.compute("bar", linkfea.ComputeOptions(mesh_size=H), cache_dir=cache)
 
 
 def test_compute_gives_the_cli_matrix(bar, cache, tmp_path):
@@ -43,7 +43,7 @@ def test_compute_gives_the_cli_matrix(bar, cache, tmp_path):
                         "-q", "--out", str(out)], capture_output=True, text=True, env=env, timeout=300)
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
-    assert doc["mesh"]["cache_key"] == bar.mesh_info["cache_key"]
+    assert doc["mesh"]["cache_key"] == bar.mesh_info.cache_key
     assert _scaled(np.array(doc["compliance"]), bar.compliance) < 1e-9
     assert _scaled(np.array(doc["stiffness"]), bar.stiffness) < 1e-9 * np.max(np.abs(bar.stiffness))
     np.testing.assert_array_equal(doc["frame"]["origin"], bar.frame.origin)
@@ -57,8 +57,8 @@ def test_result_values_are_a_cantilever(bar):
         assert bar.compliance[i, i] == pytest.approx(Cb[i, i], rel=0.03), i
     np.testing.assert_allclose(bar.compliance @ bar.stiffness, np.eye(6), atol=1e-8)
     np.testing.assert_allclose(bar.frame.origin, [200.0, 0.0, 0.0])
-    assert bar.mesh_info["n_dofs"] == bar.solution.n_dofs and bar.mesh is not None
-    assert {"symmetry_error", "fit_residual", "min_eigenvalue", "error_estimate"} <= set(bar.diagnostics)
+    assert bar.mesh_info.n_dofs == bar.solution.n_dofs and bar.mesh is not None
+    assert {"symmetry_error", "fit_residual", "min_eigenvalue", "error_estimate"} <= set(bar.diagnostics.to_dict())
     assert isinstance(bar.value, Compliance) and not bar.compliance.flags.writeable
 
 
@@ -120,7 +120,7 @@ def test_compare_object(cache, tmp_path):
     assert cmp.plot(ax=ax) is ax and len(ax.lines) == 4
     plt.close(fig)
     paths = cmp.save(tmp_path / "cmp")
-    assert json.loads((tmp_path / "cmp" / "compare.json").read_text()) == json.loads(json.dumps(cmp.record))
+    assert json.loads((tmp_path / "cmp" / "compare.json").read_text()) == json.loads(json.dumps(cmp.to_dict()))
     assert set(paths) == {"compare.json", "compare.md", "compare.png"}
     assert "Timoshenko" in repr(cmp) and "<table>" in cmp._repr_html_()
 
@@ -171,7 +171,7 @@ def test_vjm_links_use_the_same_check(tmp_path):
 
 def test_compliance_moves_by_the_adjoint_map():
     """to_frame: the twist of the moved spring under the moved wrench is the moved twist (closed form)."""
-    from linkfea.frames import Frame
+    from linkfea.mechanics.frames import Frame
 
     C = _spd() * 1e-4
     A = Frame([0.0, 0.0, 0.0], np.eye(3))
@@ -194,9 +194,9 @@ def test_the_iterative_solver_on_a_small_link(bar, cache, mode, tmp_path, monkey
     with the direct solve, through the API and the command line (exit 0, the same matrix)."""
     from linkfea.cli import main
 
-    direct = bar if mode == "rigid" else linkfea.compute("bar", mesh_size=H, cache_dir=cache, mode=mode)
-    it = linkfea.compute("bar", mesh_size=H, cache_dir=cache, mode=mode, solver="iterative")
-    assert it.solver["factorizer"] == "cg+p1mg"
+    direct = bar if mode == "rigid" else linkfea.compute("bar", linkfea.ComputeOptions(mesh_size=H, mode=mode), cache_dir=cache)
+    it = linkfea.compute("bar", linkfea.ComputeOptions(mesh_size=H, mode=mode, solver="iterative"), cache_dir=cache)
+    assert it.solver.factorizer == "cg+p1mg"
     assert _scaled(it.compliance, direct.compliance) < 1e-6
     monkeypatch.setenv("LINKFEA_CACHE_DIR", str(cache))
     out = tmp_path / "r.json"

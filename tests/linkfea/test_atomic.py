@@ -3,7 +3,7 @@ import os
 
 import pytest
 
-from linkfea.atomic import atomic_path, write_text
+from linkfea.files.atomic import atomic_path, write_text
 
 
 def test_failed_write_leaves_no_file(tmp_path):

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from linkfea.beam import BeamSegment, cantilever_compliance, rect_section, series_compliance
-from linkfea.errors import LinkFeaError
+from linkfea.beam.closed_form import BeamSegment, cantilever_compliance, rect_section, series_compliance
+from linkfea.runtime.errors import LinkFeaError
 
 E, NU = 210e3, 0.3
 

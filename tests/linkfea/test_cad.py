@@ -8,8 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from linkfea.cad import Box, Plane, build_link, load_step, parse_selector, select_faces, validate_solid
-from linkfea.errors import LinkFeaError
+from linkfea.cad import Box, Plane, build_link
+from linkfea.cad.selectors import parse_selector, select_faces
+from linkfea.cad.step import load_step, validate_solid
+from linkfea.runtime.errors import LinkFeaError
 
 
 @pytest.mark.parametrize("section,area", [
@@ -54,7 +56,7 @@ def test_foot_fillet_rounds_every_concave_edge():
     """``fillet`` (the machining radius) leaves no concave edge, and adds (1 - pi/4) r^2 per mm of
     the sharp foot's concave edges (all 90 degree corners; the ends where fillets meet add O(r^3),
     within 5% here); 0 is the sharp foot, a negative radius one error line."""
-    from linkfea.mesh_gmsh import concave_edges
+    from linkfea.mesh.gmsh import concave_edges
 
     sharp = build_link("orthoglide_foot", with_block=False)
     assert build_link("orthoglide_foot", {"fillet": 0}, with_block=False).body.Volume() == sharp.body.Volume()
@@ -224,7 +226,7 @@ def test_block_filling_more_than_the_tip_is_an_error():
 
     plate = cq.Workplane("XY").box(60, 20, 10, centered=(False, True, False))
     body = plate.cut(cq.Workplane("XY").workplane(offset=4).center(50, 0).circle(3).extrude(6)).val()
-    from linkfea.step import fill_block
+    from linkfea.cad.step import fill_block
 
     wall = [f for f in body.Faces() if f.geomType() == "CYLINDER"]
     assert len(wall) == 1

@@ -9,8 +9,8 @@ import pytest
 from typer.testing import CliRunner
 
 from linkfea.cli import app
-from linkfea.errors import LinkFeaError
-from linkfea.io import read_result, write_json_atomic
+from linkfea.result.schema import read_result, write_json_atomic
+from linkfea.runtime.errors import LinkFeaError
 
 KEYS = {"compliance", "stiffness", "units", "frame", "mesh", "diagnostics", "timing", "versions",
         "name", "params", "material", "mode"}
@@ -178,7 +178,7 @@ def test_traceback_shows_the_scripts_own_frames(tmp_path, monkeypatch, capsys):
 def test_the_mesher_child_returns_its_result_and_raises_its_errors():
     """``run_in_child`` runs in another process (its pid differs) where Ctrl-C can reach the caller, and gives
     back the value or the exception (type and message) of the function."""
-    from linkfea.child import interruptible_here, run_in_child
+    from linkfea.runtime.child import interruptible_here, run_in_child
 
     if not interruptible_here():
         pytest.skip("SIGINT is not Python's here (a worker thread or an ignored signal)")

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from linkfea.beam import cantilever_compliance, rect_section
+from linkfea.beam.closed_form import cantilever_compliance, rect_section
 from linkfea.cli import app
-from linkfea.materials import get_material
-from linkfea.outputs import MANIFEST
+from linkfea.files.outputs import MANIFEST
+from linkfea.mechanics.materials import get_material
 
 FILES = ["compare.json", "compare.md", "compare.png"]
 

@@ -1,13 +1,15 @@
-"""The P1 coarse space under the P2 problem (linkfea.coarse): P1 fields reproduced on the P2 nodes,
+"""The P1 coarse space under the P2 problem (linkfea.fem.coarse): P1 fields reproduced on the P2 nodes,
 the Galerkin operator against scikit-fem's own P1 stiffness, the rigid-body modes in the coarse space."""
 import numpy as np
 import pytest
 import scipy.sparse as sp
 from meshes import bar_link_mesh
 
-from linkfea.coarse import p1_coarse_space, p1_interpolation
-from linkfea.fem import _near_nullspace, interface_nodes, lame, link_p2, rigid_motion_matrix, symmetric_from_upper
-from linkfea.p2 import assemble_upper
+from linkfea.fem.coarse import p1_coarse_space, p1_interpolation
+from linkfea.fem.p2 import assemble_upper, lame, link_p2
+from linkfea.fem.problem import _near_nullspace, interface_nodes
+from linkfea.mechanics.frames import rigid_motion_matrix
+from linkfea.solvers.sparse import symmetric_from_upper
 
 
 @pytest.fixture(scope="module")

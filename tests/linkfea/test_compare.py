@@ -5,15 +5,22 @@ import cadquery as cq
 import numpy as np
 import pytest
 
+from linkfea.beam.compare import (
+    beam_model,
+    compare_compliance,
+    compare_link,
+    link_beam_model,
+    parse_beams,
+    write_outputs,
+)
 from linkfea.cad import Link, Plane, build_link
-from linkfea.compare import beam_model, compare_compliance, compare_link, link_beam_model, parse_beams, write_outputs
-from linkfea.errors import LinkFeaError
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
-from linkfea.frames import Frame
-from linkfea.materials import get_material
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
+from linkfea.files.outputs import MANIFEST
+from linkfea.mechanics.frames import Frame
+from linkfea.mechanics.materials import get_material
 from linkfea.mesh import mesh_link
-from linkfea.outputs import MANIFEST
+from linkfea.runtime.errors import LinkFeaError
 
 
 def fea(link, h, cache):
@@ -135,7 +142,7 @@ def test_foot_comparison_end_to_end(tmp_path):
     definition applied to the JSON's own FEA and beam matrices (an invariant, not a stored number);
     the FEA compliance is symmetric positive definite; outputs complete.  No accuracy is asserted:
     how well beams fit the foot is the finding (docs/beam_vs_fea.md)."""
-    from linkfea.compare import compare
+    from linkfea.beam.compare import compare
 
     out = tmp_path / "foot"
     rec = compare("orthoglide_foot", "1,2,4,8", out=out)
@@ -156,6 +163,6 @@ def test_foot_comparison_end_to_end(tmp_path):
                 assert np.all(np.isfinite(r["principal"][blk]["relative_error"]))
                 assert np.all(np.isfinite(r["principal"][blk]["angle_deg"]))
             np.testing.assert_allclose(r["entry_error"], (np.array(m[ckey]) - C) / np.outer(d, d), atol=1e-12)
-    assert rec["beams"][0]["n"] == 1
+    assert rec.beams[0].n == 1
     assert (out / "compare.png").stat().st_size > 10_000
     assert "| Timoshenko | 8 |" in (out / "compare.md").read_text()

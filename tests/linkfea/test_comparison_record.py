@@ -1,16 +1,15 @@
-"""The beam-versus-FEA comparison is a typed value (:mod:`linkfea.comparison`) that serialises to the
+"""The beam-versus-FEA comparison is a typed value (:mod:`linkfea.beam.comparison`) that serialises to the
 compare.json format: same keys, same order, same bytes after a round trip through the file."""
 import dataclasses
 import json
-import warnings
 
 import numpy as np
 import pytest
 
+from linkfea.beam.compare import build_comparison, compare_link
+from linkfea.beam.comparison import BeamFit, Comparison
 from linkfea.cad import build_link
-from linkfea.compare import build_comparison, compare_link
-from linkfea.comparison import BeamFit, Comparison
-from linkfea.errors import LinkFeaError
+from linkfea.runtime.errors import LinkFeaError
 
 #: compare.json's keys, in the file's order (the format users read; README "Beam or FEA?")
 TOP_KEYS = ["link", "source", "params", "material", "frame", "beam_axis", "beam_length", "base_station",
@@ -77,18 +76,6 @@ def test_typed_reading(bar):
         cmp.beam(3)
     with pytest.raises(dataclasses.FrozenInstanceError):
         cmp.link = "other"
-
-
-def test_dictionary_access_is_deprecated_but_works(bar):
-    _, _, _, cmp = bar
-    with pytest.warns(DeprecationWarning, match=r"comparison\['beams'\] is deprecated"):
-        beams = cmp["beams"]
-    assert beams == cmp.to_dict()["beams"]
-    with pytest.warns(DeprecationWarning, match="Comparison.record is deprecated"):
-        assert cmp.record == cmp.to_dict()
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        cmp.to_dict(), cmp.beams, cmp.errors
 
 
 def test_from_dict_names_missing_keys(bar):

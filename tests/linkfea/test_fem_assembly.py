@@ -5,8 +5,10 @@ import skfem
 from meshes import bar_link_mesh, box_mesh, skfem_dof_order
 from skfem.models.elasticity import linear_elasticity
 
-from linkfea.errors import LinkFeaError
-from linkfea.fem import assemble_upper, lame, p2_mesh, rigid_motion_matrix, symmetric_from_upper
+from linkfea.fem.p2 import assemble_upper, lame, p2_mesh
+from linkfea.mechanics.frames import rigid_motion_matrix
+from linkfea.runtime.errors import LinkFeaError
+from linkfea.solvers.sparse import symmetric_from_upper
 
 
 def _perturbed_box():
@@ -75,7 +77,7 @@ def test_inverted_tet_is_an_error(steel):
 def test_scikit_fem_owns_the_discretization(steel):
     """P2 nodes, numbering and locations are scikit-fem's: its vector basis's DOF 3 n + c sits at our
     node n, and the kernel equals ``skfem.asm`` entry by entry with no renumbering (block scale too)."""
-    from linkfea.p2 import assemble_upper_skfem
+    from linkfea.fem.p2 import assemble_upper_skfem
 
     pts, tets = _perturbed_box()
     p2 = p2_mesh(pts, tets)
@@ -98,14 +100,14 @@ def test_skfem_assembler_gives_the_same_compliance(steel, mode):
     The two stiffness matrices agree to 1e-12 of their largest entry (test above); the solve
     amplifies that by the condition number, which the 1000x stiffer block raises: measured
     about 5e-11 (rigid) and 7e-9 (block), hence 1e-9 and 1e-7."""
-    from linkfea.fem import solve_link
-    from linkfea.fit import compliance_from_solution
+    from linkfea.fem.fit import compliance_from_solution
+    from linkfea.fem.problem import solve_link
 
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2, block_length=4.0, nb=1) if mode == "block" else \
         bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
     a = solve_link(mesh, steel, mode=mode)
     b = solve_link(mesh, steel, mode=mode, assembler="skfem")
-    assert a.solver["assembler"] == "kernel" and b.solver["assembler"] == "skfem"
+    assert a.solver.assembler == "kernel" and b.solver.assembler == "skfem"
     Ca, Cb = compliance_from_solution(a).matrix, compliance_from_solution(b).matrix
     d = np.sqrt(np.outer(np.diag(Ca), np.diag(Ca)))
     assert np.max(np.abs(Ca - Cb) / d) < (1e-9 if mode == "rigid" else 1e-7)

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
-from linkfea.beam import cantilever_compliance, rect_section, rect_torsion_constant
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
+from linkfea.beam.closed_form import cantilever_compliance, rect_section, rect_torsion_constant
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
 
 NONZERO = [(0, 0), (1, 1), (2, 2), (4, 4), (5, 5), (1, 5), (5, 1), (2, 4), (4, 2)]
 

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
-from linkfea.frames import Frame
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
+from linkfea.mechanics.frames import Frame
 
 pytestmark = [
     pytest.mark.calculix,
@@ -34,7 +34,7 @@ def _rotated_frame():
 
 def test_calculix_rigid_slender_bar(steel):
     """The 200 x 20 x 10 bar of test_fem_beam (36k DOF), rigid tip coupling, tip frame."""
-    from linkfea.calculix import solve_calculix
+    from calculix import solve_calculix
 
     mesh = bar_link_mesh(200.0, 20.0, 10.0, 40, 8, 4)
     ours = compliance_from_solution(solve_link(mesh, steel)).raw
@@ -45,7 +45,7 @@ def test_calculix_rigid_slender_bar(steel):
 @pytest.mark.parametrize("mode", ["rigid", "block"])
 def test_calculix_rotated_frame_and_block(steel, mode):
     """A moved, rotated reference frame (loads rotated to CAD axes in ccx) and the pseudo-rigid block."""
-    from linkfea.calculix import solve_calculix
+    from calculix import solve_calculix
 
     mesh = dataclasses.replace(bar_link_mesh(200.0, 20.0, 10.0, 20, 4, 2, block_length=10.0, nb=2),
                                frame=_rotated_frame())
@@ -60,9 +60,9 @@ def test_calculix_on_the_gmsh_mesh_of_a_filleted_step_bracket(steel, mode, tmp_p
     STEP), clamped on its base face, tip frame on the upright's top: same discrete problem, so
     CalculiX C3D10 agrees to its print precision."""
     from brackets import BASE, TIP, bracket_step
+    from calculix import solve_calculix
 
     from linkfea.cad import build_link
-    from linkfea.calculix import solve_calculix
     from linkfea.mesh import mesh_link
 
     link = build_link(str(bracket_step(tmp_path)), base=BASE, tip=TIP, with_block=(mode == "block"))

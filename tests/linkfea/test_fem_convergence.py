@@ -3,11 +3,11 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
-from linkfea.beam import cantilever_compliance, rect_section, rect_torsion_constant
-from linkfea.convergence import richardson
-from linkfea.errors import LinkFeaError
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
+from linkfea.beam.closed_form import cantilever_compliance, rect_section, rect_torsion_constant
+from linkfea.fem.convergence import richardson
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
+from linkfea.runtime.errors import LinkFeaError
 
 
 def test_richardson_recovers_a_known_power_law():

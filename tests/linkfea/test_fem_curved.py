@@ -11,8 +11,16 @@ import skfem
 from meshes import box_mesh, skfem_dof_order
 from skfem.models.elasticity import linear_elasticity
 
-from linkfea.fem import assemble_upper, lame, rigid_motion_matrix, symmetric_from_upper
-from linkfea.p2 import CURVED_QUADRATURE_DEGREE, _isoparametric_gradients, _quadrature, p2_mesh
+from linkfea.fem.p2 import (
+    CURVED_QUADRATURE_DEGREE,
+    _isoparametric_gradients,
+    _quadrature,
+    assemble_upper,
+    lame,
+    p2_mesh,
+)
+from linkfea.mechanics.frames import rigid_motion_matrix
+from linkfea.solvers.sparse import symmetric_from_upper
 
 
 def _curved_box():
@@ -50,7 +58,7 @@ def _volume(p2, curved):
     a = p2.points[p2.cells[:, :4]]
     if not curved:
         return float(np.einsum("ij,ij->i", np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0]), a[:, 3] - a[:, 0]).sum() / 6)
-    import linkfea.p2 as P
+    import linkfea.fem.p2 as P
 
     old = P.CURVED_QUADRATURE_DEGREE
     P.CURVED_QUADRATURE_DEGREE = 8
@@ -89,9 +97,9 @@ def test_curved_elements_converge_where_straight_ones_carry_the_chord_error(roun
     """Round bar, rigid tip: the curved P2 diagonal at the default-like size is within 0.1% of a
     1.6x finer curved mesh; straight-sided P2 on the same mesh is off by more than 0.5% (the
     facetted section is smaller: its bending and axial compliances are too high)."""
-    from linkfea.fem import solve_link
-    from linkfea.fit import compliance_from_solution
-    from linkfea.materials import get_material
+    from linkfea.fem.fit import compliance_from_solution
+    from linkfea.fem.problem import solve_link
+    from linkfea.mechanics.materials import get_material
     from linkfea.mesh import mesh_link
 
     steel = get_material("steel")

@@ -1,4 +1,4 @@
-"""The recovered-stress estimate of the compliance's discretization error (linkfea.estimate).
+"""The recovered-stress estimate of the compliance's discretization error (linkfea.fem.estimate).
 
 References that do not come from the estimate: the same bar on finer structured meshes
 (Richardson over three of them), whose limit is checked against Timoshenko's cantilever and
@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
-from linkfea.beam import cantilever_compliance, rect_section, rect_torsion_constant
-from linkfea.convergence import richardson
-from linkfea.estimate import SAFETY_FACTOR, estimate_error
-from linkfea.fem import lame, solve_link
-from linkfea.fit import compliance_from_solution
+from linkfea.beam.closed_form import cantilever_compliance, rect_section, rect_torsion_constant
+from linkfea.fem.convergence import richardson
+from linkfea.fem.estimate import SAFETY_FACTOR, estimate_error
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.p2 import lame
+from linkfea.fem.problem import solve_link
 
 L, W, HH = 200.0, 20.0, 10.0
 SIZES = [(20, 4, 2), (30, 6, 3), (40, 8, 4)]  # cells of 10, 6.7 and 5 mm
@@ -101,12 +102,13 @@ def test_pipeline_reports_the_estimate_and_the_sharp_edges(tmp_path):
 
     import cadquery as cq
 
+    from linkfea import ComputeOptions
     from linkfea.pipeline import compute, sharp_edges_note
 
-    res = compute("bar", mesh_size=10.0, cache_dir=tmp_path)
+    res = compute("bar", ComputeOptions(mesh_size=10.0), cache_dir=tmp_path)
     err = res.error_diagonal
     assert err is not None and err.shape == (6,) and np.all((err > 0) & (err < 0.2))
-    assert res.diagnostics["sharp_edges"]["count"] == 0
+    assert res.diagnostics.sharp_edges["count"] == 0
     assert "estimate" in res.timing
     doc = json.loads(json.dumps(res.to_dict()))
     assert doc["diagnostics"]["discretization_error"]["diagonal"] == pytest.approx(list(err))

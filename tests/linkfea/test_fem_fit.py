@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from linkfea.errors import LinkFeaError
-from linkfea.fit import check_compliance, fit_rigid_motion
+from linkfea.fem.fit import check_compliance, fit_rigid_motion
+from linkfea.runtime.errors import LinkFeaError
 
 
 def _points(n=40, seed=0):

@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
-from linkfea import multigrid
-from linkfea.errors import LinkFeaError
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
-from linkfea.iterative import cg_amg_factorizer, cg_p1mg_factorizer, choose, direct_peak_bytes
-from linkfea.solvers import auto_factorizer, factorizer_named
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
+from linkfea.runtime.errors import LinkFeaError
+from linkfea.solvers import multigrid
+from linkfea.solvers.factorizers import auto_factorizer, factorizer_named
+from linkfea.solvers.iterative import cg_amg_factorizer, cg_p1mg_factorizer, choose, direct_peak_bytes
 
 
 def _scaled(A, B):
@@ -23,8 +23,8 @@ def test_iterative_and_direct_agree_on_a_small_link(steel, mode):
     mesh = bar_link_mesh(60.0, 8.0, 6.0, 10, 2, 2, block_length=6.0, nb=1)
     direct = solve_link(mesh, steel, mode=mode)
     it = solve_link(mesh, steel, mode=mode, solver=cg_amg_factorizer)
-    assert it.solver["factorizer"] == "cg+amg"
-    conv = it.solver["convergence"]
+    assert it.solver.factorizer == "cg+amg"
+    conv = it.solver.convergence
     assert len(conv["iterations"]) == 6 and all(0 < n < 500 for n in conv["iterations"])
     # The stiff block (E x 1000) of block mode costs round-off in the recomputed residual.
     assert max(conv["relative_residual"]) < (1e-6 if mode == "rigid" else 1e-5)
@@ -40,8 +40,8 @@ def test_the_p1_multigrid_path_agrees_with_the_direct_solver(steel, mode, max_co
     mesh = bar_link_mesh(60.0, 8.0, 6.0, 10, 2, 2, block_length=6.0, nb=1)
     direct = solve_link(mesh, steel, mode=mode)
     it = solve_link(mesh, steel, mode=mode, solver=cg_p1mg_factorizer)
-    conv = it.solver["convergence"]
-    assert it.solver["factorizer"] == "cg+p1mg"
+    conv = it.solver.convergence
+    assert it.solver.factorizer == "cg+p1mg"
     nv_free = conv["level_sizes"][1]
     assert nv_free < it.n_dofs / 4  # the P1 level: vertices only
     assert (conv["levels"] == 2) if max_coarse == 600 else (conv["levels"] >= 3)
@@ -58,15 +58,15 @@ def test_the_choice_follows_the_memory_estimate(steel, monkeypatch):
     assert choose(60_000, budget=8e9) == "direct" and choose(3_000_000, budget=8e9) == "iterative"
     assert choose(100_000, budget=1.0) == "direct"  # small links always factor: results do not depend on free memory
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
-    import linkfea.iterative as iterative
+    import linkfea.solvers.iterative as iterative
 
     monkeypatch.setattr(iterative, "MIN_ITERATIVE_DOFS", 0)
     monkeypatch.setenv("LINKFEA_MEMORY", "1e-6")  # nothing fits: iterative
     small = solve_link(mesh, steel, solver=auto_factorizer)
-    assert small.solver["choice"]["chosen"] == "iterative" and small.solver["factorizer"] == "cg+p1mg"
+    assert small.solver.choice["chosen"] == "iterative" and small.solver.factorizer == "cg+p1mg"
     monkeypatch.setenv("LINKFEA_MEMORY", "8")
     big = solve_link(mesh, steel, solver=auto_factorizer)
-    assert big.solver["choice"]["chosen"] == "direct" and big.solver["factorizer"] in ("pardiso", "superlu")
+    assert big.solver.choice["chosen"] == "direct" and big.solver.factorizer in ("pardiso", "superlu")
     assert _scaled(compliance_from_solution(small).matrix, compliance_from_solution(big).matrix) < 1e-6
     with pytest.raises(LinkFeaError, match="unknown solver"):
         factorizer_named("gauss")
@@ -75,7 +75,7 @@ def test_the_choice_follows_the_memory_estimate(steel, monkeypatch):
 def test_the_choice_takes_the_iterative_path_where_it_is_faster():
     """Under 150k DOF always direct; from 250k always iterative (faster and lighter, measured);
     in between by the memory estimate.  Both estimates grow with the size, the iterative one linearly."""
-    from linkfea.iterative import iterative_peak_bytes
+    from linkfea.solvers.iterative import iterative_peak_bytes
 
     assert choose(149_999, budget=1.0) == "direct"
     assert choose(200_000, budget=1e12) == "direct" and choose(200_000, budget=1.0) == "iterative"
@@ -90,9 +90,9 @@ def test_a_p1_level_with_nothing_to_aggregate_is_solved_directly(steel, mode, mo
     nothing to coarsen: the P1 level is the coarsest, factored, and the 6x6 is the direct solver's."""
     mesh = bar_link_mesh(60.0, 8.0, 6.0, 10, 2, 2, block_length=6.0, nb=1)
     probe = solve_link(mesh, steel, mode=mode, solver=cg_p1mg_factorizer)
-    n_p1 = probe.solver["convergence"]["level_sizes"][1]
+    n_p1 = probe.solver.convergence["level_sizes"][1]
     monkeypatch.setattr(multigrid, "MAX_COARSE", n_p1 // 2)  # above in DOFs, below in 3-DOF blocks
     it = solve_link(mesh, steel, mode=mode, solver=cg_p1mg_factorizer)
-    assert it.solver["convergence"]["level_sizes"] == [it.n_dofs, n_p1]
+    assert it.solver.convergence["level_sizes"] == [it.n_dofs, n_p1]
     direct = solve_link(mesh, steel, mode=mode)
     assert _scaled(compliance_from_solution(it).matrix, compliance_from_solution(direct).matrix) < 1e-6

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
-from linkfea.errors import LinkFeaError
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
-from linkfea.frames import Frame
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
+from linkfea.mechanics.frames import Frame
+from linkfea.runtime.errors import LinkFeaError
 
 
 @pytest.fixture(scope="module")
@@ -86,13 +86,13 @@ def test_scipy_fallback_solver_agrees(steel):
     """The SuperLU fallback gives the same compliance as PARDISO (injectable solver).
 
     Skips only where pypardiso is not installed; an installed PARDISO that fails is a failure."""
-    from linkfea.fem import pardiso_factorizer, scipy_factorizer
+    from linkfea.solvers.factorizers import pardiso_factorizer, scipy_factorizer
 
     pytest.importorskip("pypardiso")
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
     sa = solve_link(mesh, steel, solver=scipy_factorizer)
     sb = solve_link(mesh, steel, solver=pardiso_factorizer)
-    assert sa.solver["factorizer"] == "superlu" and sb.solver["factorizer"] == "pardiso"
+    assert sa.solver.factorizer == "superlu" and sb.solver.factorizer == "pardiso"
     a, b = compliance_from_solution(sa).matrix, compliance_from_solution(sb).matrix
     assert _scaled_diff(a, b) < 1e-9
 
@@ -102,7 +102,7 @@ def test_default_solver_is_recorded_and_a_fallback_is_said(steel, monkeypatch, c
     warning (logged and as a RuntimeWarning) and the reason in FeaSolution.solver."""
     import logging
 
-    import linkfea.solvers as solvers
+    import linkfea.solvers.factorizers as solvers
 
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
     try:
@@ -111,23 +111,23 @@ def test_default_solver_is_recorded_and_a_fallback_is_said(steel, monkeypatch, c
     except ImportError:
         expected = "superlu"
     ok = solve_link(mesh, steel)
-    assert ok.solver["factorizer"] == expected
+    assert ok.solver.factorizer == expected
 
     def broken(U):
         raise RuntimeError("PARDISO error -3 (simulated)")
 
     monkeypatch.setattr(solvers, "pardiso_factorizer", broken)
-    with caplog.at_level(logging.WARNING, logger="linkfea.solvers"), pytest.warns(RuntimeWarning, match="SuperLU"):
+    with caplog.at_level(logging.WARNING, logger="linkfea.solvers.factorizers"), pytest.warns(RuntimeWarning, match="SuperLU"):
         fb = solve_link(mesh, steel)
-    assert fb.solver["factorizer"] == "superlu"
-    assert "error -3" in fb.solver["fallback_reason"]
+    assert fb.solver.factorizer == "superlu"
+    assert "error -3" in fb.solver.fallback_reason
     assert any("falling back to SuperLU" in r.getMessage() for r in caplog.records)
     assert _scaled_diff(compliance_from_solution(fb).matrix, compliance_from_solution(ok).matrix) < 1e-9
 
 
 def test_solution_contents_and_progress(steel):
     """Clamped nodes do not move, coupled nodes move rigidly, stages are reported in order."""
-    from linkfea.fit import fit_rigid_motion
+    from linkfea.fem.fit import fit_rigid_motion
 
     mesh = bar_link_mesh(40.0, 6.0, 4.0, 8, 2, 2)
     stages = []

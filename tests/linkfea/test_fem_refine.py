@@ -4,19 +4,20 @@ import numpy as np
 import pytest
 from meshes import bar_link_mesh
 
-from linkfea.errors import LinkFeaError
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
+from linkfea import ComputeOptions
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
+from linkfea.mesh.refine import marked
 from linkfea.pipeline import compute
-from linkfea.refine import marked
+from linkfea.runtime.errors import LinkFeaError
 
 
 def test_tolerance_reaches_its_target_on_the_bar(steel, tmp_path):
     """From a 10 mm gmsh mesh (torsion 7.6% estimated) to an estimate below 2% on every diagonal
     entry; the compliance then is within 2% of the converged one on every entry, and the mesh
     was refined locally (fewer DOF than the structured reference)."""
-    res = compute("bar", mesh_size=10.0, tolerance=0.02, cache_dir=tmp_path)
-    ref = res.diagnostics["refinement"]
+    res = compute("bar", ComputeOptions(mesh_size=10.0, tolerance=0.02), cache_dir=tmp_path)
+    ref = res.diagnostics.refinement
     assert ref["reached"] and len(ref["steps"]) >= 2
     assert ref["steps"][0]["error"] > 0.02 >= ref["steps"][-1]["error"]
     assert np.all(res.error_diagonal <= 0.02)
@@ -24,7 +25,7 @@ def test_tolerance_reaches_its_target_on_the_bar(steel, tmp_path):
     d = np.arange(6)
     true = (fine[d, d] - res.compliance[d, d]) / fine[d, d]
     assert np.all(true < 0.02 - 0.002), true  # the reference is itself short by up to 0.2% (docs/benchmarks.md)
-    assert res.mesh_info["n_dofs"] < 36_267
+    assert res.mesh_info.n_dofs < 36_267
 
 
 def test_marking_takes_the_largest_share():
@@ -35,11 +36,11 @@ def test_marking_takes_the_largest_share():
 
 def test_tolerance_options_are_checked():
     with pytest.raises(LinkFeaError, match="tolerance"):
-        compute("bar", tolerance=5.0)
+        compute("bar", ComputeOptions(tolerance=5.0))
     with pytest.raises(LinkFeaError, match="convergence"):
-        compute("bar", tolerance=0.01, convergence=True)
+        compute("bar", ComputeOptions(tolerance=0.01, convergence=True))
     with pytest.raises(LinkFeaError, match="gmsh"):
-        compute("bar", tolerance=0.01, mesher="pytetwild")
+        compute("bar", ComputeOptions(tolerance=0.01, mesher="pytetwild"))
 
 
 def test_tolerance_not_reached_is_a_warning_line_and_exit_status_3(tmp_path):

@@ -1,10 +1,10 @@
-"""Lockstep CG over several right-hand sides (linkfea.krylov) and the multigrid cycle's symmetry."""
+"""Lockstep CG over several right-hand sides (linkfea.solvers.krylov) and the multigrid cycle's symmetry."""
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from linkfea.krylov import cg_columns, time_left
-from linkfea.multigrid import Hierarchy, largest_eigenvalue
+from linkfea.solvers.krylov import cg_columns, time_left
+from linkfea.solvers.multigrid import Hierarchy, largest_eigenvalue
 
 
 def _laplacian(n):

@@ -8,9 +8,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from linkfea.cad import build_link, parse_selector
-from linkfea.errors import LinkFeaError
-from linkfea.mesh import mesh_link, select_facets, tet_faces, tet_volumes, tri_areas_normals
+from linkfea.cad import build_link
+from linkfea.cad.selectors import parse_selector
+from linkfea.mesh import mesh_link
+from linkfea.mesh.linkmesh import tet_faces, tet_volumes, tri_areas_normals
+from linkfea.mesh.pytetwild import select_facets
+from linkfea.runtime.errors import LinkFeaError
 
 H = 5.0
 
@@ -134,7 +137,7 @@ def test_quality_report(block_mesh):
 def test_sizing_field_refines_only_near_small_curved_faces():
     """A round bar of radius 4 at H = 4 would get ~6 edges around: the field asks for
     2 pi r / 8 = pi mm on the surface, growing by GRADING per mm, capped at H; a prism needs none."""
-    from linkfea.mesh import GRADING, sizing_field
+    from linkfea.mesh.pytetwild import GRADING, sizing_field
 
     H = 4.0
     assert sizing_field([build_link("bar").body], H, 0.01) is None
@@ -155,7 +158,7 @@ def test_sizing_field_along_interface_borders():
     faces (their samples are background vertices) and edge_size + GRADING x distance elsewhere,
     capped at H: checked against the distance to the base face's 4 border lines (x = 0,
     y = +-10, z = +-5 on the 200 x 20 x 10 bar)."""
-    from linkfea.mesh import GRADING, sizing_field
+    from linkfea.mesh.pytetwild import GRADING, sizing_field
 
     bar = build_link("bar")
     H, h = 4.0, 0.5

@@ -16,7 +16,7 @@ import time
 import numpy as np
 import pytest
 
-from linkfea.meshcache import DamagedEntry, cache_dir_default, cached_mesh, key_lock, read_entry, write_entry
+from linkfea.mesh.cache import DamagedEntry, cache_dir_default, cached_mesh, key_lock, read_entry, write_entry
 
 COMPUTE = ["compute", "bar", "--mesher", "pytetwild", "--mesh-size", "8", "--no-picture", "-q"]
 
@@ -137,7 +137,7 @@ def test_read_entry_tells_missing_from_damaged(tmp_path):
 
 
 def test_damaged_entry_in_process_warns_and_remeshes(tmp_path):
-    from linkfea.errors import LinkFeaWarning
+    from linkfea.runtime.errors import LinkFeaWarning
 
     pts, tets = np.random.default_rng(1).random((4, 3)), np.array([[0, 1, 2, 3]])
     (tmp_path / "k.npz").write_bytes(b"PK\x03\x04 truncated")
@@ -157,7 +157,7 @@ def test_damaged_entry_in_process_warns_and_remeshes(tmp_path):
 _HOLDER = """
 import sys, time
 from pathlib import Path
-from linkfea.meshcache import key_lock
+from linkfea.mesh.cache import key_lock
 with key_lock(Path(sys.argv[1])):
     print("locked", flush=True)
     time.sleep(600)

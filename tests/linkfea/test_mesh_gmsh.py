@@ -12,12 +12,13 @@ import pytest
 from brackets import BASE, BASE_AREA, LINK_BASE, LINK_FACE_AREA, LINK_TIP, TIP, TIP_AREA, bracket_step, flat_link_step
 
 from linkfea.cad import build_link
-from linkfea.errors import LinkFeaError
-from linkfea.fem import solve_link
-from linkfea.fit import compliance_from_solution
-from linkfea.materials import get_material
-from linkfea.mesh import AREA_GATE, check_interface_areas, mesh_link, tri_areas_normals
-from linkfea.mesh_gmsh import EDGE_SEGMENTS_PER_CIRCLE, SEGMENTS_PER_CIRCLE, match_surfaces
+from linkfea.fem.fit import compliance_from_solution
+from linkfea.fem.problem import solve_link
+from linkfea.mechanics.materials import get_material
+from linkfea.mesh import mesh_link
+from linkfea.mesh.gmsh import EDGE_SEGMENTS_PER_CIRCLE, SEGMENTS_PER_CIRCLE, match_surfaces
+from linkfea.mesh.linkmesh import AREA_GATE, check_interface_areas, tri_areas_normals
+from linkfea.runtime.errors import LinkFeaError
 
 ROUND_OFF = 1e-6
 
@@ -163,15 +164,16 @@ def test_block_mode_on_a_bore_tip_converges_to_rigid_mode():
 def test_filleted_bracket_mesh_convergence(bracket):
     """The default gmsh mesh against one with 1.5x smaller elements: every diagonal entry of the
     6x6 within 0.5% (P2 on CAD-exact faces; the clamp and the coupled face are complete)."""
+    from linkfea import ComputeOptions
     from linkfea.mesh import default_mesh_size
     from linkfea.pipeline import compute
 
     link = build_link(str(bracket), base=BASE, tip=TIP, with_block=False)
     H = default_mesh_size(link)
-    coarse = compute(str(bracket), base=BASE, tip=TIP)
-    fine = compute(str(bracket), base=BASE, tip=TIP, mesh_size=H / 1.5)
+    coarse = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP))
+    fine = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP, mesh_size=H / 1.5))
     assert coarse.mesh.mesher == "gmsh" and fine.solution.n_dofs > 1.5 * coarse.solution.n_dofs
-    d = np.abs(np.diag(coarse.matrix) / np.diag(fine.matrix) - 1)
+    d = np.abs(np.diag(coarse.compliance) / np.diag(fine.compliance) - 1)
     assert d.max() <= 0.005, d
 
 
@@ -180,7 +182,7 @@ def test_smooth_border_edges_are_the_fillet_borders(bracket):
     bracket, the two 12 mm edges of each face that run into a fillet (base: along z at y = +-6 on
     x = 0, centres z = 6; tip: along x at y = +-6 on z = 105, centres x = 74), not the two sharp
     ones; the foot's flange and boss faces have none (all their borders are sharp edges)."""
-    from linkfea.mesh import smooth_border_edges
+    from linkfea.mesh.pytetwild import smooth_border_edges
 
     link = build_link(str(bracket), base=BASE, tip=TIP, with_block=False)
     for faces, centres in ((link.base_faces, [[0, -6, 6], [0, 6, 6]]),
@@ -199,19 +201,20 @@ def test_two_meshers_one_answer_on_a_filleted_link(tmp_path):
     area gate at first (it drops a strip along the tangent borders), refines those borders until
     the gate passes, and then its 6x6 diagonal agrees with gmsh's CAD-exact mesh within 1%.
     Both the area (CAD) and the agreement (an independent mesher) are external references."""
-    from linkfea.mesh import smooth_border_edges
+    from linkfea import ComputeOptions
+    from linkfea.mesh.pytetwild import smooth_border_edges
     from linkfea.pipeline import compute
 
     step = flat_link_step(tmp_path)
     link = build_link(str(step), base=LINK_BASE, tip=LINK_TIP, with_block=False)
     assert sum(f.Area() for f in link.base_faces) == pytest.approx(LINK_FACE_AREA, rel=1e-9)
     assert len(smooth_border_edges(link.body, link.base_faces + link.tip_faces)) == 4
-    g = compute(str(step), base=LINK_BASE, tip=LINK_TIP)
-    p = compute(str(step), base=LINK_BASE, tip=LINK_TIP, mesher="pytetwild", cache_dir=tmp_path / "cache")
+    g = compute(str(step), ComputeOptions(base=LINK_BASE, tip=LINK_TIP))
+    p = compute(str(step), ComputeOptions(base=LINK_BASE, tip=LINK_TIP, mesher="pytetwild"), cache_dir=tmp_path / "cache")
     assert g.mesh.mesher == "gmsh" and p.mesh.mesher == "pytetwild"
     assert p.mesh.quality["interface_border_size"] is not None  # the first mesh missed the gate
     assert max(abs(p.mesh.quality["base_area_error"]), abs(p.mesh.quality["tip_area_error"])) <= AREA_GATE
-    d = np.abs(np.diag(p.matrix) / np.diag(g.matrix) - 1)
+    d = np.abs(np.diag(p.compliance) / np.diag(g.compliance) - 1)
     assert d.max() <= 0.01, d
 
 
@@ -221,13 +224,14 @@ def test_two_meshers_one_answer_on_a_filleted_link(tmp_path):
 def test_two_meshers_one_answer_on_the_filleted_bracket(bracket, tmp_path):
     """gmsh (default) and pytetwild refined along the interface borders until its area gate passes:
     the same 6x6 diagonal within 1% (measured 0.53% at 38k / 97k DOF)."""
+    from linkfea import ComputeOptions
     from linkfea.pipeline import compute
 
-    g = compute(str(bracket), base=BASE, tip=TIP)
-    p = compute(str(bracket), base=BASE, tip=TIP, mesher="pytetwild", cache_dir=tmp_path)
+    g = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP))
+    p = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP, mesher="pytetwild"), cache_dir=tmp_path)
     assert p.mesh.mesher == "pytetwild" and p.mesh.quality["interface_border_size"] is not None
     assert max(abs(p.mesh.quality["base_area_error"]), abs(p.mesh.quality["tip_area_error"])) <= AREA_GATE
-    d = np.abs(np.diag(p.matrix) / np.diag(g.matrix) - 1)
+    d = np.abs(np.diag(p.compliance) / np.diag(g.compliance) - 1)
     assert d.max() <= 0.01, d
 
 
@@ -248,7 +252,7 @@ def test_the_mesh_estimate_is_at_the_low_end_of_the_real_mesh(spec, size):
 def test_a_mesh_beyond_the_memory_is_refused_before_meshing(params, size, monkeypatch):
     """``--mesh-size 1e-3``, ``-p width=1e-4`` (default size 6e-5 mm) and ``-p length=1e6`` ran gmsh for
     minutes: the estimate refuses them before the mesher starts, naming the figures."""
-    import linkfea.mesh_gmsh as mg
+    import linkfea.mesh.gmsh as mg
 
     def never(*a, **k):
         raise AssertionError("gmsh started")

@@ -4,9 +4,9 @@ import pytest
 from shapely import affinity
 from shapely.geometry import Point, Polygon, box
 
-from linkfea.beam import cowper_circle, cowper_rect, rect_torsion_constant
-from linkfea.errors import LinkFeaError
-from linkfea.sections import section_constants
+from linkfea.beam.closed_form import cowper_circle, cowper_rect, rect_torsion_constant
+from linkfea.beam.sections import section_constants
+from linkfea.runtime.errors import LinkFeaError
 
 
 def _disc(d, res=64):

@@ -12,8 +12,8 @@ import pytest
 from typer.testing import CliRunner
 
 from linkfea.cli import app as linkfea_app
-from linkfea.errors import LinkFeaError
-from linkfea.materials import get_material
+from linkfea.mechanics.materials import get_material
+from linkfea.runtime.errors import LinkFeaError
 from linkfea.sweep import C_COLUMNS, make_sweep, parse_param_spec, run_sweep
 
 pytestmark = pytest.mark.slow

@@ -11,9 +11,9 @@ import time
 import pytest
 from typer.testing import CliRunner
 
-from linkfea import sweep_budget
 from linkfea.cli import app as linkfea_app
-from linkfea.errors import LinkFeaError
+from linkfea.runtime.errors import LinkFeaError
+from linkfea.sweep import budget as sweep_budget
 from linkfea.sweep import make_sweep, parse_param_spec, run_sweep
 
 

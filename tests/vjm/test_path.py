@@ -10,7 +10,7 @@ import yaml
 from typer.testing import CliRunner
 
 import vjm
-from linkfea.outputs import MANIFEST
+from linkfea.files.outputs import MANIFEST
 from vjm import VjmError
 from vjm.cli import app
 from vjm.kinematics.poses import rotation_matrix

@@ -10,7 +10,7 @@ import pytest
 truth = pytest.importorskip("truth_serial")
 
 import vjm  # noqa: E402
-from linkfea.outputs import read_manifest  # noqa: E402
+from linkfea.files.outputs import read_manifest  # noqa: E402
 from vjm.cli import main  # noqa: E402
 from vjm.robot.absolute import rotation_matrix  # noqa: E402
 

@@ -81,7 +81,7 @@ def test_a_mass_read_from_a_linkfea_result(tmp_path):
     """masses: {frame: {linkfea: result.json, com}} takes the result's CAD mass (mass_kg)."""
     import json
 
-    from linkfea.frames import Frame
+    from linkfea.mechanics.frames import Frame
     from vjm.modelio.read import model_from_dict
 
     C = np.diag([1e-4, 1e-4, 1e-4, 1e-8, 1e-8, 1e-8])

@@ -1,8 +1,8 @@
 """Core VJM machinery: transforms, semi-analytic Jacobians (eq. 3-5), springs in series, batching."""
 import numpy as np
 
-from linkfea.beam import cantilever_compliance, rect_section
-from linkfea.frames import transform_compliance
+from linkfea.beam.closed_form import cantilever_compliance, rect_section
+from linkfea.mechanics.frames import transform_compliance
 from vjm.kinematics.chain import ChainBuilder, forward, jacobian, jacobian_semi_analytic
 from vjm.kinematics.transforms import elementary, generator, homogeneous, rotation_vector, vee
 from vjm.stiffness.linear import chain_stiffness, spring_compliance
@@ -75,7 +75,7 @@ def test_jacobian_equals_literal_product_and_finite_difference():
 
 def test_serial_six_dof_springs_equal_adjoint_sum():
     """Issue 4 test 1.  A serial chain of 6-dof springs only: its end compliance is the sum of
-    each spring's compliance moved to the end point by the adjoint map (linkfea.frames,
+    each spring's compliance moved to the end point by the adjoint map (linkfea.mechanics.frames,
     C_B = X C_A X^T), components in world axes.  Same algebra, different code: 1e-12 relative."""
     b = ChainBuilder("serial")
     frames = []

@@ -10,7 +10,7 @@ import pytest
 
 import linkfea
 import vjm
-from linkfea.compliance import Compliance
+from linkfea.mechanics.compliance import Compliance
 from vjm import LinkSpring, VjmError
 
 H = 12.0  # mm: coarse P2 meshes (a few thousand DOF each); the comparison is between two routes
@@ -20,9 +20,8 @@ POSES = np.array([[0.0, 0.0, 0.0], [40.0, -20.0, 10.0], [-50.0, 60.0, 90.0]])
 @pytest.fixture(scope="module")
 def links(tmp_path_factory):
     cache = tmp_path_factory.mktemp("meshes")
-    foot = linkfea.compute("orthoglide_foot", mesh_size=H, cache_dir=cache)
-    leg = linkfea.compute("parallelogram_bar", params={"height": 16, "boss_height": 20}, mesh_size=H,
-                          cache_dir=cache)
+    foot = linkfea.compute("orthoglide_foot", linkfea.ComputeOptions(mesh_size=H), cache_dir=cache)
+    leg = linkfea.compute("parallelogram_bar", linkfea.ComputeOptions(mesh_size=H), params={"height": 16, "boss_height": 20}, cache_dir=cache)
     return foot, leg
 
 
@@ -132,7 +131,7 @@ def test_a_model_takes_keywords_only_and_shares_locked_kinematics():
 
 
 def test_one_reader_for_result_files(links, tmp_path):
-    """linkfea.load and vjm's link reader both go through linkfea.io.read_result: a result whose
+    """linkfea.load and vjm's link reader both go through linkfea.result.schema.read_result: a result whose
     compliance is not positive definite is refused by both, with linkfea's message."""
     import json
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import vjm
-from linkfea.frames import transform_stiffness
+from linkfea.mechanics.frames import transform_stiffness
 from vjm.architectures.parallelogram import closed_form, parallelogram_stiffness
 from vjm.kinematics.transforms import elementary
 
@@ -51,7 +51,7 @@ def test_parallelogram_matches_seed_closed_form():
     (eq. 21-22, bordered solve, sum) equals the seed's analytic K_Plg (section 4.2) at three
     angles, after rotating from the base axes to the bar axes (R = Ry(q)).  Both are exact
     linear algebra: agreement to 1e-10 of the largest entry."""
-    from linkfea.beam import cantilever_compliance, rect_section
+    from linkfea.beam.closed_form import cantilever_compliance, rect_section
     C = cantilever_compliance(310.0, rect_section(30.0, 5.0, 0.33), 70e3, 0.33)
     q = np.array([0.0, 0.41, -0.9])
     K, rank = parallelogram_stiffness(C, 310.0, 80.0, q)

@@ -12,8 +12,8 @@ import pytest
 from typer.testing import CliRunner
 
 import vjm
-from linkfea.compliance import UNITS
-from linkfea.frames import Frame
+from linkfea.mechanics.compliance import UNITS
+from linkfea.mechanics.frames import Frame
 from vjm import LinkSpring
 from vjm.cli import app
 from vjm.model.machine import Actuator

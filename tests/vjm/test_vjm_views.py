@@ -159,8 +159,8 @@ def test_pictures_use_agg_when_no_backend_is_set():
 
 
 def test_model_html_states_each_links_frame(model):
-    from linkfea.compliance import Compliance
-    from linkfea.frames import Frame
+    from linkfea.mechanics.compliance import Compliance
+    from linkfea.mechanics.frames import Frame
 
     R = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     foot = Compliance(model.foot.compliance, Frame(np.array([1.5, 2.0, -3.0]), R))

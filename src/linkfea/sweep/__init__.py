@@ -19,7 +19,7 @@ The package's modules: :mod:`~linkfea.sweep.grammar` (``--param`` specs),
 worker), :mod:`~linkfea.sweep.cluster` (the local Dask cluster), :mod:`~linkfea.sweep.store`
 (``results/``), :mod:`~linkfea.sweep.runner` (a run), :mod:`~linkfea.sweep.table` and
 :mod:`~linkfea.sweep.plot` (the table set); size planning and progress are in
-:mod:`linkfea.sweep_budget`.  A rerun whose designs are all done starts no cluster and, when the
+:mod:`linkfea.sweep.budget`.  A rerun whose designs are all done starts no cluster and, when the
 table set is current, rewrites nothing.
 
 Units: compliance t = C w (mm/N, rad/(N mm), 1/N, rad/N by block) in each

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import os
 
-from .. import checks
-from ..errors import LinkFeaError
+from ..runtime import checks
+from ..runtime.errors import LinkFeaError
 
 
 def worker_env() -> dict:

@@ -9,10 +9,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
-from .. import checks
-from ..errors import LinkFeaError
 from ..options import SWEEP_OPTIONS, ComputeOptions
-from ..sweep_budget import sweep_size
+from ..runtime import checks
+from ..runtime.errors import LinkFeaError
+from .budget import sweep_size
 from .grammar import parse_param_spec
 
 KEY_VERSION = "linkfea.sweep/1"

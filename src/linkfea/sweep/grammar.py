@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import LinkFeaError
-from ..sweep_budget import range_count
+from ..runtime.errors import LinkFeaError
+from .budget import range_count
 
 
 @dataclass(frozen=True)

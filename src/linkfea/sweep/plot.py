@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from ..errors import LinkFeaError
-from ..io import TWIST, WRENCH
+from ..mechanics.compliance import TWIST, WRENCH
+from ..runtime.errors import LinkFeaError
 
 #: compliance columns of the table: C_<twist>_<wrench>, t = C w
 C_COLUMNS = [f"C_{t}_{w}" for t in TWIST for w in WRENCH]

@@ -8,13 +8,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
-from .. import checks
-from ..atomic import plain, write_text
-from ..errors import LinkFeaError
-from ..outputs import check_folder, claim, fault
-from ..progress import Progress
-from ..sweep_budget import DesignProgress, LineProgress, announcement, check_memory_limit, median_seconds
+from ..files.atomic import plain, write_text
+from ..files.outputs import check_folder, claim, fault
+from ..runtime import checks
+from ..runtime.errors import LinkFeaError
+from ..runtime.progress import Progress
 from . import cluster
+from .budget import DesignProgress, LineProgress, announcement, check_memory_limit, median_seconds
 from .designs import Sweep
 from .plot import check_entries
 from .store import pending, read_design_result, result_path
@@ -61,7 +61,7 @@ def run_sweep(sweep: Sweep, out, client=None, scheduler: str | None = None, work
     on_result : called with each design's document right after it is written
     force : write into a folder that also holds files of other origin (never touching them)
     """
-    from ..mesh import cache_dir_default
+    from ..mesh.pytetwild import cache_dir_default
 
     workers = checks.optional_integer(workers, "workers", checks.Bounds(1))
     check_memory_limit(memory_limit)

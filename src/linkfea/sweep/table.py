@@ -7,9 +7,9 @@ from typing import Sequence
 
 import numpy as np
 
-from ..atomic import plain
-from ..io import TWIST, WRENCH
-from ..outputs import OutputSet
+from ..files.atomic import plain
+from ..files.outputs import OutputSet
+from ..mechanics.compliance import TWIST, WRENCH
 from .designs import Design, Sweep
 from .plot import C_COLUMNS, DIAGONAL, plot_sweep
 from .store import read_design_result, result_path

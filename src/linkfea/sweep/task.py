@@ -8,8 +8,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..errors import LinkFeaError
 from ..options import ComputeOptions
+from ..runtime.errors import LinkFeaError
 
 RESULT_SCHEMA_FAILED = "linkfea.sweep-failure/1"
 
@@ -31,7 +31,7 @@ def _source_here(task: dict) -> str:
     d = Path(tempfile.gettempdir()) / "linkfea-sweep" / task["source_sha"][:16]
     q = d / p.name  # keep the name: scripts are imported by it and STEP by its suffix
     if not q.is_file():
-        from ..atomic import write_bytes
+        from ..files.atomic import write_bytes
 
         write_bytes(q, task["source_bytes"])
     return str(q)
@@ -40,7 +40,7 @@ def _source_here(task: dict) -> str:
 def run_design(task: dict) -> dict:
     """Run the whole pipeline for one design; the JSON document of its result.
 
-    A success is :func:`linkfea.io.result_dict` (the ``linkfea compute``
+    A success is :meth:`linkfea.result.linkresult.LinkResult.to_dict` (the ``linkfea compute``
     schema) plus a ``sweep`` block; a failure is a small document with the
     one-line error.  Exceptions of the design never escape (Dask would retry
     them); only a dying worker ends a task without a document.
@@ -49,12 +49,11 @@ def run_design(task: dict) -> dict:
     info = {"key": task["key"], "index": task["index"], "params": task["params"],
             "worker": f"{socket.gethostname()}:{os.getpid()}"}
     try:
-        from ..io import result_dict
         from ..pipeline import compute
 
         res = compute(_source_here(task), params=dict(task["params"]), cache_dir=task.get("cache_dir"),
                       options=ComputeOptions.from_mapping(task["options"]))
-        doc = result_dict(res)
+        doc = res.to_dict()
         doc["source"] = task["spec"]
         doc["sweep"] = {**info, "status": "ok", "error": None, "seconds": time.perf_counter() - t0}
         return doc

@@ -11,7 +11,7 @@ import os
 
 import numpy as np
 
-from linkfea.atomic import plain, write_text
+from linkfea.files.atomic import plain, write_text
 
 from .. import effects as fx
 from .predict import CALIBRATION, calibration_term

@@ -53,9 +53,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from linkfea.atomic import read_user_file, write_text
-from linkfea.checks import did_you_mean
-from linkfea.compliance import TWIST, WRENCH
+from linkfea.files.atomic import read_user_file, write_text
+from linkfea.mechanics.compliance import TWIST, WRENCH
+from linkfea.runtime.checks import did_you_mean
 
 from ..errors import VjmError
 from ..resources import data_file

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from linkfea.compliance import WRENCH as WRENCH_NAMES
+from linkfea.mechanics.compliance import WRENCH as WRENCH_NAMES
 
 from .levels import by_level, growth_words, load_levels
 

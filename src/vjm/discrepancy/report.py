@@ -1,6 +1,6 @@
 """Report of a diagnosis: report.json, report.html, PNG figures, model file.
 
-The files are one output set (:mod:`linkfea.outputs`): written to temporaries
+The files are one output set (:mod:`linkfea.files.outputs`): written to temporaries
 in the target folder and committed together, so the folder holds the complete
 old report or the complete new one, never a mix; files of other origin in the
 folder are never touched.
@@ -12,8 +12,8 @@ import json
 
 import numpy as np
 
-from linkfea.atomic import plain
-from linkfea.outputs import OutputSet, check_folder
+from linkfea.files.atomic import plain
+from linkfea.files.outputs import OutputSet, check_folder
 
 #: the files a report folder may hold (next_measurements.csv with --suggest)
 REPORT_FILES = ("report.json", "report.html", "before_after.png", "residuals_per_posture.png",
@@ -182,7 +182,7 @@ that pass the test. Significance level alpha = {rep['alpha']} shared by Bonferro
 
 
 def check_report_dir(out_dir, force: bool = False) -> None:
-    """Refuse, before any work, a report folder that will not do (see :func:`linkfea.outputs.check_folder`)."""
+    """Refuse, before any work, a report folder that will not do (see :func:`linkfea.files.outputs.check_folder`)."""
     check_folder(out_dir, REPORT_FILES, force=force)
 
 

@@ -36,8 +36,8 @@ import os
 
 import numpy as np
 
-from linkfea.checks import NON_NEGATIVE, Bounds, integer, number, optional_number
-from linkfea.compliance import WRENCH
+from linkfea.mechanics.compliance import WRENCH
+from linkfea.runtime.checks import NON_NEGATIVE, Bounds, integer, number, optional_number
 
 from .. import effects as fx
 from ..effects import modelops as mo
@@ -78,7 +78,7 @@ def _effect_theta(model, name, vals):
 
 def _read_cols(path, cols, optional=()):
     """Columns ``cols`` (n, k) of a CSV, and ``optional`` after them when the header has them all."""
-    from linkfea.atomic import read_user_file
+    from linkfea.files.atomic import read_user_file
 
     raw = read_user_file(path, "CSV file", error=VjmError)  # a regular file of bounded size only
     try:
@@ -373,7 +373,7 @@ def run(model_path, effect_specs, poses: str, loads: str, noise_t: float, noise_
 
     An existing ``out`` is replaced only if vjm simulate wrote it (measured data is never overwritten).
     """
-    from linkfea.outputs import SIMULATED_CSV_MARK, check_file, is_simulated_csv
+    from linkfea.files.outputs import SIMULATED_CSV_MARK, check_file, is_simulated_csv
 
     from .data import write_deflections
 

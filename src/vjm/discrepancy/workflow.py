@@ -9,8 +9,7 @@ import dataclasses
 import os
 from dataclasses import dataclass
 
-from linkfea.checks import Bounds, integer, number
-from linkfea.progress import renamed_progress
+from linkfea.runtime.checks import Bounds, integer, number
 
 from ..errors import ArgumentError, VjmError
 from ..modelio.read import load_model
@@ -119,7 +118,6 @@ def diagnose_plan(n_rows: int, n_candidates: int | None = None):
                      "or fewer candidates (--effect)")
 
 
-@renamed_progress("log")
 def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int = 5, max_effects: int = 3,
              model_name: str | None = None, progress=None, suggest: int = 0, forces_only: bool = False,
              outliers: bool = True, noise: TrackerNoise | None = None) -> Diagnosis:
@@ -136,7 +134,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         (:mod:`~vjm.discrepancy.stages.outliers`); False: every row is used as it is.
     noise : the translations' sigmas of a laser tracker (:class:`~vjm.discrepancy.tracker.TrackerNoise`:
         growing with the distance from it, per axis) for deflection data whose file states none.
-    progress : called with a line per selection round (``log``: its deprecated name).
+    progress : called with a line per selection round.
     """
     alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
     if isinstance(model, (str, os.PathLike)):

@@ -130,7 +130,7 @@ class Effect:
 
 def get(name: str, where: str = "effect") -> Effect:
     """The registered effect ``name``; a VjmError naming the closest known name otherwise."""
-    from linkfea.checks import did_you_mean
+    from linkfea.runtime.checks import did_you_mean
 
     try:
         return REGISTRY[name]
@@ -145,7 +145,7 @@ def check_values(name: str, values, model, where: str, fit_range: bool = True) -
 
     ``fit_range=False`` (a simulated truth, which may lie beyond what a fit explores, to test
     clipping) keeps only the sign of a parameter whose range is non-negative (a weight, a gap)."""
-    from linkfea.checks import ArgumentError, Bounds, did_you_mean, number
+    from linkfea.runtime.checks import ArgumentError, Bounds, did_you_mean, number
 
     eff = get(name, where)
     if not isinstance(values, dict):

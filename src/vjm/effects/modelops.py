@@ -342,7 +342,7 @@ def cantilever_compliance(axial, bending_y, bending_z, torsion, length) -> np.nd
     ``c66 = 3 c22 / L^2``, ``c26 = 3 c22 / (2L)``, ``c55 = 3 c33 / L^2``,
     ``c35 = -3 c33 / (2L)`` (signs of eq. 14: Fy turns the tip by +rz).
     """
-    from linkfea.beam import eq14
+    from linkfea.beam.closed_form import eq14
 
     L = float(length)
     # eq. 14 with unit moduli and the section values these tip compliances stand for

@@ -23,12 +23,13 @@ from typing import Optional
 
 import numpy as np
 
-from linkfea.checks import Bounds, integer
-from linkfea.outputs import OutputSet, check_folder
+from linkfea.files.outputs import OutputSet, check_folder
+from linkfea.runtime.checks import Bounds, integer
+from linkfea.runtime.progress import Progress
 
 from ..errors import ArgumentError, VjmError
 from ..stiffness.linear import SPREAD_NOTE
-from .grid import MAP_BYTES, Progress, grid_plan, in_chunks
+from .grid import MAP_BYTES, grid_plan, in_chunks
 
 #: points per axis of a workspace grid (``vjm map --grid``, ``vjm sweep --grid``)
 GRID = Bounds(2)
@@ -120,7 +121,7 @@ class StiffnessMap:
                         self.k_tran, self.k_rot)
 
     def save(self, out, force: bool = False) -> None:
-        """Write ``out/map.npz``, ``out/k_tran.png`` and ``out/k_rot.png`` as one set (:mod:`linkfea.outputs`):
+        """Write ``out/map.npz``, ``out/k_tran.png`` and ``out/k_rot.png`` as one set (:mod:`linkfea.files.outputs`):
         all three new, or the old ones; ``force`` writes beside files of other origin."""
         check_folder(out, MAP_FILES, force=force)
         with OutputSet(out, "vjm map") as s:

@@ -15,12 +15,14 @@ longer than :data:`LONG_SECONDS`, says how long it will take and reports progres
 """
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass
 from typing import Callable, Optional
 
 import numpy as np
+
+from linkfea.runtime.memory import available_memory, human_duration
+from linkfea.runtime.progress import Progress
 
 from ..errors import ArgumentError, VjmError
 
@@ -44,7 +46,6 @@ SIMULATE_BYTES = 900
 #: conservative seconds per point of a stiffness evaluation when no probe has run yet
 SECONDS_PER_POINT = 2e-5
 
-Progress = Callable[[str], None]
 
 
 def parse_slice(text: str) -> tuple[int, float]:
@@ -122,33 +123,8 @@ class Workspace:
         return self.lo + (self.hi - self.lo) * rng.random((n, 3))
 
 
-def available_memory() -> int:
-    """Bytes of memory available to a new allocation (``MemAvailable``), or the physical memory."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-    except (ValueError, OSError, AttributeError):
-        return 8 << 30
-
-
 def _gb(b: float) -> str:
     return f"{b / 1e9:.3g} GB"
-
-
-def _duration(s: float) -> str:
-    if s < 90:
-        return f"{s:.0f} s"
-    if s < 5400:
-        return f"{s / 60:.0f} min"
-    if s < 2 * 86400:
-        return f"{s / 3600:.1f} h"
-    return f"{s / 86400:.0f} days"
 
 
 @dataclass(frozen=True)
@@ -165,7 +141,7 @@ class Plan:
         return self.seconds > LONG_SECONDS
 
     def describe(self) -> str:
-        return f"{self.what}: {self.n:,} points, about {_gb(self.memory)} of memory and {_duration(self.seconds)}"
+        return f"{self.what}: {self.n:,} points, about {_gb(self.memory)} of memory and {human_duration(self.seconds)}"
 
 
 def plan(what: str, n: float, bytes_per_item: float, seconds_per_item: float = SECONDS_PER_POINT,
@@ -210,9 +186,9 @@ def in_chunks(n: int, step: Callable[[slice], None], progress: Optional[Progress
         left = spent * (n - b) / b
         if not loud and spent + left > LONG_SECONDS:
             loud = True
-            progress(f"{n:,} {what}: this will take about {_duration(spent + left)}")
+            progress(f"{n:,} {what}: this will take about {human_duration(spent + left)}")
         if loud and t0 + spent - last >= PROGRESS_EVERY * (last > t0):
             last = t0 + spent
-            progress(f"{100 * b / n:.0f}% ({b:,} of {n:,} {what}), about {_duration(left)} left")
+            progress(f"{100 * b / n:.0f}% ({b:,} of {n:,} {what}), about {human_duration(left)} left")
     if loud and progress is not None:
-        progress(f"100% ({n:,} {what}) in {_duration(time.perf_counter() - t0)}")
+        progress(f"100% ({n:,} {what}) in {human_duration(time.perf_counter() - t0)}")

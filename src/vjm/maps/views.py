@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from linkfea.compliance import TWIST, WRENCH
+from linkfea.mechanics.compliance import TWIST, WRENCH
 
 from ..errors import VjmError
 
@@ -115,7 +115,7 @@ def plot_matrix(C, ax=None, title: str = ""):
 def save_json(path, doc: dict, schema: str) -> Path:
     """Write ``doc`` with its ``schema`` tag as JSON, atomically.  A file already at ``path`` is
     replaced only if it carries the same schema (this tool wrote it); anything else is refused."""
-    from linkfea.atomic import plain, write_text
+    from linkfea.files.atomic import plain, write_text
 
     path = Path(path)
     if path.exists():

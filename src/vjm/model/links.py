@@ -1,15 +1,15 @@
-"""A link's spring in a vjm model: linkfea's :class:`~linkfea.compliance.Compliance`, or rigid.
+"""A link's spring in a vjm model: linkfea's :class:`~linkfea.mechanics.compliance.Compliance`, or rigid.
 
 :class:`LinkSpring` is the value a :class:`vjm.Model` holds for each of its named links
 (``foot``, ``leg``, or a described machine's own).  It carries linkfea's Compliance --
 matrix, frame and units, checked once by the one validator -- so a link computed in
 memory keeps its frame on its way into a machine.  :func:`as_link` turns what a user
-has at hand into one: a :class:`~linkfea.result.LinkResult`, a Compliance, a 6x6
+has at hand into one: a :class:`~linkfea.result.linkresult.LinkResult`, a Compliance, a 6x6
 matrix, the path of a result JSON, or the name of a bundled CAD script (computed by
 :func:`linkfea.compute`).
 
 A spring computed by linkfea also carries the FEA's error bar (:attr:`LinkSpring.error`: the
-estimated relative discretization error of each diagonal entry, :mod:`linkfea.estimate`);
+estimated relative discretization error of each diagonal entry, :mod:`linkfea.fem.estimate`);
 :mod:`vjm.sweep.spread` carries it to the machine's k_tran and k_rot.  Analytic beams, inline
 matrices and rigid links have none.
 """
@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from linkfea.compliance import Compliance
-from linkfea.errors import LinkFeaError
+from linkfea.mechanics.compliance import Compliance
+from linkfea.runtime.errors import LinkFeaError
 
 from ..errors import VjmError
 
@@ -82,7 +82,7 @@ class LinkSpring:
         """This spring with its compliance moved ``t`` times along its error bar: ``D C D`` with
         ``D = diag(sqrt(1 + t e_k))``, so each diagonal entry becomes ``C_kk (1 + t e_k)`` and each
         off-diagonal one moves by the geometric mean of its row's and column's factors (the
-        bound ``|dC_ij| <= sqrt(dC_ii dC_jj)`` of :mod:`linkfea.estimate`); the result stays
+        bound ``|dC_ij| <= sqrt(dC_ii dC_jj)`` of :mod:`linkfea.fem.estimate`); the result stays
         symmetric positive definite for ``|t| <= 1``.  Frame and source are kept; the scaled
         spring carries no error bar of its own."""
         if self.error is None or self.value is None:
@@ -93,7 +93,7 @@ class LinkSpring:
 
     @property
     def frame(self):
-        """The spring frame the matrix is stated in (:class:`linkfea.frames.Frame`), or None if unknown."""
+        """The spring frame the matrix is stated in (:class:`linkfea.mechanics.frames.Frame`), or None if unknown."""
         return self.value.frame if isinstance(self.value, Compliance) else None
 
     @classmethod
@@ -109,8 +109,8 @@ def linkfea_spring(path: str, key: str = "linkfea") -> LinkSpring:
     """The LinkSpring of a ``linkfea compute`` result JSON, read once by linkfea's one reader: its
     Compliance (6x6, frame, units), its source and its error bar
     (``diagnostics.discretization_error.diagonal``; None for a result saved before the estimate)."""
-    from linkfea.io import read_result
-    from linkfea.result import compliance_of
+    from linkfea.result.linkresult import compliance_of
+    from linkfea.result.schema import read_result
 
     path = os.path.abspath(path)
     if not os.path.isfile(path):
@@ -143,7 +143,7 @@ def as_link(obj, key: str = "link") -> LinkSpring:
     * the name of a bundled link CAD script (``"orthoglide_foot"``), computed by
       :func:`linkfea.compute` with its default options (a finite-element run).
     """
-    from linkfea.result import LinkResult
+    from linkfea.result.linkresult import LinkResult
 
     if isinstance(obj, LinkSpring):
         return obj

@@ -14,8 +14,8 @@ from functools import cached_property
 
 import numpy as np
 
-from linkfea.compliance import check as check_compliance
-from linkfea.errors import LinkFeaError
+from linkfea.mechanics.compliance import check as check_compliance
+from linkfea.runtime.errors import LinkFeaError
 
 from ..architectures import ARCHITECTURES
 from ..errors import VjmError
@@ -46,7 +46,7 @@ def validate_compliance(C, key: str) -> np.ndarray:
     """A 6x6 symmetric positive-definite compliance, or VjmError naming ``key``.
 
     The check and its tolerances are linkfea's, the one contract between the two packages
-    (:func:`linkfea.compliance.check`).
+    (:func:`linkfea.mechanics.compliance.check`).
     """
     try:
         return check_compliance(C, f"{key}: compliance")

@@ -47,7 +47,7 @@ import re
 
 import numpy as np
 
-from linkfea.checks import did_you_mean
+from linkfea.runtime.checks import did_you_mean
 
 from ..architectures import ARCHITECTURES
 from ..architectures.described import NAME as DESCRIBED
@@ -72,10 +72,10 @@ def _num(v, key: str) -> float:
 
 
 def beam_compliance(spec: dict, key: str = "beam") -> np.ndarray:
-    """Cantilever compliance (tip frame) from a ``beam:`` mapping, via linkfea.beam."""
-    from linkfea import beam as lb
-    from linkfea.errors import LinkFeaError
-    from linkfea.materials import get_material
+    """Cantilever compliance (tip frame) from a ``beam:`` mapping, via linkfea.beam.closed_form."""
+    from linkfea.beam import closed_form as lb
+    from linkfea.mechanics.materials import get_material
+    from linkfea.runtime.errors import LinkFeaError
 
     if not isinstance(spec, dict):
         raise VjmError(f"{key} must be a mapping (section, length, material ...)")
@@ -111,8 +111,8 @@ def beam_compliance(spec: dict, key: str = "beam") -> np.ndarray:
 
 def _inline(spec: dict, key: str) -> LinkSpring:
     """``{compliance: 6x6[, frame: {...}]}`` -> LinkSpring."""
-    from linkfea.errors import LinkFeaError
-    from linkfea.frames import Frame
+    from linkfea.mechanics.frames import Frame
+    from linkfea.runtime.errors import LinkFeaError
 
     frame = None
     if "frame" in spec:

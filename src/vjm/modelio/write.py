@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from linkfea.atomic import plain, write_text
+from linkfea.files.atomic import plain, write_text
 
 from ..errors import VjmError
 from ..model.links import LinkSpring

@@ -13,7 +13,7 @@ error on its other poses.  :func:`report` gathers what a user judges a calibrati
 - the rows set aside as outliers (:mod:`vjm.robot.robust`), with their errors.
 
 :func:`write_set` writes ``report.json``, ``summary.txt``, ``calibrated.urdf`` and ``calibrated.yaml``
-into a folder as one set (:mod:`linkfea.outputs`: complete or untouched, a manifest, never a user's file).
+into a folder as one set (:mod:`linkfea.files.outputs`: complete or untouched, a manifest, never a user's file).
 """
 from __future__ import annotations
 
@@ -234,8 +234,8 @@ def run(model, data, validate_sets: list, opt: Options) -> tuple[Calibration, li
 
 def write_set(out, cal: Calibration, rep: dict, force: bool = False) -> list[Path]:
     """The four files of :data:`FILES` under ``out``, as one set."""
-    from linkfea.atomic import plain
-    from linkfea.outputs import OutputSet, check_folder
+    from linkfea.files.atomic import plain
+    from linkfea.files.outputs import OutputSet, check_folder
 
     from .calibwrite import calibrated_urdf, robot_file
 

@@ -103,7 +103,7 @@ def robot_file(cal, urdf_name: str) -> str:
 
 def write_calibrated(cal, urdf_path, out_urdf, out_yaml) -> None:
     """Write the calibrated URDF and its robot file; an existing file is never overwritten."""
-    from linkfea.atomic import atomic_path
+    from linkfea.files.atomic import atomic_path
 
     for p in (out_urdf, out_yaml):
         if os.path.lexists(p):

@@ -8,7 +8,7 @@ the IK in the configuration of ``--q`` with the tool held at ``--orientation`` (
 orientation at ``--q``) (:func:`vjm.robot.cartmap.cartesian_grid_map`); unreachable and singular
 points are masked and counted.  ``--self-weight`` adds the sag under the robot's own weight.
 
-Files (one set, :class:`linkfea.outputs.OutputSet`): ``map.npz`` (every array), ``map.csv`` (one row a
+Files (one set, :class:`linkfea.files.outputs.OutputSet`): ``map.npz`` (every array), ``map.csv`` (one row a
 point), ``k_tran.png``, ``k_rot.png``, ``sag.png`` (with ``--self-weight``) and ``summary.json``.
 """
 from __future__ import annotations
@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from linkfea.atomic import file_sha256, plain
-from linkfea.outputs import OutputSet, check_folder
+from linkfea.files.atomic import file_sha256, plain
+from linkfea.files.outputs import OutputSet, check_folder
 
 from ..errors import ArgumentError, VjmError
 from ..maps.grid import Workspace, grid_plan, plan

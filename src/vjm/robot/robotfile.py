@@ -112,8 +112,8 @@ def _links(d, base_dir: str, tree: Tree, parse_link) -> dict:
 
 def _linkfea_mass(path: str, where: str) -> float:
     """The CAD mass (kg) a ``linkfea compute`` result states (``mass_kg``: volume times density)."""
-    from linkfea.errors import LinkFeaError
-    from linkfea.io import read_result
+    from linkfea.result.schema import read_result
+    from linkfea.runtime.errors import LinkFeaError
 
     if not os.path.isfile(path):
         raise VjmError(f"{where}: file not found: {path}")

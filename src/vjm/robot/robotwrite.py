@@ -10,7 +10,7 @@ def save_robot(model, path) -> None:
     """Write a robot's model file: its mapping as read, with the URDF path made absolute (atomic)."""
     import yaml
 
-    from linkfea.atomic import write_text
+    from linkfea.files.atomic import write_text
 
     from ..modelio.write import HEADER
 

@@ -139,8 +139,8 @@ def measure(model, Q: np.ndarray, hidden: Hidden, frame: str, noise_t: float, rn
 
 def run(model, model_path, effects, poses: str, noise_t: float, seed: int, out, frame: str | None = None) -> int:
     """Body of ``vjm simulate robot.yaml``: check, design, measure, write the CSV atomically; the rows."""
-    from linkfea.atomic import write_text
-    from linkfea.outputs import SIMULATED_CSV_MARK, check_file, is_simulated_csv
+    from linkfea.files.atomic import write_text
+    from linkfea.files.outputs import SIMULATED_CSV_MARK, check_file, is_simulated_csv
 
     if not (np.isfinite(noise_t) and noise_t >= 0):
         raise ArgumentError("noise-t", f"must be a number >= 0 (mm), got {noise_t!r}")
@@ -165,7 +165,7 @@ def simulate_robot(model_path, effects, poses, loads: str, noise_t: float, noise
 
     A robot's rows have no load (its own weight is the load), no measured rotation and no platform
     tilt: those options, given, are refused rather than ignored."""
-    from linkfea.outputs import check_file, is_simulated_csv
+    from linkfea.files.outputs import check_file, is_simulated_csv
 
     from ..modelio.read import load_model
     from .model import RobotModel

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from linkfea.compliance import TWIST, WRENCH
+from linkfea.mechanics.compliance import TWIST, WRENCH
 
 from ..kinematics.chain import Chain, _frame_product, _jacobian_soa
 from ..kinematics.transforms import ROTATION

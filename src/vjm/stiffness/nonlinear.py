@@ -46,7 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from linkfea.frames import skew as _skew
+from linkfea.mechanics.frames import skew as _skew
 
 from ..errors import EquilibriumError, VjmError
 from ..kinematics.chain import Chain, forward

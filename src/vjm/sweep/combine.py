@@ -24,13 +24,14 @@ from pathlib import Path
 
 import numpy as np
 
-from linkfea.atomic import plain
-from linkfea.checks import integer
-from linkfea.outputs import OutputSet, check_folder
+from linkfea.files.atomic import plain
+from linkfea.files.outputs import OutputSet, check_folder
+from linkfea.runtime.checks import integer
+from linkfea.runtime.progress import Progress
 
 from ..errors import ArgumentError, VjmError
 from ..maps.compute import GRID
-from ..maps.grid import SECONDS_PER_POINT, SWEEP_BYTES, Progress, grid_plan, in_chunks, plan
+from ..maps.grid import SECONDS_PER_POINT, SWEEP_BYTES, grid_plan, in_chunks, plan
 from ..model.links import LinkSpring
 from ..model.machine import Model
 
@@ -54,7 +55,7 @@ def legs_bars(model: Model) -> int:
 
 
 def _design_from_result(path: Path, label: str, params: dict, role: str) -> LinkDesign:
-    from linkfea.io import read_result
+    from linkfea.result.schema import read_result
 
     doc = read_result(path)  # validated: finite, symmetric, positive definite 6x6
     mass = doc.get("mass_kg")
@@ -195,7 +196,7 @@ UNITS = {"k_tran_*": "mm/N (largest eigenvalue of the translational 3x3 block of
 
 def write_trade_offs(res: TradeOffs, out, force: bool = False) -> list[Path]:
     """``tradeoffs.csv``, ``tradeoffs.parquet``, ``pareto.csv``, ``pareto.json``, ``pareto.png`` under ``out``,
-    as one set (:mod:`linkfea.outputs`); ``force`` writes beside files of other origin."""
+    as one set (:mod:`linkfea.files.outputs`); ``force`` writes beside files of other origin."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq

@@ -2,7 +2,7 @@
 
 A link computed by linkfea carries the estimated relative discretization error ``e_k`` of each
 diagonal entry of its compliance (:attr:`vjm.model.links.LinkSpring.error`, from
-:mod:`linkfea.estimate`).  Moving a link ``t`` times along its bar means
+:mod:`linkfea.fem.estimate`).  Moving a link ``t`` times along its bar means
 ``C(t) = D C D`` with ``D = diag(sqrt(1 + t e_k))`` (:meth:`~vjm.model.links.LinkSpring.scaled`):
 ``t = +-1`` are the ends of the bar, every diagonal entry at ``C_kk (1 +- e_k)``.  A link used
 in several chains (the three feet of an Orthoglide are one FEA result) moves in all of them

@@ -3,7 +3,7 @@
 Files (in ``out``): ``path.csv`` (along the path), ``deflection.png`` (error against arc length,
 before/after), ``plan.png`` (the path in plan coloured by the error), ``summary.json`` (worst points,
 pass/fail, residual, band) and the compensated toolpath ``<input stem>_compensated<suffix>``.
-The files are one output set (:class:`linkfea.outputs.OutputSet`): all old or all new, even if the
+The files are one output set (:class:`linkfea.files.outputs.OutputSet`): all old or all new, even if the
 process is killed, and nothing in the folder that the tools did not write is touched.
 """
 from __future__ import annotations
@@ -13,8 +13,8 @@ import os
 
 import numpy as np
 
-from linkfea.atomic import plain
-from linkfea.outputs import OutputSet, check_folder
+from linkfea.files.atomic import plain
+from linkfea.files.outputs import OutputSet, check_folder
 
 from ..errors import VjmError
 
@@ -32,7 +32,7 @@ WRITER = "vjm path"
 
 def check_out(out, toolpath_name, force: bool = False) -> None:
     """Before any work: refuse a folder where the compensated program would replace the input, and
-    whatever :func:`linkfea.outputs.check_folder` refuses (a file, an unwritable place, files of other
+    whatever :func:`linkfea.files.outputs.check_folder` refuses (a file, an unwritable place, files of other
     origin without ``force``, and a file of other origin at one of our names even with it)."""
     names = output_names(toolpath_name)
     target = os.path.join(os.path.abspath(os.fspath(out)), names["compensated"])

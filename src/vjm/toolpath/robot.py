@@ -242,7 +242,7 @@ def robot_path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear
     """:func:`vjm.toolpath.run.path` on a :class:`vjm.robot.RobotModel` (see the module docstring): the same
     result and outputs; ``seed`` (nq,) the configuration to hold (default the model file's ``home:``),
     ``tool_frame`` the tree's tool frame (default its first), ``tool`` the TCP in that frame's axes (mm)."""
-    from linkfea.progress import or_quiet
+    from linkfea.runtime.progress import or_quiet
 
     if method != "nonlinear":
         raise VjmError(f"--method {method}: a robot's deflection is the equilibrium under its own weight "

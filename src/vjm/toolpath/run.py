@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from linkfea.progress import or_quiet
+from linkfea.runtime.progress import or_quiet
 
 from ..errors import VjmError
 from . import gcode as gc

@@ -45,8 +45,6 @@ from typing import Any, Callable
 import numpy as np
 from scipy import optimize, stats
 
-from linkfea.progress import renamed_progress
-
 from .components import REWEIGHT_ROUNDS, REWEIGHT_TOL, component_labels, group_fields, group_var
 
 Z95 = 1.959963984540054
@@ -409,7 +407,6 @@ def lack_of_fit(fr: FitResult, pure_error: tuple | None = None) -> dict:
             "note": "sigmas unknown and no repeated measurements: lack of fit cannot be judged"}
 
 
-@renamed_progress("log")
 def forward_select(problem: Problem, candidates, alpha: float = 0.01, max_effects: int = 3,
                    folds: int = 5, seed: int = 0, progress=None, extra_tests: int = 0) -> Selection:
     """Forward selection of candidate terms on top of the baseline.

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from linkfea.compliance import TWIST
+from linkfea.mechanics.compliance import TWIST
 
 from ... import effects as fx
 from ..data import QUANTITIES, Deflections, StiffnessObs
