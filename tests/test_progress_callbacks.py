@@ -21,7 +21,7 @@ ENTRY_POINTS = [
     ("vjm.toolpath.run", "path"), ("vjm.maps", "grid_map"), ("vjm.maps", "compute_map"),
     ("vjm.sweep", "sweep"), ("vjm.sweep", "trade_offs"), ("vjm.model", "Model.map"),
     ("vjm.discrepancy.workflow", "diagnose"), ("vjm.discrepancy.simulate", "simulate"),
-    ("vjm.discrepancy.simulate", "run"), ("vjm.discrepancy.fit.select", "forward_select"),
+    ("vjm.discrepancy.simulate", "run"), ("vjm.stats.selection", "forward_select"),
 ]
 #: names the same callback had before it was called ``progress`` everywhere
 OLD_NAMES = ("say", "log", "report", "echo", "callback", "on_progress")
@@ -95,7 +95,7 @@ def test_deprecated_name_warns_and_is_passed_on():
 
 
 @pytest.mark.parametrize("module,attr", [("vjm", "diagnose"), ("vjm.discrepancy.workflow", "diagnose"),
-                                         ("vjm.discrepancy.fit.select", "forward_select")])
+                                         ("vjm.stats.selection", "forward_select")])
 def test_old_public_keyword_is_a_deprecated_alias(module, attr):
     assert _get(module, attr).deprecated_progress_names == ("log",)
 

@@ -6,7 +6,7 @@ hidden term, (iii) name nothing on clean data at the advertised rate.
 """
 import numpy as np
 
-from vjm.discrepancy.fit.select import (
+from vjm.stats.selection import (
     Param,
     Problem,
     Term,

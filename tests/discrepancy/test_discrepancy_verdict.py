@@ -19,9 +19,9 @@ from vjm.discrepancy import observe
 from vjm.discrepancy.cli import register
 from vjm.discrepancy.data import Deflections, read_csv, write_deflections
 from vjm.discrepancy.diagnose import diagnose
-from vjm.discrepancy.fit.select import FitResult, Param, Problem, Term, fit_terms, lack_of_fit
 from vjm.discrepancy.simulate import design_loads, simulate
 from vjm.links import LinkSpring as Link
+from vjm.stats.selection import FitResult, Param, Problem, Term, fit_terms, lack_of_fit
 
 PUU = "data/orthoglide/puu.yaml"
 MODEL = vjm.load_model(PUU).replace(foot=Link.rigid())
@@ -383,7 +383,7 @@ def _hidden_problem(sigma, b, seed=1):
 
 def _select_and_group(prob, names, alpha=0.01):
     from vjm.discrepancy.diagnose import _confounding, _rival_check
-    from vjm.discrepancy.fit.select import backward_eliminate, forward_select
+    from vjm.stats.selection import backward_eliminate, forward_select
 
     base = fit_terms(prob, ("calibration",))
     cal_cols = observe.calibration_columns(prob, base.theta, "calibration")

@@ -33,8 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..stats.selection import Param
 from . import modelops as mo
-from .fit.select import Param
 
 REGISTRY: dict = {}
 

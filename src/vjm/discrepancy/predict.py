@@ -12,10 +12,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..stats.selection import Param, Problem, Term
 from . import effects as fx
 from . import modelops as mo
 from .data import Deflections, StiffnessObs
-from .fit.select import Param, Problem, Term
 
 CALIBRATION = "calibration"
 

@@ -8,7 +8,7 @@ goes), each with the axis loads ``+-F`` along x, y, z
 (and ``+-M`` about them unless the rig applies forces only), ``F`` and ``M``
 being the median force and moment magnitudes of the data (``M = F x 100 mm``
 when the data hold no moment); when the data apply their loads at a few
-levels (:mod:`vjm.discrepancy.levels`), the axis loads at each level's median
+levels (:mod:`vjm.discrepancy.loads`), the axis loads at each level's median
 magnitudes, so that the suggested rows keep the levels.  Each row's information is the whitened
 sensitivity of the measured components to the parameters, the same
 quantity the fit uses, so rows add to the information of the data already
@@ -36,7 +36,7 @@ import numpy as np
 
 from . import modelops as mo
 from . import observe
-from .levels import load_levels
+from .loads import load_levels
 from .predict import CALIBRATION, Context, Predictor
 
 #: candidate postures drawn in the workspace box

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...stats.selection import FitResult, Term, fit_terms
 from .. import observe
-from ..fit.select import FitResult, Term, fit_terms
 from ..predict import CALIBRATION
 from .problem import Setup
 

@@ -32,8 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from ...stats.selection import Selection, clipped
 from .. import observe
-from ..fit.select import Selection, clipped
 from ..predict import CALIBRATION
 from .thresholds import COLLINEAR, HIDDEN_SHARE, MIMIC, PLAUSIBLE
 

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..fit.select import lack_of_fit
+from ...stats.selection import lack_of_fit
 from .observability import Observability
 from .problem import Setup
 from .select import Selected

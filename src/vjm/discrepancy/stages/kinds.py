@@ -16,7 +16,7 @@ import numpy as np
 from ...errors import VjmError
 from .. import modelops as mo
 from ..data import StiffnessObs
-from ..locate import localize
+from ..localize import localize
 from ..predict import deflection_problem, stiffness_problem
 from .norms import per_pose, rms, robust_scale
 

@@ -27,7 +27,7 @@ from scipy import stats
 
 from .. import observe
 from ..data import Deflections
-from ..levels import load_levels
+from ..loads import load_levels
 from .goodness import Goodness
 from .kinds import DeflectionKind
 from .problem import Setup

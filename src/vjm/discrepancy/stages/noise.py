@@ -41,8 +41,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from ...stats.selection import FitResult
 from ..data import Deflections
-from ..fit.select import FitResult
 from .kinds import DeflectionKind
 from .problem import Setup
 

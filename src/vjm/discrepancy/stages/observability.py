@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...stats.selection import Term
 from .. import observe
-from ..fit.select import Term
 from ..predict import CALIBRATION
 from .calibrate import Calibration
 from .problem import Setup

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...stats.selection import Problem, Term
 from .. import effects as fx
 from ..data import Deflections, StiffnessObs
-from ..fit.select import Problem, Term
 from ..plausible import check_reachable, check_units
 from ..predict import CALIBRATION, Context, Predictor, calibration_term
 from .kinds import DataKind, Weights

@@ -12,7 +12,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from ..fit.select import OCCAM_WINDOW
+from ...stats.selection import OCCAM_WINDOW
 from ..predict import CALIBRATION
 from .calibrate import Calibration
 from .candidates import Candidates

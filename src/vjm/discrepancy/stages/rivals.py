@@ -5,8 +5,8 @@ import dataclasses
 
 import numpy as np
 
+from ...stats.selection import Selection, clipped, fit_terms
 from .. import observe
-from ..fit.select import Selection, clipped, fit_terms
 from .thresholds import NEAR_COLLINEAR
 
 

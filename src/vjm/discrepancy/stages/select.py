@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...stats.selection import Selection, backward_eliminate, forward_select, screen_pairs, swap_alternatives
 from .. import observe
-from ..fit.select import Selection, backward_eliminate, forward_select, screen_pairs, swap_alternatives
 from .calibrate import Calibration
 from .observability import Observability
 from .problem import Setup

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ...stats.selection import Z95, clipped
 from .. import observe
-from ..fit.select import Z95, clipped
 from ..plausible import workspace_flags
 from ..predict import CALIBRATION
 from .calibrate import Calibration
