@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 from vjm.discrepancy import modelops as mo
-from vjm.discrepancy.diagnose import diagnose
+from vjm.discrepancy.workflow import diagnose
 from vjm.discrepancy.simulate import design_loads, design_poses, simulate
 
 

@@ -35,7 +35,7 @@ from bench_diagnose_false_alarm import clopper_pearson  # noqa: E402
 def clean(seeds: int) -> dict:
     import test_discrepancy_workflow as tw
 
-    from vjm.discrepancy.diagnose import diagnose
+    from vjm.discrepancy.workflow import diagnose
     from vjm.discrepancy.simulate import simulate
 
     named = []

@@ -22,7 +22,7 @@ from .stages.confounding import confounding
 from .stages.design import next_measurements
 from .stages.goodness import goodness
 from .stages.kinds import kind_of
-from .stages.levels import level_check
+from .stages.load_levels import level_check
 from .stages.locate import locate
 from .stages.noise import check_stated
 from .stages.observability import observability
