@@ -93,7 +93,7 @@ def test_fifteen_percent_outliers_data_not_trusted(case):
     dg = vjm.diagnose(model, m.write(d / "fifteen.csv"), alpha=ALPHA)
     rep = dg.report
     assert rep.verdict == "untrusted_data" and dg.verdict == "untrusted_data"
-    assert rep.named_effects == [] and not dg.updated_model.effects
+    assert dg.named == [] and not dg.updated_model.effects
     assert set(rep.outliers["rows"]) >= set((rows + 2).tolist())
     assert rep.outliers["fraction"] > 0.10
     assert "cannot be trusted" in rep.summary.split(". ")[0]

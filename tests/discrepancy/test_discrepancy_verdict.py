@@ -21,7 +21,8 @@ from vjm.discrepancy.data import Deflections, read_csv, write_deflections
 from vjm.discrepancy.simulate import design_loads, simulate
 from vjm.discrepancy.workflow import diagnose
 from vjm.links import LinkSpring as Link
-from vjm.stats.selection import FitResult, Param, Problem, Term, fit_terms, lack_of_fit
+from vjm.stats.fit import FitResult, fit_terms, lack_of_fit
+from vjm.stats.terms import Param, Problem, Term
 
 PUU = "data/orthoglide/puu.yaml"
 MODEL = vjm.load_model(PUU).replace(foot=Link.rigid())

@@ -126,7 +126,7 @@ def test_fit_reads_the_uncalibrated_moments_only_where_the_calibration_leaves_th
         unique_postures,
     )
     from vjm.discrepancy.simulate import design_loads
-    from vjm.stats.selection import Term
+    from vjm.stats.terms import Term
 
     rng = np.random.default_rng(3)
     L = design_loads("axes:100:10000", len(P), rng)

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..stats.selection import Param
+from ..stats.terms import Param
 from . import modelops as mo
 
 REGISTRY: dict = {}

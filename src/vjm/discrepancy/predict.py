@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..stats.selection import Param, Problem, Term
+from ..stats.terms import Param, Problem, Term
 from . import effects as fx
 from . import modelops as mo
 from .data import Deflections, StiffnessObs

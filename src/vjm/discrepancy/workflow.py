@@ -172,7 +172,7 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
 
 
 def _name(s, alpha, max_effects, folds, progress):
-    """Stages 1-4: calibration, observability, selection, goodness of fit."""
+    """Calibration, observability, selection, goodness of fit."""
     cal = calibrate(s, progress)
     obs = observability(s, cal, progress)
     chosen = select(s, cal, obs, alpha, max_effects, folds, progress)

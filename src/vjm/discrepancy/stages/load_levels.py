@@ -1,4 +1,4 @@
-"""Stage 4b: lack of fit across load levels (deflection data applied at a few magnitudes).
+"""Load levels: lack of fit across load levels (deflection data applied at a few magnitudes).
 
 Every linear effect of the library, and the model itself, gives a deflection
 that scales with the load: at the same posture and direction, twice the load,
@@ -46,7 +46,7 @@ def _final_jacobian(prob, final) -> np.ndarray:
 
 
 def level_check(s: Setup, chosen: Selected, fit: Goodness) -> dict | None:
-    """Stage 4b: the load-level lack-of-fit test of the final model, or None (no levels, or stiffness data).
+    """The load-level lack-of-fit test of the final model, or None (no levels, or stiffness data).
 
     Returns ``{"levels_N", "statistic", "dof", "p_value", "alpha", "significant", "test"}``."""
     if not isinstance(s.kind, DeflectionKind) or not isinstance(s.data, Deflections):

@@ -1,4 +1,4 @@
-"""Stage 9: gross outliers: file rows the final model cannot have produced, set aside, and the diagnosis rerun.
+"""Gross outliers: file rows the final model cannot have produced, set aside, and the diagnosis rerun.
 
 A mistyped value or a probe that slipped puts one reading tens of sigmas off; a few such rows
 make every effect fit them, inflate chi2 and name effects that are not there.  After a full
@@ -8,9 +8,11 @@ that exceeds 1: a model wrong everywhere widens the whole distribution, it does 
 ``r / (1.4826 MAD)`` with estimated sigmas.  An observation beyond :func:`threshold` (the Bonferroni
 normal quantile over the n observations at :data:`FALSE_FLAG`, at least :data:`Z_MIN` robust
 sigmas: a clean set flags nothing with probability >= 99 %) is an outlier, and its whole file row
-is set aside.  The diagnosis is rerun on the other rows and the residuals of all rows (those set
-aside included, predicted by the new model) are judged again: rows may come back.  This repeats
-until the set aside is the set flagged (at most :data:`MAX_PASSES` diagnoses).  The rows are set aside
+is set aside.  The workflow (:func:`vjm.discrepancy.workflow.set_aside`) reruns the diagnosis on the
+other rows and the residuals of all rows (those set aside included, predicted by the new model) are
+judged again: rows may come back.  This repeats until the set aside is the set flagged (at most
+:data:`MAX_PASSES` diagnoses); this module decides each step (:func:`first_look`, :func:`again`,
+:func:`decide`).  The rows are set aside
 only if the other rows then fit: where they still lack fit, the rows beyond the threshold are the
 worst part of a gap the library lacks (a contact, a hysteresis), every row is kept and the plain
 diagnosis reported, with a warning.
@@ -113,7 +115,7 @@ def subset(data, keep: np.ndarray):
 
 
 def _predictor(full, cur, names) -> Predictor | None:
-    """A predictor of every row of ``full``'s data with the terms of ``cur`` (both stage-0 Setups;
+    """A predictor of every row of ``full``'s data with the terms of ``cur`` (both problem Setups;
     None if one of ``names`` does not apply to the full data)."""
     if cur is full:
         return full.pred
@@ -163,7 +165,7 @@ def flag(full, cur, final, sigma_known: bool):
 
 
 def first_look(full, final, sigma_known: bool, judged: bool = True):
-    """The rows the first, plain, diagnosis (stage-0 Setup ``full``, its final FitResult ``final``) flags:
+    """The rows the first, plain, diagnosis (problem Setup ``full``, its final FitResult ``final``) flags:
     None when none is beyond the threshold (the plain diagnosis stands); an :class:`Outliers` when they
     are reported but kept (``judged`` False: the lack of fit cannot be judged, so the other rows' fit
     cannot say what they are); else the tuple of :func:`flag` to rerun the diagnosis without."""

@@ -5,7 +5,8 @@ import dataclasses
 
 import numpy as np
 
-from ...stats.selection import Selection, clipped, fit_terms
+from ...stats.fit import clipped, fit_terms
+from ...stats.selection import Selection
 from .. import observe
 from .thresholds import NEAR_COLLINEAR
 

@@ -1,4 +1,4 @@
-"""Stage 3: which candidates to name.
+"""Selection: which candidates to name.
 
 Forward selection (one candidate per round, family-wise level ``alpha``),
 then each named effect against its correlated rivals with the others in
@@ -48,7 +48,7 @@ def pair_screen(prob, sel: Selection, obs: Observability, cal: Calibration) -> l
 
 
 def select(s: Setup, cal: Calibration, obs: Observability, alpha, max_effects, folds, progress=None) -> Selected:
-    """Stage 3: forward selection, rival swaps, backward elimination, pair screen and swaps."""
+    """Forward selection, rival swaps, backward elimination, pair screen and swaps."""
     prob = s.prob
     sel = forward_select(prob, obs.tested, alpha=alpha, max_effects=max_effects, folds=folds, progress=progress, extra_tests=1)
     sel, rivals = rival_check(prob, sel, obs.tested, obs.sens, cal.cols, alpha)

@@ -1,9 +1,9 @@
-"""Stage 8: the verdict and the warnings that go with it."""
+"""Verdict: the verdict and the warnings that go with it."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ...stats.selection import Z95, clipped
+from ...stats.fit import Z95, clipped
 from .. import observe
 from ..plausible import workspace_flags
 from ..predict import CALIBRATION
@@ -57,7 +57,7 @@ def calibration_flags(prob, cal: Calibration) -> list:
 
 
 def level_flags(levels: dict | None) -> list:
-    """Warning: the compliance the data show differs between load levels (stage 4b)."""
+    """Warning: the compliance the data show differs between load levels (:mod:`.load_levels`)."""
     if not levels or not levels["significant"]:
         return []
     mags = ", ".join(f"{m:.4g}" for m in levels["levels_N"])
@@ -69,7 +69,7 @@ def level_flags(levels: dict | None) -> list:
 
 def verdict(s: Setup, cal: Calibration, chosen: Selected, fit: Goodness, levels: dict | None = None,
             weak: list | None = None) -> Verdict:
-    """Stage 8: "unexplained" when the final model still lacks fit (overall, or across load levels),
+    """"unexplained" when the final model still lacks fit (overall, or across load levels),
     else "insufficient_data" if something is named on a design too weak to name it (``weak``: the
     reasons, :func:`.strength.weak_design`), else "explained" if something is named."""
     sel = chosen.sel
