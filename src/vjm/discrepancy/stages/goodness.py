@@ -13,7 +13,7 @@ from .select import Selected
 
 @dataclass(frozen=True)
 class Goodness:
-    lack_of_fit: dict  # fit.select.lack_of_fit + its level ("alpha") and "significant"
+    lack_of_fit: dict  # vjm.stats.fit.lack_of_fit + its level ("alpha") and "significant"
     s2: float  # scale of the whitened residuals: 1 with known sigma, else the final residual variance
     chi2_nominal: float  # reduced chi-square of the nominal model
     chi2_before: float  # ... of the calibrated baseline

@@ -40,14 +40,15 @@ CHI2_DEFINITION = ("reduced chi-square: sum of squared normalized residuals / (n
 
 @dataclass(frozen=True)
 class Report(Mapping):
-    """What report.json holds (units: the data's; see ``rms_units``)."""
+    """What report.json holds (units: the data's; see ``rms_units``); mappings and sequences frozen
+    (read-only mappings, tuples), numbers and strings as they are."""
 
     model: str
     data: str
     data_kind: str  # "deflection" or "stiffness"
     n_observations: int
     n_postures: int
-    named_effects: list
+    named_effects: tuple
     rms_before: float
     rms_after: float
     rms_nominal: float
@@ -62,27 +63,27 @@ class Report(Mapping):
     alpha: float
     cv_baseline: float
     cv_folds: int
-    calibration: dict
-    calibration_held: dict
-    final_params: dict
-    localization: dict
-    localization_after: dict
-    candidates: dict
+    calibration: Mapping
+    calibration_held: Mapping
+    final_params: Mapping
+    localization: Mapping
+    localization_after: Mapping
+    candidates: Mapping
     verdict: str
-    lack_of_fit: dict
-    confounded: list
-    alternatives: list
+    lack_of_fit: Mapping
+    confounded: tuple
+    alternatives: tuple
     alternatives_window: float
-    confounding: list
-    unobservable: dict
-    dropped: dict
-    flags: list
+    confounding: tuple
+    unobservable: Mapping
+    dropped: Mapping
+    flags: tuple
     n_tested: int
-    suggest: dict | None = None  # present in report.json only when measurements were suggested
+    suggest: Mapping | None = None  # present in report.json only when measurements were suggested
     summary: str = ""
-    outliers: dict | None = None  # rows set aside as gross outliers (stages.outliers); None (null) when none were
+    outliers: Mapping | None = None  # rows set aside as gross outliers (stages.outliers); None (null) when none were
     #: the noise: stated sigmas checked against the final residuals (stages/noise.py), or the estimated ones
-    noise: dict = dataclasses.field(default_factory=dict)
+    noise: Mapping = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # frozen all the way down: the report is assembled once
