@@ -26,6 +26,7 @@ from .confounding import Confounding
 from .design import Suggested
 from .goodness import Goodness
 from .kinds import Located
+from .load_levels import LevelTest
 from .noise import NoiseCheck, estimated
 from .observability import Observability
 from .outliers import Outliers
@@ -143,7 +144,7 @@ class Pass:
     chosen: Selected
     fit: Goodness
     noise: NoiseCheck | None  # the stated sigmas checked (None: not stated, or not deflection data)
-    levels: dict | None  # the load-level test (None: the data have no load levels)
+    levels: LevelTest | None  # the load-level test (None: the data have no load levels)
     loc: Located
     table: Candidates
     conf: Confounding
@@ -186,7 +187,7 @@ def assemble(p: Pass, found: Outliers | None, suggested: Suggested | None, *, mo
         localization=p.loc.before, localization_after=p.loc.after, candidates=candidate_entries(p.table, conf),
         verdict="untrusted_data" if untrusted else v.verdict,
         # the load-level test completes the lack of fit
-        lack_of_fit=fit.lack_of_fit if p.levels is None else {**fit.lack_of_fit, "load_levels": p.levels},
+        lack_of_fit=fit.lack_of_fit if p.levels is None else {**fit.lack_of_fit, "load_levels": p.levels.record()},
         confounded=[] if untrusted else conf.groups, alternatives=[] if untrusted else alternatives,
         alternatives_window=OCCAM_WINDOW, confounding=conf.details, unobservable=p.obs.unobservable,
         dropped=p.table.dropped,
