@@ -90,19 +90,24 @@ class Report(Mapping):
         for f in dataclasses.fields(self):  # frozen all the way down: the report is assembled once
             object.__setattr__(self, f.name, frozen(getattr(self, f.name)))
 
+    def _keys(self) -> list:
+        """report.json's keys, in the file's order (``suggest`` only when measurements were suggested)."""
+        return [f.name for f in dataclasses.fields(self) if not (f.name == "suggest" and self.suggest is None)]
+
     def to_dict(self) -> dict:
         """The report.json dictionary (keys in the file's order): a fresh, mutable copy."""
-        return {f.name: thawed(getattr(self, f.name)) for f in dataclasses.fields(self)
-                if not (f.name == "suggest" and self.suggest is None)}
+        return {k: thawed(getattr(self, k)) for k in self._keys()}
 
     def __getitem__(self, key):
-        return self.to_dict()[key]
+        if key not in self._keys():
+            raise KeyError(key)
+        return thawed(getattr(self, key))  # a copy, as to_dict's
 
     def __iter__(self):
-        return iter(self.to_dict())
+        return iter(self._keys())
 
     def __len__(self) -> int:
-        return len(self.to_dict())
+        return len(self._keys())
 
 
 def frozen(x):
