@@ -24,8 +24,8 @@ import time
 import numpy as np
 
 import vjm
-from vjm.discrepancy.diagnose import diagnose
 from vjm.discrepancy.simulate import design_loads, design_poses, simulate
+from vjm.discrepancy.workflow import diagnose
 from vjm.effects import modelops as mo
 
 

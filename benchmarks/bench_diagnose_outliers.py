@@ -48,21 +48,24 @@ def diagnose_both(model_path: str, data_path: str) -> tuple:
     diagnosis is the outlier stage's first pass (``vjm.diagnose(..., outliers=False)`` returns exactly it;
     tests/discrepancy/test_diagnose_outliers.py), so the two are measured side by side at the cost of one."""
     from vjm.discrepancy.data import read_csv
-    from vjm.discrepancy.stages.outliers import set_aside, with_outliers
-    from vjm.discrepancy.workflow import run_stages
+    from vjm.discrepancy.stages.record import assemble
+    from vjm.discrepancy.workflow import run_stages, set_aside
     from vjm.modelio.read import load_model
 
     model, data = load_model(model_path), read_csv(data_path)
 
     def run(rows):
-        return run_stages(model, rows, ALPHA, None, 5, 3, None, "model.yaml")
+        return run_stages(model, rows, ALPHA, None, 5, 3, None)
+
+    def report(p, found):
+        return assemble(p, found, None, model_name="model.yaml", alpha=ALPHA, folds=5)
 
     t = time.process_time()
     first = run(data)
     cpu_off = time.process_time() - t
     p, found = set_aside(first, run, first.s.weights.sigma_known)
-    rep = p.rep if found is None else with_outliers(p.rep, found, p.chosen.sel.baseline.values(p.s.prob))
-    return first.rep, cpu_off, rep, time.process_time() - t
+    rep = report(p, found)
+    return report(first, None), cpu_off, rep, time.process_time() - t
 
 
 def one_set(i: int, frac: float, args, work: str) -> dict:
@@ -77,7 +80,7 @@ def one_set(i: int, frac: float, args, work: str) -> dict:
     for tag, rep, cpu in (("on", on, cpu_on), ("off", off, cpu_off)):
         out[tag] = {"verdict": rep.verdict, "named": list(rep.named_effects), "cpu": cpu,
                     "ok": rep.verdict == "explained" and tr.names_exactly(rep.to_dict(), ["clearance"]),
-                    "aside": (rep.outliers or {}).get("rows", [])}
+                    "aside": list((rep.outliers or {}).get("rows", []))}
     return out
 
 

@@ -35,8 +35,8 @@ from bench_diagnose_false_alarm import clopper_pearson  # noqa: E402
 def clean(seeds: int) -> dict:
     import test_discrepancy_workflow as tw
 
-    from vjm.discrepancy.diagnose import diagnose
     from vjm.discrepancy.simulate import simulate
+    from vjm.discrepancy.workflow import diagnose
 
     named = []
     for seed in range(100, 100 + seeds):

@@ -89,7 +89,6 @@ def foot_end_to_end(warm_runs: int = 3):
     """(a) The pipeline in a warm process (imports done, a first call made: a notebook's second call,
     a sweep worker); (b) the cold CLI process, its wall time and its imports itemized."""
     from linkfea.pipeline import compute
-    from linkfea import ComputeOptions
 
     print("\n## foot end to end (rigid, gmsh, default mesh)")
     t0 = time.perf_counter()

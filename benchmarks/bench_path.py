@@ -86,8 +86,9 @@ def bench_compensation(model, n=10_000, workers=2):
 
 def calibrated_model(folder):
     """A model_updated.yaml from vjm diagnose on simulated data (a 250 N weight hidden, 1 um noise)."""
-    from vjm.discrepancy.diagnose import diagnose, write_diagnosis
+    from vjm.discrepancy.diagnosis import write_diagnosis
     from vjm.discrepancy.simulate import design_loads, design_poses, simulate
+    from vjm.discrepancy.workflow import diagnose
 
     m = vjm.load_model(PUU)
     rng = np.random.default_rng(3)

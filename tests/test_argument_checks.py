@@ -43,11 +43,11 @@ def test_no_bounds_contain_nan(bounds):
 
 
 @pytest.mark.parametrize("call, message", [
-    (lambda: vjm.discrepancy.diagnose.diagnose(PUU, None, alpha=0.0), r"^alpha must be in \(0, 1\), got 0$"),
-    (lambda: vjm.discrepancy.diagnose.diagnose(PUU, None, alpha=float("nan")), r"^alpha must be a finite number"),
-    (lambda: vjm.discrepancy.diagnose.diagnose(PUU, None, alpha="0.05"), r"^alpha must be a number in \(0, 1\)"),
-    (lambda: vjm.discrepancy.diagnose.diagnose(PUU, None, folds=1), r"^folds must be a whole number >= 2"),
-    (lambda: vjm.discrepancy.diagnose.diagnose(PUU, None, suggest=2.5), r"^suggest must be a whole number >= 0"),
+    (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, alpha=0.0), r"^alpha must be in \(0, 1\), got 0$"),
+    (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, alpha=float("nan")), r"^alpha must be a finite number"),
+    (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, alpha="0.05"), r"^alpha must be a number in \(0, 1\)"),
+    (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, folds=1), r"^folds must be a whole number >= 2"),
+    (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, suggest=2.5), r"^suggest must be a whole number >= 0"),
     (lambda: vjm.discrepancy.simulate.simulate(PUU, [], np.zeros((1, 3)), np.eye(6)[:1], -1.0, None, 0),
      r"^noise_t must be >= 0 mm, got -1$"),
     (lambda: vjm.discrepancy.simulate.simulate(PUU, [], np.zeros((1, 3)), np.eye(6)[:1], 1e-3, float("nan"), 0),
@@ -57,8 +57,8 @@ def test_no_bounds_contain_nan(bounds):
     (lambda: vjm.maps.grid.parse_slice("z=inf"), r"^slice expects axis=value"),
 ])
 def test_vjm_api_names_the_argument(call, message):
-    import vjm.discrepancy.diagnose
     import vjm.discrepancy.simulate
+    import vjm.discrepancy.workflow
     import vjm.maps.compute  # noqa: F401
 
     with pytest.raises(VjmError, match=message) as info:
@@ -151,7 +151,7 @@ def test_reachable_posture_outside_the_workspace_box_is_a_warning():
 
 def test_diagnosis_warns_of_a_posture_outside_the_workspace_box(tmp_path):
     """End to end: the warning is in the report's flags and in the printed summary."""
-    from vjm.discrepancy.diagnose import diagnose
+    from vjm.discrepancy.workflow import diagnose
     from vjm.effects import modelops as mo
 
     lo, _ = mo.workspace_box(PUU)

@@ -47,7 +47,7 @@ def no_work(monkeypatch):
         raise AssertionError("work started before the output path was checked")
 
     # modules that bind these functions by name at import: imported first, so that they keep the real ones
-    for name in ("vjm.discrepancy.workflow", "vjm.discrepancy.diagnose", "vjm.sweep.combine", "vjm.maps.compute"):
+    for name in ("vjm.discrepancy.workflow", "vjm.sweep.combine", "vjm.maps.compute"):
         mod(name)
 
     for name, attr in [("linkfea.pipeline", "compute"), ("linkfea.beam.compare", "fea_compliance"),
@@ -134,8 +134,8 @@ def test_simulate_never_overwrites_measured_data_but_replaces_its_own(tmp_path):
 @pytest.fixture(scope="module")
 def diagnosis():
     import vjm
-    from vjm.discrepancy.diagnose import diagnose
     from vjm.discrepancy.simulate import design_loads, simulate
+    from vjm.discrepancy.workflow import diagnose
     from vjm.model.links import LinkSpring as Link
 
     model = vjm.load_model(PUU).replace(foot=Link.rigid())
@@ -147,7 +147,7 @@ def diagnosis():
 
 
 def test_report_folder_gets_the_users_umask_and_no_temporaries(tmp_path, diagnosis):
-    from vjm.discrepancy.diagnose import write_diagnosis
+    from vjm.discrepancy.diagnosis import write_diagnosis
 
     old = os.umask(0o027)
     try:
@@ -161,7 +161,7 @@ def test_report_folder_gets_the_users_umask_and_no_temporaries(tmp_path, diagnos
 
 
 def test_rerun_replaces_its_own_report_and_nothing_else(tmp_path, diagnosis):
-    from vjm.discrepancy.diagnose import write_diagnosis
+    from vjm.discrepancy.diagnosis import write_diagnosis
 
     rep = tmp_path / "rep"
     rep.mkdir()
@@ -340,7 +340,7 @@ def test_saving_a_model_never_replaces_a_file_vjm_did_not_write(how, tmp_path, d
 
 def test_the_report_model_file_is_recognised_as_vjms_own(tmp_path, diagnosis):
     """model_updated.yaml of a report carries the checksum line, so `updated_model.save` may replace it."""
-    from vjm.discrepancy.diagnose import write_diagnosis
+    from vjm.discrepancy.diagnosis import write_diagnosis
     from vjm.modelio.write import own_model_file
 
     write_diagnosis(diagnosis, tmp_path / "rep")

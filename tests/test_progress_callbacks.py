@@ -17,7 +17,7 @@ ENTRY_POINTS = [
     ("vjm.toolpath.run", "path"), ("vjm.maps.compute", "grid_map"), ("vjm.maps.compute", "compute_map"),
     ("vjm.sweep.combine", "sweep"), ("vjm.sweep.combine", "trade_offs"), ("vjm.model.machine", "Model.map"),
     ("vjm.discrepancy.workflow", "diagnose"), ("vjm.discrepancy.simulate", "simulate"),
-    ("vjm.discrepancy.simulate", "run"), ("vjm.discrepancy.fit.select", "forward_select"),
+    ("vjm.discrepancy.simulate", "run"), ("vjm.stats.selection", "forward_select"),
 ]
 #: names the same callback had before it was called ``progress`` everywhere
 OLD_NAMES = ("say", "log", "report", "echo", "callback", "on_progress")

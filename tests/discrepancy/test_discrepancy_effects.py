@@ -24,8 +24,8 @@ import pytest
 
 import vjm
 from vjm import effects as fx
-from vjm.discrepancy.diagnose import diagnose
 from vjm.discrepancy.simulate import design_loads, simulate
+from vjm.discrepancy.workflow import diagnose
 from vjm.model.links import LinkSpring as Link
 
 MODEL = vjm.load_model("data/orthoglide/puu.yaml").replace(foot=Link.rigid())

@@ -12,12 +12,13 @@ from typer.testing import CliRunner
 
 from vjm.cli import app
 from vjm.discrepancy.data import read_csv
-from vjm.discrepancy.fit.select import Param, Problem, Term, compare, fit_terms
 from vjm.discrepancy.stages.kinds import kind_of
 from vjm.discrepancy.stages.problem import build_problem
 from vjm.discrepancy.tracker import TrackerNoise
 from vjm.discrepancy.workflow import diagnose
 from vjm.errors import VjmError
+from vjm.stats.fit import compare, fit_terms
+from vjm.stats.terms import Param, Problem, Term
 
 HDR = "x,y,z,Fx,Fy,Fz,Mx,My,Mz,dx,dy,dz,rx,ry,rz"
 #: a tracker 300 mm from the workspace's centre along -x, its angle noise 6 um/m across the line of

@@ -6,18 +6,9 @@ hidden term, (iii) name nothing on clean data at the advertised rate.
 """
 import numpy as np
 
-from vjm.discrepancy.fit.select import (
-    Param,
-    Problem,
-    Term,
-    backward_eliminate,
-    compare,
-    fit_terms,
-    forward_select,
-    grouped_folds,
-    screen_pairs,
-    swap_alternatives,
-)
+from vjm.stats.fit import compare, fit_terms, grouped_folds
+from vjm.stats.selection import backward_eliminate, forward_select, screen_pairs, swap_alternatives
+from vjm.stats.terms import Param, Problem, Term
 
 X = np.linspace(-1.0, 1.0, 120)
 GROUPS = np.repeat(np.arange(30), 4)

@@ -18,10 +18,11 @@ import vjm
 from vjm.discrepancy import observe
 from vjm.discrepancy.cli import register
 from vjm.discrepancy.data import Deflections, read_csv, write_deflections
-from vjm.discrepancy.diagnose import diagnose
-from vjm.discrepancy.fit.select import FitResult, Param, Problem, Term, fit_terms, lack_of_fit
 from vjm.discrepancy.simulate import design_loads, simulate
+from vjm.discrepancy.workflow import diagnose
 from vjm.model.links import LinkSpring as Link
+from vjm.stats.fit import FitResult, fit_terms, lack_of_fit
+from vjm.stats.terms import Param, Problem, Term
 
 PUU = "data/orthoglide/puu.yaml"
 MODEL = vjm.load_model(PUU).replace(foot=Link.rigid())
@@ -382,18 +383,20 @@ def _hidden_problem(sigma, b, seed=1):
 
 
 def _select_and_group(prob, names, alpha=0.01):
-    from vjm.discrepancy.diagnose import _confounding, _rival_check
-    from vjm.discrepancy.fit.select import backward_eliminate, forward_select
+    from vjm.discrepancy.stages.confounding import confounding
+    from vjm.discrepancy.stages.rivals import rival_check
+    from vjm.stats.selection import backward_eliminate, forward_select
 
     base = fit_terms(prob, ("calibration",))
     cal_cols = observe.calibration_columns(prob, base.theta, "calibration")
     sens = {n: observe.term_sensitivity(prob, base.theta, "calibration", n) for n in names}
     sel = forward_select(prob, names, alpha=alpha, extra_tests=1)
-    sel, rivals = _rival_check(prob, sel, names, sens, cal_cols, alpha)
+    sel, rivals = rival_check(prob, sel, names, sens, cal_cols, alpha)
     sel = backward_eliminate(prob, sel)
     first = sel.rounds[0]
     cand_rep = {n: {"p_value": first[n]["p_value"], "params": first[n]["fit"].values(prob)[n]} for n in names}
-    return sel, _confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals)
+    conf = confounding(prob, sel, sens, cal_cols, cand_rep, alpha, rivals)
+    return sel, {"groups": conf.groups, "details": conf.details}
 
 
 def test_effect_hidden_inside_a_named_one_is_grouped_with_it():

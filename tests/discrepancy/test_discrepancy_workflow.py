@@ -11,10 +11,11 @@ import typer
 from typer.testing import CliRunner
 
 import vjm
-from vjm.discrepancy.cli import register
+from vjm.discrepancy.cli import register, run
 from vjm.discrepancy.data import Deflections, read_csv
-from vjm.discrepancy.diagnose import diagnose, run, write_diagnosis
+from vjm.discrepancy.diagnosis import write_diagnosis
 from vjm.discrepancy.simulate import design_loads, simulate
+from vjm.discrepancy.workflow import diagnose
 from vjm.effects import modelops as mo
 from vjm.errors import VjmError
 from vjm.model.links import LinkSpring as Link

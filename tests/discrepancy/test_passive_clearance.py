@@ -116,10 +116,10 @@ def test_fit_reads_the_uncalibrated_moments_only_where_the_calibration_leaves_th
     change the joints' moments: on the 3-PUU (statically determinate load paths) its predictions equal,
     to round-off, those of the calibrated model (C w of the calibrated model plus the slip twist of
     that model's moments); on the 3-PRPaR (parallelograms) the calibrated model is used."""
-    from vjm.discrepancy.fit.select import Term
     from vjm.discrepancy.predict import CALIBRATION, Predictor, apply_calibration, calibration_term
     from vjm.discrepancy.simulate import design_loads
     from vjm.effects.context import Context, slip_toward, unique_postures
+    from vjm.stats.terms import Term
 
     rng = np.random.default_rng(3)
     L = design_loads("axes:100:10000", len(P), rng)

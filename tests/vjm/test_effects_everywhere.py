@@ -20,11 +20,11 @@ import pytest
 
 import vjm
 from vjm import effects as fx
-from vjm.discrepancy.fit.select import Term
 from vjm.discrepancy.predict import Predictor
 from vjm.discrepancy.simulate import simulate
 from vjm.effects.context import Context, unique_postures
 from vjm.model.links import LinkSpring
+from vjm.stats.terms import Term
 from vjm.stiffness.nonlinear import deflection_map
 from vjm.toolpath.deflect import tcp_deflection
 

@@ -252,8 +252,9 @@ def test_band_from_covariance_is_the_weights_sensitivity_times_its_se(tmp_path):
 def test_diagnose_writes_the_covariance_and_the_file_loads_back(tmp_path):
     """model_updated.yaml carries calibration: names, values, a symmetric PSD covariance whose diagonal
     gives the report's standard errors; load_model accepts the file."""
-    from vjm.discrepancy.diagnose import diagnose, write_diagnosis
+    from vjm.discrepancy.diagnosis import write_diagnosis
     from vjm.discrepancy.simulate import simulate
+    from vjm.discrepancy.workflow import diagnose
 
     m = vjm.load_model(PUU)
     rng = np.random.default_rng(2)

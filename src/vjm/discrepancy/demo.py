@@ -26,7 +26,7 @@ def main(out="out/diagnose", model=None):
     print(f"simulated 30 postures x 6 loads of the 3-PUU with a hidden effect ({hidden}), 1 um noise -> {csv}")
     d = cli.run(model, csv, os.path.join(out, "report"))
     print(d.report.summary)
-    found = d.report.named_effects == ["clearance"]
+    found = d.named == ["clearance"]
     print(f"hidden effect {'found' if found else 'NOT found'}; gap RMS {d.report.rms_before * 1e3:.2f} um -> "
           f"{d.report.rms_after * 1e3:.2f} um; report: {os.path.join(out, 'report', 'report.html')}")
     return 0 if found else 1

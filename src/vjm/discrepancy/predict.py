@@ -14,8 +14,8 @@ import numpy as np
 from ..effects import REGISTRY
 from ..effects import modelops as mo
 from ..effects.context import Context
+from ..stats.terms import Param, Problem, Term
 from .data import Deflections, StiffnessObs
-from .fit.select import Param, Problem, Term
 
 CALIBRATION = "calibration"
 

@@ -19,7 +19,7 @@ is given: then each gets a random orientation, every rotation-vector component u
     ``axes:50,100:5000`` scales the moment with the force (5000 N mm at 100 N);
     ``random:N:50,100`` applies each random direction at every magnitude.  The same posture
     and direction at several magnitudes is what tells a load-dependent stiffness apart from a
-    compliance (:mod:`vjm.discrepancy.levels`);
+    compliance (:mod:`vjm.discrepancy.loads`);
   * ``PATH.csv``     -- a CSV with columns Fx,Fy,Fz,Mx,My,Mz.
 The same CSV given to both ``--poses`` and ``--loads`` (columns x,y,z,Fx..Mz, e.g.
 ``next_measurements.csv`` written by ``vjm diagnose --suggest``) is read as
@@ -46,7 +46,7 @@ from ..errors import ArgumentError, VjmError
 from ..maps.grid import SIMULATE_BYTES, in_chunks, plan
 from ..modelio.read import load_model
 from .data import ORIENT, Deflections
-from .levels import parse_levels
+from .loads import parse_levels
 
 
 def parse_effect(spec: str):

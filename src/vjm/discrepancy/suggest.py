@@ -8,7 +8,7 @@ goes), each with the axis loads ``+-F`` along x, y, z
 (and ``+-M`` about them unless the rig applies forces only), ``F`` and ``M``
 being the median force and moment magnitudes of the data (``M = F x 100 mm``
 when the data hold no moment); when the data apply their loads at a few
-levels (:mod:`vjm.discrepancy.levels`), the axis loads at each level's median
+levels (:mod:`vjm.discrepancy.loads`), the axis loads at each level's median
 magnitudes, so that the suggested rows keep the levels.  Each row's information is the whitened
 sensitivity of the measured components to the parameters, the same
 quantity the fit uses, so rows add to the information of the data already
@@ -37,7 +37,7 @@ import numpy as np
 from ..effects import modelops as mo
 from ..effects.context import Context
 from . import observe
-from .levels import load_levels
+from .loads import load_levels
 from .predict import CALIBRATION, Predictor
 
 #: candidate postures drawn in the workspace box
@@ -173,7 +173,18 @@ def _greedy_t(pairs_d, pairs_p, n):
     return chosen, float(before), float(total(state)), enough
 
 
-def suggest(model, pred, data_ctx_rows, final_values, rep, n, forces_only=False, seed=0) -> Suggestion:
+@dataclass(frozen=True)
+class Findings:
+    """What the diagnosis found, as far as the next measurements depend on it."""
+
+    named: tuple  # the named effects
+    confounded: tuple  # groups of candidates (or a candidate and "calibration") the data cannot tell apart
+    p_values: dict  # candidate -> its round-1 p-value (None: not tested), in the candidates' table order
+    unobservable: tuple  # candidates the data cannot see
+
+
+def suggest(model, pred, data_ctx_rows, final_values, found: Findings, n, forces_only=False,
+            seed=0) -> Suggestion:
     """N rows (x, y, z, Fx..Mz) to measure next, from the diagnosis' state.
 
     Parameters
@@ -183,7 +194,7 @@ def suggest(model, pred, data_ctx_rows, final_values, rep, n, forces_only=False,
     data_ctx_rows : (comp, sig_data, sig_pool): measured component indices,
         (n_data, c) whitening sigmas of the data rows and (c,) of a new row.
     final_values : name -> fitted parameter vector (calibration, named effects, round-1 fits).
-    rep : the report dictionary (verdict, confounded groups, candidates' p-values).
+    found : what the diagnosis found (named effects, confounded groups, candidates' p-values).
     """
     rng = np.random.default_rng(seed)
     comp, sig_d, sig_p = data_ctx_rows
@@ -197,11 +208,11 @@ def suggest(model, pred, data_ctx_rows, final_values, rep, n, forces_only=False,
     pool = Predictor(model, ctx, pred.terms, pred.fixed)
     usable = [c for c in pred.terms if c != CALIBRATION]
     # the nonlinear candidate costs a Newton solve per pool row: only when it is named
-    if "geometric_nonlinearity" not in rep["named_effects"]:
+    if "geometric_nonlinearity" not in found.named:
         usable = [c for c in usable if c != "geometric_nonlinearity"]
 
-    groups = [g for g in rep.get("confounded", []) if all(x in usable or x == CALIBRATION for x in g)]
-    named = [x for x in rep["named_effects"] if x in usable]
+    groups = [list(g) for g in found.confounded if all(x in usable or x == CALIBRATION for x in g)]
+    named = [x for x in found.named if x in usable]
     # the group to separate: the one holding a named effect, else the first reported
     grp = next((g for g in groups if any(x in named for x in g)), groups[0] if groups else None)
     if grp is not None:
@@ -229,11 +240,11 @@ def suggest(model, pred, data_ctx_rows, final_values, rep, n, forces_only=False,
                      f"signature and its best imitation by the others plus the calibration)")
         targets = [a] + others
     else:
-        pv = {c: d.get("p_value") for c, d in rep["candidates"].items() if c in usable}
+        pv = {c: p for c, p in found.p_values.items() if c in usable}
         ranked = sorted((c for c in pv if pv[c] is not None and c not in named), key=lambda c: pv[c])
         targets = named + ranked[:3]
         if not named:
-            unseen = [c for c in rep.get("unobservable", {}) if c in usable]
+            unseen = [c for c in found.unobservable if c in usable]
             targets += unseen[:3]
         names = (CALIBRATION,) + tuple(targets)
         th = _theta(pred.terms, names, final_values)

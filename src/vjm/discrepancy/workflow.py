@@ -5,9 +5,7 @@ model and a data set and returns a :class:`~vjm.discrepancy.diagnosis.Diagnosis`
 """
 from __future__ import annotations
 
-import dataclasses
 import os
-from dataclasses import dataclass
 
 from linkfea.runtime.checks import Bounds, integer, number
 
@@ -16,25 +14,25 @@ from ..modelio.read import load_model
 from . import covariance
 from .data import Deflections, read_csv
 from .diagnosis import Diagnosis
+from .stages import outliers as outl
 from .stages.calibrate import calibrate
 from .stages.candidates import candidates
 from .stages.confounding import confounding
 from .stages.design import next_measurements
-from .stages.goodness import Goodness, goodness
-from .stages.kinds import Located, kind_of
-from .stages.levels import level_check
+from .stages.goodness import goodness
+from .stages.kinds import kind_of
+from .stages.load_levels import level_check
 from .stages.locate import locate
-from .stages.noise import check_stated, estimated
+from .stages.noise import check_stated
 from .stages.observability import observability
-from .stages.outliers import set_aside, untrusted_model, with_outliers
-from .stages.problem import Setup, build_problem, with_weights
-from .stages.record import Report, build_report
-from .stages.select import Selected, select
+from .stages.outliers import Outliers, untrusted_model
+from .stages.problem import build_problem, with_weights
+from .stages.record import Pass, assemble
+from .stages.select import select
 from .stages.strength import weak_design
 from .stages.thresholds import DEFAULT_ALPHA
 from .stages.update import updated_model
 from .stages.verdict import verdict
-from .summary import summary
 from .tracker import TrackerNoise
 
 #: valid ranges of diagnose's numeric arguments: a level of 0 or 1 makes every test pass or fail
@@ -51,26 +49,11 @@ def check_arguments(alpha=DEFAULT_ALPHA, folds=5, max_effects=3, suggest=0):
             integer(suggest, "suggest", SUGGEST, ArgumentError))
 
 
-@dataclass(frozen=True)
-class Pass:
-    """One run of the stages on one set of rows."""
-
-    s: Setup
-    chosen: Selected
-    fit: Goodness
-    loc: Located
-    rep: Report
-    scale: tuple | None = None  # the factors the stated sigmas were widened by (stages.noise), None: not stated
-
-    @property
-    def final(self):
-        return self.chosen.sel.final
-
-
-def run_stages(model, data, alpha, effects, folds, max_effects, progress, model_name, scale=None) -> Pass:
-    """Stages 0-8 and the report on the rows of ``data``.  ``scale`` (translations, rotations): the
-    stated sigmas widened by these factors from the start and not looked at again (the outlier stage's
-    reruns keep the first pass's); None: widened only if the noise check finds them too small."""
+def run_stages(model, data, alpha, effects, folds, max_effects, progress, scale=None) -> Pass:
+    """The stages from the problem to the verdict on the rows of ``data``, each returning its value.
+    ``scale`` (translations, rotations): the stated sigmas widened by these factors from the start and not
+    looked at again (the outlier reruns keep the first run's); None: widened, and the selection run
+    again, only if the noise check finds them too small and the excess noise-like."""
     s = build_problem(model, data, kind_of(data), effects)
     terms = dict(s.terms)
     if scale is not None and any(f != 1.0 for f in scale):
@@ -86,16 +69,33 @@ def run_stages(model, data, alpha, effects, folds, max_effects, progress, model_
         cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, progress)
         nc = check_stated(s, chosen.sel.final, alpha, nc.scale)
     lev = level_check(s, chosen, fit)
-    if lev is not None:  # reported with the lack of fit it completes
-        fit.lack_of_fit["load_levels"] = lev
     loc = locate(s, chosen, fit)
     table = candidates(s, obs, chosen)
     conf = confounding(s.prob, chosen.sel, obs.sens, cal.cols, table.entries, alpha, chosen.rivals)
     v = verdict(s, cal, chosen, fit, lev, weak_design(s, chosen))
-    v = dataclasses.replace(v, flags=v.flags + (nc.flags if nc is not None else []))
-    rep = build_report(s, cal, obs, chosen, fit, loc, table, conf, v, model_name=model_name, alpha=alpha, folds=folds)
-    rep = dataclasses.replace(rep, noise=nc.record() if nc is not None else estimated(s, fit.scales))
-    return Pass(s, chosen, fit, loc, rep, nc.scale if nc is not None else None)
+    return Pass(s, cal, obs, chosen, fit, nc, lev, loc, table, conf, v)
+
+
+def set_aside(first: Pass, run, sigma_known: bool) -> tuple[Pass, Outliers | None]:
+    """(the run to report, the rows set aside or None): the stages run again (``run(rows)``) without the
+    rows the last run flags as gross outliers until the set aside is the set flagged
+    (:mod:`~vjm.discrepancy.stages.outliers` decides each step)."""
+    full = first.s
+    got = outl.first_look(full, first.final, sigma_known, judged=first.fit.lack_of_fit.get("p_value") is not None)
+    if got is None or isinstance(got, Outliers):
+        return first, got
+    seen: set = {()}
+    cur, aside, passes = first, (), 1
+    while outl.again(got, aside, seen, passes):
+        aside = got[0]
+        seen.add(aside)
+        cur = run(outl.kept_rows(full.data, aside))
+        passes += 1
+        got = outl.flag(full, cur.s, cur.final, sigma_known)
+        if cur.verdict.verdict == "unexplained":
+            break  # the other rows still lack fit: the rows flagged are part of a gap, not gross errors
+    found = outl.decide(full, got, aside, passes, cur.verdict.verdict)
+    return (cur if found.accepted else first), found
 
 
 DIAGNOSE_BYTES_PER_ROW = 2.1e5
@@ -149,33 +149,28 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         data = noise.apply(data)
 
     def run(rows, scale=None) -> Pass:
-        return run_stages(model, rows, alpha, effects, folds, max_effects, progress, model_name or "<model>", scale)
+        return run_stages(model, rows, alpha, effects, folds, max_effects, progress, scale)
 
     p, found = run(data), None
-    if outliers:  # the reruns on the rows kept use the first pass's noise scale
-        p, found = set_aside(p, lambda rows, first=p: run(rows, first.scale), p.s.weights.sigma_known,
-                             judged=p.fit.lack_of_fit.get("p_value") is not None)
-    s, chosen, rep = p.s, p.chosen, p.rep
-    upd = updated_model(s, chosen)
-    cov = covariance.record(s.prob, s.pred, chosen.sel.final)
-    if found is not None:
-        if progress:
-            progress(f"outliers: {len(found.positions)} rows beyond the threshold after {found.passes} diagnoses; "
-                     f"{'set aside' if found.accepted else 'kept (part of the gap)'}")
-        base = chosen.sel.baseline
-        rep = with_outliers(rep, found, base.values(s.prob))
-        if found.accepted and found.untrusted:
-            upd, cov = untrusted_model(s, base), covariance.record(s.prob, s.pred, base)
-    rows = None
-    if suggest:
-        sg, rep = next_measurements(s, chosen, p.fit, rep, suggest, forces_only)
-        rows = sg.rows
-    rep = dataclasses.replace(rep, summary=summary(rep))
-    return Diagnosis(rep, upd, s.U, p.loc.per_before, p.loc.per_after, rows, cov)
+    if outliers:  # the reruns on the rows kept use the first run's noise scale
+        p, found = set_aside(p, lambda rows, first=p: run(rows, first.scale), p.s.weights.sigma_known)
+    s, chosen = p.s, p.chosen
+    untrusted = found is not None and found.untrusted
+    if found is not None and progress:
+        progress(f"outliers: {len(found.positions)} rows beyond the threshold after {found.passes} diagnoses; "
+                 f"{'set aside' if found.accepted else 'kept (part of the gap)'}")
+    if untrusted:
+        upd, cov = untrusted_model(s, chosen.sel.baseline), covariance.record(s.prob, s.pred, chosen.sel.baseline)
+    else:
+        upd, cov = updated_model(s, chosen), covariance.record(s.prob, s.pred, chosen.sel.final)
+    sg = (next_measurements(s, p.obs, chosen, p.fit, p.table, p.conf, untrusted, suggest, forces_only)
+          if suggest else None)
+    rep = assemble(p, found, sg, model_name=model_name or "<model>", alpha=alpha, folds=folds)
+    return Diagnosis(rep, upd, s.U, p.loc.per_before, p.loc.per_after, sg.rows if sg is not None else None, cov)
 
 
 def _name(s, alpha, max_effects, folds, progress):
-    """Stages 1-4: calibration, observability, selection, goodness of fit."""
+    """Calibration, observability, selection, goodness of fit."""
     cal = calibrate(s, progress)
     obs = observability(s, cal, progress)
     chosen = select(s, cal, obs, alpha, max_effects, folds, progress)

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..discrepancy.fit.select import Param as Param  # an effect's parameter (re-exported by vjm.effects)
 from ..errors import VjmError
+from ..stats.terms import Param as Param  # an effect's parameter (re-exported by vjm.effects)
 from . import modelops as mo
 
 REGISTRY: dict = {}

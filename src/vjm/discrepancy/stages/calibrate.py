@@ -1,4 +1,4 @@
-"""Stage 1: the calibration this data can separate, and the calibrated baseline.
+"""Calibration: the calibration this data can separate, and the calibrated baseline.
 
 A calibration factor whose column is (nearly) a combination of the ones
 before it (e.g. link_scale next to actuator_scale on postures near Q0, where
@@ -10,8 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...stats.fit import FitResult, fit_terms
+from ...stats.terms import Term
 from .. import observe
-from ..fit.select import FitResult, Term, fit_terms
 from ..predict import CALIBRATION
 from .problem import Setup
 

@@ -1,4 +1,4 @@
-"""Stage 6: the table of candidates (round-1 fits, the named ones' final values, why others were
+"""Candidates: the table of candidates (round-1 fits, the named ones' final values, why others were
 skipped, dropped or never fitted, and what the data can see of each parameter)."""
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ def _fitted(prob, nm, d, named) -> dict:
 
 
 def candidates(s: Setup, obs: Observability, chosen: Selected) -> Candidates:
-    """Stage 6: one entry per candidate of the library (applicable or not)."""
+    """One entry per candidate of the library (applicable or not)."""
     prob, sel = s.prob, chosen.sel
     first = chosen.first_round
     rep = {nm: _fitted(prob, nm, first[nm], sel.selected) for nm in s.candidates if nm in first}

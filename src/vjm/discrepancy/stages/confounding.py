@@ -1,4 +1,4 @@
-"""Stage 7: groups of candidates this data cannot tell apart, one function per rule.
+"""Confounding: groups of candidates this data cannot tell apart, one function per rule.
 
 * :func:`collinear_groups`: two observable candidates whose signatures, with
   the calibration's projected out, have a canonical correlation >= COLLINEAR
@@ -32,8 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from ...stats.fit import clipped
+from ...stats.selection import Selection
 from .. import observe
-from ..fit.select import Selection, clipped
 from ..predict import CALIBRATION
 from .thresholds import COLLINEAR, HIDDEN_SHARE, MIMIC, PLAUSIBLE
 
@@ -248,7 +249,7 @@ def calibration_mimicry(prob, sel: Selection, sens, cal_cols, names, cand_rep) -
 
 
 def confounding(prob, sel: Selection, sens, cal_cols, cand_rep, alpha, rivals=None) -> Confounding:
-    """Stage 7: the four rules in turn (``cand_rep``: the round-1 candidate entries, for p-values and fits)."""
+    """The four rules in turn (``cand_rep``: the round-1 candidate entries, for p-values and fits)."""
     rivals = rivals or {}
     Q = observe._orth(cal_cols)
     sig = signatures(sens, Q, cand_rep)

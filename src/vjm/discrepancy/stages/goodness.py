@@ -1,11 +1,11 @@
-"""Stage 4: how well the final model fits: lack of fit and reduced chi-square, nominal to final."""
+"""Goodness of fit: how well the final model fits: lack of fit and reduced chi-square, nominal to final."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..fit.select import lack_of_fit
+from ...stats.fit import lack_of_fit
 from .observability import Observability
 from .problem import Setup
 from .select import Selected
@@ -13,7 +13,7 @@ from .select import Selected
 
 @dataclass(frozen=True)
 class Goodness:
-    lack_of_fit: dict  # fit.select.lack_of_fit + its level ("alpha") and "significant"
+    lack_of_fit: dict  # vjm.stats.fit.lack_of_fit + its level ("alpha") and "significant"
     s2: float  # scale of the whitened residuals: 1 with known sigma, else the final residual variance
     chi2_nominal: float  # reduced chi-square of the nominal model
     chi2_before: float  # ... of the calibrated baseline
@@ -46,7 +46,7 @@ def pure_error(prob, groups, var=None) -> tuple[float, int] | None:
 
 
 def goodness(s: Setup, obs: Observability, chosen: Selected, alpha) -> Goodness:
-    """Stage 4: the lack-of-fit test shares ``alpha`` with the selection rounds (Bonferroni)."""
+    """The lack-of-fit test shares ``alpha`` with the selection rounds (Bonferroni)."""
     prob, sigma_known = s.prob, s.weights.sigma_known
     base, final = chosen.sel.baseline, chosen.sel.final
     var = final.group_var or None

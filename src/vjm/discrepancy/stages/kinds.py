@@ -16,7 +16,7 @@ import numpy as np
 from ...effects import modelops as mo
 from ...errors import VjmError
 from ..data import StiffnessObs
-from ..locate import localize
+from ..localize import localize
 from ..predict import deflection_problem, stiffness_problem
 from .norms import per_pose, rms, robust_scale
 

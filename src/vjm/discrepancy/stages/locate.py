@@ -1,4 +1,4 @@
-"""Stage 5: where the gap is, before naming (calibrated baseline) and after (final model).
+"""Locate: where the gap is, before naming (calibrated baseline) and after (final model).
 
 Follows the selection: with sigma unknown the residuals are normalized by
 the final model's residual scale.  The data kind does the work
@@ -13,6 +13,6 @@ from .select import Selected
 
 
 def locate(s: Setup, chosen: Selected, fit: Goodness) -> Located:
-    """Stage 5: RMS nominal / calibrated / final and the localization of the gap before and after."""
+    """RMS nominal / calibrated / final and the localization of the gap before and after."""
     return s.kind.locate(s.data, s.pred, s.prob, s.weights, fit.scales, chosen.sel.baseline, chosen.sel.final,
                          s.U, s.idx, s.q)

@@ -1,4 +1,4 @@
-"""Stage 4b: the noise the file states, checked against the final model's residuals.
+"""Noise: the noise the file states, checked against the final model's residuals.
 
 With stated sigmas the residuals of a right model, whitened by them, have
 unit variance: per component group (translations, rotations) the sum of
@@ -41,8 +41,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from ...stats.fit import FitResult
 from ..data import Deflections
-from ..fit.select import FitResult
 from .kinds import DeflectionKind
 from .problem import Setup
 

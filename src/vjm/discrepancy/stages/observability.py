@@ -1,4 +1,4 @@
-"""Stage 2: what this data can see of each candidate.
+"""Observability: what this data can see of each candidate.
 
 A candidate with no observable parameter, or whose signature the
 calibration imitates entirely, is never fitted; one with some unobservable
@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...stats.terms import Term
 from .. import observe
-from ..fit.select import Term
 from ..predict import CALIBRATION
 from .calibrate import Calibration
 from .problem import Setup
@@ -30,7 +30,7 @@ class Observability:
 
 
 def observability(s: Setup, cal: Calibration, progress=None) -> Observability:
-    """Stage 2: sensitivities; unseen candidates set aside, unseen parameters held (in ``s.pred``, ``s.terms``)."""
+    """Sensitivities; unseen candidates set aside, unseen parameters held (in ``s.pred``, ``s.terms``)."""
     sens, unobservable, full_terms = {}, {}, {}
     for nm in s.candidates:
         ts = observe.term_sensitivity(s.prob, cal.base.theta, CALIBRATION, nm)

@@ -1,4 +1,4 @@
-"""Stage 9: gross outliers: file rows the final model cannot have produced, set aside, and the diagnosis rerun.
+"""Gross outliers: file rows the final model cannot have produced, set aside, and the diagnosis rerun.
 
 A mistyped value or a probe that slipped puts one reading tens of sigmas off; a few such rows
 make every effect fit them, inflate chi2 and name effects that are not there.  After a full
@@ -8,9 +8,11 @@ that exceeds 1: a model wrong everywhere widens the whole distribution, it does 
 ``r / (1.4826 MAD)`` with estimated sigmas.  An observation beyond :func:`threshold` (the Bonferroni
 normal quantile over the n observations at :data:`FALSE_FLAG`, at least :data:`Z_MIN` robust
 sigmas: a clean set flags nothing with probability >= 99 %) is an outlier, and its whole file row
-is set aside.  The diagnosis is rerun on the other rows and the residuals of all rows (those set
-aside included, predicted by the new model) are judged again: rows may come back.  This repeats
-until the set aside is the set flagged (at most :data:`MAX_PASSES` diagnoses).  The rows are set aside
+is set aside.  The workflow (:func:`vjm.discrepancy.workflow.set_aside`) reruns the diagnosis on the
+other rows and the residuals of all rows (those set aside included, predicted by the new model) are
+judged again: rows may come back.  This repeats until the set aside is the set flagged (at most
+:data:`MAX_PASSES` diagnoses); this module decides each step (:func:`first_look`, :func:`again`,
+:func:`decide`).  The rows are set aside
 only if the other rows then fit: where they still lack fit, the rows beyond the threshold are the
 worst part of a gap the library lacks (a contact, a hysteresis), every row is kept and the plain
 diagnosis reported, with a warning.
@@ -23,7 +25,6 @@ benchmarks/bench_diagnose_outliers.py measures how far the hidden effect is stil
 """
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -114,7 +115,7 @@ def subset(data, keep: np.ndarray):
 
 
 def _predictor(full, cur, names) -> Predictor | None:
-    """A predictor of every row of ``full``'s data with the terms of ``cur`` (both stage-0 Setups;
+    """A predictor of every row of ``full``'s data with the terms of ``cur`` (both problem Setups;
     None if one of ``names`` does not apply to the full data)."""
     if cur is full:
         return full.pred
@@ -163,44 +164,45 @@ def flag(full, cur, final, sigma_known: bool):
     return tuple(sorted({int(pos[i]) for i in out})), entries, thr, float(scale)
 
 
-def set_aside(first, run, sigma_known: bool, judged: bool = True):
-    """(the pass to report, :class:`Outliers` or None) from the first, plain, pass.
-
-    ``first`` and every pass ``run(data)`` returns have ``s`` (the stage-0 Setup), ``final`` (the
-    final FitResult) and ``rep`` (the Report).  No outlier: ``(first, None)``, the plain diagnosis as
-    it is.  Outliers that are not gross errors but part of a gap (:attr:`Outliers.accepted` False):
-    ``(first, outliers)``.
-    """
-    full = first.s
-    got = flag(full, full, first.final, sigma_known)
+def first_look(full, final, sigma_known: bool, judged: bool = True):
+    """The rows the first, plain, diagnosis (problem Setup ``full``, its final FitResult ``final``) flags:
+    None when none is beyond the threshold (the plain diagnosis stands); an :class:`Outliers` when they
+    are reported but kept (``judged`` False: the lack of fit cannot be judged, so the other rows' fit
+    cannot say what they are); else the tuple of :func:`flag` to rerun the diagnosis without."""
+    got = flag(full, full, final, sigma_known)
     if got is None or not got[0]:
-        return first, None
-    if not judged:  # flagged and reported, every row kept: the other rows' fit could not say what they are
+        return None
+    if not judged:
         rows = set(file_rows(full.data)[list(got[0])].tolist())
-        return first, Outliers(got[0], [e for e in got[1] if e["row"] in rows], full.data.n, got[2], got[3], 1,
-                               False, False, False)
-    seen = {()}
-    cur, aside, passes = first, (), 1
-    while got is not None and got[0] != aside and got[0] not in seen and passes < MAX_PASSES:
-        aside = got[0]
-        seen.add(aside)
-        keep = np.ones(full.data.n, bool)
-        keep[list(aside)] = False
-        cur = run(subset(full.data, keep))
-        passes += 1
-        got = flag(full, cur.s, cur.final, sigma_known)
-        if cur.rep.verdict == "unexplained":
-            break  # the other rows still lack fit: the rows flagged are part of a gap, not gross errors
-    settled = got is not None and got[0] == aside
-    # rows that are gross errors leave the others fitting once set aside; a gap the library lacks does not
-    # (the rows beyond the threshold are its worst part, and setting them aside uncovers the next ones)
-    accepted = settled and cur.rep.verdict != "unexplained"
+        return Outliers(got[0], [e for e in got[1] if e["row"] in rows], full.data.n, got[2], got[3], 1,
+                        False, False, False)
+    return got
+
+
+def again(got, aside: tuple, seen: set, passes: int) -> bool:
+    """Whether to diagnose again without the rows ``got`` flags: they are not the rows set aside, not a set
+    tried before (a cycle), and fewer than :data:`MAX_PASSES` diagnoses ran."""
+    return got is not None and got[0] != aside and got[0] not in seen and passes < MAX_PASSES
+
+
+def kept_rows(data, aside: tuple):
+    """The rows of ``data`` without the positions ``aside``."""
+    keep = np.ones(data.n, bool)
+    keep[list(aside)] = False
+    return subset(data, keep)
+
+
+def decide(full, got, aside: tuple, passes: int, verdict: str) -> Outliers:
+    """The rows set aside after the reruns: ``got`` what the last pass (``verdict`` its verdict) flags on
+    every row of ``full``'s data, ``aside`` the rows it was run without.  Rows that are gross errors leave
+    the others fitting once set aside (:attr:`Outliers.accepted`); a gap the library lacks does not (the
+    rows beyond the threshold are its worst part, and setting them aside uncovers the next ones)."""
     if got is None:
-        return first, Outliers(aside, [], full.data.n, threshold(0), float("nan"), passes, False, False)
+        return Outliers(aside, [], full.data.n, threshold(0), float("nan"), passes, False, False)
+    settled = got[0] == aside
     rows = set(file_rows(full.data)[list(aside)].tolist())
-    entries = [e for e in got[1] if e["row"] in rows]
-    return (cur if accepted else first), Outliers(aside, entries, full.data.n, got[2], got[3], passes, settled,
-                                                  accepted)
+    return Outliers(aside, [e for e in got[1] if e["row"] in rows], full.data.n, got[2], got[3], passes, settled,
+                    settled and verdict != "unexplained")
 
 
 def flags(o: Outliers) -> list:
@@ -228,17 +230,3 @@ def flags(o: Outliers) -> list:
 def untrusted_model(s, baseline):
     """The model with the calibration only (what model_updated.yaml holds when the data are not trusted)."""
     return apply_calibration(s.model, s.pred.full_theta(CALIBRATION, baseline.term_theta(s.prob, CALIBRATION)))
-
-
-def with_outliers(rep, o: Outliers, baseline_values: dict | None):
-    """The report with the rows set aside: ``outliers``, the warnings, and for more than
-    :data:`UNTRUSTED` of the rows verdict ``untrusted_data`` with no effect named (``baseline_values``:
-    the calibration-only fit's parameters, then the final ones)."""
-    if not o.accepted:
-        return dataclasses.replace(rep, flags=flags(o) + list(rep.flags))
-    rep = dataclasses.replace(rep, outliers=o.record(), flags=flags(o) + list(rep.flags))
-    if o.untrusted:
-        rep = dataclasses.replace(rep, verdict="untrusted_data", named_effects=[], confounded=[], alternatives=[],
-                                  final_params=baseline_values if baseline_values is not None else rep.final_params)
-    return rep
-

@@ -1,4 +1,4 @@
-"""Stage 0: the weighted residual problem of a model and a data set.
+"""Problem: the weighted residual problem of a model and a data set.
 
 Checks that every posture is reachable and the data's units plausible
 (:mod:`vjm.discrepancy.plausible`), keeps the candidates that apply to
@@ -15,8 +15,8 @@ import numpy as np
 
 from ... import effects as fx
 from ...effects.context import Context
+from ...stats.terms import Problem, Term
 from ..data import Deflections, StiffnessObs
-from ..fit.select import Problem, Term
 from ..plausible import check_reachable, check_units
 from ..predict import CALIBRATION, Predictor, calibration_term
 from .kinds import DataKind, Weights
@@ -56,7 +56,7 @@ def applicable(model, data_kind: str, names=None):
 
 
 def build_problem(model, data, kind: DataKind, effects=None) -> Setup:
-    """Stage 0: rows, postures, candidates, predictor and weighted residual problem."""
+    """Rows, postures, candidates, predictor and weighted residual problem."""
     data = kind.rows(data, model)
     U, idx, q = check_reachable(model, data)  # every posture reachable, named by its row if not
     check_units(model, data, U, idx)  # a scale far beyond any effect is a unit: refused before any fit

@@ -5,8 +5,9 @@ import dataclasses
 
 import numpy as np
 
+from ...stats.fit import clipped, fit_terms
+from ...stats.selection import Selection
 from .. import observe
-from ..fit.select import Selection, clipped, fit_terms
 from .thresholds import NEAR_COLLINEAR
 
 

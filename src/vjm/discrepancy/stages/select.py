@@ -1,4 +1,4 @@
-"""Stage 3: which candidates to name.
+"""Selection: which candidates to name.
 
 Forward selection (one candidate per round, family-wise level ``alpha``),
 then each named effect against its correlated rivals with the others in
@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...stats.selection import Selection, backward_eliminate, forward_select, screen_pairs, swap_alternatives
 from .. import observe
-from ..fit.select import Selection, backward_eliminate, forward_select, screen_pairs, swap_alternatives
 from .calibrate import Calibration
 from .observability import Observability
 from .problem import Setup
@@ -48,7 +48,7 @@ def pair_screen(prob, sel: Selection, obs: Observability, cal: Calibration) -> l
 
 
 def select(s: Setup, cal: Calibration, obs: Observability, alpha, max_effects, folds, progress=None) -> Selected:
-    """Stage 3: forward selection, rival swaps, backward elimination, pair screen and swaps."""
+    """Forward selection, rival swaps, backward elimination, pair screen and swaps."""
     prob = s.prob
     sel = forward_select(prob, obs.tested, alpha=alpha, max_effects=max_effects, folds=folds, progress=progress, extra_tests=1)
     sel, rivals = rival_check(prob, sel, obs.tested, obs.sens, cal.cols, alpha)

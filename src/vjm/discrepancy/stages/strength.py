@@ -1,4 +1,4 @@
-"""Stage 7b: whether the design is strong enough to name what the selection chose.
+"""Design strength: whether the design is strong enough to name what the selection chose.
 
 The selection's tests hold their level on any design, but a significant
 effect is not yet a *name*: on a weak design the winner may be whichever

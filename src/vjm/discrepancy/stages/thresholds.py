@@ -1,9 +1,9 @@
-"""Levels of the discrepancy workflow that are not statistical tests (those live in ``fit.select``)."""
+"""Levels of the discrepancy workflow that are not statistical tests (those live in :mod:`vjm.stats`)."""
 from __future__ import annotations
 
 #: family-wise significance level of each selection round
 DEFAULT_ALPHA = 0.01
-#: pairs of candidates fitted after the selection, the first of a linearised screen (fit/select.py screen_pairs)
+#: pairs of candidates fitted after the selection, the first of a linearised screen (vjm.stats.selection.screen_pairs)
 PAIR_SCREEN = 5
 #: canonical correlation (calibration projected out) above which two candidates are reported as one group
 COLLINEAR = 0.99

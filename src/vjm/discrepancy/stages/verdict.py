@@ -1,14 +1,15 @@
-"""Stage 8: the verdict and the warnings that go with it."""
+"""Verdict: the verdict and the warnings that go with it."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ...stats.fit import Z95, clipped
 from .. import observe
-from ..fit.select import Z95, clipped
 from ..plausible import workspace_flags
 from ..predict import CALIBRATION
 from .calibrate import Calibration
 from .goodness import Goodness
+from .load_levels import LevelTest
 from .problem import Setup
 from .select import Selected
 from .thresholds import COLLINEAR, PLAUSIBLE
@@ -56,26 +57,26 @@ def calibration_flags(prob, cal: Calibration) -> list:
     return flags
 
 
-def level_flags(levels: dict | None) -> list:
-    """Warning: the compliance the data show differs between load levels (stage 4b)."""
-    if not levels or not levels["significant"]:
+def level_flags(levels: LevelTest | None) -> list:
+    """Warning: the compliance the data show differs between load levels (:mod:`.load_levels`)."""
+    if levels is None or not levels.significant:
         return []
-    mags = ", ".join(f"{m:.4g}" for m in levels["levels_N"])
+    mags = ", ".join(f"{m:.4g}" for m in levels.levels_N)
     return [f"the deflection does not scale with the load between the load levels ({mags} N): a compliance "
-            f"that differs between levels (p = {levels['p_value']:.2g}, level {levels['alpha']:.2g}) is a "
+            f"that differs between levels (p = {levels.p_value:.2g}, level {levels.alpha:.2g}) is a "
             "load-dependent stiffness (hardening or softening spring, preloaded clearance, contact), which no "
             "effect of the library is"]
 
 
-def verdict(s: Setup, cal: Calibration, chosen: Selected, fit: Goodness, levels: dict | None = None,
+def verdict(s: Setup, cal: Calibration, chosen: Selected, fit: Goodness, levels: LevelTest | None = None,
             weak: list | None = None) -> Verdict:
-    """Stage 8: "unexplained" when the final model still lacks fit (overall, or across load levels),
+    """"unexplained" when the final model still lacks fit (overall, or across load levels),
     else "insufficient_data" if something is named on a design too weak to name it (``weak``: the
     reasons, :func:`.strength.weak_design`), else "explained" if something is named."""
     sel = chosen.sel
     flags = fit_flags(s.prob, sel, sel.final) + workspace_flags(s.model, s.data) + calibration_flags(s.prob, cal)
     flags += level_flags(levels)
-    if fit.lack_of_fit["significant"] or (levels is not None and levels["significant"]):
+    if fit.lack_of_fit["significant"] or (levels is not None and levels.significant):
         v = "unexplained"
     elif sel.selected and weak:
         v = "insufficient_data"

@@ -1,4 +1,4 @@
-"""Stage 4b: lack of fit across load levels (deflection data applied at a few magnitudes).
+"""Load levels: lack of fit across load levels (deflection data applied at a few magnitudes).
 
 Every linear effect of the library, and the model itself, gives a deflection
 that scales with the load: at the same posture and direction, twice the load,
@@ -22,12 +22,14 @@ lack of fit, and may be calibrated away.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy import stats
 
 from .. import observe
 from ..data import Deflections
-from ..levels import load_levels
+from ..loads import load_levels
 from .goodness import Goodness
 from .kinds import DeflectionKind
 from .problem import Setup
@@ -35,6 +37,24 @@ from .select import Selected
 
 #: singular values of the projected level columns below this fraction of the largest are dropped
 RANK_TOL = 1e-8
+
+
+@dataclass(frozen=True)
+class LevelTest:
+    """The load-level lack-of-fit test of the final model."""
+
+    levels_N: tuple  # the load magnitudes, N
+    alpha: float  # its level (the lack-of-fit test's)
+    statistic: float | None  # chi2 drop (known sigmas) or F ratio; None when no column is left
+    dof: int
+    p_value: float | None
+    significant: bool
+    test: str  # what was tested, "none" when nothing could be
+
+    def record(self) -> dict:
+        """report.json's ``lack_of_fit.load_levels``."""
+        return {"levels_N": list(self.levels_N), "alpha": self.alpha, "statistic": self.statistic, "dof": self.dof,
+                "p_value": self.p_value, "significant": self.significant, "test": self.test}
 
 
 def _final_jacobian(prob, final) -> np.ndarray:
@@ -45,10 +65,8 @@ def _final_jacobian(prob, final) -> np.ndarray:
     return observe.jacobian(prob.residuals, final.names, final.theta, range(len(ps)), steps)
 
 
-def level_check(s: Setup, chosen: Selected, fit: Goodness) -> dict | None:
-    """Stage 4b: the load-level lack-of-fit test of the final model, or None (no levels, or stiffness data).
-
-    Returns ``{"levels_N", "statistic", "dof", "p_value", "alpha", "significant", "test"}``."""
+def level_check(s: Setup, chosen: Selected, fit: Goodness) -> LevelTest | None:
+    """The load-level lack-of-fit test of the final model, or None (no levels, or stiffness data)."""
     if not isinstance(s.kind, DeflectionKind) or not isinstance(s.data, Deflections):
         return None
     lv = load_levels(s.data.W)
@@ -71,9 +89,9 @@ def level_check(s: Setup, chosen: Selected, fit: Goodness) -> dict | None:
     keep = sv > RANK_TOL * max(float(sv[0]) if sv.size else 0.0, 1e-300)
     dof = int(keep.sum())
     alpha = float(fit.lack_of_fit["alpha"])
-    base = {"levels_N": [float(m) for m in lv.magnitude], "alpha": alpha}
+    mags = tuple(float(m) for m in lv.magnitude)
     if dof == 0:
-        return {**base, "statistic": None, "dof": 0, "p_value": None, "significant": False, "test": "none"}
+        return LevelTest(mags, alpha, None, 0, None, False, "none")
     drop = float(np.sum((U[:, keep].T @ r) ** 2))
     if s.weights.sigma_known:
         p = float(stats.chi2.sf(drop, dof))
@@ -84,4 +102,4 @@ def level_check(s: Setup, chosen: Selected, fit: Goodness) -> dict | None:
         stat = (drop / dof) / max((final.chi2 - drop) / rest, 1e-300)
         p = float(stats.f.sf(stat, dof, rest))
         test = "F test of a compliance that differs between load levels (sigma estimated)"
-    return {**base, "statistic": stat, "dof": dof, "p_value": p, "significant": bool(p < alpha), "test": test}
+    return LevelTest(mags, alpha, stat, dof, p, bool(p < alpha), test)

@@ -11,7 +11,7 @@ import numpy as np
 
 from linkfea.mechanics.compliance import WRENCH as WRENCH_NAMES
 
-from .levels import by_level, growth_words, load_levels
+from .loads import by_level, growth_words, load_levels
 
 
 def _rms(r2_sum, cnt):

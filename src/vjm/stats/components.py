@@ -1,6 +1,6 @@
 """Variance components of a residual problem with unknown sigmas (translations and rotations apart).
 
-Helpers of :func:`~vjm.discrepancy.fit.select.fit_terms`: the component label of each residual
+Helpers of :func:`~vjm.stats.fit.fit_terms`: the component label of each residual
 used, and each component's residual sum of squares, count and maximum-likelihood variance.
 """
 from __future__ import annotations

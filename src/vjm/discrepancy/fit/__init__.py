@@ -1,4 +1,0 @@
-"""Statistics of the discrepancy workflow: least squares, evidence, selection."""
-from .select import FitResult, Param, Term, fit_terms, forward_select, grouped_folds
-
-__all__ = ["FitResult", "Param", "Term", "fit_terms", "forward_select", "grouped_folds"]
