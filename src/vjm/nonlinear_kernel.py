@@ -23,6 +23,8 @@ import math
 import numpy as np
 from numba import njit
 
+from . import nonlinear_block
+
 CONST = 6
 
 
@@ -162,14 +164,17 @@ def linearize(tab, pt, z, P, hess, g, G, Hs):  # pragma: no cover - compiled
                 Gf[j, i] = dT[j, i, 3]
             _mm3(dT[j, :3, :3], RpT, M)
             _vee_into(M, Gf[j], 3)
-        for a in range(m):
+        for a in range(m):  # G = D Gf, the zeros of the spring bases D skipped (exact: 0 * finite adds 0)
             if fixed[c0 + a]:
                 continue
+            gs = np.zeros(6)
+            for j in range(nJ):
+                d = D[k, a, j]
+                if d != 0.0:
+                    for i in range(6):
+                        gs[i] += d * Gf[j, i]
             for i in range(6):
-                s = 0.0
-                for j in range(nJ):
-                    s += D[k, a, j] * Gf[j, i]
-                G[r0 + i, c0 + a] = s
+                G[r0 + i, c0 + a] = gs[i]
         for i in range(3):
             G[r0 + i, nx + i] = -1.0
             _mm3(D1[i], R0[k], tmp)
@@ -211,8 +216,22 @@ def _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0k, D1, D2, F, X, dT, D, fixed, H
         if not fixed[c0 + a]:
             for j in range(nJ):
                 Dm[a, j] = D[k, a, j]
-    DH = Dm @ Hf
-    Hs[c0:c0 + m, c0:c0 + m] = DH @ Dm.T
+    DH = np.zeros((m, nJ))  # D Hf D^T, the zeros of D skipped
+    for a in range(m):
+        for j in range(nJ):
+            d = Dm[a, j]
+            if d != 0.0:
+                for h in range(nJ):
+                    DH[a, h] += d * Hf[j, h]
+    for a in range(m):
+        for b in range(a, m):
+            s = 0.0
+            for h in range(nJ):
+                d = Dm[b, h]
+                if d != 0.0:
+                    s += DH[a, h] * d
+            Hs[c0 + a, c0 + b] = s
+            Hs[c0 + b, c0 + a] = s
     tmp, SlD1 = np.empty((3, 3)), np.empty((3, 3, 3))
     for i in range(3):
         _mm3(Sl, D1[i], tmp)
@@ -225,11 +244,16 @@ def _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0k, D1, D2, F, X, dT, D, fixed, H
                 for q in range(3):
                     s += SlD1[i, j, q] * dT[f, j, q]
             Hxp[f, i] = s
-    H2 = Dm @ Hxp
     for a in range(m):
-        for i in range(3):
-            Hs[c0 + a, nx + 3 + i] = H2[a, i]
-            Hs[nx + 3 + i, c0 + a] = H2[a, i]
+        h0 = h1 = h2 = 0.0
+        for f in range(nJ):
+            d = Dm[a, f]
+            if d != 0.0:
+                h0 += d * Hxp[f, 0]
+                h1 += d * Hxp[f, 1]
+                h2 += d * Hxp[f, 2]
+        Hs[c0 + a, nx + 3], Hs[c0 + a, nx + 4], Hs[c0 + a, nx + 5] = h0, h1, h2
+        Hs[nx + 3, c0 + a], Hs[nx + 4, c0 + a], Hs[nx + 5, c0 + a] = h0, h1, h2
     _hessian_phi(Sl, D2, R0k, F, nx, Hs)
 
 
@@ -270,18 +294,34 @@ def _order(tab, nx, nz):  # pragma: no cover - compiled
 @njit(cache=True, nogil=True, error_model="numpy")
 def newton_step(tab, pt, z, W, P, kappa, kd, xr):  # pragma: no cover - compiled
     """The full-load Newton step dz of one point (nonlinear._newton_step with s = 1, nonlinear._solve:
-    the same matrix, row and column equilibration); NaN where the matrix is singular."""
+    the same matrix, row and column equilibration); NaN where the matrix is singular.  Solved by the
+    chains' blocks and the platform's Schur complement (vjm.nonlinear_block), or where a chain block
+    is (nearly) singular on its own, by the general elimination of the whole matrix."""
     nx, nz = kappa.size, z.size
     nc = nz - nx - 6
     g, G, Hs = np.empty(nc), np.empty((nc, nx + 6)), np.empty((nx + 6, nx + 6))
     linearize(tab, pt, z, P, True, g, G, Hs)
-    A = np.zeros((nz, nz))  # [[kd - Hs, -G^T], [G, 0]]
     b = np.empty(nz)
     for i in range(nx + 6):
         s = 0.0
         for c in range(nc):
             s += G[c, i] * z[nx + 6 + c]
         b[i] = -(kappa[i] * (z[i] - xr[i]) - s) if i < nx else -(-W[i - nx] - s)
+    for c in range(nc):
+        b[nx + 6 + c] = -g[c]
+    y = np.empty(nz)
+    if nonlinear_block.solve(tab, nx, kd, G, Hs, b.copy(), y):
+        return y
+    return _full_solve(tab, nx, kd, G, Hs, b)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _full_solve(tab, nx, kd, G, Hs, b):  # pragma: no cover - compiled
+    """The bordered system [[kd - Hs, -G^T], [G, 0]] y = b by the equilibrated general elimination."""
+    nz = b.size
+    nc = nz - nx - 6
+    A = np.zeros((nz, nz))
+    for i in range(nx + 6):
         for j in range(nx + 6):
             A[i, j] = -Hs[i, j]
         for c in range(nc):
@@ -289,8 +329,6 @@ def newton_step(tab, pt, z, W, P, kappa, kd, xr):  # pragma: no cover - compiled
             A[nx + 6 + c, i] = G[c, i]
     for i in range(nx):
         A[i, i] += kd[i]
-    for c in range(nc):
-        b[nx + 6 + c] = -g[c]
     perm = _order(tab, nx, nz)
     Ap = np.empty((nz, nz))
     bp = np.empty(nz)
