@@ -27,8 +27,8 @@ PIVOT_MIN = 1e-8
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _local(tab, k, nx, kd, G, Hs, b, L, bl):  # pragma: no cover - compiled
-    """Chain k's rows and columns (x_k, lam_k) and its coupling to u, in L (q + 6, q + 6) and bl (q + 6)."""
+def _local(tab, k, nx, kd, G, Hs, L):  # pragma: no cover - compiled
+    """Chain k's rows and columns (x_k, lam_k) and its coupling to u, in L (q + 6, q + 6)."""
     mk, col = tab[6], tab[8]
     m, c0, r0 = mk[k], col[k], 6 * k
     q = m + 6
@@ -43,16 +43,12 @@ def _local(tab, k, nx, kd, G, Hs, b, L, bl):  # pragma: no cover - compiled
         for j in range(6):
             L[a, q + j] = -Hs[gi, nx + j]
             L[q + j, a] = -Hs[nx + j, gi]
-        bl[a] = b[gi]
     for c in range(6):
         for t in range(m):
             L[m + c, t] = G[r0 + c, c0 + t]
         for j in range(6):
             L[m + c, q + j] = G[r0 + c, nx + j]
             L[q + j, m + c] = -G[r0 + c, nx + j]
-        bl[m + c] = b[nx + 6 + r0 + c]
-    for j in range(6):
-        bl[q + j] = 0.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -100,10 +96,10 @@ def _scales(tab, Ls, Auu, rs, cs):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _eliminate(L, bl, q):  # pragma: no cover - compiled
-    """Gaussian elimination of the first q columns of L (q + 6 square) with partial pivoting among its
-    first q rows; the last six rows and columns become the Schur complement.  False if a pivot is below
-    PIVOT_MIN."""
+def _eliminate(L, q, piv):  # pragma: no cover - compiled
+    """LU of the first q columns of L (q + 6 square), partial pivoting among its first q rows (row swaps in
+    piv, multipliers below the diagonal); the last six rows and columns become the Schur complement.
+    False if a pivot is below PIVOT_MIN."""
     n = q + 6
     for c in range(q):
         p, best = c, abs(L[c, c])
@@ -112,65 +108,104 @@ def _eliminate(L, bl, q):  # pragma: no cover - compiled
                 p, best = r, abs(L[r, c])
         if not best >= PIVOT_MIN:
             return False
+        piv[c] = p
         if p != c:
             for t in range(n):
                 L[c, t], L[p, t] = L[p, t], L[c, t]
-            bl[c], bl[p] = bl[p], bl[c]
         inv = 1.0 / L[c, c]
         for r in range(c + 1, n):
             f = L[r, c] * inv
+            L[r, c] = f
             if f != 0.0:
                 for t in range(c + 1, n):
                     L[r, t] -= f * L[c, t]
-                bl[r] -= f * bl[c]
     return True
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def solve(tab, nx, kd, G, Hs, b, y):  # pragma: no cover - compiled
-    """y (nz,) with the bordered Newton matrix times y = b (nz,), by the chains' blocks and the platform's
-    Schur complement; False (y untouched) when a chain block needs pivots outside it."""
-    mk, col = tab[6], tab[8]
+def workspace(tab):  # pragma: no cover - compiled
+    """The arrays a factorization (:func:`factor`) is kept in."""
+    mk = tab[6]
+    nch, qmax = mk.size, int(mk.max()) + 6
+    return (np.empty((nch, qmax + 6, qmax + 6)), np.empty((nch, qmax + 6)), np.empty((nch, qmax + 6)),
+            np.empty((nch, qmax), np.int64), np.empty((6, 6)), np.empty(6, np.int64))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def factor(tab, nx, kd, G, Hs, ws):  # pragma: no cover - compiled
+    """Factorizes the bordered Newton matrix by the chains' blocks and the platform's Schur complement
+    into ws (see :func:`workspace`); False when a chain block needs pivots outside it."""
+    Ls, rs, cs, piv, S, spiv = ws
+    mk = tab[6]
     nch = mk.size
-    qmax = 0
-    for k in range(nch):
-        qmax = max(qmax, mk[k] + 6)
-    Ls = np.empty((nch, qmax + 6, qmax + 6))
-    bls = np.empty((nch, qmax + 6))
-    for k in range(nch):
-        _local(tab, k, nx, kd, G, Hs, b, Ls[k], bls[k])
     Auu = np.empty((6, 6))
-    bu = np.empty(6)
+    for k in range(nch):
+        _local(tab, k, nx, kd, G, Hs, Ls[k])
     for i in range(6):
-        bu[i] = b[nx + i]
         for j in range(6):
             Auu[i, j] = -Hs[nx + i, nx + j]
-    rs, cs = np.ones((nch, qmax + 6)), np.ones((nch, qmax + 6))
     _scales(tab, Ls, Auu, rs, cs)
-    S = np.empty((6, 6))
+    q0 = mk[0] + 6
     for i in range(6):
-        bu[i] *= rs[0, mk[0] + 6 + i]
         for j in range(6):
-            S[i, j] = Auu[i, j] * rs[0, mk[0] + 6 + i] * cs[0, mk[0] + 6 + j]
+            S[i, j] = Auu[i, j] * rs[0, q0 + i] * cs[0, q0 + j]
     for k in range(nch):
         q = mk[k] + 6
-        L, bl = Ls[k], bls[k]
+        L = Ls[k]
         for r in range(q + 6):
-            bl[r] *= rs[k, r]
             for t in range(q + 6):
                 L[r, t] *= rs[k, r] * cs[k, t]
-        if not _eliminate(L, bl, q):
+        if not _eliminate(L, q, piv[k]):
             return False
         for i in range(6):
-            bu[i] += bl[q + i]
             for j in range(6):
                 S[i, j] += L[q + i, q + j]
+    return _lu6(S, spiv)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def apply(tab, nx, ws, b, y):  # pragma: no cover - compiled
+    """y (nz,) with the factorized matrix (:func:`factor`) times y = b (nz,)."""
+    Ls, rs, cs, piv, S, spiv = ws
+    mk, col = tab[6], tab[8]
+    nch = mk.size
+    q0 = mk[0] + 6
+    bu = np.empty(6)
+    for i in range(6):
+        bu[i] = b[nx + i] * rs[0, q0 + i]
+    bls = np.empty((nch, Ls.shape[1]))
+    for k in range(nch):
+        m, q, c0, L, bl = mk[k], mk[k] + 6, col[k], Ls[k], bls[k]
+        for a in range(m):
+            bl[a] = b[c0 + a] * rs[k, a]
+        for c in range(6):
+            bl[m + c] = b[nx + 6 + 6 * k + c] * rs[k, m + c]
+        for j in range(6):
+            bl[q + j] = 0.0
+        for c in range(q):  # the row swaps (whole rows were swapped in the factorization), then L
+            p = piv[k, c]
+            if p != c:
+                bl[c], bl[p] = bl[p], bl[c]
+        for c in range(q):
+            for r in range(c + 1, q + 6):
+                f = L[r, c]
+                if f != 0.0:
+                    bl[r] -= f * bl[c]
+        for i in range(6):
+            bu[i] += bl[q + i]
     yu = np.empty(6)
-    Sb = np.empty((6, 7))
-    Sb[:, :6] = S
-    Sb[:, 6] = bu
-    if not _dense_solve(Sb, yu):
-        return False
+    for c in range(6):  # the platform's 6x6
+        p = spiv[c]
+        if p != c:
+            bu[c], bu[p] = bu[p], bu[c]
+    for c in range(6):
+        for r in range(c + 1, 6):
+            bu[r] -= S[r, c] * bu[c]
+    for r in range(5, -1, -1):
+        s = bu[r]
+        for t in range(r + 1, 6):
+            s -= S[r, t] * yu[t]
+        yu[r] = s / S[r, r]
     for k in range(nch):
         m, q, c0, L, bl = mk[k], mk[k] + 6, col[k], Ls[k], bls[k]
         yl = np.empty(q)
@@ -186,31 +221,26 @@ def solve(tab, nx, kd, G, Hs, b, y):  # pragma: no cover - compiled
         for c in range(6):
             y[nx + 6 + 6 * k + c] = yl[m + c] * cs[k, m + c]
     for j in range(6):
-        y[nx + j] = yu[j] * cs[0, mk[0] + 6 + j]
-    return True
+        y[nx + j] = yu[j] * cs[0, q0 + j]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _dense_solve(Ab, x):  # pragma: no cover - compiled
-    """x with A x = b for Ab = [A | b] (n, n + 1), partial pivoting; False if a pivot is exactly zero."""
-    n = x.size
-    for c in range(n):
-        p, best = c, abs(Ab[c, c])
-        for r in range(c + 1, n):
-            if abs(Ab[r, c]) > best:
-                p, best = r, abs(Ab[r, c])
+def _lu6(S, spiv):  # pragma: no cover - compiled
+    """LU of the 6x6 S in place, partial pivoting (swaps in spiv); False if a pivot is exactly zero."""
+    for c in range(6):
+        p, best = c, abs(S[c, c])
+        for r in range(c + 1, 6):
+            if abs(S[r, c]) > best:
+                p, best = r, abs(S[r, c])
         if best == 0.0:
             return False
+        spiv[c] = p
         if p != c:
-            for t in range(n + 1):
-                Ab[c, t], Ab[p, t] = Ab[p, t], Ab[c, t]
-        for r in range(c + 1, n):
-            f = Ab[r, c] / Ab[c, c]
-            for t in range(c, n + 1):
-                Ab[r, t] -= f * Ab[c, t]
-    for r in range(n - 1, -1, -1):
-        s = Ab[r, n]
-        for t in range(r + 1, n):
-            s -= Ab[r, t] * x[t]
-        x[r] = s / Ab[r, r]
+            for t in range(6):
+                S[c, t], S[p, t] = S[p, t], S[c, t]
+        for r in range(c + 1, 6):
+            f = S[r, c] / S[c, c]
+            S[r, c] = f
+            for t in range(c + 1, 6):
+                S[r, t] -= f * S[c, t]
     return True

@@ -302,6 +302,20 @@ def newton_step(tab, pt, z, W, P, kappa, kd, xr):  # pragma: no cover - compiled
     g, G, Hs = np.empty(nc), np.empty((nc, nx + 6)), np.empty((nx + 6, nx + 6))
     linearize(tab, pt, z, P, True, g, G, Hs)
     b = np.empty(nz)
+    _rhs(g, G, z, W, kappa, xr, b)
+    y = np.empty(nz)
+    ws = nonlinear_block.workspace(tab)
+    if nonlinear_block.factor(tab, nx, kd, G, Hs, ws):
+        nonlinear_block.apply(tab, nx, ws, b, y)
+        return y
+    return _full_solve(tab, nx, kd, G, Hs, b)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _rhs(g, G, z, W, kappa, xr, b):  # pragma: no cover - compiled
+    """Minus the equations' residual at z (springs, platform, closure): the Newton step's right-hand side."""
+    nx, nz = kappa.size, z.size
+    nc = nz - nx - 6
     for i in range(nx + 6):
         s = 0.0
         for c in range(nc):
@@ -309,10 +323,6 @@ def newton_step(tab, pt, z, W, P, kappa, kd, xr):  # pragma: no cover - compiled
         b[i] = -(kappa[i] * (z[i] - xr[i]) - s) if i < nx else -(-W[i - nx] - s)
     for c in range(nc):
         b[nx + 6 + c] = -g[c]
-    y = np.empty(nz)
-    if nonlinear_block.solve(tab, nx, kd, G, Hs, b.copy(), y):
-        return y
-    return _full_solve(tab, nx, kd, G, Hs, b)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -411,6 +421,17 @@ def residual_ok(tab, pt, z, W, P, kappa, xr, lref, rtol, roundoff):  # pragma: n
     nc = nz - nx - 6
     g, G = np.empty(nc), np.empty((nc, nx + 6))
     linearize(tab, pt, z, P, False, g, G, G[:0, :0])
+    return _check(g, G, z, W, kappa, xr, lref, rtol, roundoff)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _check(g, G, z, W, kappa, xr, lref, rtol, roundoff):  # pragma: no cover - compiled
+    """residual_ok from the closure residual g and gradient G at z."""
+    nx, nz = kappa.size, z.size
+    nc = nz - nx - 6
+    for i in range(z.size):
+        if not math.isfinite(z[i]):
+            return False
     lam = z[nx + 6:]
     Gl = G.T @ lam
     afs = agl = arx = 0.0
@@ -459,34 +480,91 @@ def _start_from(tab, S, zp, zi, nx):  # pragma: no cover - compiled
     zi[nx:] = zp[nx:]
 
 
+#: chord steps (the kept factorization of an earlier point's Newton matrix) a point may take
+CHORD = 4
+#: a chord step must shrink the step before it by this factor, else the next step refactorizes
+CHORD_RATE = 0.1
+#: a point settled by a chord step is accepted when that step was below this fraction of the platform's
+#: deflection (its remaining error is about the step times the contraction, ~1e-2 or less)
+CHORD_ACCEPT = 1e-6
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff, ws, have,
+            count):  # pragma: no cover - compiled
+    """Steps zi to the point's equilibrium: chord steps with the factorization in ws (``have[0]``: one is
+    there, from an earlier point), full Newton steps (refactorized, at most ``max_steps``) when there is
+    none or a chord step converges slowly.  Accepted once a step was taken and the residual check passes
+    (after a chord step, also a step below CHORD_ACCEPT of the deflection).  count: full, chord steps."""
+    nx, nz = kap.size, zi.size
+    nc = nz - nx - 6
+    g, G, Hs = np.empty(nc), np.empty((nc, nx + 6)), np.empty((nx + 6, nx + 6))
+    b, dz = np.empty(nz), np.empty(nz)
+    full_left, chord_left = max_steps, CHORD
+    taken, last_chord, step, prev = 0, False, math.inf, math.inf
+    while True:
+        for q in range(nz):
+            if not math.isfinite(zi[q]):
+                return False
+        linearize(tab, pt, zi, Pi, False, g, G, Hs)
+        if taken > 0 and _check(g, G, zi, Wi, kap, xri, lref, rtol, roundoff):
+            umax = 0.0
+            for q in range(6):
+                umax = max(umax, abs(zi[nx + q]))
+            if not last_chord or step <= CHORD_ACCEPT * umax:
+                return True
+        if have[0] and chord_left > 0 and not (last_chord and step > CHORD_RATE * prev):
+            _rhs(g, G, zi, Wi, kap, xri, b)
+            nonlinear_block.apply(tab, nx, ws, b, dz)
+            chord_left -= 1
+            count[1] += 1
+            last_chord = True
+        else:
+            if full_left == 0:
+                return False
+            linearize(tab, pt, zi, Pi, True, g, G, Hs)
+            _rhs(g, G, zi, Wi, kap, xri, b)
+            have[0] = nonlinear_block.factor(tab, nx, kdi, G, Hs, ws)
+            if have[0]:
+                nonlinear_block.apply(tab, nx, ws, b, dz)
+            else:
+                dz[:] = _full_solve(tab, nx, kdi, G, Hs, b)
+            full_left -= 1
+            count[0] += 1
+            last_chord = False
+        prev, step = step, 0.0
+        for q in range(nz):
+            zi[q] += dz[q] if math.isfinite(dz[q]) else math.nan
+        for q in range(6):
+            step = max(step, abs(dz[nx + q]))
+        taken += 1
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def march(tab, v0, R0, S, D, fixed, kappa, kd, xr, W, P, trivial, z, pos, end, given, max_steps,
           lref, rtol, roundoff, ok, steps):  # pragma: no cover - compiled
     """Runs of consecutive points, each from ``pos[r]`` to ``end[r]`` (exclusive): every point starts
-    from its predecessor's equilibrium (the run's first from z as given when ``given[r]``), then takes
-    full-load Newton steps until the residual check passes (at most ``max_steps``).  A run stops at a
-    point that fails (``pos[r]`` is left there, ``ok`` False) for the caller's reference solve;
-    ``steps[r]`` counts the Newton steps."""
+    from its predecessor's equilibrium, or from z as given where ``given[i]``, then settles
+    (:func:`_settle`: chord steps with the factorization of an earlier point of the run, full Newton
+    steps where needed, the residual check).  A run stops at a point that fails (``pos[r]`` is left
+    there, ``ok`` False) for the caller's reference solve; ``steps[r]``: full Newton and chord steps."""
     nx = kappa.shape[1]
+    ws = nonlinear_block.workspace(tab)
+    have = np.zeros(1, np.bool_)
     for r in range(pos.size):
         i = pos[r]
+        have[0] = False
         while i < end[r]:
             if trivial[i]:
                 z[i] = 0.0
                 ok[i] = True
                 i += 1
                 continue
-            if not (given[r] and i == pos[r]):
+            if not given[i]:
                 _start_from(tab, (S[i - 1], S[i]), z[i - 1], z[i], nx)
             pt = (v0[i], R0[i], S[i], D[i], fixed[i])
-            for _ in range(max_steps):
-                dz = newton_step(tab, pt, z[i], W[i], P[i], kappa[i], kd[i], xr[i])
-                for q in range(dz.size):
-                    z[i, q] += dz[q] if math.isfinite(dz[q]) else math.nan
-                steps[r] += 1
-                if residual_ok(tab, pt, z[i], W[i], P[i], kappa[i], xr[i], lref, rtol, roundoff):
-                    ok[i] = True
-                    break
+            ok[i] = _settle(tab, pt, z[i], W[i], P[i], kappa[i], kd[i], xr[i], max_steps, lref, rtol, roundoff,
+                            ws, have, steps[r])
             if not ok[i]:
                 break
             i += 1

@@ -61,13 +61,15 @@ def _kernel():
 class Solved:
     """Platform twists (n, 6) (NaN where not found), the transferable states (n, ns) and the counts:
     cold starts (first points of the runs and warm starts that failed), points that needed the
-    reference solver (``warm_failed``), Newton steps."""
+    reference solver (``warm_failed``), Newton steps (full: a new factorization)."""
 
     twist: np.ndarray
     state: np.ndarray
     cold: int
     warm_failed: int
     newton: int
+    #: chord steps (the compiled path: a kept factorization of an earlier point's Newton matrix)
+    chord: int = 0
 
 
 def _to_x(chains, dv):
@@ -271,22 +273,24 @@ def _compiled(b: _Block, kern, start) -> Solved:
     z = np.zeros((n, nz))
     trivial = np.all(b.W == 0.0, axis=1) & np.all(b.x_rest == 0.0, axis=1)
     tab, data = _pack(b)
-    if start is not None:
-        pos = np.flatnonzero(~trivial)
-        for a in range(0, pos.size, BATCH):
-            idx = pos[a:a + BATCH]
+    given = np.zeros(n, bool)
+    if start is not None:  # one run: every point from its given start, in order (a factorization kept)
+        idx_all = np.flatnonzero(~trivial)
+        for a in range(0, idx_all.size, BATCH):
+            idx = idx_all[a:a + BATCH]
             zs = np.asarray(start, dtype=float)[idx]
             nv = zs.shape[1] - 6 - b.nc
             z[idx] = np.concatenate([_to_x([cd.take(idx) for cd in b.chains], zs[:, :nv]), zs[:, nv:]], axis=1)
-        end, cold = pos + 1, 0
+        given[idx_all] = True
+        pos, end, cold = np.zeros(1, np.int64), np.full(1, n, np.int64), 0
     else:
         L = max(1, -(-n // SEGMENTS))
         pos = np.arange(0, n, L)
         end = np.minimum(pos + L, n)
+        given[pos] = True
         cold = int(np.count_nonzero(~trivial[pos]))  # run heads: Newton from the unloaded posture
-    given = np.ones(pos.size, bool)
     ok = np.zeros(n, bool)
-    steps = np.zeros(pos.size, np.int64)
+    steps = np.zeros((pos.size, 2), np.int64)
     twist = np.full((n, 6), np.nan)
     failed = 0
     heads = set(pos.tolist()) if start is None else set()
@@ -298,12 +302,11 @@ def _compiled(b: _Block, kern, start) -> Solved:
             break
         bad = pos[stop]  # the reference solver, with load steps if needed
         failed += bad.size
-        cold += sum(1 for i in bad.tolist() if i not in heads or start is not None)
+        cold += sum(1 for i in bad.tolist() if i not in heads)
         twist[bad], z[bad] = b.cold(bad)
         pos[stop] += 1
-        given[stop] = False
     good = ok & ~trivial
     twist[good] = _twist(z[good, b.nx:b.nx + 6])
     twist[trivial] = 0.0
     state = np.concatenate([_to_dv(b.chains, z[:, :b.nx]), z[:, b.nx:]], axis=1)
-    return Solved(twist, state, cold, failed, int(steps.sum()))
+    return Solved(twist, state, cold, failed, int(steps[:, 0].sum()), int(steps[:, 1].sum()))
