@@ -194,18 +194,7 @@ def apply(tab, nx, ws, b, y):  # pragma: no cover - compiled
         for i in range(6):
             bu[i] += bl[q + i]
     yu = np.empty(6)
-    for c in range(6):  # the platform's 6x6
-        p = spiv[c]
-        if p != c:
-            bu[c], bu[p] = bu[p], bu[c]
-    for c in range(6):
-        for r in range(c + 1, 6):
-            bu[r] -= S[r, c] * bu[c]
-    for r in range(5, -1, -1):
-        s = bu[r]
-        for t in range(r + 1, 6):
-            s -= S[r, t] * yu[t]
-        yu[r] = s / S[r, r]
+    _lu6_solve(S, spiv, bu, yu)
     for k in range(nch):
         m, q, c0, L, bl = mk[k], mk[k] + 6, col[k], Ls[k], bls[k]
         yl = np.empty(q)
@@ -244,3 +233,20 @@ def _lu6(S, spiv):  # pragma: no cover - compiled
             for t in range(c + 1, 6):
                 S[r, t] -= f * S[c, t]
     return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _lu6_solve(S, spiv, bu, yu):  # pragma: no cover - compiled
+    """yu with S yu = bu from the LU of :func:`_lu6` (bu is overwritten)."""
+    for c in range(6):
+        p = spiv[c]
+        if p != c:
+            bu[c], bu[p] = bu[p], bu[c]
+    for c in range(6):
+        for r in range(c + 1, 6):
+            bu[r] -= S[r, c] * bu[c]
+    for r in range(5, -1, -1):
+        s = bu[r]
+        for t in range(r + 1, 6):
+            s -= S[r, t] * yu[t]
+        yu[r] = s / S[r, r]

@@ -54,16 +54,12 @@ def _platform_rotation(phi, R, D1, D2):  # pragma: no cover - compiled
         _mm3(A[i, 1], Gm, A[i, 2])
     tmp = np.empty((3, 3))
     for i in range(3):
-        for j in range(3):
-            o = np.zeros(3, np.int64)
-            o[i] += 1
-            o[j] += 1
-            _mm3(A[0, o[0]], A[1, o[1]], tmp)
-            _mm3(tmp, A[2, o[2]], D2[i, j])
-        o1 = np.zeros(3, np.int64)
-        o1[i] = 1
-        _mm3(A[0, o1[0]], A[1, o1[1]], tmp)
-        _mm3(tmp, A[2, o1[2]], D1[i])
+        for j in range(3):  # the derivative orders of the three factors
+            o0, o1, o2 = int(i == 0) + int(j == 0), int(i == 1) + int(j == 1), int(i == 2) + int(j == 2)
+            _mm3(A[0, o0], A[1, o1], tmp)
+            _mm3(tmp, A[2, o2], D2[i, j])
+        _mm3(A[0, int(i == 0)], A[1, int(i == 1)], tmp)
+        _mm3(tmp, A[2, int(i == 2)], D1[i])
     _mm3(A[0, 0], A[1, 0], tmp)
     _mm3(tmp, A[2, 0], R)
 
@@ -139,20 +135,22 @@ def linearize(tab, pt, z, P, hess, g, G, Hs):  # pragma: no cover - compiled
     X = np.zeros((nJmax, 4, 4))
     dT = np.zeros((nJmax, 4, 4))
     Rp, RpT, tmp, M = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    tmpT = np.empty((3, 3))
+    v = np.empty(v0.shape[1])
     Gf = np.empty((nJmax, 6))
     for k in range(nch):
         m, nJ, c0, r0 = mk[k], nJk[k], col[k], 6 * k
-        v = v0[k].copy()
+        v[:] = v0[k]
         for a in range(m):
             xa = z[c0 + a]
             for b in range(v.size):
                 v[b] += xa * S[k, a, b]
         _chain(code[k], var[k], coef[k], Tc[k], jof[k], nf[k], v, F, X)
-        for j in range(nJ):
-            for r in range(4):
-                for q in range(4):
-                    dT[j, r, q] = X[j, r, 0] * F[0, q] + X[j, r, 1] * F[1, q] + X[j, r, 2] * F[2, q] \
-                        + X[j, r, 3] * F[3, q]
+        for j in range(nJ):  # X_j F; the last rows of X_j and of X_j F are zero, F's is (0, 0, 0, 1)
+            for r in range(3):
+                for q in range(3):
+                    dT[j, r, q] = X[j, r, 0] * F[0, q] + X[j, r, 1] * F[1, q] + X[j, r, 2] * F[2, q]
+                dT[j, r, 3] = X[j, r, 0] * F[0, 3] + X[j, r, 1] * F[1, 3] + X[j, r, 2] * F[2, 3] + X[j, r, 3]
         _mm3(Rxyz, R0[k], Rp)
         RpT[:] = Rp.T
         for i in range(3):
@@ -167,18 +165,23 @@ def linearize(tab, pt, z, P, hess, g, G, Hs):  # pragma: no cover - compiled
         for a in range(m):  # G = D Gf, the zeros of the spring bases D skipped (exact: 0 * finite adds 0)
             if fixed[c0 + a]:
                 continue
-            gs = np.zeros(6)
+            g0 = g1 = g2 = g3 = g4 = g5 = 0.0
             for j in range(nJ):
                 d = D[k, a, j]
                 if d != 0.0:
-                    for i in range(6):
-                        gs[i] += d * Gf[j, i]
-            for i in range(6):
-                G[r0 + i, c0 + a] = gs[i]
+                    g0 += d * Gf[j, 0]
+                    g1 += d * Gf[j, 1]
+                    g2 += d * Gf[j, 2]
+                    g3 += d * Gf[j, 3]
+                    g4 += d * Gf[j, 4]
+                    g5 += d * Gf[j, 5]
+            G[r0, c0 + a], G[r0 + 1, c0 + a], G[r0 + 2, c0 + a] = g0, g1, g2
+            G[r0 + 3, c0 + a], G[r0 + 4, c0 + a], G[r0 + 5, c0 + a] = g3, g4, g5
         for i in range(3):
             G[r0 + i, nx + i] = -1.0
             _mm3(D1[i], R0[k], tmp)
-            _mm3(F[:3, :3], tmp.T.copy(), M)
+            tmpT[:] = tmp.T
+            _mm3(F[:3, :3], tmpT, M)
             _vee_into(M, G[r0 + 3:r0 + 6, nx + 3 + i], 0)
         if hess:
             _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0[k], D1, D2, F, X, dT, D, fixed, Hs)
@@ -216,22 +219,7 @@ def _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0k, D1, D2, F, X, dT, D, fixed, H
         if not fixed[c0 + a]:
             for j in range(nJ):
                 Dm[a, j] = D[k, a, j]
-    DH = np.zeros((m, nJ))  # D Hf D^T, the zeros of D skipped
-    for a in range(m):
-        for j in range(nJ):
-            d = Dm[a, j]
-            if d != 0.0:
-                for h in range(nJ):
-                    DH[a, h] += d * Hf[j, h]
-    for a in range(m):
-        for b in range(a, m):
-            s = 0.0
-            for h in range(nJ):
-                d = Dm[b, h]
-                if d != 0.0:
-                    s += DH[a, h] * d
-            Hs[c0 + a, c0 + b] = s
-            Hs[c0 + b, c0 + a] = s
+    _dhd(Dm, Hf, c0, Hs)
     tmp, SlD1 = np.empty((3, 3)), np.empty((3, 3, 3))
     for i in range(3):
         _mm3(Sl, D1[i], tmp)
@@ -255,6 +243,28 @@ def _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0k, D1, D2, F, X, dT, D, fixed, H
         Hs[c0 + a, nx + 3], Hs[c0 + a, nx + 4], Hs[c0 + a, nx + 5] = h0, h1, h2
         Hs[nx + 3, c0 + a], Hs[nx + 4, c0 + a], Hs[nx + 5, c0 + a] = h0, h1, h2
     _hessian_phi(Sl, D2, R0k, F, nx, Hs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _dhd(Dm, Hf, c0, Hs):  # pragma: no cover - compiled
+    """Hs[c0:c0 + m, c0:c0 + m] = Dm Hf Dm^T, the zeros of the spring bases Dm skipped."""
+    m, nJ = Dm.shape
+    DH = np.zeros((m, nJ))
+    for a in range(m):
+        for j in range(nJ):
+            d = Dm[a, j]
+            if d != 0.0:
+                for h in range(nJ):
+                    DH[a, h] += d * Hf[j, h]
+    for a in range(m):
+        for b in range(a, m):
+            s = 0.0
+            for h in range(nJ):
+                d = Dm[b, h]
+                if d != 0.0:
+                    s += DH[a, h] * d
+            Hs[c0 + a, c0 + b] = s
+            Hs[c0 + b, c0 + a] = s
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -433,7 +443,11 @@ def _check(g, G, z, W, kappa, xr, lref, rtol, roundoff):  # pragma: no cover - c
         if not math.isfinite(z[i]):
             return False
     lam = z[nx + 6:]
-    Gl = G.T @ lam
+    Gl = np.zeros(nx + 6)
+    for c in range(nc):
+        lc = lam[c]
+        for i in range(nx + 6):
+            Gl[i] += G[c, i] * lc
     afs = agl = arx = 0.0
     for i in range(nx):
         fs = kappa[i] * (z[i] - xr[i])
@@ -474,18 +488,29 @@ def _start_from(tab, S, zp, zi, nx):  # pragma: no cover - compiled
         for a in range(m):
             for b in range(nv):
                 dv[b] += zp[c0 + a] * Sp[k, a, b]
-        Sk = np.ascontiguousarray(Si[k, :m])
-        A = Sk @ Sk.T
-        zi[c0:c0 + m] = _lu_solve(A, Sk @ dv)
+        A, r = np.empty((m, m)), np.zeros(m)  # the normal equations S S^T x = S dv, S's zeros skipped
+        for a in range(m):
+            for b in range(nv):
+                if Si[k, a, b] != 0.0:
+                    r[a] += Si[k, a, b] * dv[b]
+            for a2 in range(a, m):
+                t = 0.0
+                for b in range(nv):
+                    if Si[k, a, b] != 0.0:
+                        t += Si[k, a, b] * Si[k, a2, b]
+                A[a, a2] = t
+                A[a2, a] = t
+        zi[c0:c0 + m] = _lu_solve(A, r)
     zi[nx:] = zp[nx:]
 
 
 #: chord steps (the kept factorization of an earlier point's Newton matrix) a point may take
 CHORD = 4
 #: a chord step must shrink the step before it by this factor, else the next step refactorizes
-CHORD_RATE = 0.1
-#: a point settled by a chord step is accepted when that step was below this fraction of the platform's
-#: deflection (its remaining error is about the step times the contraction, ~1e-2 or less)
+CHORD_RATE = 0.01
+#: a point settled by a chord step is accepted when the error left, estimated as the step times the
+#: observed contraction (the step itself after a single chord step), is below this fraction of the
+#: platform's deflection
 CHORD_ACCEPT = 1e-6
 
 
@@ -495,7 +520,8 @@ def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff,
     """Steps zi to the point's equilibrium: chord steps with the factorization in ws (``have[0]``: one is
     there, from an earlier point), full Newton steps (refactorized, at most ``max_steps``) when there is
     none or a chord step converges slowly.  Accepted once a step was taken and the residual check passes
-    (after a chord step, also a step below CHORD_ACCEPT of the deflection).  count: full, chord steps."""
+    (after a chord step, also an estimated error below CHORD_ACCEPT of the deflection).  count: full,
+    chord steps."""
     nx, nz = kap.size, zi.size
     nc = nz - nx - 6
     g, G, Hs = np.empty(nc), np.empty((nc, nx + 6)), np.empty((nx + 6, nx + 6))
@@ -511,7 +537,8 @@ def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff,
             umax = 0.0
             for q in range(6):
                 umax = max(umax, abs(zi[nx + q]))
-            if not last_chord or step <= CHORD_ACCEPT * umax:
+            # linear convergence: the error left is about the step times the contraction step / prev
+            if not last_chord or step * (min(1.0, step / prev) if prev < math.inf else 1.0) <= CHORD_ACCEPT * umax:
                 return True
         if have[0] and chord_left > 0 and not (last_chord and step > CHORD_RATE * prev):
             _rhs(g, G, zi, Wi, kap, xri, b)
