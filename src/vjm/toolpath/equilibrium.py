@@ -276,11 +276,8 @@ def _compiled(b: _Block, kern, start) -> Solved:
     given = np.zeros(n, bool)
     if start is not None:  # one run: every point from its given start, in order (a factorization kept)
         idx_all = np.flatnonzero(~trivial)
-        for a in range(0, idx_all.size, BATCH):
-            idx = idx_all[a:a + BATCH]
-            zs = np.asarray(start, dtype=float)[idx]
-            nv = zs.shape[1] - 6 - b.nc
-            z[idx] = np.concatenate([_to_x([cd.take(idx) for cd in b.chains], zs[:, :nv]), zs[:, nv:]], axis=1)
+        vcol = np.cumsum([0] + [cd.S.shape[2] for cd in b.chains]).astype(np.int64)
+        kern.to_x(tab, data[2], np.ascontiguousarray(start, dtype=float), idx_all, vcol, z, b.nx)
         given[idx_all] = True
         pos, end, cold = np.zeros(1, np.int64), np.full(1, n, np.int64), 0
     else:
