@@ -15,7 +15,10 @@ column equilibration as :func:`vjm.nonlinear._solve` (units mix mm, rad, N, N mm
 The exact solution of the same system, at the cost of the blocks (about a third of the full
 elimination's work on the 3-PUU, and no index bookkeeping).  A chain block whose pivot is not
 clearly nonzero (below ``PIVOT_MIN`` of its equilibrated entries, which are at most 1) returns
-``False``: the caller solves the whole system by the general elimination instead.
+``False``: the caller solves the whole system by the general elimination instead (:func:`full_solve`:
+threshold pivoting in the chains' order, zeros skipped).  :func:`factor` keeps the factorization, so
+that :func:`apply` can solve later right-hand sides with it (the chord steps of
+:mod:`vjm.nonlinear_kernel`).
 """
 from __future__ import annotations
 
@@ -250,3 +253,107 @@ def _lu6_solve(S, spiv, bu, yu):  # pragma: no cover - compiled
         for t in range(r + 1, 6):
             s -= S[r, t] * yu[t]
         yu[r] = s / S[r, r]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def order(tab, nx, nz):  # pragma: no cover - compiled
+    """Unknowns chain by chain (springs, then the closure's multipliers), the platform pose last: the
+    bordered matrix is then block-arrow shaped and its elimination stays within a chain's block."""
+    perm = np.empty(nz, np.int64)
+    q = 0
+    mk, col = tab[6], tab[8]
+    for k in range(mk.size):
+        for a in range(mk[k]):
+            perm[q] = col[k] + a
+            q += 1
+        for a in range(6):
+            perm[q] = nx + 6 + 6 * k + a
+            q += 1
+    for a in range(6):
+        perm[q + a] = nx + a
+    return perm
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def full_solve(tab, nx, kd, G, Hs, b):  # pragma: no cover - compiled
+    """The bordered system [[kd - Hs, -G^T], [G, 0]] y = b by the equilibrated general elimination."""
+    nz = b.size
+    nc = nz - nx - 6
+    A = np.zeros((nz, nz))
+    for i in range(nx + 6):
+        for j in range(nx + 6):
+            A[i, j] = -Hs[i, j]
+        for c in range(nc):
+            A[i, nx + 6 + c] = -G[c, i]
+            A[nx + 6 + c, i] = G[c, i]
+    for i in range(nx):
+        A[i, i] += kd[i]
+    perm = order(tab, nx, nz)
+    Ap = np.empty((nz, nz))
+    bp = np.empty(nz)
+    cs = np.zeros(nz)
+    for i in range(nz):
+        pi = perm[i]
+        big = 0.0
+        for j in range(nz):
+            big = max(big, abs(A[pi, j]))
+        rs = 1.0 / max(big, 1e-300)
+        bp[i] = b[pi] * rs
+        for j in range(nz):
+            v = A[pi, perm[j]] * rs
+            Ap[i, j] = v
+            cs[j] = max(cs[j], abs(v))
+    for j in range(nz):
+        cs[j] = 1.0 / max(cs[j], 1e-300)
+    for i in range(nz):
+        for j in range(nz):
+            Ap[i, j] *= cs[j]
+    yp = lu_solve(Ap, bp)
+    y = np.empty(nz)
+    for i in range(nz):
+        y[perm[i]] = yp[i] * cs[i]
+    return y
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def lu_solve(A, b, tau=0.1):  # pragma: no cover - compiled
+    """x with A x = b by Gaussian elimination (A and b are overwritten); NaN if A is singular.
+
+    Threshold partial pivoting: the first row (in the given order) whose entry is at least ``tau``
+    of the column's largest; entries that are zero are skipped, so a block-structured matrix is
+    eliminated at the cost of its blocks."""
+    n = b.size
+    nzc = np.empty(n, np.int64)
+    for c in range(n):
+        best = 0.0
+        for r in range(c, n):
+            best = max(best, abs(A[r, c]))
+        if best == 0.0:
+            return np.full(n, np.nan)
+        p = c
+        while abs(A[p, c]) < tau * best:
+            p += 1
+        if p != c:
+            for q in range(n):
+                A[c, q], A[p, q] = A[p, q], A[c, q]
+            b[c], b[p] = b[p], b[c]
+        cnt = 0
+        for q in range(c + 1, n):
+            if A[c, q] != 0.0:
+                nzc[cnt] = q
+                cnt += 1
+        inv = 1.0 / A[c, c]
+        for r in range(c + 1, n):
+            f = A[r, c] * inv
+            if f != 0.0:
+                for t in range(cnt):
+                    q = nzc[t]
+                    A[r, q] -= f * A[c, q]
+                b[r] -= f * b[c]
+    x = np.empty(n)
+    for r in range(n - 1, -1, -1):
+        s = b[r]
+        for q in range(r + 1, n):
+            s -= A[r, q] * x[q]
+        x[r] = s / A[r, r]
+    return x

@@ -283,25 +283,6 @@ def _hessian_phi(Sl, D2, R0k, F, nx, Hs):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _order(tab, nx, nz):  # pragma: no cover - compiled
-    """Unknowns chain by chain (springs, then the closure's multipliers), the platform pose last: the
-    bordered matrix is then block-arrow shaped and its elimination stays within a chain's block."""
-    perm = np.empty(nz, np.int64)
-    q = 0
-    mk, col = tab[6], tab[8]
-    for k in range(mk.size):
-        for a in range(mk[k]):
-            perm[q] = col[k] + a
-            q += 1
-        for a in range(6):
-            perm[q] = nx + 6 + 6 * k + a
-            q += 1
-    for a in range(6):
-        perm[q + a] = nx + a
-    return perm
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
 def newton_step(tab, pt, z, W, P, kappa, kd, xr):  # pragma: no cover - compiled
     """The full-load Newton step dz of one point (nonlinear._newton_step with s = 1, nonlinear._solve:
     the same matrix, row and column equilibration); NaN where the matrix is singular.  Solved by the
@@ -318,7 +299,7 @@ def newton_step(tab, pt, z, W, P, kappa, kd, xr):  # pragma: no cover - compiled
     if nonlinear_block.factor(tab, nx, kd, G, Hs, ws):
         nonlinear_block.apply(tab, nx, ws, b, y)
         return y
-    return _full_solve(tab, nx, kd, G, Hs, b)
+    return nonlinear_block.full_solve(tab, nx, kd, G, Hs, b)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -333,91 +314,6 @@ def _rhs(g, G, z, W, kappa, xr, b):  # pragma: no cover - compiled
         b[i] = -(kappa[i] * (z[i] - xr[i]) - s) if i < nx else -(-W[i - nx] - s)
     for c in range(nc):
         b[nx + 6 + c] = -g[c]
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _full_solve(tab, nx, kd, G, Hs, b):  # pragma: no cover - compiled
-    """The bordered system [[kd - Hs, -G^T], [G, 0]] y = b by the equilibrated general elimination."""
-    nz = b.size
-    nc = nz - nx - 6
-    A = np.zeros((nz, nz))
-    for i in range(nx + 6):
-        for j in range(nx + 6):
-            A[i, j] = -Hs[i, j]
-        for c in range(nc):
-            A[i, nx + 6 + c] = -G[c, i]
-            A[nx + 6 + c, i] = G[c, i]
-    for i in range(nx):
-        A[i, i] += kd[i]
-    perm = _order(tab, nx, nz)
-    Ap = np.empty((nz, nz))
-    bp = np.empty(nz)
-    cs = np.zeros(nz)
-    for i in range(nz):
-        pi = perm[i]
-        big = 0.0
-        for j in range(nz):
-            big = max(big, abs(A[pi, j]))
-        rs = 1.0 / max(big, 1e-300)
-        bp[i] = b[pi] * rs
-        for j in range(nz):
-            v = A[pi, perm[j]] * rs
-            Ap[i, j] = v
-            cs[j] = max(cs[j], abs(v))
-    for j in range(nz):
-        cs[j] = 1.0 / max(cs[j], 1e-300)
-    for i in range(nz):
-        for j in range(nz):
-            Ap[i, j] *= cs[j]
-    yp = _lu_solve(Ap, bp)
-    y = np.empty(nz)
-    for i in range(nz):
-        y[perm[i]] = yp[i] * cs[i]
-    return y
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _lu_solve(A, b, tau=0.1):  # pragma: no cover - compiled
-    """x with A x = b by Gaussian elimination (A and b are overwritten); NaN if A is singular.
-
-    Threshold partial pivoting: the first row (in the given order) whose entry is at least ``tau``
-    of the column's largest; entries that are zero are skipped, so a block-structured matrix is
-    eliminated at the cost of its blocks."""
-    n = b.size
-    nzc = np.empty(n, np.int64)
-    for c in range(n):
-        best = 0.0
-        for r in range(c, n):
-            best = max(best, abs(A[r, c]))
-        if best == 0.0:
-            return np.full(n, np.nan)
-        p = c
-        while abs(A[p, c]) < tau * best:
-            p += 1
-        if p != c:
-            for q in range(n):
-                A[c, q], A[p, q] = A[p, q], A[c, q]
-            b[c], b[p] = b[p], b[c]
-        cnt = 0
-        for q in range(c + 1, n):
-            if A[c, q] != 0.0:
-                nzc[cnt] = q
-                cnt += 1
-        inv = 1.0 / A[c, c]
-        for r in range(c + 1, n):
-            f = A[r, c] * inv
-            if f != 0.0:
-                for t in range(cnt):
-                    q = nzc[t]
-                    A[r, q] -= f * A[c, q]
-                b[r] -= f * b[c]
-    x = np.empty(n)
-    for r in range(n - 1, -1, -1):
-        s = b[r]
-        for q in range(r + 1, n):
-            s -= A[r, q] * x[q]
-        x[r] = s / A[r, r]
-    return x
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -522,7 +418,7 @@ def _x_of(Si, k, m, dv, x):  # pragma: no cover - compiled
                     t += Si[k, a, b] * Si[k, a2, b]
             A[a, a2] = t
             A[a2, a] = t
-    x[:] = _lu_solve(A, r)
+    x[:] = nonlinear_block.lu_solve(A, r)
 
 
 #: chord steps (the kept factorization of an earlier point's Newton matrix) a point may take
@@ -574,7 +470,7 @@ def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff,
             if have[0]:
                 nonlinear_block.apply(tab, nx, ws, b, dz)
             else:
-                dz[:] = _full_solve(tab, nx, kdi, G, Hs, b)
+                dz[:] = nonlinear_block.full_solve(tab, nx, kdi, G, Hs, b)
             full_left -= 1
             count[0] += 1
             last_chord = False

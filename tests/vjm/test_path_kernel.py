@@ -81,7 +81,7 @@ def test_compiled_equations_are_the_numpy_ones(name, path):
         rhs = np.empty(len(dk))
         K._rhs(gk, Gk, z[i], Wd[i], kappa[i], xr[i], rhs)
         assert K.nonlinear_block.factor(tab, b.nx, kd[i], Gk, Hk, K.nonlinear_block.workspace(tab))
-        np.testing.assert_allclose(K._full_solve(tab, b.nx, kd[i], Gk, Hk, rhs), dk, rtol=0,
+        np.testing.assert_allclose(K.nonlinear_block.full_solve(tab, b.nx, kd[i], Gk, Hk, rhs), dk, rtol=0,
                                    atol=1e-9 * np.abs(dk).max())
         assert K.residual_ok(tab, pt, z[i], Wd[i], Pd[i], kappa[i], xr[i], b.lref, eq.RTOL, nl.ROUNDOFF) == ok[i]
     assert not ok.any()  # perturbed states fail the check in both
