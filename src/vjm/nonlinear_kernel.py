@@ -486,28 +486,48 @@ def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff,
 def march(tab, v0, R0, S, D, fixed, kappa, kd, xr, W, P, trivial, z, pos, end, given, max_steps,
           lref, rtol, roundoff, ok, steps):  # pragma: no cover - compiled
     """Runs of consecutive points, each from ``pos[r]`` to ``end[r]`` (exclusive): every point starts
-    from its predecessor's equilibrium, or from z as given where ``given[i]``, then settles
+    from its predecessor's equilibrium (extrapolated from the two before it where the wrench changes
+    linearly), or from z as given where ``given[i]``, then settles
     (:func:`_settle`: chord steps with the factorization of an earlier point of the run, full Newton
     steps where needed, the residual check).  A run stops at a point that fails (``pos[r]`` is left
     there, ``ok`` False) for the caller's reference solve; ``steps[r]``: full Newton and chord steps."""
     nx = kappa.shape[1]
     ws = nonlinear_block.workspace(tab)
     have = np.zeros(1, np.bool_)
+    z2 = np.empty(z.shape[1])
     for r in range(pos.size):
         i = pos[r]
         have[0] = False
+        settled = 0  # consecutive points settled just before i in this run
         while i < end[r]:
             if trivial[i]:
                 z[i] = 0.0
                 ok[i] = True
                 i += 1
+                settled = 0
                 continue
             if not given[i]:
                 _start_from(tab, (S[i - 1], S[i]), z[i - 1], z[i], nx)
+                if settled >= 2 and _steady(W[i - 2], W[i - 1], W[i]):
+                    _start_from(tab, (S[i - 2], S[i]), z[i - 2], z2, nx)
+                    for q in range(z2.size):  # linear extrapolation of the two settled predecessors
+                        z[i, q] += z[i, q] - z2[q]
             pt = (v0[i], R0[i], S[i], D[i], fixed[i])
             ok[i] = _settle(tab, pt, z[i], W[i], P[i], kappa[i], kd[i], xr[i], max_steps, lref, rtol, roundoff,
                             ws, have, steps[r])
             if not ok[i]:
                 break
             i += 1
+            settled += 1
         pos[r] = i
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _steady(Wa, Wb, Wc):  # pragma: no cover - compiled
+    """The wrenches of three consecutive points lie on a line to 1e-3 of their size (no corner of the
+    path's force between them): the equilibrium is extrapolated from the two earlier points."""
+    big = dev = 0.0
+    for q in range(Wc.size):
+        big = max(big, abs(Wa[q]), abs(Wb[q]), abs(Wc[q]))
+        dev = max(dev, abs(Wa[q] - 2.0 * Wb[q] + Wc[q]))
+    return dev <= 1e-3 * big
