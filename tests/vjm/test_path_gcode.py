@@ -160,6 +160,25 @@ def test_round_trip_keeps_a_bom_and_mixed_line_endings():
     assert gc.write_text_of(no_end) == "G1 X0 Y0 Z0\r\nG1 X1"
 
 
+def test_a_program_is_written_in_pieces_byte_for_byte(monkeypatch):
+    """write_program writes WRITE_LINES lines at a time (vjm path writes the compensated program so, never
+    as one string): the pieces join to the text read, byte order mark, CRLF endings and a last line
+    without an ending included."""
+    monkeypatch.setattr(gc, "WRITE_LINES", 3)
+    text = gc.BOM + _text().replace("\n", "\r\n")[:-2]
+    prog = gc.parse_text(text)
+
+    class Pieces(list):
+        def write(self, s):
+            self.append(s)
+
+    out = Pieces()
+    gc.write_program(out, prog)
+    assert "".join(out) == text and gc.write_text_of(prog) == text
+    assert len(out) == 1 + -(-len(prog.lines) // 3) and len(prog.lines) > 6
+    assert all(p.count("\n") <= 3 for p in out)
+
+
 def test_program_number_is_passed_through():
     """``O1000``, the program number most real programs start with, is kept verbatim, as ``%`` lines are."""
     text = "%\nO1000 (POCKET)\nG21 G90\nG1 X0 Y0 Z0 F500\nG1 X5\nM30\n%\n"

@@ -1,7 +1,7 @@
 """The compiled Newton steps (vjm.stiffness.nonlinear_kernel) against the numpy equations they evaluate
 (vjm.stiffness.nonlinear._linearize, _newton_step; vjm.toolpath.equilibrium.residual_ok), and the compiled
 path equilibria against the numpy path (equilibrium.KERNEL = False) on the 3-PUU and the hexapod:
-the same starts, steps and counts, the same deflections to round-off."""
+the same cold starts, the same deflections to the chord steps' tolerance."""
 import numpy as np
 import pytest
 
@@ -76,17 +76,25 @@ def test_compiled_equations_are_the_numpy_ones(name, path):
         assert np.abs(Hs[i]).max() > 0  # the multipliers are not zero: the Hessian is checked
         dk = K.newton_step(tab, pt, z[i], Wd[i], Pd[i], kappa[i], kd[i], xr[i])
         np.testing.assert_allclose(dk, dz[i], rtol=0, atol=1e-9 * np.abs(dz[i]).max())
+        # the step came from the chains' blocks (no chain block needs pivots outside it), and the
+        # general elimination of the whole matrix gives it too
+        rhs = np.empty(len(dk))
+        K._rhs(gk, Gk, z[i], Wd[i], kappa[i], xr[i], rhs)
+        assert K.nonlinear_block.factor(tab, b.nx, kd[i], Gk, Hk, K.nonlinear_block.workspace(tab))
+        np.testing.assert_allclose(K.nonlinear_block.full_solve(tab, b.nx, kd[i], Gk, Hk, rhs), dk, rtol=0,
+                                   atol=1e-9 * np.abs(dk).max())
         assert K.residual_ok(tab, pt, z[i], Wd[i], Pd[i], kappa[i], xr[i], b.lref, eq.RTOL, nl.ROUNDOFF) == ok[i]
     assert not ok.any()  # perturbed states fail the check in both
 
 
-# agreement of the deflections, of the largest one: the two paths take the same Newton steps and differ by
-# the round-off of the solve (its pivot order), ~1e-12 on the 3-PUU; the hexapod's 36 um at 550 mm from
-# the origin carry ~1e-10 (1e-12 mm: round-off of the machine's size times the matrix's condition, ~5e3)
-@pytest.mark.parametrize("name, path, segments, tol", [(PUU, _puu_path, 4, 1e-11), (HEXAPOD, _hexapod_path, 2, 1e-9)])
+# agreement of the deflections, of the largest one: the numpy path takes full Newton steps until the
+# residual check passes, the compiled one chord steps with an earlier point's factorization until, also,
+# a step is below 1e-6 of the deflection.  Measured against the cold reference solver: numpy 3e-7,
+# compiled 4e-9 on the 3-PUU; 6e-11 both on the hexapod
+@pytest.mark.parametrize("name, path, segments, tol", [(PUU, _puu_path, 4, 1e-5), (HEXAPOD, _hexapod_path, 2, 1e-5)])
 def test_compiled_path_equilibria_agree_with_the_numpy_path(monkeypatch, name, path, segments, tol):
     """Marched along a path, then restarted from the states at nearby poses (the compensation's checks):
-    the same cold starts and Newton steps, the same deflections to round-off."""
+    the same cold starts, far fewer factorizations, the same deflections to the steps' tolerance."""
     monkeypatch.setattr(eq, "SEGMENTS", segments)
     m = vjm.load_model(name)
     P, W = path()
@@ -94,14 +102,14 @@ def test_compiled_path_equilibria_agree_with_the_numpy_path(monkeypatch, name, p
     scale = np.repeat([np.abs(ref.twist[:, :3]).max(), np.abs(ref.twist[:, 3:]).max()], 3)
     assert scale[0] > 1e-3  # micrometres of deflection: the check is not empty
     assert np.all(np.abs(s.twist - ref.twist) <= tol * scale)
-    assert (s.cold, s.warm_failed, s.newton) == (ref.cold, ref.warm_failed, ref.newton)
-    assert s.cold == segments  # the first point of each run
+    assert (s.cold, s.warm_failed) == (ref.cold, ref.warm_failed) == (segments, 0)  # the first point of each run
+    assert s.newton < ref.newton and s.chord > 0  # the factorizations are kept from point to point
     P2 = P + np.random.default_rng(1).normal(0, 2e-3, P.shape)
     ref2, s2 = _both(monkeypatch, m, P2, W, start=ref.state)
     assert np.all(np.abs(s2.twist - ref2.twist) <= tol * scale)
-    assert (s2.cold, s2.newton) == (ref2.cold, ref2.newton) and s2.cold == 0 and s2.newton < 2 * len(P)
+    assert s2.cold == ref2.cold == 0 and s2.newton < ref2.newton
     # against the reference solver, cold, to its own tolerance
-    np.testing.assert_allclose(s2.twist, nl.deflection_map(m, P2, W), rtol=0, atol=1e-8 * scale.max())
+    np.testing.assert_allclose(s2.twist, nl.deflection_map(m, P2, W), rtol=0, atol=tol * scale.max())
 
 
 def test_compiled_starts_that_fail_go_to_the_reference_solver(monkeypatch):
@@ -115,7 +123,7 @@ def test_compiled_starts_that_fail_go_to_the_reference_solver(monkeypatch):
 
 def test_vjm_path_compiled_gives_the_numpy_commands(tmp_path, monkeypatch):
     """vjm.path end to end (deflection, compensation, the compensated CSV written as it goes) with the
-    compiled kernels and with the numpy path: the same commands to round-off, no cold check."""
+    compiled kernels and with the numpy path: the same commands to the chord steps' tolerance, no cold check."""
     P, W = _puu_path(120)
     P = P + [30.0, 0.0, -20.0]
     f = tmp_path / "p.csv"
@@ -129,8 +137,8 @@ def test_vjm_path_compiled_gives_the_numpy_commands(tmp_path, monkeypatch):
     a, b = out[False], out[True]
     scale = np.abs(a.deflection[:, :3]).max()
     assert scale > 1e-3
-    assert np.abs(b.deflection - a.deflection).max() <= 1e-11 * scale
-    assert np.abs(b.compensation.commanded - a.compensation.commanded).max() <= 1e-11 * scale
+    assert np.abs(b.deflection - a.deflection).max() <= 1e-5 * scale
+    assert np.abs(b.compensation.commanded - a.compensation.commanded).max() <= 1e-5 * scale
     assert b.compensation.cold == 0 and callable(b.compensated)
     from vjm.toolpath.points import read_csv_text
 

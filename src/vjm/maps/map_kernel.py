@@ -5,7 +5,7 @@ The same arithmetic as the batched numpy path (:func:`vjm.stiffness.chain_stiffn
 6x6 work stays in registers and cache instead of some hundred array operations per block:
 
 * per chain: the end frame and Jacobian in one pass over the factors
-  (:func:`vjm.ik_kernel._end_and_jacobian`, the shared helper), the wrench basis ``N`` of the
+  (:func:`vjm.kinematics.ik_kernel._end_and_jacobian`, the shared helper), the wrench basis ``N`` of the
   passive joints by Householder QR and its conditioning bound, ``M = sum_s Z_s C_s Z_s^T`` with
   ``Z_s = N^T J_s``, its Cholesky inverse and relative pivot, ``K_i = N M^-1 N^T`` added to the
   machine's K;
@@ -107,7 +107,7 @@ def _wrench_basis(A, k, N, R, Ri, beta, bound, nx, w):  # pragma: no cover - com
 @njit(cache=True, nogil=True, error_model="numpy")
 def _cholesky(M, m, L, piv, t):  # pragma: no cover - compiled
     """Lower Cholesky factor L of M (m, m, LANES) and the smallest relative pivot min_j d_j / M_jj
-    per lane (-1 where a diagonal entry is not positive), as vjm.linalg.spd_inverse."""
+    per lane (-1 where a diagonal entry is not positive), as vjm.stiffness.linalg.spd_inverse."""
     piv[:] = math.inf
     for j in range(m):
         for q in range(LANES):
@@ -292,7 +292,7 @@ def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpo
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
-    """Largest eigenvalue of a symmetric 3x3 matrix, closed form (vjm.linalg.sym3_max_eig_soa)."""
+    """Largest eigenvalue of a symmetric 3x3 matrix, closed form (vjm.stiffness.linalg.sym3_max_eig_soa)."""
     q = (a00 + a11 + a22) / 3.0
     p1 = a01 ** 2 + a02 ** 2 + a12 ** 2
     b00, b11, b22 = a00 - q, a11 - q, a22 - q
@@ -308,7 +308,7 @@ def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
 @njit(cache=True, nogil=True, error_model="numpy")
 def _ldl(Kl, rtol, L, D, Dinv, di, LD, r, t):  # pragma: no cover - compiled
     """Jacobi scaling ``di`` and unpivoted LDL^T of the symmetrised Kl (6, 6, LANES), as
-    vjm.linalg.psd_rank_inverse_soa; r counts the pivots above rtol, Dinv is 0 for the others."""
+    vjm.stiffness.linalg.psd_rank_inverse_soa; r counts the pivots above rtol, Dinv is 0 for the others."""
     for i in range(6):
         for q in range(LANES):
             d = math.sqrt(max(Kl[i, i, q], 0.0))

@@ -1,12 +1,12 @@
-"""Compiled per-point Newton steps of the bordered equilibrium of :mod:`vjm.nonlinear`, by numba.
+"""Compiled per-point Newton steps of the bordered equilibrium of :mod:`vjm.stiffness.nonlinear`, by numba.
 
 Along a path (:mod:`vjm.toolpath.equilibrium`) the batched numpy step spends its time in
 the overhead of small array operations and in one stacked solve per batch.  These kernels
 evaluate the *same* equations point by point in compiled loops: the chain products and the
-joint twist matrices (:func:`vjm.nonlinear._chain_kinematics`), the closure residual, its
-gradient and the Hessian of ``lam . g`` (:func:`vjm.nonlinear._linearize`), the bordered
-Newton matrix and its equilibrated solve (:func:`vjm.nonlinear._newton_step`,
-:func:`vjm.nonlinear._solve`) and the residual check
+joint twist matrices (:func:`vjm.stiffness.nonlinear._chain_kinematics`), the closure residual, its
+gradient and the Hessian of ``lam . g`` (:func:`vjm.stiffness.nonlinear._linearize`), the bordered
+Newton matrix and its equilibrated solve (:func:`vjm.stiffness.nonlinear._newton_step`,
+:func:`vjm.stiffness.nonlinear._solve`) and the residual check
 (:func:`vjm.toolpath.equilibrium.residual_ok`).  The numpy functions stay the reference
 and the fallback (no numba, body loads); tests check that both give the same equilibria.
 
@@ -22,6 +22,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from . import nonlinear_block
 
 CONST = 6
 
@@ -52,16 +54,12 @@ def _platform_rotation(phi, R, D1, D2):  # pragma: no cover - compiled
         _mm3(A[i, 1], Gm, A[i, 2])
     tmp = np.empty((3, 3))
     for i in range(3):
-        for j in range(3):
-            o = np.zeros(3, np.int64)
-            o[i] += 1
-            o[j] += 1
-            _mm3(A[0, o[0]], A[1, o[1]], tmp)
-            _mm3(tmp, A[2, o[2]], D2[i, j])
-        o1 = np.zeros(3, np.int64)
-        o1[i] = 1
-        _mm3(A[0, o1[0]], A[1, o1[1]], tmp)
-        _mm3(tmp, A[2, o1[2]], D1[i])
+        for j in range(3):  # the derivative orders of the three factors
+            o0, o1, o2 = int(i == 0) + int(j == 0), int(i == 1) + int(j == 1), int(i == 2) + int(j == 2)
+            _mm3(A[0, o0], A[1, o1], tmp)
+            _mm3(tmp, A[2, o2], D2[i, j])
+        _mm3(A[0, int(i == 0)], A[1, int(i == 1)], tmp)
+        _mm3(tmp, A[2, int(i == 2)], D1[i])
     _mm3(A[0, 0], A[1, 0], tmp)
     _mm3(tmp, A[2, 0], R)
 
@@ -137,20 +135,22 @@ def linearize(tab, pt, z, P, hess, g, G, Hs):  # pragma: no cover - compiled
     X = np.zeros((nJmax, 4, 4))
     dT = np.zeros((nJmax, 4, 4))
     Rp, RpT, tmp, M = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    tmpT = np.empty((3, 3))
+    v = np.empty(v0.shape[1])
     Gf = np.empty((nJmax, 6))
     for k in range(nch):
         m, nJ, c0, r0 = mk[k], nJk[k], col[k], 6 * k
-        v = v0[k].copy()
+        v[:] = v0[k]
         for a in range(m):
             xa = z[c0 + a]
             for b in range(v.size):
                 v[b] += xa * S[k, a, b]
         _chain(code[k], var[k], coef[k], Tc[k], jof[k], nf[k], v, F, X)
-        for j in range(nJ):
-            for r in range(4):
-                for q in range(4):
-                    dT[j, r, q] = X[j, r, 0] * F[0, q] + X[j, r, 1] * F[1, q] + X[j, r, 2] * F[2, q] \
-                        + X[j, r, 3] * F[3, q]
+        for j in range(nJ):  # X_j F; the last rows of X_j and of X_j F are zero, F's is (0, 0, 0, 1)
+            for r in range(3):
+                for q in range(3):
+                    dT[j, r, q] = X[j, r, 0] * F[0, q] + X[j, r, 1] * F[1, q] + X[j, r, 2] * F[2, q]
+                dT[j, r, 3] = X[j, r, 0] * F[0, 3] + X[j, r, 1] * F[1, 3] + X[j, r, 2] * F[2, 3] + X[j, r, 3]
         _mm3(Rxyz, R0[k], Rp)
         RpT[:] = Rp.T
         for i in range(3):
@@ -162,18 +162,26 @@ def linearize(tab, pt, z, P, hess, g, G, Hs):  # pragma: no cover - compiled
                 Gf[j, i] = dT[j, i, 3]
             _mm3(dT[j, :3, :3], RpT, M)
             _vee_into(M, Gf[j], 3)
-        for a in range(m):
+        for a in range(m):  # G = D Gf, the zeros of the spring bases D skipped (exact: 0 * finite adds 0)
             if fixed[c0 + a]:
                 continue
-            for i in range(6):
-                s = 0.0
-                for j in range(nJ):
-                    s += D[k, a, j] * Gf[j, i]
-                G[r0 + i, c0 + a] = s
+            g0 = g1 = g2 = g3 = g4 = g5 = 0.0
+            for j in range(nJ):
+                d = D[k, a, j]
+                if d != 0.0:
+                    g0 += d * Gf[j, 0]
+                    g1 += d * Gf[j, 1]
+                    g2 += d * Gf[j, 2]
+                    g3 += d * Gf[j, 3]
+                    g4 += d * Gf[j, 4]
+                    g5 += d * Gf[j, 5]
+            G[r0, c0 + a], G[r0 + 1, c0 + a], G[r0 + 2, c0 + a] = g0, g1, g2
+            G[r0 + 3, c0 + a], G[r0 + 4, c0 + a], G[r0 + 5, c0 + a] = g3, g4, g5
         for i in range(3):
             G[r0 + i, nx + i] = -1.0
             _mm3(D1[i], R0[k], tmp)
-            _mm3(F[:3, :3], tmp.T.copy(), M)
+            tmpT[:] = tmp.T
+            _mm3(F[:3, :3], tmpT, M)
             _vee_into(M, G[r0 + 3:r0 + 6, nx + 3 + i], 0)
         if hess:
             _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0[k], D1, D2, F, X, dT, D, fixed, Hs)
@@ -211,8 +219,7 @@ def _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0k, D1, D2, F, X, dT, D, fixed, H
         if not fixed[c0 + a]:
             for j in range(nJ):
                 Dm[a, j] = D[k, a, j]
-    DH = Dm @ Hf
-    Hs[c0:c0 + m, c0:c0 + m] = DH @ Dm.T
+    _dhd(Dm, Hf, c0, Hs)
     tmp, SlD1 = np.empty((3, 3)), np.empty((3, 3, 3))
     for i in range(3):
         _mm3(Sl, D1[i], tmp)
@@ -225,12 +232,39 @@ def _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0k, D1, D2, F, X, dT, D, fixed, H
                 for q in range(3):
                     s += SlD1[i, j, q] * dT[f, j, q]
             Hxp[f, i] = s
-    H2 = Dm @ Hxp
     for a in range(m):
-        for i in range(3):
-            Hs[c0 + a, nx + 3 + i] = H2[a, i]
-            Hs[nx + 3 + i, c0 + a] = H2[a, i]
+        h0 = h1 = h2 = 0.0
+        for f in range(nJ):
+            d = Dm[a, f]
+            if d != 0.0:
+                h0 += d * Hxp[f, 0]
+                h1 += d * Hxp[f, 1]
+                h2 += d * Hxp[f, 2]
+        Hs[c0 + a, nx + 3], Hs[c0 + a, nx + 4], Hs[c0 + a, nx + 5] = h0, h1, h2
+        Hs[nx + 3, c0 + a], Hs[nx + 4, c0 + a], Hs[nx + 5, c0 + a] = h0, h1, h2
     _hessian_phi(Sl, D2, R0k, F, nx, Hs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _dhd(Dm, Hf, c0, Hs):  # pragma: no cover - compiled
+    """Hs[c0:c0 + m, c0:c0 + m] = Dm Hf Dm^T, the zeros of the spring bases Dm skipped."""
+    m, nJ = Dm.shape
+    DH = np.zeros((m, nJ))
+    for a in range(m):
+        for j in range(nJ):
+            d = Dm[a, j]
+            if d != 0.0:
+                for h in range(nJ):
+                    DH[a, h] += d * Hf[j, h]
+    for a in range(m):
+        for b in range(a, m):
+            s = 0.0
+            for h in range(nJ):
+                d = Dm[b, h]
+                if d != 0.0:
+                    s += DH[a, h] * d
+            Hs[c0 + a, c0 + b] = s
+            Hs[c0 + b, c0 + a] = s
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -249,117 +283,37 @@ def _hessian_phi(Sl, D2, R0k, F, nx, Hs):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _order(tab, nx, nz):  # pragma: no cover - compiled
-    """Unknowns chain by chain (springs, then the closure's multipliers), the platform pose last: the
-    bordered matrix is then block-arrow shaped and its elimination stays within a chain's block."""
-    perm = np.empty(nz, np.int64)
-    q = 0
-    mk, col = tab[6], tab[8]
-    for k in range(mk.size):
-        for a in range(mk[k]):
-            perm[q] = col[k] + a
-            q += 1
-        for a in range(6):
-            perm[q] = nx + 6 + 6 * k + a
-            q += 1
-    for a in range(6):
-        perm[q + a] = nx + a
-    return perm
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
 def newton_step(tab, pt, z, W, P, kappa, kd, xr):  # pragma: no cover - compiled
     """The full-load Newton step dz of one point (nonlinear._newton_step with s = 1, nonlinear._solve:
-    the same matrix, row and column equilibration); NaN where the matrix is singular."""
+    the same matrix, row and column equilibration); NaN where the matrix is singular.  Solved by the
+    chains' blocks and the platform's Schur complement (vjm.stiffness.nonlinear_block), or where a chain block
+    is (nearly) singular on its own, by the general elimination of the whole matrix."""
     nx, nz = kappa.size, z.size
     nc = nz - nx - 6
     g, G, Hs = np.empty(nc), np.empty((nc, nx + 6)), np.empty((nx + 6, nx + 6))
     linearize(tab, pt, z, P, True, g, G, Hs)
-    A = np.zeros((nz, nz))  # [[kd - Hs, -G^T], [G, 0]]
     b = np.empty(nz)
+    _rhs(g, G, z, W, kappa, xr, b)
+    y = np.empty(nz)
+    ws = nonlinear_block.workspace(tab)
+    if nonlinear_block.factor(tab, nx, kd, G, Hs, ws):
+        nonlinear_block.apply(tab, nx, ws, b, y)
+        return y
+    return nonlinear_block.full_solve(tab, nx, kd, G, Hs, b)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _rhs(g, G, z, W, kappa, xr, b):  # pragma: no cover - compiled
+    """Minus the equations' residual at z (springs, platform, closure): the Newton step's right-hand side."""
+    nx, nz = kappa.size, z.size
+    nc = nz - nx - 6
     for i in range(nx + 6):
         s = 0.0
         for c in range(nc):
             s += G[c, i] * z[nx + 6 + c]
         b[i] = -(kappa[i] * (z[i] - xr[i]) - s) if i < nx else -(-W[i - nx] - s)
-        for j in range(nx + 6):
-            A[i, j] = -Hs[i, j]
-        for c in range(nc):
-            A[i, nx + 6 + c] = -G[c, i]
-            A[nx + 6 + c, i] = G[c, i]
-    for i in range(nx):
-        A[i, i] += kd[i]
     for c in range(nc):
         b[nx + 6 + c] = -g[c]
-    perm = _order(tab, nx, nz)
-    Ap = np.empty((nz, nz))
-    bp = np.empty(nz)
-    cs = np.zeros(nz)
-    for i in range(nz):
-        pi = perm[i]
-        big = 0.0
-        for j in range(nz):
-            big = max(big, abs(A[pi, j]))
-        rs = 1.0 / max(big, 1e-300)
-        bp[i] = b[pi] * rs
-        for j in range(nz):
-            v = A[pi, perm[j]] * rs
-            Ap[i, j] = v
-            cs[j] = max(cs[j], abs(v))
-    for j in range(nz):
-        cs[j] = 1.0 / max(cs[j], 1e-300)
-    for i in range(nz):
-        for j in range(nz):
-            Ap[i, j] *= cs[j]
-    yp = _lu_solve(Ap, bp)
-    y = np.empty(nz)
-    for i in range(nz):
-        y[perm[i]] = yp[i] * cs[i]
-    return y
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _lu_solve(A, b, tau=0.1):  # pragma: no cover - compiled
-    """x with A x = b by Gaussian elimination (A and b are overwritten); NaN if A is singular.
-
-    Threshold partial pivoting: the first row (in the given order) whose entry is at least ``tau``
-    of the column's largest; entries that are zero are skipped, so a block-structured matrix is
-    eliminated at the cost of its blocks."""
-    n = b.size
-    nzc = np.empty(n, np.int64)
-    for c in range(n):
-        best = 0.0
-        for r in range(c, n):
-            best = max(best, abs(A[r, c]))
-        if best == 0.0:
-            return np.full(n, np.nan)
-        p = c
-        while abs(A[p, c]) < tau * best:
-            p += 1
-        if p != c:
-            for q in range(n):
-                A[c, q], A[p, q] = A[p, q], A[c, q]
-            b[c], b[p] = b[p], b[c]
-        cnt = 0
-        for q in range(c + 1, n):
-            if A[c, q] != 0.0:
-                nzc[cnt] = q
-                cnt += 1
-        inv = 1.0 / A[c, c]
-        for r in range(c + 1, n):
-            f = A[r, c] * inv
-            if f != 0.0:
-                for t in range(cnt):
-                    q = nzc[t]
-                    A[r, q] -= f * A[c, q]
-                b[r] -= f * b[c]
-    x = np.empty(n)
-    for r in range(n - 1, -1, -1):
-        s = b[r]
-        for q in range(r + 1, n):
-            s -= A[r, q] * x[q]
-        x[r] = s / A[r, r]
-    return x
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -373,8 +327,23 @@ def residual_ok(tab, pt, z, W, P, kappa, xr, lref, rtol, roundoff):  # pragma: n
     nc = nz - nx - 6
     g, G = np.empty(nc), np.empty((nc, nx + 6))
     linearize(tab, pt, z, P, False, g, G, G[:0, :0])
+    return _check(g, G, z, W, kappa, xr, lref, rtol, roundoff)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _check(g, G, z, W, kappa, xr, lref, rtol, roundoff):  # pragma: no cover - compiled
+    """residual_ok from the closure residual g and gradient G at z."""
+    nx, nz = kappa.size, z.size
+    nc = nz - nx - 6
+    for i in range(z.size):
+        if not math.isfinite(z[i]):
+            return False
     lam = z[nx + 6:]
-    Gl = G.T @ lam
+    Gl = np.zeros(nx + 6)
+    for c in range(nc):
+        lc = lam[c]
+        for i in range(nx + 6):
+            Gl[i] += G[c, i] * lc
     afs = agl = arx = 0.0
     for i in range(nx):
         fs = kappa[i] * (z[i] - xr[i])
@@ -415,41 +384,150 @@ def _start_from(tab, S, zp, zi, nx):  # pragma: no cover - compiled
         for a in range(m):
             for b in range(nv):
                 dv[b] += zp[c0 + a] * Sp[k, a, b]
-        Sk = np.ascontiguousarray(Si[k, :m])
-        A = Sk @ Sk.T
-        zi[c0:c0 + m] = _lu_solve(A, Sk @ dv)
+        _x_of(Si, k, m, dv, zi[c0:c0 + m])
     zi[nx:] = zp[nx:]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def to_x(tab, S, states, rows, vcol, z, nx):  # pragma: no cover - compiled
+    """z[i] (x, u, lam) of the transferable states (chain-variable deformations, chain k's in columns
+    vcol[k]:vcol[k + 1]; then u, lam) of points ``rows`` (equilibrium._to_x, point by point)."""
+    mk, col = tab[6], tab[8]
+    nv = S.shape[3]
+    for i in rows:
+        for k in range(mk.size):
+            dv = np.zeros(nv)
+            dv[:vcol[k + 1] - vcol[k]] = states[i, vcol[k]:vcol[k + 1]]
+            _x_of(S[i], k, mk[k], dv, z[i, col[k]:col[k] + mk[k]])
+        z[i, nx:] = states[i, vcol[mk.size]:]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _x_of(Si, k, m, dv, x):  # pragma: no cover - compiled
+    """x (m,) of chain k's spring basis Si[k] whose chain-variable deformation is dv, by least squares."""
+    nv = Si.shape[2]
+    A, r = np.empty((m, m)), np.zeros(m)  # the normal equations S S^T x = S dv, S's zeros skipped
+    for a in range(m):
+        for b in range(nv):
+            if Si[k, a, b] != 0.0:
+                r[a] += Si[k, a, b] * dv[b]
+        for a2 in range(a, m):
+            t = 0.0
+            for b in range(nv):
+                if Si[k, a, b] != 0.0:
+                    t += Si[k, a, b] * Si[k, a2, b]
+            A[a, a2] = t
+            A[a2, a] = t
+    x[:] = nonlinear_block.lu_solve(A, r)
+
+
+#: chord steps (the kept factorization of an earlier point's Newton matrix) a point may take
+CHORD = 4
+#: a chord step must shrink the step before it by this factor, else the next step refactorizes
+CHORD_RATE = 0.01
+#: a point settled by a chord step is accepted when that step was below this fraction of the platform's
+#: deflection (the error left is about the step times the contraction, 1e-2 or less)
+CHORD_ACCEPT = 1e-6
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff, ws, have,
+            count):  # pragma: no cover - compiled
+    """Steps zi to the point's equilibrium: chord steps with the factorization in ws (``have[0]``: one is
+    there, from an earlier point), full Newton steps (refactorized, at most ``max_steps``) when there is
+    none or a chord step converges slowly.  Accepted once a step was taken and the residual check passes
+    (after a chord step, also a step below CHORD_ACCEPT of the deflection).  count: full, chord steps."""
+    nx, nz = kap.size, zi.size
+    nc = nz - nx - 6
+    g, G, Hs = np.empty(nc), np.empty((nc, nx + 6)), np.empty((nx + 6, nx + 6))
+    b, dz = np.empty(nz), np.empty(nz)
+    full_left, chord_left = max_steps, CHORD
+    taken, last_chord, step, prev = 0, False, math.inf, math.inf
+    while True:
+        for q in range(nz):
+            if not math.isfinite(zi[q]):
+                return False
+        linearize(tab, pt, zi, Pi, False, g, G, Hs)
+        if taken > 0 and _check(g, G, zi, Wi, kap, xri, lref, rtol, roundoff):
+            umax = 0.0
+            for q in range(6):
+                umax = max(umax, abs(zi[nx + q]))
+            # linear convergence: the error left is below the last step (times the contraction)
+            if not last_chord or step <= CHORD_ACCEPT * umax:
+                return True
+        if have[0] and chord_left > 0 and not (last_chord and step > CHORD_RATE * prev):
+            _rhs(g, G, zi, Wi, kap, xri, b)
+            nonlinear_block.apply(tab, nx, ws, b, dz)
+            chord_left -= 1
+            count[1] += 1
+            last_chord = True
+        else:
+            if full_left == 0:
+                return False
+            linearize(tab, pt, zi, Pi, True, g, G, Hs)
+            _rhs(g, G, zi, Wi, kap, xri, b)
+            have[0] = nonlinear_block.factor(tab, nx, kdi, G, Hs, ws)
+            if have[0]:
+                nonlinear_block.apply(tab, nx, ws, b, dz)
+            else:
+                dz[:] = nonlinear_block.full_solve(tab, nx, kdi, G, Hs, b)
+            full_left -= 1
+            count[0] += 1
+            last_chord = False
+        prev, step = step, 0.0
+        for q in range(nz):
+            zi[q] += dz[q] if math.isfinite(dz[q]) else math.nan
+        for q in range(6):
+            step = max(step, abs(dz[nx + q]))
+        taken += 1
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def march(tab, v0, R0, S, D, fixed, kappa, kd, xr, W, P, trivial, z, pos, end, given, max_steps,
           lref, rtol, roundoff, ok, steps):  # pragma: no cover - compiled
     """Runs of consecutive points, each from ``pos[r]`` to ``end[r]`` (exclusive): every point starts
-    from its predecessor's equilibrium (the run's first from z as given when ``given[r]``), then takes
-    full-load Newton steps until the residual check passes (at most ``max_steps``).  A run stops at a
-    point that fails (``pos[r]`` is left there, ``ok`` False) for the caller's reference solve;
-    ``steps[r]`` counts the Newton steps."""
+    from its predecessor's equilibrium (extrapolated from the two before it where the wrench changes
+    linearly), or from z as given where ``given[i]``, then settles
+    (:func:`_settle`: chord steps with the factorization of an earlier point of the run, full Newton
+    steps where needed, the residual check).  A run stops at a point that fails (``pos[r]`` is left
+    there, ``ok`` False) for the caller's reference solve; ``steps[r]``: full Newton and chord steps."""
     nx = kappa.shape[1]
+    ws = nonlinear_block.workspace(tab)
+    have = np.zeros(1, np.bool_)
+    z2 = np.empty(z.shape[1])
     for r in range(pos.size):
         i = pos[r]
+        have[0] = False
+        settled = 0  # consecutive points settled just before i in this run
         while i < end[r]:
             if trivial[i]:
                 z[i] = 0.0
                 ok[i] = True
                 i += 1
+                settled = 0
                 continue
-            if not (given[r] and i == pos[r]):
+            if not given[i]:
                 _start_from(tab, (S[i - 1], S[i]), z[i - 1], z[i], nx)
+                if settled >= 2 and _steady(W[i - 2], W[i - 1], W[i]):
+                    _start_from(tab, (S[i - 2], S[i]), z[i - 2], z2, nx)
+                    for q in range(z2.size):  # linear extrapolation of the two settled predecessors
+                        z[i, q] += z[i, q] - z2[q]
             pt = (v0[i], R0[i], S[i], D[i], fixed[i])
-            for _ in range(max_steps):
-                dz = newton_step(tab, pt, z[i], W[i], P[i], kappa[i], kd[i], xr[i])
-                for q in range(dz.size):
-                    z[i, q] += dz[q] if math.isfinite(dz[q]) else math.nan
-                steps[r] += 1
-                if residual_ok(tab, pt, z[i], W[i], P[i], kappa[i], xr[i], lref, rtol, roundoff):
-                    ok[i] = True
-                    break
+            ok[i] = _settle(tab, pt, z[i], W[i], P[i], kappa[i], kd[i], xr[i], max_steps, lref, rtol, roundoff,
+                            ws, have, steps[r])
             if not ok[i]:
                 break
             i += 1
+            settled += 1
         pos[r] = i
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _steady(Wa, Wb, Wc):  # pragma: no cover - compiled
+    """The wrenches of three consecutive points lie on a line to 1e-3 of their size (no corner of the
+    path's force between them): the equilibrium is extrapolated from the two earlier points."""
+    big = dev = 0.0
+    for q in range(Wc.size):
+        big = max(big, abs(Wa[q]), abs(Wb[q]), abs(Wc[q]))
+        dev = max(dev, abs(Wa[q] - 2.0 * Wb[q] + Wc[q]))
+    return dev <= 1e-3 * big

@@ -1,6 +1,6 @@
 """Nonlinear equilibria along a path, warm-started from the neighbouring point.
 
-The same equations and Newton step as :func:`vjm.nonlinear.deflection_map` (which stays
+The same equations and Newton step as :func:`vjm.stiffness.nonlinear.deflection_map` (which stays
 the reference and the cold start), organised for a sequence of nearby (pose, wrench) pairs:
 
 * a block of points is cut into ``SEGMENTS`` runs of consecutive points; the first point of
@@ -10,7 +10,7 @@ the reference and the cold start), organised for a sequence of nearby (pose, wre
 * from a warm start, Newton steps under the full load until the point's residual passes
   the check below (typically one step: the path moves the equilibrium by a small fraction
   of a deflection between two samples), at most ``WARM_STEPS``; a point still failing is
-  solved by :func:`vjm.nonlinear.deflection_map` (load steps if needed) and counted;
+  solved by :func:`vjm.stiffness.nonlinear.deflection_map` (load steps if needed) and counted;
 * the compensation's check equilibria start from the deflection's equilibrium at the same
   point (``start=``): the commanded pose differs from the programmed one by a deflection.
 
@@ -40,7 +40,7 @@ SEGMENTS = 128
 BATCH = 256
 #: Newton steps from a warm start before the point is solved cold
 WARM_STEPS = 3
-#: use the compiled kernels (:mod:`vjm.nonlinear_kernel`) where numba is installed; False: the numpy path
+#: use the compiled kernels (:mod:`vjm.stiffness.nonlinear_kernel`) where numba is installed; False: the numpy path
 KERNEL = True
 #: ... on blocks of at least this many points (a short path does not wait for the kernel's compilation
 #: or its load from the cache, ~1 s)
@@ -49,7 +49,7 @@ KERNEL_MIN = 1000
 
 @functools.cache
 def _kernel():
-    """The compiled Newton steps (:mod:`vjm.nonlinear_kernel`), or None without numba (the numpy path)."""
+    """The compiled Newton steps (:mod:`vjm.stiffness.nonlinear_kernel`), or None without numba (the numpy path)."""
     try:
         from ..stiffness import nonlinear_kernel
     except ImportError:  # pragma: no cover - numba is a dependency
@@ -61,13 +61,15 @@ def _kernel():
 class Solved:
     """Platform twists (n, 6) (NaN where not found), the transferable states (n, ns) and the counts:
     cold starts (first points of the runs and warm starts that failed), points that needed the
-    reference solver (``warm_failed``), Newton steps."""
+    reference solver (``warm_failed``), Newton steps (full: a new factorization)."""
 
     twist: np.ndarray
     state: np.ndarray
     cold: int
     warm_failed: int
     newton: int
+    #: chord steps (the compiled path: a kept factorization of an earlier point's Newton matrix)
+    chord: int = 0
 
 
 def _to_x(chains, dv):
@@ -167,7 +169,7 @@ def equilibria(model, P, W, offsets=None, start=None) -> Solved:
 
     ``start``: states (n, ns) of a previous call at nearby poses (same order) to start every point
     from; without it, the points are marched in runs (see the module docstring).
-    ``offsets`` as in :func:`vjm.nonlinear.deflection_map`.
+    ``offsets`` as in :func:`vjm.stiffness.nonlinear.deflection_map`.
     """
     b = _Block(model, np.asarray(P, dtype=float), W, offsets)
     kern = _kernel() if KERNEL and len(b.P) >= KERNEL_MIN and not any(cd.loads for cd in b.chains) else None
@@ -226,7 +228,7 @@ def equilibria(model, P, W, offsets=None, start=None) -> Solved:
 
 
 def _pack(b: _Block):
-    """The block's chains as the arrays of :mod:`vjm.nonlinear_kernel`: the factor tables (padded to the
+    """The block's chains as the arrays of :mod:`vjm.stiffness.nonlinear_kernel`: the factor tables (padded to the
     longest chain) and, per point, the chain data of ``nonlinear._ChainData`` (padded likewise)."""
     from ..kinematics.transforms import KINDS
 
@@ -271,22 +273,21 @@ def _compiled(b: _Block, kern, start) -> Solved:
     z = np.zeros((n, nz))
     trivial = np.all(b.W == 0.0, axis=1) & np.all(b.x_rest == 0.0, axis=1)
     tab, data = _pack(b)
-    if start is not None:
-        pos = np.flatnonzero(~trivial)
-        for a in range(0, pos.size, BATCH):
-            idx = pos[a:a + BATCH]
-            zs = np.asarray(start, dtype=float)[idx]
-            nv = zs.shape[1] - 6 - b.nc
-            z[idx] = np.concatenate([_to_x([cd.take(idx) for cd in b.chains], zs[:, :nv]), zs[:, nv:]], axis=1)
-        end, cold = pos + 1, 0
+    given = np.zeros(n, bool)
+    if start is not None:  # one run: every point from its given start, in order (a factorization kept)
+        idx_all = np.flatnonzero(~trivial)
+        vcol = np.cumsum([0] + [cd.S.shape[2] for cd in b.chains]).astype(np.int64)
+        kern.to_x(tab, data[2], np.ascontiguousarray(start, dtype=float), idx_all, vcol, z, b.nx)
+        given[idx_all] = True
+        pos, end, cold = np.zeros(1, np.int64), np.full(1, n, np.int64), 0
     else:
         L = max(1, -(-n // SEGMENTS))
         pos = np.arange(0, n, L)
         end = np.minimum(pos + L, n)
+        given[pos] = True
         cold = int(np.count_nonzero(~trivial[pos]))  # run heads: Newton from the unloaded posture
-    given = np.ones(pos.size, bool)
     ok = np.zeros(n, bool)
-    steps = np.zeros(pos.size, np.int64)
+    steps = np.zeros((pos.size, 2), np.int64)
     twist = np.full((n, 6), np.nan)
     failed = 0
     heads = set(pos.tolist()) if start is None else set()
@@ -298,12 +299,11 @@ def _compiled(b: _Block, kern, start) -> Solved:
             break
         bad = pos[stop]  # the reference solver, with load steps if needed
         failed += bad.size
-        cold += sum(1 for i in bad.tolist() if i not in heads or start is not None)
+        cold += sum(1 for i in bad.tolist() if i not in heads)
         twist[bad], z[bad] = b.cold(bad)
         pos[stop] += 1
-        given[stop] = False
     good = ok & ~trivial
     twist[good] = _twist(z[good, b.nx:b.nx + 6])
     twist[trivial] = 0.0
     state = np.concatenate([_to_dv(b.chains, z[:, :b.nx]), z[:, b.nx:]], axis=1)
-    return Solved(twist, state, cold, failed, int(steps.sum()))
+    return Solved(twist, state, cold, failed, int(steps[:, 0].sum()), int(steps[:, 1].sum()))

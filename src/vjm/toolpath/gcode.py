@@ -20,6 +20,7 @@ True
 """
 from __future__ import annotations
 
+import io
 import math
 import re
 from dataclasses import dataclass, field
@@ -145,12 +146,25 @@ def parse_text(text: str, passed: str = DEFAULT_PASS, name: str = "<G-code>") ->
     return Program(lines, newline, trailing, passed, bom)
 
 
+#: program lines per write of :func:`write_program`
+WRITE_LINES = 4096
+
+
+def write_program(fh, prog: Program) -> None:
+    """Write the program's text (:func:`write_text_of`) to the text file ``fh``, WRITE_LINES lines at a
+    time (a long program's text is never held whole)."""
+    n = len(prog.lines)
+    fh.write(prog.bom)
+    for a in range(0, n, WRITE_LINES):
+        fh.write("".join(ln.text + (ln.ending or (prog.newline if k < n - 1 or prog.trailing_newline else ""))
+                         for k, ln in enumerate(prog.lines[a:a + WRITE_LINES], start=a)))
+
+
 def write_text_of(prog: Program) -> str:
     """The program's text: each line with its own line ending (the program's for a written one)."""
-    n = len(prog.lines)
-    ends = [ln.ending or (prog.newline if k < n - 1 or prog.trailing_newline else "")
-            for k, ln in enumerate(prog.lines)]
-    return prog.bom + "".join(ln.text + e for ln, e in zip(prog.lines, ends))
+    buf = io.StringIO()
+    write_program(buf, prog)
+    return buf.getvalue()
 
 
 # ------------------------------------------------------------------ sampling the path

@@ -31,7 +31,8 @@ class PathResult:
         (first order between the written end points; NaN on rapid moves)
     notes : lines for the summary (assumptions, effects used, warnings)
     compensated : the compensated program: its text, or a function writing it to a text file as it
-        goes (a long CSV is never held whole); ``compensated_text`` gives the text either way
+        goes (a long CSV or G-code program is never held whole as text); ``compensated_text`` gives the
+        text either way
     """
 
     toolpath: Toolpath

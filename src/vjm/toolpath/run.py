@@ -132,6 +132,12 @@ def compensated_text(tp: Toolpath, cmd: np.ndarray, linearize_arcs: bool = False
     """
     if tp.kind == "csv":
         return csv_text(tp, cmd)
+    return gc.write_text_of(compensated_program(tp, cmd, linearize_arcs, split))
+
+
+def compensated_program(tp: Toolpath, cmd: np.ndarray, linearize_arcs: bool = False,
+                        split: bool = False) -> gc.Program:
+    """The compensated G-code program of :func:`compensated_text` (a G-code toolpath)."""
     prog = tp.program
     li = tp.line_index
     assert prog is not None and li is not None  # a G-code toolpath
@@ -155,7 +161,7 @@ def compensated_text(tp: Toolpath, cmd: np.ndarray, linearize_arcs: bool = False
     out = gc.rewrite(prog, new_end, centres)
     if pieces:
         out = gc.linearize(out, pieces)
-    return gc.write_text_of(out)
+    return out
 
 
 def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", compensate: bool = True,
@@ -229,7 +235,8 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
         after = blend_after(_all_vertices(tp, linearize_arcs, split_moves), comp.commanded, comp.residual_vector)
         cmd = comp.commanded
         text = (functools.partial(write_csv, tp=tp, poses=cmd) if tp.kind == "csv"  # written as it goes
-                else compensated_text(tp, cmd, linearize_arcs, split_moves))
+                else functools.partial(gc.write_program, prog=compensated_program(tp, cmd, linearize_arcs,
+                                                                                  split_moves)))
         worse = np.flatnonzero(np.linalg.norm(after[:, :3], axis=1) > np.linalg.norm(d_nl[:, :3], axis=1))
         if tp.kind == "gcode" and not split_moves and worse.size:
             notes.append(f"warning: along {worse.size} of {int(tp.cutting.sum())} cutting samples (first: "
