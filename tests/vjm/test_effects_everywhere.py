@@ -154,7 +154,7 @@ def test_an_effect_added_the_documented_way_goes_from_diagnose_to_path(monkeypat
     Pm, Wm = np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6)
     data = simulate(PUU, [("test_drift", {"dz": 0.01})], Pm, Wm, noise_t=1e-3, noise_r=None, seed=3)
     d = diagnose(PUU, data, effects=["test_drift", "clearance"], folds=2)
-    assert d.report.named_effects == ["test_drift"]
+    assert d.report.named_effects == ("test_drift",)
     d.save(tmp_path / "report")
     updated = vjm.load_model(tmp_path / "report" / "model_updated.yaml")
     dz = updated.effects["test_drift"]["dz"]

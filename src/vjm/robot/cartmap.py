@@ -104,7 +104,7 @@ class CartesianMap:
             return self.stiffness_map().plot(name, ax=ax)
         if self.sag is None:
             raise VjmError("this map has no self-weight sag (cartesian grid map with self_weight=True)")
-        from ..views import pyplot
+        from ..maps.views import pyplot
 
         shape = self.grid.shape
         k, idx = (2, shape[2] // 2) if self.grid.fixed is None else (self.grid.fixed[0], 0)

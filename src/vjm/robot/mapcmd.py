@@ -239,7 +239,7 @@ def _table(res, names) -> tuple[list, list]:
 
 def write_set(out, res, summary: dict, force: bool = False) -> None:
     """map.npz, map.csv, the pictures and summary.json as one set (all new, or the old ones)."""
-    from ..views import pyplot
+    from ..maps.views import pyplot
 
     plt = pyplot()
     names = FILES + ((SAG_FILE,) if res.sag is not None else ())
