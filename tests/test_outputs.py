@@ -47,7 +47,7 @@ def no_work(monkeypatch):
         raise AssertionError("work started before the output path was checked")
 
     # modules that bind these functions by name at import: imported first, so that they keep the real ones
-    for name in ("vjm.discrepancy.workflow", "vjm.sweep.combine", "vjm.maps.compute"):
+    for name in ("vjm.discrepancy.workflow", "vjm.discrepancy.simulate", "vjm.sweep.combine", "vjm.maps.compute"):
         mod(name)
 
     for name, attr in [("linkfea.pipeline", "compute"), ("linkfea.beam.compare", "fea_compliance"),
@@ -132,18 +132,17 @@ def test_simulate_never_overwrites_measured_data_but_replaces_its_own(tmp_path):
 
 # --------------------------------------------------------------------------- report folders
 @pytest.fixture(scope="module")
-def diagnosis():
-    import vjm
-    from vjm.discrepancy.simulate import design_loads, simulate
-    from vjm.discrepancy.workflow import diagnose
-    from vjm.model.links import LinkSpring as Link
+def diagnosis(tmp_path_factory):
+    """A diagnosis of clean data from the independent true machine of tests/truth.py."""
+    import truth as tr
 
-    model = vjm.load_model(PUU).replace(foot=Link.rigid())
-    rng = np.random.default_rng(0)
-    P0 = rng.uniform(-60.0, 90.0, (6, 3))
-    L = design_loads("axes:100", len(P0), rng)
-    P, W = np.repeat(P0, L.shape[1], axis=0), L.reshape(-1, 6)
-    return diagnose(model, simulate(model, [], P, W, 1e-3, None, 0), effects=["gravity"])
+    from vjm.discrepancy.workflow import diagnose
+
+    d = tmp_path_factory.mktemp("truth")
+    given, machine = tr.hide()
+    P, W = tr.design(6, 6, seed=0)
+    data = tr.measure(machine, P, W, seed=0).write(d / "measured.csv")
+    return diagnose(tr.write_model(given, d / "model.yaml"), data, effects=["gravity"])
 
 
 def test_report_folder_gets_the_users_umask_and_no_temporaries(tmp_path, diagnosis):
