@@ -30,14 +30,31 @@ from vjm.robot.poses import read_column_map, read_poses
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 IPA = os.path.join(ROOT, "data", "realdata", "ur10_ipa")
-FILES = {"A": "Series_A/measurements_grid.csv", "C": "Series_C/measurements_random_poses.csv",
-         "D": "Series_D/measurements_iso_cubes.csv"}
+FILES = {"A": "Series_A/measurements_grid.csv", "B": "Series_B/measurements_joint_configurations.csv",
+         "C": "Series_C/measurements_random_poses.csv", "D": "Series_D/measurements_iso_cubes.csv"}
 #: the effect library beyond geometry and joint compliance (vjm.robot.flex), tried in this order
 FLEX_LIBRARY = ("geometry", "compliance", "lateral", "bending", "varying", "thermal", "payload")
 #: (row, effects, folds): folds > 0 keeps an effect only if A's k-fold cross-validated error drops too
 MODELS = (("nominal", None, 0), ("registration only", (), 0), ("geometry", ("geometry",), 0),
           ("geometry + joint compliance", ("geometry", "compliance", "payload"), 0),
           ("what the calibration names from the whole library (F test and 5-fold CV on A)", FLEX_LIBRARY, 5))
+
+
+def load_ur10(series=("A", "C", "D")):
+    """(the UR10 model, {series: its rows}) as the UR10 benchmarks read them: ur10.yaml and the IPA
+    files through their column map, each series its own registration group."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")   # the illustrative joint stiffnesses of ur10.yaml are not used here
+        model = vjm.load_model(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
+    cmap = read_column_map(os.path.join(IPA, "columns.yaml"))
+    return model, {s: read_poses(os.path.join(IPA, FILES[s]), cmap, model.q_names, group=s) for s in series}
+
+
+def training_rows(A, n: int):
+    """The n rows of series A the calibration is fitted on (a seeded random pick), as a mask."""
+    pick = np.zeros(A.n, dtype=bool)
+    pick[np.random.default_rng(0).permutation(A.n)[:min(n, A.n)]] = True
+    return pick
 
 
 def nominal_marker() -> np.ndarray:
@@ -54,14 +71,9 @@ def split(data, k: int):
 
 
 def run(args) -> list:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")   # the illustrative joint stiffnesses of ur10.yaml are not used here
-        model = vjm.load_model(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
-    cmap = read_column_map(os.path.join(IPA, "columns.yaml"))
-    sets = {s: read_poses(os.path.join(IPA, f), cmap, model.q_names, group=s) for s, f in FILES.items()}
+    model, sets = load_ur10()
     A = sets["A"]
-    pick = np.zeros(A.n, dtype=bool)
-    pick[np.random.default_rng(0).permutation(A.n)[:min(args.train, A.n)]] = True
+    pick = training_rows(A, args.train)
     train, held = A.subset(pick), A.subset(~pick)
     rows = []
     for name, effects, folds in MODELS:

@@ -15,17 +15,14 @@ import os
 import sys
 import tempfile
 import time
-import warnings
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench_ur10 as b
 
-import vjm
 from vjm.robot.absolute import kabsch
 from vjm.robot.calibration import error_stats
-from vjm.robot.poses import read_column_map, read_poses
 
 CONFIG = """tasks:
   calibration:
@@ -83,14 +80,9 @@ def main(argv=None):
     ap.add_argument("--train", type=int, default=3000)
     ap.add_argument("--register", type=int, default=30)
     args = ap.parse_args(argv)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        model = vjm.load_model(os.path.join(b.ROOT, "data", "robots", "ur10", "ur10.yaml"))
-    cmap = read_column_map(os.path.join(b.IPA, "columns.yaml"))
-    sets = {s: read_poses(os.path.join(b.IPA, f), cmap, model.q_names, group=s) for s, f in b.FILES.items()}
+    model, sets = b.load_ur10()
     A = sets["A"]
-    pick = np.zeros(A.n, dtype=bool)
-    pick[np.random.default_rng(0).permutation(A.n)[:min(args.train, A.n)]] = True
+    pick = b.training_rows(A, args.train)
     with tempfile.TemporaryDirectory() as folder:
         t0 = time.perf_counter()
         predict, cal = fit(os.path.join(b.ROOT, "data", "robots", "ur10", "ur10.urdf"), list(model.q_names),

@@ -12,18 +12,13 @@ Usage: ``python benchmarks/bench_ur10_seriesb.py [--train 3000] [--register 30]`
 import argparse
 import os
 import sys
-import warnings
 
 import numpy as np
 
-import vjm
 from vjm.robot.calibration import calibrate, predict_points, register
-from vjm.robot.poses import read_column_map, read_poses
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-IPA = os.path.join(ROOT, "data", "realdata", "ur10_ipa")
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_ur10 import FILES, FLEX_LIBRARY, split  # noqa: E402
+from bench_ur10 import FLEX_LIBRARY, load_ur10, split, training_rows
 
 MODELS = (("registration only", (), 0), ("geometry", ("geometry",), 0),
           ("geometry + joint compliance", ("geometry", "compliance", "payload"), 0),
@@ -53,15 +48,9 @@ def main(argv=None):
     ap.add_argument("--train", type=int, default=3000)
     ap.add_argument("--register", type=int, default=30)
     args = ap.parse_args(argv)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        model = vjm.load_model(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
-    cmap = read_column_map(os.path.join(IPA, "columns.yaml"))
-    A = read_poses(os.path.join(IPA, FILES["A"]), cmap, model.q_names, group="A")
-    B = read_poses(os.path.join(IPA, "Series_B", "measurements_joint_configurations.csv"), cmap, model.q_names,
-                   group="B")
-    pick = np.zeros(A.n, dtype=bool)
-    pick[np.random.default_rng(0).permutation(A.n)[:min(args.train, A.n)]] = True
+    model, sets = load_ur10(("A", "B"))
+    A, B = sets["A"], sets["B"]
+    pick = training_rows(A, args.train)
     P = pairs(B)
     d = B.points["tool0"][P[:, 1]] - B.points["tool0"][P[:, 0]]
     gap = np.linalg.norm(d, axis=1)
