@@ -44,11 +44,15 @@ demo: $(STAMP)
 	    --feed-per-tooth 0.05 --depth 2 --width 8 --split-moves --step 5 --out $(OUT)/robot_path
 
 # Lint and type-check first (seconds), build the docs site (strict: a broken link or a stale reference
-# fails; output in .cache/site), then the suite.
+# fails; output in .cache/site), then the suite.  Meanwhile the compiled kernels are compiled once
+# (python -m vjm.kernels, log in .cache/kernels.log), so that the two test workers load them from the
+# cache instead of each compiling them on first use; should that fail, the tests report why.
 test: $(STAMP)
-	$(BIN)/ruff check src tests docs/examples docs/tools
-	$(BIN)/mypy src
-	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
+	@mkdir -p .cache
+	$(PY) -m vjm.kernels > .cache/kernels.log 2>&1 & pid=$$!; \
+	$(BIN)/ruff check src tests docs/examples docs/tools && $(BIN)/mypy src && \
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet; rc=$$?; \
+	wait $$pid || cat .cache/kernels.log; exit $$rc
 	$(PY) -m pytest -n 2 --dist loadfile
 
 clean:
