@@ -95,6 +95,27 @@ class Model:
             raise self._not_for(name)
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
+    # -- the shared calls: each kind defines them (its arguments: poses, or configurations q) ------------
+    def stiffness(self, *args: Any, **kwargs: Any) -> Any:
+        """The stiffness at one pose (parallel) or configuration ``q`` (serial): a StiffnessResult."""
+        raise NotImplementedError
+
+    def stiffness_map(self, *args: Any, **kwargs: Any) -> Any:
+        """The stiffness at a batch of poses (parallel) or configurations (serial), a leading axis n."""
+        raise NotImplementedError
+
+    def deflection(self, *args: Any, **kwargs: Any) -> Any:
+        """The linear deflection twist ``C w`` under a wrench at the end-effector or tool point."""
+        raise NotImplementedError
+
+    def save(self, path) -> None:
+        """Write the model file (atomic; a file vjm did not write is never overwritten)."""
+        raise NotImplementedError
+
+    def replace(self, **changes) -> Any:
+        """A validated copy with some fields changed (the model itself never changes)."""
+        raise NotImplementedError
+
     # -- the calls one kind only takes: declared here so each raises the one error on the other ---------
     def self_weight(self, *args: Any, **kwargs: Any) -> Any:
         """Serial robots: the tool's deflection under the robot's own weight."""
