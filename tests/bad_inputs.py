@@ -525,6 +525,8 @@ CASES = [
          "linear_delta.yaml with nine levels of ten aliases each (10^9 values)"),
     Case("30.3", "vjm stiffness m.yaml --at 0,0,0", "copies.count must be an integer in [1, 64], got 1000000000",
          {"m.yaml": _linear("count: 3", "count: 1000000000")}, "linear_delta.yaml with copies: {count: 1000000000}"),
+    Case("26", "vjm sweep {ur10} --leg leg.json --out s", "ur10.yaml: a serial robot; vjm sweep is for parallel machines",
+         note="a robot given to the link-design sweep"),
 ]
 
 

@@ -15,7 +15,7 @@ ENTRY_POINTS = [
     ("linkfea.mesh", "mesh_link"), ("linkfea.fem.problem", "solve_link"), ("linkfea.sweep", "run_sweep"),
     ("linkfea.solvers.factorizers", "auto_factorizer"),
     ("vjm.toolpath.run", "path"), ("vjm.maps.compute", "grid_map"), ("vjm.maps.compute", "compute_map"),
-    ("vjm.sweep.combine", "sweep"), ("vjm.sweep.combine", "trade_offs"), ("vjm.model.machine", "Model.map"),
+    ("vjm.sweep.combine", "sweep"), ("vjm.sweep.combine", "trade_offs"), ("vjm.model.machine", "ParallelModel.map"),
     ("vjm.discrepancy.workflow", "diagnose"), ("vjm.discrepancy.simulate", "simulate"),
     ("vjm.discrepancy.simulate", "run"), ("vjm.stats.selection", "forward_select"),
 ]

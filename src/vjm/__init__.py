@@ -1,4 +1,7 @@
-"""vjm: virtual-joint-method stiffness of parallel machines.
+"""vjm: virtual-joint-method stiffness of parallel machines and serial or tree robots.
+
+One model type, :class:`Model`, of two kinds: a parallel machine evaluated at platform poses, a robot
+(URDF or DH) evaluated at joint configurations q.
 
 >>> import numpy as np, vjm
 >>> m = vjm.load_model("puu")              # the bundled data/orthoglide/puu.yaml
@@ -7,11 +10,15 @@
 (6, True)
 >>> print(f"k_tran = {r.k_tran:.3g} mm/N")  # the seed's Table 1: 2.78e-4 (actuator fitted to it)
 k_tran = 0.000278 mm/N
+>>> robot = vjm.load_model("robots/ur10/ur10.yaml")   # the same type, of the serial kind
+>>> isinstance(robot, vjm.Model), robot.kind, robot.stiffness([0.0, -1.2, 1.5, -1.9, -1.57, 0.0]).K.shape
+(True, 'serial', (6, 6))
 """
 
 from .errors import EquilibriumError, VjmError
+from .model.base import Model
 from .model.links import LinkSpring
-from .model.machine import Actuator, Joints, Model
+from .model.machine import Actuator, Joints
 from .modelio.read import load_model, with_links
 from .modelio.write import save_model
 from .stiffness.linear import StiffnessResult

@@ -79,11 +79,10 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
               foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG):
     """Cartesian stiffness of MODEL at one point (--at), or of a robot at one configuration (--q)."""
     try:
-        from .robot.model import RobotModel
         from .sweep.spread import bars
 
         m = _load(model, foot, leg)
-        if isinstance(m, RobotModel):
+        if m.kind == "serial":
             if at is not None or q is None:
                 raise VjmError(f"{model} is a serial robot, evaluated in joint space: give --q q1,...,q{m.nq} "
                                f"({', '.join(m.q_names)}), not --at")
@@ -116,8 +115,6 @@ def stiffness(model: Path = typer.Argument(..., help="model YAML"),
 
 def _robot_stiffness(m, q_text: str, tool, strict_limits: bool, self_weight: bool, as_json: bool) -> None:
     """``vjm stiffness robot.yaml --q ...``: K, C at every tool frame (or one), and the sag if asked."""
-    import dataclasses
-
     try:
         q = np.array([float(v) for v in q_text.split(",")])
     except ValueError:
@@ -125,7 +122,7 @@ def _robot_stiffness(m, q_text: str, tool, strict_limits: bool, self_weight: boo
     if q.shape != (m.nq,) or not np.all(np.isfinite(q)):
         raise VjmError(f"--q expects {m.nq} numbers q1,...,q{m.nq} for {m.path or m.name} ({', '.join(m.q_names)}; "
                        f"rad, mm for prismatic joints), got {q_text!r}")
-    m = dataclasses.replace(m, strict_limits=strict_limits or m.strict_limits)
+    m = m.replace(strict_limits=strict_limits or m.strict_limits)
     tools = [m._tool(tool)] if tool is not None else list(m.tools)
     res = {t: m.stiffness(q, t) for t in tools}
     sag = {t: m.self_weight(q, t) for t in tools} if self_weight else {}
@@ -176,14 +173,13 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
     from linkfea.runtime.checks import integer
 
     from .maps.compute import GRID, MAP_FILES
-    from .robot.model import RobotModel
 
     robot_only = {"--joints": joints, "--q": q, "--box": box, "--tool": tool, "--self-weight": self_weight or None}
     try:
         grid = integer(grid, "grid", GRID, ArgumentError)
         check_folder(out, MAP_FILES, force=force)  # before any work (a robot's set, a superset, checked again)
         m = _load(model, foot, leg)
-        if isinstance(m, RobotModel):
+        if m.kind == "serial":
             if spread:
                 raise ArgumentError("spread", "is for parallel machines with FEA links; a robot map has none")
             from .robot.mapcmd import Request, run

@@ -113,7 +113,7 @@ def test_a_model_takes_keywords_only_and_shares_locked_kinematics():
     threads may fill at once, and gives the same stiffness as a fresh model."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from vjm.model.machine import Model
+    from vjm.model.machine import ParallelModel as Model
 
     m = vjm.load_model("puu")
     with pytest.raises(TypeError):

@@ -1,4 +1,4 @@
-"""What an architecture provides to :class:`vjm.model.machine.Model`.
+"""What an architecture provides to :class:`vjm.model.machine.ParallelModel`.
 
 An architecture turns a model's parameters into chains (built once per
 model) and, for a batch of end-effector points, into each chain's nominal

@@ -1,5 +1,5 @@
 """The model edits and per-pose quantities of the effects: everything an effect (and the diagnosis'
-calibration) reads from, or changes in, a :class:`vjm.model.machine.Model`.
+calibration) reads from, or changes in, a :class:`vjm.model.machine.ParallelModel`.
 
 One home for the coupling to the VJM core: the helpers only use the public model API (immutable
 ``Model``, ``replace``, ``stiffness_map``, ``inverse_kinematics``, ``joint_forces``,
@@ -129,7 +129,7 @@ def nonlinear_delta(model, P, W) -> np.ndarray:
 
 
 def workspace_box(model):
-    """(lo, hi) corners of the design box, mm: the model's workspace (:attr:`vjm.Model.workspace`:
+    """(lo, hi) corners of the design box, mm: the model's workspace (:attr:`vjm.model.machine.ParallelModel.workspace`:
     ``geometry.workspace`` if given, else the architecture's box; Orthoglide: Q1 to Q2, seed Fig. 4c)."""
     ws = model.workspace
     return ws.lo.copy(), ws.hi.copy()

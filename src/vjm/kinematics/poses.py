@@ -1,6 +1,6 @@
 """Per-pose kinematics of a model: pinocchio's Model / Data split.
 
-A :class:`~vjm.model.machine.Model` is immutable and holds parameters only.
+A :class:`~vjm.model.machine.ParallelModel` is immutable and holds parameters only.
 ``model.kinematics(P)`` solves the inverse kinematics of a batch of platform
 poses once and returns a :class:`Kinematics`: the platform frames, the
 actuator coordinates, every chain's variable values and (on first use) the

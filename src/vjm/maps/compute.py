@@ -1,7 +1,7 @@
 """Stiffness maps over a workspace grid: k_tran and k_rot per point, saved as .npz and pictures.
 
-:meth:`vjm.Model.map` is the one call: it lays the model's workspace grid
-(:meth:`vjm.Model.grid`, optionally one axis fixed, ``z=0``), checks that the map fits in
+:meth:`vjm.model.machine.ParallelModel.map` is the one call: it lays the model's workspace grid
+(:meth:`vjm.model.machine.ParallelModel.grid`, optionally one axis fixed, ``z=0``), checks that the map fits in
 memory, and evaluates the batched stiffness at the reachable points (:func:`compute_map`);
 :class:`StiffnessMap` carries the result with ``save`` and ``plot``.
 k_tran is in mm/N, k_rot in rad/(N mm) (largest eigenvalues of the compliance blocks);
@@ -63,7 +63,7 @@ def contour_levels(lo: float, hi: float, log: bool) -> np.ndarray:
 
 def workspace_grid(model, n: int, slice_: Optional[str] = None):
     """Axes, points ``G`` (nx, ny, nz, 3) and the fixed axis ``(k, value)`` or None of an n-point grid
-    over the model's workspace (:meth:`vjm.Model.grid`, whose :class:`~vjm.maps.grid.Grid` is the newer form)."""
+    over the model's workspace (:meth:`vjm.model.machine.ParallelModel.grid`, whose :class:`~vjm.maps.grid.Grid` is the newer form)."""
     g = model.grid(integer(n, "grid", GRID, ArgumentError), slice_)
     return list(g.axes), g.points.reshape(g.shape + (3,)), g.fixed
 
@@ -249,7 +249,7 @@ def compute_map(model, P, axes, fixed=None, where: str = "grid", progress: Optio
 
 def grid_map(model, n: int, slice_: Optional[str] = None, orientation=None,
              progress: Optional[Progress] = None, spread: bool = False) -> StiffnessMap:
-    """:meth:`vjm.Model.map`: the stiffness over an n-per-axis workspace grid, its memory checked first."""
+    """:meth:`vjm.model.machine.ParallelModel.map`: the stiffness over an n-per-axis workspace grid, its memory checked first."""
     if model.dof != 6 and orientation is not None and np.any(np.asarray(orientation, dtype=float) != 0):
         # as vjm stiffness and vjm simulate --tilt: a setting the machine cannot take is not ignored
         given = ",".join(f"{v:g}" for v in np.ravel(np.asarray(orientation, dtype=float)))

@@ -44,7 +44,7 @@ class LinkSpring:
     """A link's 6-dof spring: its Compliance (6x6 in the spring frame, with frame and units), or None if rigid.
 
     ``value`` may be given as a Compliance or as a 6x6 matrix; a matrix is checked when the
-    spring enters a :class:`~vjm.model.machine.Model` (the message then names the link) and held as a
+    spring enters a :class:`~vjm.model.machine.ParallelModel` (the message then names the link) and held as a
     Compliance without frame from there on.  ``source`` keeps what the model file said
     (``{"beam": ...}``, ``{"linkfea": path}`` ...) so that saving writes it back; None
     means "write the matrix inline".

@@ -1,9 +1,9 @@
-"""The immutable machine model and its per-pose computations (pinocchio-style Model / Data).
+"""The parallel kind of :class:`vjm.Model` and its per-pose computations (pinocchio-style Model / Data).
 
-A :class:`Model` holds parameters only (architecture, geometry, springs,
-effects); every call such as :meth:`Model.stiffness_map` returns a fresh
-:class:`~vjm.stiffness.linear.StiffnessResult`.  ``dataclasses.replace(model, ...)``
-(or :meth:`Model.replace`) gives a modified model, validated again.
+A :class:`ParallelModel` holds parameters only (architecture, geometry, springs,
+effects); every call such as :meth:`ParallelModel.stiffness_map` returns a fresh
+:class:`~vjm.stiffness.linear.StiffnessResult`.  :meth:`ParallelModel.replace` gives a modified
+model, validated again.
 """
 from __future__ import annotations
 
@@ -34,11 +34,12 @@ from ..stiffness.linear import (
     use_kernel,
 )
 from ..sweep.spread import Spread
+from .base import Model
 from .links import LinkSpring, as_link
 
-#: poses per block in :meth:`Model.stiffness_map` (working set of a block stays in cache)
+#: poses per block in :meth:`ParallelModel.stiffness_map` (working set of a block stays in cache)
 MAP_BLOCK = 2048
-#: batches of kinematics a model keeps (see :meth:`Model.kinematics`)
+#: batches of kinematics a model keeps (see :meth:`ParallelModel.kinematics`)
 KIN_CACHE = 8
 
 
@@ -92,7 +93,7 @@ class Joints:
 class _KinematicsCache:
     """Kinematics of recent small pose batches.
 
-    Shared between the models :meth:`Model.replace` derives with the same kinematic key (the
+    Shared between the models :meth:`ParallelModel.replace` derives with the same kinematic key (the
     kinematics do not depend on the springs), so it is locked: ``vjm path`` evaluates one model
     from a thread pool."""
 
@@ -114,8 +115,8 @@ class _KinematicsCache:
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class Model:
-    """Immutable VJM model of a parallel machine.
+class ParallelModel(Model):
+    """Immutable VJM model of a parallel machine: the ``"parallel"`` kind of :class:`vjm.Model`.
 
     Attributes
     ----------
@@ -137,6 +138,7 @@ class Model:
     LinkResult, a Compliance, a result path ...).
     """
 
+    kind = "parallel"
     architecture: str
     geometry: dict
     actuator: Actuator
@@ -282,7 +284,7 @@ class Model:
 
         return model_html(self)
 
-    def replace(self, **changes) -> "Model":
+    def replace(self, **changes) -> "ParallelModel":
         """A copy with some fields or links changed (validated), like ``dataclasses.replace``.
 
         A keyword naming a link (``foot=``, ``leg=``, or a described machine's link) replaces that

@@ -52,8 +52,9 @@ from linkfea.runtime.checks import did_you_mean
 from ..architectures import ARCHITECTURES
 from ..architectures.described import NAME as DESCRIBED
 from ..errors import VjmError
+from ..model.base import Model
 from ..model.links import LinkSpring, as_link, checked_compliance, linkfea_spring
-from ..model.machine import Actuator, Joints, Model, validate_compliance
+from ..model.machine import Actuator, Joints, ParallelModel, validate_compliance
 from ..resources import data_file
 from .description import parse_description
 from .write import save_model
@@ -163,13 +164,14 @@ def parse_links(d: dict, base_dir: str) -> dict:
 
 
 def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Model:
-    """Build a validated Model from the mapping of a model file."""
+    """Build a validated :class:`vjm.Model` from the mapping of a model file: a robot (a ``urdf:`` or
+    ``dh:`` key, :mod:`vjm.robot.robotfile`) or a parallel machine."""
     if not isinstance(d, dict):
         raise VjmError("a model file must be a YAML mapping")
     from ..robot.robotfile import is_robot, robot_from_dict
 
     if is_robot(d):  # a serial or tree robot: a URDF or a DH table beside its springs (vjm.robot)
-        return robot_from_dict(d, base_dir, path, parse_link)  # type: ignore[return-value]
+        return robot_from_dict(d, base_dir, path, parse_link)
     described = "chains" in d or d.get("architecture") == DESCRIBED
     known = TOP_KEYS + DESCRIPTION_KEYS if described else TOP_KEYS
     extra = set(d) - set(known)
@@ -200,7 +202,7 @@ def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Mo
     if extra:
         raise VjmError(f"actuator: unknown keys {sorted(extra)}")
     actuator, jo, effects = _common(d)
-    return Model(architecture=arch, geometry=geo, actuator=actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")), path=path,
+    return ParallelModel(architecture=arch, geometry=geo, actuator=actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")), path=path,
                  links=links)
 
 
@@ -245,7 +247,7 @@ def check_effects(effects) -> dict:
     return out
 
 
-def _described_from_dict(d: dict, base_dir: str, path: str | None) -> Model:
+def _described_from_dict(d: dict, base_dir: str, path: str | None) -> ParallelModel:
     """A machine description (vjm.modelio.description): platform, chains, links."""
     if d.get("architecture", DESCRIBED) != DESCRIBED:
         raise VjmError(f"architecture: a file with chains describes its machine itself; leave 'architecture' "
@@ -261,7 +263,7 @@ def _described_from_dict(d: dict, base_dir: str, path: str | None) -> Model:
     desc = parse_description(d, geo, set(links))
     _check_geometry_used(geo, desc.raw)
     actuator, jo, effects = _common(d)
-    return Model(architecture=DESCRIBED, geometry=geo, actuator=actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")),
+    return ParallelModel(architecture=DESCRIBED, geometry=geo, actuator=actuator, joints=jo, effects=dict(effects), name=str(d.get("name", "")),
                  path=path, links=links, description=desc)
 
 
@@ -292,7 +294,9 @@ def _is_result_path(link) -> bool:
 
 
 def load_model(path, foot=None, leg=None, links: dict | None = None) -> Model:
-    """Read a model file, with some of its links replaced.
+    """Read a model file, with some of its links replaced: a :class:`vjm.Model` of either kind, a parallel
+    machine (an architecture or a machine description) or a serial or tree robot (a YAML naming a URDF or
+    holding a DH table, :mod:`vjm.robot.robotfile`; or a ``.urdf`` file alone, a rigid robot).
 
     ``foot``, ``leg`` and the entries of ``links`` (name -> link) override the file's links;
     each may be a :class:`linkfea.LinkResult`, a :class:`linkfea.Compliance`, a
@@ -303,6 +307,11 @@ def load_model(path, foot=None, leg=None, links: dict | None = None) -> Model:
     path = os.fspath(data_file(path))
     if not os.path.isfile(path):
         raise VjmError(f"model file not found: {path}")
+    if path.lower().endswith(".urdf"):  # a URDF alone: a rigid robot (its springs go in a model YAML beside it)
+        if foot is not None or leg is not None or links:
+            raise VjmError(f"{path}: a robot's link springs are given in a model YAML beside the URDF (links:)")
+        return model_from_dict({"urdf": os.path.basename(path)}, os.path.dirname(os.path.abspath(path)),
+                               os.path.abspath(path))
     from .yamldata import read_yaml
 
     d = read_yaml(path, "model file")  # plain data: a YAML tag that builds objects is refused

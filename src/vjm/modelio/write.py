@@ -73,9 +73,15 @@ MARK = "# written by vjm; sha256 of the lines above: "
 OWN_MAX_BYTES = 50_000_000
 
 
-def model_file_text(doc: dict) -> str:
+#: the header of a robot's model file (its first line is HEADER's: how :func:`own_model_file` knows both)
+ROBOT_HEADER = (HEADER.split("\n", 1)[0] + "\n"
+                "# A serial or tree robot: a URDF (m, kg, converted to mm at the edge) or a DH table, its joint and\n"
+                "# link springs, masses and payload in N, mm, kg, rad. See vjm.robot.robotfile for the format.\n")
+
+
+def model_file_text(doc: dict, header: str = HEADER) -> str:
     """The text of a model file holding mapping ``doc``: the header, the YAML, the checksum line."""
-    body = HEADER + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
+    body = header + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
     return body + MARK + hashlib.sha256(body.encode("utf-8")).hexdigest() + "\n"
 
 
@@ -115,6 +121,9 @@ def save_model(model, path) -> None:
 
     An existing file at ``path`` is replaced only if vjm wrote it and it is unchanged since
     (:func:`own_model_file`); anything else (your ``notes.txt``, a model file you edited) is refused."""
+    if getattr(model, "kind", "") == "serial":  # a robot writes its own mapping (vjm.robot.robotwrite)
+        model.save(path)
+        return
     path = os.path.abspath(os.fspath(path))
     check_model_out(path)
     write_text(path, model_file_text(model_to_dict(model, os.path.dirname(path))))

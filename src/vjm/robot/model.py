@@ -6,9 +6,9 @@ joint's value), optional 6x6 joint springs (a bearing's bending about the other 
 springs (vjm's :class:`~vjm.model.links.LinkSpring`: a linkfea result, a beam, a 6x6 matrix).  With
 none of them the robot is rigid: kinematics and gravity still work.
 
-Its stiffness has the interface of a parallel machine's :class:`vjm.Model`: ``stiffness(q)``
-returns the same :class:`~vjm.stiffness.linear.StiffnessResult` (K, C in world axes at the tool point),
-batched over configurations ``q`` (n, nq) instead of poses.  The chain from the base to a tool
+It is the ``"serial"`` kind of :class:`vjm.Model`: ``stiffness(q)`` and ``stiffness_map(Q)`` return
+the :class:`~vjm.stiffness.linear.StiffnessResult` of a parallel machine (K, C in world axes at the
+tool point), batched over configurations ``q`` (n, nq) instead of poses.  The chain from the base to a tool
 frame is a :class:`vjm.kinematics.chain.Chain` (eq. 1) and, a serial chain having no passive joint, its
 compliance is ``C = sum_s J_s C_s J_s^T`` (eq. 10 with ``J_q`` empty); ``K = C^-1``.  A direction
 no spring deflects is rigid: C is then singular, K its pseudo-inverse and ``invertible`` False.
@@ -17,6 +17,7 @@ the one equilibrium solver, with the links' weights as body loads.
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -27,6 +28,7 @@ from ..errors import VjmError, VjmWarning
 from ..kinematics.chain import forward, jacobian
 from ..kinematics.poses import Kinematics
 from ..kinematics.transforms import rotation_vector
+from ..model.base import Model
 from ..model.links import LinkSpring
 from ..stiffness.linalg import psd_rank_inverse
 from ..stiffness.linear import StiffnessResult
@@ -86,14 +88,29 @@ class Payload:
     com: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
-class ParallelOnly(VjmError, AttributeError):
-    """A parallel machine's attribute asked of a robot (``vjm map``, ``diagnose``, ``path`` ... on a robot
-    file): one line naming the file (an AttributeError too, so that ``hasattr`` stays False)."""
+#: the fields a robot's model file holds verbatim (:meth:`RobotModel.replace` keeps its mapping in step)
+VERBATIM = ("name", "gravity", "strict_limits", "home")
+
+
+def _raw_after(raw: dict, changes: dict) -> dict | None:
+    """A robot file's mapping after ``changes`` of a model's fields; None if one is not held verbatim."""
+    out = dict(raw)
+    for k, v in changes.items():
+        if k == "path":
+            continue
+        if k not in VERBATIM:
+            return None
+        if v is None:
+            out.pop(k, None)
+        else:
+            out[k] = [float(x) for x in v] if k in ("gravity", "home") else v
+    return out
 
 
 @dataclass(frozen=True, eq=False)
-class RobotModel:
-    """Immutable VJM model of a serial or tree robot (see the module docstring).
+class RobotModel(Model):
+    """Immutable VJM model of a serial or tree robot: the ``"serial"`` kind of :class:`vjm.Model` (see the
+    module docstring).
 
     Attributes
     ----------
@@ -139,18 +156,12 @@ class RobotModel:
         g = np.asarray(self.gravity, dtype=float)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise VjmError(f"gravity must be 3 finite numbers (m/s^2, base frame), got {self.gravity!r}")
+        if self.home is not None and len(self.home) != self.nq:
+            raise VjmError(f"home must be {self.nq} joint values ({', '.join(self.q_names)}), got {self.home!r}")
 
-    # -- the interface shared with vjm.Model ------------------------------
+    kind = "serial"
     architecture = "robot"
     dof = 6
-
-    def __getattr__(self, name: str):
-        # only reached for a name this class lacks: a parallel machine's (map, effects, grid ...)
-        if name.startswith("_"):
-            raise AttributeError(name)
-        raise ParallelOnly(f"{self.path or self.name}: a serial robot model; {name!r} belongs to parallel "
-                           f"machines (this command does not run on robots yet): evaluate a robot in joint "
-                           f"space with vjm stiffness --q, RobotModel.stiffness, self_weight or joint_map")
 
     @property
     def q_names(self) -> tuple[str, ...]:
@@ -350,6 +361,11 @@ class RobotModel:
             hit = self._chains[key] = encode(ch)
         return hit
 
+    def stiffness_map(self, Q, tool: str | None = None) -> StiffnessResult:
+        """:meth:`stiffness` at every configuration of Q (n, nq) (one (nq,) is a batch of one): every array of
+        the result has a leading axis n, as a parallel machine's ``stiffness_map`` over poses."""
+        return self.stiffness(np.atleast_2d(np.asarray(Q, dtype=float)), tool)
+
     def stiffness_tools(self, q) -> dict:
         """{tool frame: :meth:`stiffness`} for every tool frame of the tree."""
         return {t: self.stiffness(q, t) for t in self.tools}
@@ -399,6 +415,23 @@ class RobotModel:
             return ik, None, None
         r = self.stiffness(ik.q[ok], tool)
         return ik, r, (self.self_weight(ik.q[ok], tool) if self_weight else None)
+
+    def replace(self, **changes) -> "RobotModel":
+        """A copy with some fields changed (``joint_springs=``, ``links=``, ``payload=``, ``gravity=``,
+        ``strict_limits=``, ``home=`` ...), validated again.
+
+        The model file's mapping (what :meth:`save` writes) follows the fields it holds verbatim (``name``,
+        ``gravity``, ``strict_limits``, ``home``); a change of the tree or the springs leaves a model that
+        :meth:`save` refuses (its file would not say what it holds)."""
+        unknown = sorted(set(changes) - {f.name for f in dataclasses.fields(self)})
+        if unknown:
+            raise VjmError(f"replace: a robot model has no field {unknown[0]!r}; its fields: "
+                           f"{', '.join(f.name for f in dataclasses.fields(self))}")
+        given = "raw" in changes
+        raw = changes.pop("raw", self.raw)
+        if raw is not None and not given:
+            raw = _raw_after(raw, changes)
+        return dataclasses.replace(self, raw=raw, **changes)
 
     def save(self, path) -> None:
         """Write this model's file (its mapping as read; a URDF path is kept absolute)."""

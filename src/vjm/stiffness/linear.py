@@ -297,8 +297,8 @@ def _with_fallback(chain, K, ok, k, compliances, J_of):
 class StiffnessResult:
     """Per-pose output of the stiffness model (the model itself stays immutable).
 
-    Arrays carry a leading pose axis for :meth:`vjm.model.machine.Model.stiffness_map`
-    and none for :meth:`vjm.model.machine.Model.stiffness`.
+    Arrays carry a leading pose axis for :meth:`vjm.model.machine.ParallelModel.stiffness_map`
+    and none for :meth:`vjm.model.machine.ParallelModel.stiffness`.
 
     Attributes
     ----------

@@ -2,7 +2,7 @@
 
 For each combination of link designs (one foot design x one leg design ...),
 the model's links are replaced by the designs' compliances and one batched
-:meth:`vjm.model.machine.Model.stiffness_map` over the reachable points of an N x N x N
+:meth:`vjm.model.machine.ParallelModel.stiffness_map` over the reachable points of an N x N x N
 grid of the workspace box gives the worst-case (largest) and mean ``k_tran``
 (mm/N) and ``k_rot`` (rad/(N mm)): both are compliances, smaller is stiffer.
 The moving mass is the mass of the swept links that move: every chain's foot
@@ -33,7 +33,7 @@ from ..errors import ArgumentError, VjmError
 from ..maps.compute import GRID
 from ..maps.grid import SECONDS_PER_POINT, SWEEP_BYTES, grid_plan, in_chunks, plan
 from ..model.links import LinkSpring
-from ..model.machine import Model
+from ..model.machine import ParallelModel
 
 ROLES = ("foot", "leg")
 
@@ -49,7 +49,7 @@ class LinkDesign:
     source: str = ""
 
 
-def legs_bars(model: Model) -> int:
+def legs_bars(model: ParallelModel) -> int:
     """Bars per leg, as the architecture declares: 2 for a parallelogram leg (each the ``leg`` design), else 1."""
     return model.arch.leg_bars
 
@@ -85,7 +85,7 @@ def load_designs(path, role: str = "leg") -> list[LinkDesign]:
     return [_design_from_result(p, p.stem, {}, role)]
 
 
-def workspace_points(model: Model, n: int) -> np.ndarray:
+def workspace_points(model: ParallelModel, n: int) -> np.ndarray:
     """The reachable points (m, 3) of an n x n x n grid of the model's workspace box (:meth:`Model.grid`), mm."""
     n = integer(n, "grid", GRID, ArgumentError)
     grid_plan(n, None, "the workspace grid of a machine sweep", SWEEP_BYTES, hint="use a coarser grid")
@@ -96,18 +96,18 @@ def workspace_points(model: Model, n: int) -> np.ndarray:
     return P[ok]
 
 
-def with_designs(model: Model, designs: dict) -> Model:
+def with_designs(model: ParallelModel, designs: dict) -> ParallelModel:
     """``model`` with its links replaced by ``designs`` (role -> LinkDesign)."""
     return model.replace(**{role: LinkSpring(d.compliance, {"linkfea": d.source}) for role, d in designs.items()})
 
 
-def moving_mass(model: Model, designs: dict) -> float:
+def moving_mass(model: ParallelModel, designs: dict) -> float:
     """kg: per chain, the swept foot and the swept leg's bars (links from the model file are not counted)."""
     per_chain = sum(d.mass * (legs_bars(model) if role == "leg" else 1) for role, d in designs.items())
     return len(model.chains) * per_chain
 
 
-def evaluate(model: Model, designs: dict, P: np.ndarray) -> dict:
+def evaluate(model: ParallelModel, designs: dict, P: np.ndarray) -> dict:
     """Worst-case and mean k_tran, k_rot over the points P and the moving mass of one combination."""
     r = with_designs(model, designs).stiffness_map(P)
     return {"k_tran_max": float(np.max(r.k_tran)), "k_tran_mean": float(np.mean(r.k_tran)),
@@ -146,7 +146,7 @@ class TradeOffs:
     model: str
 
 
-def trade_offs(model: Model, candidates: dict, grid: int, progress: Progress | None = None) -> TradeOffs:
+def trade_offs(model: ParallelModel, candidates: dict, grid: int, progress: Progress | None = None) -> TradeOffs:
     """Evaluate every combination of ``candidates`` (role -> list of LinkDesign) on the workspace grid.
 
     The work (combinations x reachable points) is estimated first; a run longer than about a
@@ -176,7 +176,7 @@ def trade_offs(model: Model, candidates: dict, grid: int, progress: Progress | N
 
 #: the files `vjm sweep` writes, one set
 SWEEP_FILES = ("tradeoffs.parquet", "tradeoffs.csv", "pareto.csv", "pareto.json", "pareto.png")
-def _row(model: Model, designs: dict, P: np.ndarray) -> dict:
+def _row(model: ParallelModel, designs: dict, P: np.ndarray) -> dict:
     """One table row: the designs' labels, parameters and masses, and their machine's stiffness over P."""
     row = {}
     for role, d in designs.items():
@@ -245,7 +245,7 @@ def plot_pareto(res: TradeOffs, path) -> None:
     plt.close(fig)
 
 
-def candidates_from_args(model: Model, foot=None, leg=None, bar=None) -> dict:
+def candidates_from_args(model: ParallelModel, foot=None, leg=None, bar=None) -> dict:
     """role -> designs from the ``--foot``, ``--leg``, ``--bar`` paths (``--bar`` is the leg of a parallelogram)."""
     if bar is not None:
         if leg is not None:
@@ -265,6 +265,8 @@ def sweep(model_path, out, grid: int, foot=None, leg=None, bar=None, force: bool
 
     check_folder(out, SWEEP_FILES, force=force)
     model = load_model(os.fspath(model_path))
+    model.require("parallel", "vjm sweep")
+    assert isinstance(model, ParallelModel)  # (for the type checker: require raised otherwise)
     res = trade_offs(model, candidates_from_args(model, foot, leg, bar), grid, progress)
     write_trade_offs(res, out, force=force)
     return res

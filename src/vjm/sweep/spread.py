@@ -51,7 +51,7 @@ class Spread:
 
     ``model`` is the nominal model; for each link with a bar, the moved models are built once
     (``t = STEP``, or ``t = +-1`` for ``"ends"``) and each block is evaluated on the same
-    kinematics as the nominal one (:meth:`vjm.model.machine.Model._block_stiffness`).
+    kinematics as the nominal one (:meth:`vjm.model.machine.ParallelModel._block_stiffness`).
     """
 
     def __init__(self, model, n: int, method: str = "linear"):
