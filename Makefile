@@ -51,7 +51,7 @@ test: $(STAMP)
 	@mkdir -p .cache
 	$(PY) -m vjm.kernels > .cache/kernels.log 2>&1 & pid=$$!; \
 	$(BIN)/ruff check src tests docs/examples docs/tools && $(BIN)/mypy src && \
-	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet; rc=$$?; \
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict; rc=$$?; \
 	wait $$pid || cat .cache/kernels.log; exit $$rc
 	$(PY) -m pytest -n 2 --dist loadfile
 

@@ -2,7 +2,7 @@
 
 The README keeps the text a newcomer needs first (what the tools are, the conventions, what they promise
 about your files, the map of the docs); the site shows the same sections from that one copy.  Links are
-rewritten for the site: ``docs/x.md`` becomes ``x.md``, a README anchor of a section that has a page of
+rewritten for the site: ``docs/x.md`` becomes ``x.md``, ``CHANGELOG.md`` the page ``changelog.md``, a README anchor of a section that has a page of
 its own becomes that page.  Loaded by ``mkdocs.yml`` (``hooks:``).
 """
 from __future__ import annotations
@@ -30,6 +30,7 @@ def section(text: str, title: str) -> str:
 def for_site(body: str) -> str:
     """README links made site links."""
     body = re.sub(r"\]\(docs/", "](", body)
+    body = body.replace("](CHANGELOG.md)", "](changelog.md)")  # the site's page that includes it
     for anchor, page in PAGES.items():
         body = body.replace(f"]({anchor})", f"]({page})")
     return body
