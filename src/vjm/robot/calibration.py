@@ -112,6 +112,11 @@ class Calibration:
     def marker(self) -> np.ndarray:
         return self.p0 + np.array([self.values.get(f"{self.frame}.p{k}", 0.0) for k in "xyz"])
 
+    @property
+    def markers(self) -> dict:
+        """{measured frame: its marker's fitted offset (3,) mm}, the first ``frame``'s first."""
+        return {f: p + np.array([self.values.get(f"{f}.p{k}", 0.0) for k in "xyz"]) for f, p in self.measured}
+
 
 def unit_torques(model, q: np.ndarray, frame: str, p) -> np.ndarray:
     """The gravity torques (n, nq) N mm of 1 kg at the point ``p`` (mm) of ``frame``, ``-J_p^T g``."""
@@ -353,7 +358,7 @@ def cross_validated_rms(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.
     return float(np.sqrt(rss / len(meas)))
 
 
-def calibrate(model, data, frame: str | None = None, effects=("geometry", "compliance"), alpha: float = 1e-3,
+def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry", "compliance"), alpha: float = 1e-3,
               tol: float = 1e-3, flat: float = 0.05, p0=None, folds: int = 0) -> Calibration:
     """Fit registration, then the ``effects`` stages (see the module docstring) on ``data``.
 
