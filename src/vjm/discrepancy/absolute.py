@@ -123,7 +123,7 @@ def diagnose_poses(model, data, model_name: str | None = None, alpha: float | No
     eff = check_options(effects)
     opt = cr.Options(None, eff, DEFAULT_ALPHA if alpha is None else alpha, 0 if validate else folds, register)
     cr.check_options(opt)
-    m, d, vals, opt = cr.inputs(model, data, columns, list(validate), opt, bool(effects))
+    m, d, vals, opt = cr.inputs(model, data, columns, list(validate), opt, bool(effects), "measured point")
     t0 = time.perf_counter()
     cal, held = cr.run(m, d, vals, opt, robust=outliers)
     rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)

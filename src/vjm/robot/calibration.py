@@ -77,6 +77,8 @@ class Stage:
     cv_rms: float = float("nan")
     #: mean, std, max and p95 (mm) of the fitted rows' position errors after the stage (:func:`error_stats`)
     stats: dict = field(default_factory=dict)
+    #: why a stage that passed when tried is not named in the end (:func:`_backward`), else ""
+    note: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -414,9 +416,57 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
                             _stats(prob, full.pick(trial), xt, meas)))
         if ok:
             best = (trial, xt, sdt, rsst, cvt)
+    stages, best = _backward(prob, full, meas, stages, best, alpha, folds)
     lay = full.pick(best[0])
     return Calibration(model, fr[0], dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, ps[0],
                        tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:])
+
+
+#: effects acting through another's parameters (the tilt's and the payload's torques through the compliances)
+_THROUGH = {"compliance": ("tilt", "payload")}
+
+
+def _backward(prob, full: Layout, meas: np.ndarray, stages: list, best: tuple, alpha: float, folds: int):
+    """Each effect named checked again beside all the others: one that the effects named after it explain (its
+    F test against the final set fails) is no longer named -- a joint offset fitted first passes for part of
+    a sag the compliance, tried after it, explains -- the least needed first, until every one left is needed;
+    then the stages left after the first dropped are refitted in turn (with their cross-validated error), so
+    that their records (error before and after each) are those of the effects named."""
+    stages, m, first = list(stages), meas.size, None
+    while True:
+        worst = None
+        for name in [s.name for s in stages[1:] if s.kept]:
+            gone = {name, *_THROUGH.get(name, ())}
+            idx = [i for i in best[0] if full.kinds[i] not in gone]
+            x, sd, rss = fit(prob, full.pick(idx), meas, np.array([best[1][best[0].index(i)] for i in idx]))
+            pv = _f_test(rss, len(idx), best[3], len(best[0]), m)
+            if pv >= alpha and (worst is None or pv > worst[1]):
+                worst = (name, pv, (idx, x, sd, rss, float("nan")), gone)
+        if worst is None:
+            break
+        best = worst[2]
+        for k, s in enumerate(stages):
+            if s.name in worst[3] and s.kept:
+                first = k if first is None else min(first, k)
+                stages[k] = replace(s, kept=False, note=f"explained by the effects named after it (p = {worst[1]:.2g} "
+                                                        f"beside them)")
+    if first is None:
+        return stages, best
+    prev = [s for s in stages[:first] if s.kept][-1]
+    for k in range(first, len(stages)):
+        s = stages[k]
+        if not s.kept:
+            continue
+        upto = {t.name for t in stages[1:k + 1] if t.kept}
+        idx = [i for i in best[0] if full.kinds[i] in ("reg", "marker") or full.kinds[i] in upto]
+        x, sd, rss = fit(prob, full.pick(idx), meas, np.array([best[1][best[0].index(i)] for i in idx]))
+        cv = cross_validated_rms(prob, full.pick(idx), meas, x, folds) if folds else float("nan")
+        stages[k] = prev = replace(s, n_params=len(idx), rss=rss, rms=float(np.sqrt(rss / len(meas))),
+                                   p_value=_f_test(prev.rss, prev.n_params, rss, len(idx), m), cv_rms=cv,
+                                   stats=_stats(prob, full.pick(idx), x, meas))
+        if len(idx) == len(best[0]):
+            best = (idx, x, sd, rss, cv)
+    return stages, best
 
 
 def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:

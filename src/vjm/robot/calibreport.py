@@ -78,16 +78,16 @@ def check_writeback(model) -> None:
         raise VjmError(f"{model.path}: the robot has no URDF file to write the calibration back into (a DH table?)")
 
 
-def check_frame(model, data, frame=None) -> tuple:
+def check_frame(model, data, frame=None, option: str = "--frame") -> tuple:
     """The measured frames: ``frame`` (a name, or several), or every point the data measure; each must be
-    measured by the data and be a frame of the model."""
+    measured by the data and be a frame of the model (errors name the ``option`` that chose them)."""
     frames = tuple(data.points) if not frame else ((frame,) if isinstance(frame, str) else tuple(frame))
     names = {f.name for f in model.tree.frames}
     for f in frames:
         if f not in data.points:
-            raise VjmError(f"--frame {f}: {data.source} measures {', '.join(data.points)}")
+            raise VjmError(f"{option} {f}: {data.source} measures {', '.join(data.points)}")
         if f not in names:
-            raise VjmError(f"--frame {f}: not a frame of the model ({model.path}); measured points must be frames "
+            raise VjmError(f"{option} {f}: not a frame of the model ({model.path}); measured points must be frames "
                            f"or links of the URDF")
     return frames
 
@@ -139,7 +139,7 @@ def _unit(name: str) -> str:
 def _stage(s) -> dict:
     return {"name": s.name, "kept": s.kept, "n_params": s.n_params, "rms_mm": s.rms,
             "p_value": None if np.isnan(s.p_value) else s.p_value,
-            "cv_rms_mm": None if np.isnan(s.cv_rms) else s.cv_rms, "errors_mm": s.stats}
+            "cv_rms_mm": None if np.isnan(s.cv_rms) else s.cv_rms, "errors_mm": s.stats, "note": s.note}
 
 
 def effects_named(cal: Calibration) -> list:
@@ -222,7 +222,7 @@ def summary(rep: dict) -> str:
                      f"({_p(e['p_value'])}; {len(e['parameters'])} parameters)")
     for s in rep["stages"][1:]:
         if not s["kept"]:
-            lines.append(f"  {s['name']}: not named ({_p(s['p_value'])}"
+            lines.append(f"  {s['name']}: not named ({s['note'] or _p(s['p_value'])}"
                          + (f", cross-validated RMS {s['cv_rms_mm']:.3f} mm" if s["cv_rms_mm"] is not None else "")
                          + ")")
     if rep["held_out"]["folds"]:
@@ -242,7 +242,7 @@ def summary(rep: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def inputs(model, data, columns, validate_paths, opt: Options, asked: bool) -> tuple:
+def inputs(model, data, columns, validate_paths, opt: Options, asked: bool, option: str = "--frame") -> tuple:
     """(robot model, data, validation sets, options with the measured frames and the effects tried) of a run,
     checked before any fitting; ``model`` and ``data`` a loaded model and data set, or their files (a data file
     without a ``group`` column is one instrument set-up, named by the file; each validation file a new one)."""
@@ -258,11 +258,11 @@ def inputs(model, data, columns, validate_paths, opt: Options, asked: bool) -> t
         d = d if d.group is not None else d.with_group(Path(data).name)
     else:
         d = data if data.group is not None else data.with_group(os.path.basename(data.source) or "data")
-    frames = check_frame(m, d, opt.frame)
+    frames = check_frame(m, d, opt.frame, option)
     opt = replace(opt, frame=frames, effects=effects_for(opt.effects, frames, asked))
     vals = [read_poses(v, cmap, m.q_names, group=f"validate:{Path(v).name}") for v in validate_paths]
     for v in vals:
-        check_frame(m, v, frames)
+        check_frame(m, v, frames, option)
         check_validation(v, opt.register_on)
     return m, d, vals, opt
 
