@@ -113,7 +113,7 @@ def test_the_calibrated_urdf_carries_both_markers(torso):
 
     d, model = torso
     _write(torso, "urdf.csv", truth.Hidden(**REGISTRATION, compliance=COMPLIANCE, offsets={"r1": 2e-3}), 60, 3)
-    dg = diagnose(str(d / "torso.yaml"), str(d / "urdf.csv"), columns=str(d / "map.yaml"))
+    dg = diagnose(str(d / "torso.yaml"), str(d / "urdf.csv"), columns=str(d / "map.yaml"), folds=2)
     assert sorted(dg.named) == ["compliance", "geometry"]
     dg.save(d / "urdf")
     cal = dg.calibration
@@ -136,3 +136,21 @@ def test_the_calibrated_urdf_carries_both_markers(torso):
             truth.pin.framesForwardKinematics(pm, pd, qq)
             got[k] = pd.oMf[fid].translation * 1000.0
         assert np.max(np.abs(got - (p - t) @ R)) < 1e-6   # mm: 1e-9 m
+
+
+def test_vjm_calibrate_measures_both_points(torso):
+    """``vjm calibrate`` (same engine) fits every point of the data by default: both markers in the report,
+    the URDF and the robot file; the payload, weighed at one marker, leaves the default effects."""
+    import yaml
+
+    d, _ = torso
+    _write(torso, "two.csv", truth.Hidden(**REGISTRATION), 40, 5)
+    out = d / "cal"
+    assert main(["calibrate", str(d / "torso.yaml"), str(d / "two.csv"), "--columns", str(d / "map.yaml"),
+                 "--folds", "0", "--out", str(out)]) == 0
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["frames"] == list(HANDS) and rep["effects_tried"] == ["geometry", "compliance"]
+    assert [m["frame"] for m in rep["registration"]["markers"]] == list(HANDS)
+    urdf = (out / "calibrated.urdf").read_text()
+    assert all(f'<link name="{h}_marker"' in urdf for h in HANDS)
+    assert yaml.safe_load((out / "calibrated.yaml").read_text())["tools"] == [f"{h}_marker" for h in HANDS]
