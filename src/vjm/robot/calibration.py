@@ -30,7 +30,9 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
    gravity torque ``-J_p^T g`` per kg adds to the robot's own.
 
 A stage is kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the
-registration only) and, with ``folds``, when its cross-validated error drops too.  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
+registration only) and, with ``folds``, when its cross-validated error drops too.  Once all are tried, each
+stage kept is tested again beside the others (:func:`_backward`): one that the stages after it explain is
+dropped.  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
 are unweighted (mm), the model's errors exceeding the instruments' stated sigmas on real data.
 """
 from __future__ import annotations
@@ -422,8 +424,9 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
                        tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:])
 
 
-#: effects acting through another's parameters (the tilt's and the payload's torques through the compliances)
-_THROUGH = {"compliance": ("tilt", "payload")}
+#: effects acting through another's parameters: the tilt's and the payload's torques through the compliances,
+#: the compliance's variation with the joint's value (``c + c' q``) on the compliance
+_THROUGH = {"compliance": ("tilt", "payload", "varying")}
 
 
 def _backward(prob, full: Layout, meas: np.ndarray, stages: list, best: tuple, alpha: float, folds: int):
