@@ -160,6 +160,10 @@ def _table(rows, header) -> str:
     return f"<table><tr>{h}</tr>{body}</table>"
 
 
+def _pv(p) -> str:
+    return "-" if p is None else (f"{p:.2g}" if p > 0 else "< 1e-300")
+
+
 def _stats(st: dict) -> list:
     return [f"{st[k]:.4f}" for k in ("mean", "std", "max", "p95")]
 
@@ -168,11 +172,11 @@ def render_html(rep: dict) -> str:
     """report.html: the verdict, the effects named with the gap before and after each, the held-out errors,
     the registration apart, the parameters, what was removed."""
     eff = [[e["effect"], f"{e['buys_mm']:.4f}", *_stats(e["before_mm"]), *_stats(e["after_mm"]),
-            f"{e['p_value']:.2g}"] for e in rep["effects"]]
+            _pv(e["p_value"])] for e in rep["effects"]]
     held = [[v["file"], v["registered_on"], v["rows"], *_stats(v["errors_mm"])] for v in rep["held_out"]["validate"]]
     cv = [[s["name"], "named" if s["kept"] else "not named", f"{s['rms_mm']:.4f}",
-           "-" if s["cv_rms_mm"] is None else f"{s['cv_rms_mm']:.4f}", "-" if s["p_value"] is None
-           else f"{s['p_value']:.2g}"] for s in rep["stages"]]
+           "-" if s["cv_rms_mm"] is None else f"{s['cv_rms_mm']:.4f}", _pv(s["p_value"]),
+           s.get("note", "")] for s in rep["stages"]]
     reg = rep["registration"]
     frames = [[g, " ".join(f"{x:.3f}" for x in f["t_mm"]), ", ".join(f"{k} {v:.2g}" for k, v in f["std"].items())]
               for g, f in reg["instrument_frames"].items()]
@@ -191,7 +195,7 @@ td,th{{border:1px solid #ccc;padding:3px 6px;font-size:90%}}</style></head><body
 rows; points {html.escape(', '.join(rep['frames']))}); effects tried: {html.escape(', '.join(rep['effects_tried']))}.</p>
 <h2>Effects named, in order of what each buys (position error of the fitted rows, mm)</h2>
 {_table(eff, ["effect", "buys (mean)"] + [f"before {k}" for k in st] + [f"after {k}" for k in st] + ["p"])}
-<h2>Stages</h2>{_table(cv, ["stage", "state", "RMS mm", "cross-validated RMS mm", "F test p"])}
+<h2>Stages</h2>{_table(cv, ["stage", "state", "RMS mm", "cross-validated RMS mm", "F test p", "note"])}
 <h2>Held out (each file registered on a few of its poses, the robot frozen)</h2>
 {_table(held, ["file", "registered on", "rows held out"] + [f"{k} mm" for k in st]) if held else
  f"<p>{rep['held_out']['folds']}-fold cross-validation (stages above).</p>"}

@@ -173,7 +173,7 @@ def registration(cal: Calibration) -> dict:
     for g in cal.frames:
         R, t = instrument_frame(cal, g)
         groups[str(g)] = {"R": R.tolist(), "t_mm": t.tolist(),
-                          "std": {k.split(".", 1)[1]: cal.std.get(k) for k in cal.values if k.startswith(f"reg[{g}].")}}
+                          "std": {k[len(f"reg[{g}]."):]: cal.std.get(k) for k in cal.values if k.startswith(f"reg[{g}].")}}
     markers = [{"frame": f, "offset_mm": p.tolist(), "std_mm": [cal.std.get(f"{f}.p{c}", 0.0) for c in "xyz"]}
                for f, p in cal.markers.items()]
     return {"instrument_frames": groups, "marker": markers[0], "markers": markers,
