@@ -5,7 +5,9 @@ The command runs as a user runs it (a child process, the files read as they are 
 the wall time and the CPU time (user + system, the child's) are printed with what it names and the
 held-out errors.
 
-Usage: ``python benchmarks/bench_ur10_diagnose.py [--out DIR]`` (default: a temporary folder).
+Usage: ``python benchmarks/bench_ur10_diagnose.py [--out DIR] [--blas-threads N ...]`` (default: a temporary
+folder; each ``--blas-threads`` value one run with ``OPENBLAS_NUM_THREADS`` set to it, in turn: on cores other
+jobs load, OpenBLAS's threads wait on each other).
 """
 import argparse
 import json
@@ -35,9 +37,18 @@ def command(out: str) -> list:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=None)
+    ap.add_argument("--blas-threads", type=int, action="append", default=None)
     args = ap.parse_args()
-    out = args.out or os.path.join(tempfile.mkdtemp(prefix="ur10_diagnose_"), "report")
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.path.join(ROOT, "src"), os.environ.get("PYTHONPATH", "")])}
+    for threads in args.blas_threads or [None]:
+        out = args.out or os.path.join(tempfile.mkdtemp(prefix="ur10_diagnose_"), "report")
+        env = {**os.environ,
+               "PYTHONPATH": os.pathsep.join([os.path.join(ROOT, "src"), os.environ.get("PYTHONPATH", "")])}
+        if threads is not None:
+            env["OPENBLAS_NUM_THREADS"] = str(threads)
+        once(out, env, threads)
+
+
+def once(out: str, env: dict, threads) -> None:
     load = os.getloadavg()[0]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
@@ -49,7 +60,8 @@ def main() -> None:
     rep = json.load(open(os.path.join(out, "report.json")))
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     rows = rep["rows"] + sum(v["rows"] + v["registered_on"] for v in rep["held_out"]["validate"])
-    print(f"vjm diagnose, {rows} rows: {wall:.1f} s wall, {cpu:.1f} s CPU (load average before: "
+    blas = "" if threads is None else f", OPENBLAS_NUM_THREADS={threads}"
+    print(f"vjm diagnose, {rows} rows{blas}: {wall:.1f} s wall, {cpu:.1f} s CPU (load average before: "
           f"{load:.1f}); verdict {rep['verdict']}, named {', '.join(rep['named_effects'])}")
     for v in rep["held_out"]["validate"]:
         e = v["errors_mm"]
