@@ -8,10 +8,11 @@ Each line is one try, the robot's effects those of ``vjm calibrate``'s default (
    besides its rigid frame, fitted on the same poses;
 3. C's registration poses fitted together with A's rows (C's frame registered with them, the robot refitted);
 4. A's rows fitted together with all of series B (another set-up, both elbow configurations);
-5. bounds, not held out: C registered on all of its poses (the best any registration can do), and the robot
+5. the identification's threshold (``tol``: the least new direction a geometric parameter must add);
+6. bounds, not held out: C registered on all of its poses (the best any registration can do), and the robot
    calibrated on C's odd rows, its even rows held out (what the model family reaches on C's own poses).
 
-Usage: ``python benchmarks/bench_ur10_seriesc.py`` (about 2 minutes on 2 shared cores).
+Usage: ``python benchmarks/bench_ur10_seriesc.py`` (about 3 minutes on 2 shared cores).
 """
 import os
 import sys
@@ -67,6 +68,11 @@ def main() -> None:
         few, rest = split(C, k)
         line(f"A's rows and {k} of C's fitted together", position_errors(calibrate(model, concat(train, few), "tool0",
                                                                                   effects=EFFECTS), rest))
+    for tol in (1e-4, 1e-2, 1e-1):
+        few, rest = split(C, 30)
+        other = calibrate(model, train, "tool0", effects=EFFECTS, tol=tol)
+        line(f"identification threshold {tol:g} ({len(other.robot_values())} robot parameters; 1e-3: "
+             f"{len(cal.robot_values())})", position_errors(register(other, few), rest))
     with_b = calibrate(model, concat(train, sets["B"]), "tool0", effects=EFFECTS)
     few, rest = split(C, 30)
     line("A's rows and all of B fitted together, C registered on 30", position_errors(register(with_b, few), rest))
