@@ -126,7 +126,7 @@ def simulate_cmd(
     tilt: float = typer.Option(0.0, "--tilt", help="6-dof platform: random orientations of grid/random poses, "
                                                    "each rotation-vector component within +-TILT rad"),
 ):
-    """Write synthetic measurements of MODEL with hidden effects (a robot: absolute poses for vjm calibrate)."""
+    """Write synthetic measurements of MODEL with hidden effects (a robot: absolute poses for vjm calibrate or diagnose)."""
     from .simulate import run
 
     try:
