@@ -193,6 +193,9 @@ ROBOT = "urdf: r.urdf\njoints: {j1: {stiffness: 1.0e+8}, j2: {stiffness: 5.0e+7}
 
 POSES = "j1,j2,l2.x,l2.y,l2.z\n" + "".join(f"{0.1 * k:.2f},{-0.05 * k:.3f},{k},{2 * k},{600 + k}\n" for k in range(40))
 CAL_FILES = {"r.yaml": ROBOT, "r.urdf": ARM, "p.csv": POSES}
+#: two measured points per row, l1 and l2 (27.2)
+TWO_POINTS = "j1,j2,l1.x,l1.y,l1.z,l2.x,l2.y,l2.z\n" + "".join(
+    f"{0.1 * k:.2f},{-0.05 * k:.3f},{k},{-k},{300 + k},{k},{2 * k},{600 + k}\n" for k in range(40))
 
 CASES = [
     # 18.2: numeric options, vjm
@@ -487,6 +490,32 @@ CASES = [
           "l2.z: [l2.z, mm]}\n"}, "a column map giving a position in degrees"),
     Case("27", "vjm calibrate r.yaml p.csv --out o", "o: report.json is there and was not written by linkfea or vjm",
          {**CAL_FILES, "o/report.json": "{}\n"}, "an output folder holding the user's report.json"),
+    # 27.1: vjm diagnose on absolute poses (a robot's model)
+    Case("27.1", "vjm diagnose {puu} p.csv --out o", "p.csv: row 1, column 'l2.x': absolute poses (columns "
+         "<frame>.x,.y,.z): vjm diagnose reads them for a serial or tree robot", {"p.csv": POSES},
+         "a parallel machine's model given absolute poses"),
+    Case("27.1", "vjm diagnose {puu} m.csv --columns c.yaml --out o", "--columns and --validate read absolute poses",
+         {"m.csv": GOOD, "c.yaml": "columns: {}\n"}, "a column map given with a parallel machine's deflections"),
+    Case("27.1", "vjm diagnose r.yaml p.csv --out o --suggest 5", "--suggest designs (posture, load) rows of "
+         "deflection data", CAL_FILES, "rows to measure next asked of absolute poses"),
+    Case("27.1", "vjm diagnose r.yaml p.csv --out o --tracker 0,0,0 --tracker-noise 0.01,1e-5", "--tracker: absolute "
+         "poses state their sigmas", CAL_FILES, "a tracker noise model given for absolute poses"),
+    Case("27.1", "vjm diagnose r.yaml p.csv --out o --effect creep", "--effect creep: not an effect of absolute poses",
+         CAL_FILES, "an effect the absolute-pose library does not have"),
+    Case("27.1", "vjm diagnose r.yaml p.csv --out o", "p.csv: no column for joint(s) j2",
+         {**CAL_FILES, "p.csv": POSES.replace("j2,", "jj,")}, "absolute poses without a joint's column"),
+    Case("27.1", "vjm diagnose r.yaml p.csv --out o", "measured point hand: not a frame of the model",
+         {**CAL_FILES, "p.csv": POSES.replace("l2.", "hand.")}, "a measured point that is no frame of the URDF"),
+    Case("27.1", "vjm diagnose r.yaml p.csv --out o --validate v.csv", "v.csv: 5 rows; a validation file needs more "
+         "than --register (30) rows", {**CAL_FILES, "v.csv": "\n".join(POSES.splitlines()[:6]) + "\n"},
+         "a validation file shorter than its registration"),
+    Case("27.1", "vjm diagnose r.yaml p.csv --out o", "p.csv: 4 rows (9 coordinates per fold) for up to 26 parameters",
+         {**CAL_FILES, "p.csv": "\n".join(POSES.splitlines()[:5]) + "\n"}, "four absolute poses"),
+    Case("27.1", "vjm diagnose r.yaml p.csv --out o", "o: report.json is there and was not written by linkfea or vjm",
+         {**CAL_FILES, "o/report.json": "{}\n"}, "a report folder holding the user's report.json"),
+    Case("27.2", "vjm calibrate r.yaml p.csv --out o --effects geometry,payload", "--effects payload: a payload is "
+         "weighed at one marker; the data measure 2 points", {**CAL_FILES, "p.csv": TWO_POINTS},
+         "a payload asked of two measured points"),
 
     # 30.2: one line where a traceback was
     Case("30.2", "linkfea compute bar --out .", "--out '.' is a folder, not a file: give a file name"),

@@ -255,40 +255,30 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
                                                   "register its instrument frame (the robot frozen)"),
                   folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation in the choice "
                                                       "of effects (0: none; default 5, or 0 with --validate)"),
-                  effects: str = typer.Option("geometry,compliance,payload", "--effects",
-                                              help="stages tried, in this order (also: coupling, lateral, bending, "
-                                                   "varying, thermal, tilt, backlash)"),
-                  frame: Optional[str] = typer.Option(None, "--frame", help="the measured point (default: the "
-                                                      "data's only one)"),
+                  effects: Optional[str] = typer.Option(None, "--effects",
+                                                        help="stages tried, in this order (default geometry,"
+                                                             "compliance,payload; also: coupling, lateral, bending, "
+                                                             "varying, thermal, tilt, backlash)"),
+                  frame: Optional[list[str]] = typer.Option(None, "--frame", help="a measured point (repeatable; "
+                                                            "default: every point of the data)"),
                   alpha: float = typer.Option(1e-3, "--alpha", help="F test level of an effect"),
                   out: Path = typer.Option(..., "--out", help="output folder"),
                   force: bool = FORCE):
     """Calibrate a robot on absolute poses (laser tracker, camera): registration, geometry, joint compliance
     under self-weight; held out; the calibrated URDF and robot file written back."""
     import time
-    from dataclasses import replace
 
     try:
         from linkfea.files.outputs import check_folder
 
         from .robot import calibreport as cr
-        from .robot.poses import read_column_map, read_poses
 
-        opt = cr.Options(frame, tuple(e.strip() for e in effects.split(",") if e.strip()), alpha,
+        asked = tuple(e.strip() for e in effects.split(",") if e.strip()) if effects is not None else None
+        opt = cr.Options(tuple(frame or ()), asked or cr.DEFAULT_EFFECTS, alpha,
                          (0 if validate else 5) if folds is None else folds, register_on)
         cr.check_options(opt)
         check_folder(out, cr.FILES, force=force)
-        m = _load(model, None, None)
-        cr.robot_of(m)
-        cr.check_writeback(m)
-        cmap = read_column_map(columns) if columns is not None else None
-        d = read_poses(data, cmap, m.q_names)
-        d = d if d.group is not None else d.with_group(data.name)   # one instrument set-up per file
-        opt = replace(opt, frame=cr.check_frame(m, d, frame))
-        vals = [read_poses(v, cmap, m.q_names, group=f"validate:{v.name}") for v in validate or []]
-        for v in vals:
-            cr.check_frame(m, v, opt.frame)
-            cr.check_validation(v, opt.register_on)
+        m, d, vals, opt = cr.inputs(model, data, columns, validate or [], opt, asked is not None)
         t0 = time.perf_counter()
         cal, held = cr.run(m, d, vals, opt)
         rep = cr.report(cal, opt, model, d, held, time.perf_counter() - t0)

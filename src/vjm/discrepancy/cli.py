@@ -27,14 +27,22 @@ NOTHING_NAMED = ("insufficient_data", "untrusted_data")
 def run(model_path, data_path, out_dir, force: bool = False, **kw):
     """Check the arguments and the output folder, load, diagnose and write: the body of ``vjm diagnose``;
     returns the Diagnosis."""
-    from .diagnosis import write_diagnosis
+    import os
+
+    from ..modelio.read import load_model
+    from . import absolute
     from .report import check_report_dir
     from .workflow import check_arguments, diagnose
 
-    check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")})
-    check_report_dir(out_dir, force)
-    dg = diagnose(model_path, data_path, **kw)
-    write_diagnosis(dg, out_dir, force=force)
+    check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")
+                       and v is not None})
+    model = load_model(model_path)
+    if absolute.is_robot(model):   # absolute poses: their own report set
+        absolute.check_folder(out_dir, force)
+    else:
+        check_report_dir(out_dir, force)
+    dg = diagnose(model, data_path, model_name=os.path.basename(os.fspath(model_path)), **kw)
+    dg.save(out_dir, force=force)
     return dg
 
 
@@ -55,10 +63,21 @@ def _fail(exc: Exception):
 
 def diagnose_cmd(
     model: Path = typer.Argument(..., help="model YAML (e.g. data/orthoglide/puu.yaml)"),
-    data: Path = typer.Argument(..., help="measurements CSV: x,y,z[,ox,oy,oz],Fx..Mz,dx..rz[,sigma_t,sigma_r | ,sigma_dx..sigma_rz] or x,y,z,quantity,value"),
-    out: Path = typer.Option(..., "--out", help="output directory (report.json, report.html, PNGs, model_updated.yaml)"),
-    alpha: float = typer.Option(0.01, "--alpha", help="family-wise significance level of each selection round"),
-    effect: Optional[List[str]] = typer.Option(None, "--effect", help="restrict the candidates (repeatable)"),
+    data: Path = typer.Argument(..., help="measurements CSV: x,y,z[,ox,oy,oz],Fx..Mz,dx..rz[,sigma_t,sigma_r | ,sigma_dx..sigma_rz] or x,y,z,quantity,value; a robot's: absolute poses (joint values, <frame>.x,.y,.z)"),
+    out: Path = typer.Option(..., "--out", help="output directory (report.json, report.html, PNGs, model_updated.yaml; "
+                                                "a robot's: report.json, report.html, summary.txt, calibrated.urdf, "
+                                                "calibrated.yaml)"),
+    alpha: Optional[float] = typer.Option(None, "--alpha", help="family-wise significance level of each selection "
+                                                                "round (default 0.01; a robot's: F test level of an "
+                                                                "effect, default 0.001)"),
+    effect: Optional[List[str]] = typer.Option(None, "--effect", help="restrict the candidates (repeatable); a "
+                                                                      "robot's: the effects tried, in this order"),
+    columns: Optional[Path] = typer.Option(None, "--columns", help="a robot's absolute poses: column map YAML (the "
+                                                                   "file's own names, units, separator)"),
+    validate: Optional[List[Path]] = typer.Option(None, "--validate", help="a robot's absolute poses: held-out file "
+                                                                           "(a new instrument set-up; repeatable)"),
+    register_on: int = typer.Option(30, "--register", help="poses of each --validate file that register its "
+                                                           "instrument frame (the robot frozen)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="print each selection round"),
     suggest: int = typer.Option(0, "--suggest", min=0,
                                 help="write DIR/next_measurements.csv: N (posture, load) rows to measure next"),
@@ -80,10 +99,11 @@ def diagnose_cmd(
         noise = _tracker(tracker, tracker_noise)
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
                  progress=(lambda s: typer.echo(s, err=True)) if verbose else None,
-                 suggest=suggest, forces_only=forces_only, force=force, outliers=outliers, noise=noise)
+                 suggest=suggest, forces_only=forces_only, force=force, outliers=outliers, noise=noise,
+                 columns=columns, validate=validate or (), register=register_on)
     except user_errors() as exc:
         _fail(exc)
-    typer.echo(dg.report.summary)
+    typer.echo(dg.summary().rstrip("\n") if isinstance(dg.report, dict) else dg.report.summary)
     typer.echo(f"Report: {Path(out) / 'report.html'}")
     if suggest:
         typer.echo(f"Next measurements: {Path(out) / 'next_measurements.csv'}")
@@ -106,7 +126,7 @@ def simulate_cmd(
     tilt: float = typer.Option(0.0, "--tilt", help="6-dof platform: random orientations of grid/random poses, "
                                                    "each rotation-vector component within +-TILT rad"),
 ):
-    """Write synthetic measurements of MODEL with hidden effects (a robot: absolute poses for vjm calibrate)."""
+    """Write synthetic measurements of MODEL with hidden effects (a robot: absolute poses for vjm calibrate or diagnose)."""
     from .simulate import run
 
     try:

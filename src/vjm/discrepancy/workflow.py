@@ -12,6 +12,7 @@ from linkfea.runtime.checks import Bounds, integer, number
 from ..errors import ArgumentError, VjmError
 from ..modelio.read import load_model
 from . import covariance
+from .absolute import check_options
 from .data import Deflections, read_csv
 from .diagnosis import Diagnosis
 from .stages import outliers as outl
@@ -20,7 +21,7 @@ from .stages.candidates import candidates
 from .stages.confounding import confounding
 from .stages.design import next_measurements
 from .stages.goodness import goodness
-from .stages.kinds import kind_of
+from .stages.kinds import kind_for, kind_of
 from .stages.load_levels import level_check
 from .stages.locate import locate
 from .stages.noise import check_stated
@@ -118,10 +119,15 @@ def diagnose_plan(n_rows: int, n_candidates: int | None = None):
                      "or fewer candidates (--effect)")
 
 
-def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int = 5, max_effects: int = 3,
+def diagnose(model, data, alpha: float | None = None, effects=None, folds: int = 5, max_effects: int = 3,
              model_name: str | None = None, progress=None, suggest: int = 0, forces_only: bool = False,
-             outliers: bool = True, noise: TrackerNoise | None = None) -> Diagnosis:
+             outliers: bool = True, noise: TrackerNoise | None = None, columns=None, validate=(),
+             register: int = 30):
     """Run the workflow on a model (loaded, or a YAML path) and a data set (:func:`read_csv` output, or a path).
+
+    A serial or tree robot's data are absolute poses (:class:`~vjm.discrepancy.stages.kinds.AbsolutePoseKind`:
+    ``columns`` a column map file, ``validate`` held-out files registered on ``register`` of their poses;
+    ``alpha`` default 1e-3); the outcome is then a :class:`~vjm.discrepancy.absolute.PoseDiagnosis`.
 
     Parameters
     ----------
@@ -136,10 +142,21 @@ def diagnose(model, data, alpha: float = DEFAULT_ALPHA, effects=None, folds: int
         growing with the distance from it, per axis) for deflection data whose file states none.
     progress : called with a line per selection round.
     """
-    alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
+    was_given = alpha is not None
+    alpha, folds, max_effects, suggest = check_arguments(DEFAULT_ALPHA if alpha is None else alpha, folds,
+                                                         max_effects, suggest)
     if isinstance(model, (str, os.PathLike)):
         model_name = model_name or os.path.basename(os.fspath(model))
         model = load_model(model)
+    kind = kind_for(model)
+    if kind is not None:
+        check_options(effects, suggest, forces_only, noise)
+        return kind.run(model, data, model_name=model_name, alpha=alpha if was_given else None, effects=effects,
+                        folds=folds, columns=columns, validate=validate, register=register, outliers=outliers,
+                        progress=progress)
+    if columns is not None or validate:
+        raise VjmError("--columns and --validate read absolute poses, the data of a serial or tree robot (a model "
+                       "file with urdf: or dh:)")
     if isinstance(data, (str, os.PathLike)):
         data = read_csv(data)
     diagnose_plan(data.n, len(effects) if effects else None)  # before the stages: 120k rows passed 12 GB in 45 s

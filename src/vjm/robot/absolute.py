@@ -356,10 +356,9 @@ def _axis_column(kind: str, A: np.ndarray, pb: np.ndarray) -> np.ndarray:
 def _origin_columns(G: np.ndarray, d: np.ndarray, pb: np.ndarray) -> np.ndarray:
     """d pb / d (dx..ez) (6, n, 3) of an origin error d applied after the frames G (n, 4, 4): pb is
     ``G Delta(d) s`` with s fixed, differentiated by central differences of the constant Delta only."""
-    D = _delta(d)
-    Gi = np.linalg.inv(G)
-    s = np.einsum("ij,nj->ni", np.linalg.inv(D)[:3, :3], np.einsum("nij,nj->ni", Gi[:, :3, :3], pb) + Gi[:, :3, 3])
-    s = s + np.linalg.inv(D)[:3, 3]
+    Di = _rigid_inverse(_delta(d))
+    local = np.einsum("nji,nj->ni", G[:, :3, :3], pb - G[:, :3, 3])   # G^-1 pb: the frames are rigid motions
+    s = local @ Di[:3, :3].T + Di[:3, 3]
     out = np.empty((6, len(pb), 3))
     for k in range(6):
         h = _STEP["mm" if k < 3 else "rad"]

@@ -30,7 +30,9 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
    gravity torque ``-J_p^T g`` per kg adds to the robot's own.
 
 A stage is kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the
-registration only) and, with ``folds``, when its cross-validated error drops too.  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
+registration only) and, with ``folds``, when its cross-validated error drops too.  Once all are tried, each
+stage kept is tested again beside the others (:func:`_backward`): one that the stages after it explain is
+dropped.  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
 are unweighted (mm), the model's errors exceeding the instruments' stated sigmas on real data.
 """
 from __future__ import annotations
@@ -77,6 +79,8 @@ class Stage:
     cv_rms: float = float("nan")
     #: mean, std, max and p95 (mm) of the fitted rows' position errors after the stage (:func:`error_stats`)
     stats: dict = field(default_factory=dict)
+    #: why a stage that passed when tried is not named in the end (:func:`_backward`), else ""
+    note: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,6 +115,11 @@ class Calibration:
     @property
     def marker(self) -> np.ndarray:
         return self.p0 + np.array([self.values.get(f"{self.frame}.p{k}", 0.0) for k in "xyz"])
+
+    @property
+    def markers(self) -> dict:
+        """{measured frame: its marker's fitted offset (3,) mm}, the first ``frame``'s first."""
+        return {f: p + np.array([self.values.get(f"{f}.p{k}", 0.0) for k in "xyz"]) for f, p in self.measured}
 
 
 def unit_torques(model, q: np.ndarray, frame: str, p) -> np.ndarray:
@@ -249,7 +258,9 @@ def fit(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: 
 
 
 def _combination(Jn: np.ndarray, col: np.ndarray, names: list) -> str:
-    coef = np.linalg.lstsq(Jn, col, rcond=None)[0]
+    # the normal equations of the (independent, unit-norm) columns kept: only the largest coefficients are
+    # named, and a lstsq of the tall matrix costs 0.25 s per parameter on 12k rows
+    coef = np.linalg.lstsq(Jn.T @ Jn, Jn.T @ col, rcond=None)[0]
     top = np.argsort(-np.abs(coef))[:3]
     return ", ".join(names[i] for i in top if abs(coef[i]) > 1e-3) or "nothing"
 
@@ -353,7 +364,7 @@ def cross_validated_rms(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.
     return float(np.sqrt(rss / len(meas)))
 
 
-def calibrate(model, data, frame: str | None = None, effects=("geometry", "compliance"), alpha: float = 1e-3,
+def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry", "compliance"), alpha: float = 1e-3,
               tol: float = 1e-3, flat: float = 0.05, p0=None, folds: int = 0) -> Calibration:
     """Fit registration, then the ``effects`` stages (see the module docstring) on ``data``.
 
@@ -409,9 +420,61 @@ def calibrate(model, data, frame: str | None = None, effects=("geometry", "compl
                             _stats(prob, full.pick(trial), xt, meas)))
         if ok:
             best = (trial, xt, sdt, rsst, cvt)
+    stages, best = _backward(prob, full, meas, stages, best, alpha, folds)
     lay = full.pick(best[0])
     return Calibration(model, fr[0], dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, ps[0],
                        tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:])
+
+
+#: effects acting through another's parameters: the tilt's and the payload's torques through the compliances,
+#: the compliance's variation with the joint's value (``c + c' q``) on the compliance
+_THROUGH = {"compliance": ("tilt", "payload", "varying")}
+
+
+def _backward(prob, full: Layout, meas: np.ndarray, stages: list, best: tuple, alpha: float, folds: int):
+    """Each effect named checked again beside all the others: one that the effects named after it explain (its
+    F test against the final set fails) is no longer named -- a joint offset fitted first passes for part of
+    a sag the compliance, tried after it, explains -- the least needed first, until every one left is needed;
+    then the stages left after the first dropped are refitted in turn (with their cross-validated error), so
+    that their records (error before and after each) are those of the effects named."""
+    stages, m, first = list(stages), meas.size, None
+    while True:
+        worst = None
+        named = [s.name for s in stages[1:] if s.kept]
+        for name in named:
+            if first is None and name == named[-1]:
+                continue   # without the last one is the set before it: its own F test passed
+            gone = {name, *_THROUGH.get(name, ())}
+            idx = [i for i in best[0] if full.kinds[i] not in gone]
+            x, sd, rss = fit(prob, full.pick(idx), meas, np.array([best[1][best[0].index(i)] for i in idx]))
+            pv = _f_test(rss, len(idx), best[3], len(best[0]), m)
+            if pv >= alpha and (worst is None or pv > worst[1]):
+                worst = (name, pv, (idx, x, sd, rss, float("nan")), gone)
+        if worst is None:
+            break
+        best = worst[2]
+        for k, s in enumerate(stages):
+            if s.name in worst[3] and s.kept:
+                first = k if first is None else min(first, k)
+                stages[k] = replace(s, kept=False, note=f"explained by the effects named after it (p = {worst[1]:.2g} "
+                                                        f"beside them)")
+    if first is None:
+        return stages, best
+    prev = [s for s in stages[:first] if s.kept][-1]
+    for k in range(first, len(stages)):
+        s = stages[k]
+        if not s.kept:
+            continue
+        upto = {t.name for t in stages[1:k + 1] if t.kept}
+        idx = [i for i in best[0] if full.kinds[i] in ("reg", "marker") or full.kinds[i] in upto]
+        x, sd, rss = fit(prob, full.pick(idx), meas, np.array([best[1][best[0].index(i)] for i in idx]))
+        cv = cross_validated_rms(prob, full.pick(idx), meas, x, folds) if folds else float("nan")
+        stages[k] = prev = replace(s, n_params=len(idx), rss=rss, rms=float(np.sqrt(rss / len(meas))),
+                                   p_value=_f_test(prev.rss, prev.n_params, rss, len(idx), m), cv_rms=cv,
+                                   stats=_stats(prob, full.pick(idx), x, meas))
+        if len(idx) == len(best[0]):
+            best = (idx, x, sd, rss, cv)
+    return stages, best
 
 
 def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:

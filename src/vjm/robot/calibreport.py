@@ -19,27 +19,31 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..errors import VjmError
-from .calibration import STAGES, Calibration, error_stats, instrument_frame, position_errors, register
+from .calibration import STAGES, Calibration, calibrate, error_stats, instrument_frame, position_errors, register
 from .robust import calibrate_robust
 
 FILES = ("report.json", "summary.txt", "calibrated.urdf", "calibrated.yaml")
+#: the effects tried when none are asked for, in this order
+DEFAULT_EFFECTS = ("geometry", "compliance", "payload")
 SET_NAME = "vjm calibrate"
 SCHEMA = "vjm.calibration/1"
 
 
 @dataclass(frozen=True)
 class Options:
-    """What the command line asks: the measured ``frame`` (None: the data's only point), the ``effects``
+    """What the command line asks: the measured ``frame`` (a name or several; None: every point the data
+    measure), the ``effects``
     tried, the F test's ``alpha``, ``folds`` of cross-validation (0: none), and the number of poses
     ``register_on`` that register each validation file."""
 
-    frame: str | None = None
+    frame: str | tuple | None = None
     effects: tuple = STAGES[1:]
     alpha: float = 1e-3
     folds: int = 0
@@ -74,19 +78,29 @@ def check_writeback(model) -> None:
         raise VjmError(f"{model.path}: the robot has no URDF file to write the calibration back into (a DH table?)")
 
 
-def check_frame(model, data, frame: str | None) -> str:
-    """The measured frame: named, or the data's only point; it must be a frame of the model."""
-    if frame is None:
-        if len(data.points) != 1:
-            raise VjmError(f"{data.source}: several measured points ({', '.join(data.points)}): name one with --frame")
-        frame = next(iter(data.points))
-    if frame not in data.points:
-        raise VjmError(f"--frame {frame}: {data.source} measures {', '.join(data.points)}")
+def check_frame(model, data, frame=None, option: str = "--frame") -> tuple:
+    """The measured frames: ``frame`` (a name, or several), or every point the data measure; each must be
+    measured by the data and be a frame of the model (errors name the ``option`` that chose them)."""
+    frames = tuple(data.points) if not frame else ((frame,) if isinstance(frame, str) else tuple(frame))
     names = {f.name for f in model.tree.frames}
-    if frame not in names:
-        raise VjmError(f"--frame {frame}: not a frame of the model ({model.path}); measured points must be frames "
-                       f"or links of the URDF")
-    return frame
+    for f in frames:
+        if f not in data.points:
+            raise VjmError(f"{option} {f}: {data.source} measures {', '.join(data.points)}")
+        if f not in names:
+            raise VjmError(f"{option} {f}: not a frame of the model ({model.path}); measured points must be frames "
+                           f"or links of the URDF")
+    return frames
+
+
+def effects_for(effects: tuple, frames: tuple, asked: bool) -> tuple:
+    """The effects tried on ``frames``: a payload is weighed at one marker, so with several measured points it
+    leaves the default effects (``asked`` False) and is refused when asked for."""
+    if len(frames) > 1 and "payload" in effects:
+        if asked:
+            raise VjmError(f"--effects payload: a payload is weighed at one marker; the data measure "
+                           f"{len(frames)} points ({', '.join(frames)}): leave it out or name one --frame")
+        return tuple(e for e in effects if e != "payload")
+    return effects
 
 
 def check_validation(data, k: int) -> None:
@@ -125,7 +139,7 @@ def _unit(name: str) -> str:
 def _stage(s) -> dict:
     return {"name": s.name, "kept": s.kept, "n_params": s.n_params, "rms_mm": s.rms,
             "p_value": None if np.isnan(s.p_value) else s.p_value,
-            "cv_rms_mm": None if np.isnan(s.cv_rms) else s.cv_rms, "errors_mm": s.stats}
+            "cv_rms_mm": None if np.isnan(s.cv_rms) else s.cv_rms, "errors_mm": s.stats, "note": s.note}
 
 
 def effects_named(cal: Calibration) -> list:
@@ -159,10 +173,10 @@ def registration(cal: Calibration) -> dict:
     for g in cal.frames:
         R, t = instrument_frame(cal, g)
         groups[str(g)] = {"R": R.tolist(), "t_mm": t.tolist(),
-                          "std": {k.split(".", 1)[1]: cal.std.get(k) for k in cal.values if k.startswith(f"reg[{g}].")}}
-    marker = {"frame": cal.frame, "offset_mm": cal.marker.tolist(),
-              "std_mm": [cal.std.get(f"{cal.frame}.p{c}", 0.0) for c in "xyz"]}
-    return {"instrument_frames": groups, "marker": marker,
+                          "std": {k[len(f"reg[{g}]."):]: cal.std.get(k) for k in cal.values if k.startswith(f"reg[{g}].")}}
+    markers = [{"frame": f, "offset_mm": p.tolist(), "std_mm": [cal.std.get(f"{f}.p{c}", 0.0) for c in "xyz"]}
+               for f, p in cal.markers.items()]
+    return {"instrument_frames": groups, "marker": markers[0], "markers": markers,
             "std_units": "t*: mm, r*: rad (a rotation vector after the Kabsch start)"}
 
 
@@ -172,6 +186,7 @@ def report(cal: Calibration, opt: Options, model_path, data, validations: list, 
     aside = position_errors(cal, data.subset(list(cal.set_aside))) if cal.set_aside else []
     return {
         "schema": SCHEMA, "model": str(model_path), "data": data.source, "rows": int(data.n), "frame": cal.frame,
+        "frames": list(cal.markers),
         "effects_tried": list(opt.effects), "alpha": opt.alpha,
         "effects": effects_named(cal),
         "stages": [_stage(s) for s in cal.stages],
@@ -196,7 +211,8 @@ def _p(p: float) -> str:
 def summary(rep: dict) -> str:
     """A short text of the report."""
     reg = rep["stages"][0]
-    lines = [f"Calibration of {rep['model']} on {rep['data']} ({rep['rows']} rows, point {rep['frame']}).",
+    lines = [f"Calibration of {rep['model']} on {rep['data']} ({rep['rows']} rows, "
+             f"point{'s' if len(rep['frames']) > 1 else ''} {', '.join(rep['frames'])}).",
              "Position error (mm) mean / std / max / p95, fitted rows:",
              f"  registration only: {_fmt(reg['errors_mm'])}"]
     if not rep["effects"]:
@@ -206,7 +222,7 @@ def summary(rep: dict) -> str:
                      f"({_p(e['p_value'])}; {len(e['parameters'])} parameters)")
     for s in rep["stages"][1:]:
         if not s["kept"]:
-            lines.append(f"  {s['name']}: not named ({_p(s['p_value'])}"
+            lines.append(f"  {s['name']}: not named ({s['note'] or _p(s['p_value'])}"
                          + (f", cross-validated RMS {s['cv_rms_mm']:.3f} mm" if s["cv_rms_mm"] is not None else "")
                          + ")")
     if rep["held_out"]["folds"]:
@@ -226,26 +242,58 @@ def summary(rep: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run(model, data, validate_sets: list, opt: Options) -> tuple[Calibration, list]:
-    """Fit and hold out: (the calibration, the validation files' held-out errors)."""
-    cal = calibrate_robust(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
+def inputs(model, data, columns, validate_paths, opt: Options, asked: bool, option: str = "--frame") -> tuple:
+    """(robot model, data, validation sets, options with the measured frames and the effects tried) of a run,
+    checked before any fitting; ``model`` and ``data`` a loaded model and data set, or their files (a data file
+    without a ``group`` column is one instrument set-up, named by the file; each validation file a new one)."""
+    from ..modelio.read import load_model
+    from .poses import read_column_map, read_poses
+
+    m: Any = load_model(model) if isinstance(model, (str, os.PathLike)) else model
+    robot_of(m)
+    check_writeback(m)
+    cmap = read_column_map(columns) if columns is not None else None
+    if isinstance(data, (str, os.PathLike)):
+        d = read_poses(data, cmap, m.q_names)
+        d = d if d.group is not None else d.with_group(Path(data).name)
+    else:
+        d = data if data.group is not None else data.with_group(os.path.basename(data.source) or "data")
+    frames = check_frame(m, d, opt.frame, option)
+    opt = replace(opt, frame=frames, effects=effects_for(opt.effects, frames, asked))
+    vals = [read_poses(v, cmap, m.q_names, group=f"validate:{Path(v).name}") for v in validate_paths]
+    for v in vals:
+        check_frame(m, v, frames, option)
+        check_validation(v, opt.register_on)
+    return m, d, vals, opt
+
+
+def run(model, data, validate_sets: list, opt: Options, robust: bool = True) -> tuple[Calibration, list]:
+    """Fit and hold out: (the calibration, the validation files' held-out errors); ``robust``: rows no effect
+    explains set aside (:mod:`vjm.robot.robust`)."""
+    fit = calibrate_robust if robust else calibrate
+    cal = fit(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
     return cal, [validate(cal, v, opt.register_on) for v in validate_sets]
 
 
-def write_set(out, cal: Calibration, rep: dict, force: bool = False) -> list[Path]:
-    """The four files of :data:`FILES` under ``out``, as one set."""
+def write_set(out, cal: Calibration, rep: dict, force: bool = False, set_name: str = SET_NAME,
+              extra: dict | None = None) -> list[Path]:
+    """The four files of :data:`FILES` under ``out``, as one set ``set_name``; ``extra`` {name: text} adds
+    files or replaces the text of one of them."""
     from linkfea.files.atomic import plain
     from linkfea.files.outputs import OutputSet, check_folder
 
     from .calibwrite import calibrated_urdf, robot_file
 
+    extra = extra or {}
+    files = FILES + tuple(k for k in extra if k not in FILES)
     out = Path(out)
-    check_folder(out, FILES, force=force)
+    check_folder(out, files, force=force)
     check_writeback(cal.model)
     urdf = cal.model.tree.source
     texts = {"report.json": json.dumps(plain(rep), indent=1) + "\n", "summary.txt": summary(rep),
-             "calibrated.urdf": calibrated_urdf(cal, urdf), "calibrated.yaml": robot_file(cal, "calibrated.urdf")}
-    with OutputSet(out, SET_NAME) as s:
-        for name in FILES:
+             "calibrated.urdf": calibrated_urdf(cal, urdf), "calibrated.yaml": robot_file(cal, "calibrated.urdf"),
+             **extra}
+    with OutputSet(out, set_name) as s:
+        for name in files:
             Path(s.path(name)).write_text(texts[name], encoding="utf-8")
-    return [out / n for n in FILES]
+    return [out / n for n in files]

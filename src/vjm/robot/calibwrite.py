@@ -2,8 +2,8 @@
 
 The URDF is the source URDF with, for every joint the calibration corrected, its ``<origin>`` times the
 correction ``exp(origin error) Rot(axis, offset)`` (a joint offset is a turn of the origin about the
-joint's own axis, which commutes with the joint's motion), and the marker as a fixed link
-``<frame>_marker`` on the measured frame.  Everything else (inertials, limits, meshes) is kept as written.
+joint's own axis, which commutes with the joint's motion), and each marker as a fixed link
+``<frame>_marker`` on its measured frame (one per measured point: a marker on each hand).  Everything else (inertials, limits, meshes) is kept as written.
 The robot file beside it names that URDF and gives each joint whose compliance was fitted its stiffness
 ``1 / c`` (N mm/rad): loaded back, vjm and pinocchio reproduce the calibrated positions.
 """
@@ -68,13 +68,14 @@ def calibrated_urdf(cal, urdf_path) -> str:
         el.set("xyz", _fmt(N[:3, 3] / MM))
         el.set("rpy", _fmt(rpy(N[:3, :3])))
     links = {x.get("name") for x in root.findall("link")}
-    if cal.frame not in links:
-        raise VjmError(f"{urdf_path}: the measured frame {cal.frame!r} is no link: the marker cannot be attached")
-    ET.SubElement(root, "link", name=f"{cal.frame}_marker")
-    jm = ET.SubElement(root, "joint", name=f"{cal.frame}_marker_joint", type="fixed")
-    ET.SubElement(jm, "parent", link=cal.frame)
-    ET.SubElement(jm, "child", link=f"{cal.frame}_marker")
-    ET.SubElement(jm, "origin", xyz=_fmt(cal.marker / MM), rpy="0 0 0")
+    for frame, p in cal.markers.items():   # a fixed marker link per measured point (one on each hand ...)
+        if frame not in links:
+            raise VjmError(f"{urdf_path}: the measured frame {frame!r} is no link: the marker cannot be attached")
+        ET.SubElement(root, "link", name=f"{frame}_marker")
+        jm = ET.SubElement(root, "joint", name=f"{frame}_marker_joint", type="fixed")
+        ET.SubElement(jm, "parent", link=frame)
+        ET.SubElement(jm, "child", link=f"{frame}_marker")
+        ET.SubElement(jm, "origin", xyz=_fmt(p / MM), rpy="0 0 0")
     return ET.tostring(root, encoding="unicode")
 
 
@@ -88,7 +89,7 @@ def robot_file(cal, urdf_name: str) -> str:
         if c is not None and c > 0:
             joints[name] = {"stiffness": float(1.0 / c)}
     d: dict = {"name": f"{cal.model.name or 'robot'} (calibrated)", "urdf": urdf_name,
-         "tools": [f"{cal.frame}_marker"], "gravity": [float(g) for g in cal.model.gravity]}
+         "tools": [f"{f}_marker" for f in cal.markers], "gravity": [float(g) for g in cal.model.gravity]}
     if joints:
         d["joints"] = joints
     head = ("# Calibrated by vjm.robot.calibration: joint stiffnesses (N mm/rad) fitted under self-weight;\n"

@@ -23,7 +23,7 @@ def outlying(errors: np.ndarray, kept: np.ndarray, ratio: float) -> np.ndarray:
     return errors > ratio * float(np.median(errors[kept]))
 
 
-def calibrate_robust(model, data, frame: str | None = None, ratio: float = 4.5, rounds: int = 4,
+def calibrate_robust(model, data, frame: str | tuple | None = None, ratio: float = 4.5, rounds: int = 4,
                      **kw) -> Calibration:
     """:func:`~vjm.robot.calibration.calibrate` with outlying rows set aside (see the module docstring)."""
     kept = np.ones(data.n, dtype=bool)

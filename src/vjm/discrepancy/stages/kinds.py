@@ -223,10 +223,53 @@ class StiffnessKind:
                        "have no loads to design")
 
 
-#: the strategy of a data kind
+class AbsolutePoseKind:
+    """Absolute poses: per joint configuration of a serial or tree robot, points on it measured by an instrument
+    in its own frame (:class:`vjm.robot.poses.AbsolutePoses`, read as it is through a column map).
+
+    The stages of the two kinds above (a calibrated baseline, each candidate alone on top of it, groups that
+    cannot be told apart) do not fit these data: the instrument frame and the markers are a nuisance fitted
+    with everything, the geometry is identified by the rank of its Jacobian, the effects act through the
+    robot's self-weight and are tried in turn.  The calibration engine of :mod:`vjm.robot` does that (one
+    home): this kind reads the data and hands them to :func:`vjm.discrepancy.absolute.diagnose_poses`."""
+
+    name = "absolute"
+
+    def read(self, path, model, columns=None):
+        """The data set of ``path`` (through the column map file ``columns``), the model's joints required."""
+        from ...robot.poses import read_column_map, read_poses
+
+        return read_poses(path, read_column_map(columns) if columns is not None else None, model.q_names)
+
+    def run(self, model, data, **kw):
+        """The diagnosis (a :class:`~vjm.discrepancy.absolute.PoseDiagnosis`)."""
+        from ..absolute import diagnose_poses
+
+        return diagnose_poses(model, data, **kw)
+
+    def design_scales(self, data, w, s2) -> tuple:
+        raise VjmError("--suggest needs deflection data (x,y,z,Fx..Mz,dx..rz): absolute poses have no loads "
+                       "to design")
+
+
+#: the strategy of a data kind that goes through the stages
 DataKind = DeflectionKind | StiffnessKind
 
 
 def kind_of(data) -> DataKind:
-    """The strategy of a data set read by :func:`~vjm.discrepancy.data.read_csv`."""
+    """The strategy of a data set read by :func:`~vjm.discrepancy.data.read_csv` (absolute poses go to
+    :class:`AbsolutePoseKind` by their model, :func:`kind_for`)."""
+    from ...robot.poses import AbsolutePoses
+
+    if isinstance(data, AbsolutePoses):
+        raise VjmError(f"{data.source}: absolute poses are diagnosed on a serial or tree robot (a model file with "
+                       f"urdf: or dh:), not a parallel machine")
     return StiffnessKind() if isinstance(data, StiffnessObs) else DeflectionKind()
+
+
+def kind_for(model) -> AbsolutePoseKind | None:
+    """The kind a model fixes: absolute poses for a serial or tree robot; None for a parallel machine, whose
+    file says its kind (deflections or stiffness observations)."""
+    from ..absolute import is_robot
+
+    return AbsolutePoseKind() if is_robot(model) else None
