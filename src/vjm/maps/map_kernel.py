@@ -26,7 +26,10 @@ import math
 import numpy as np
 from numba import njit
 
-from ..kinematics.ik_kernel import _end_and_jacobian
+from ..kinematics import ik_kernel
+
+#: the chain walk of the compiled IK, inlined here (its own dispatcher stays a call in the IK)
+_end_and_jacobian = njit(error_model="numpy", inline="always")(ik_kernel._end_and_jacobian.py_func)
 
 #: poses computed side by side: every per-pose quantity is a vector of LANES values, so the
 #: short dependent sums of 6x6 algebra run as SIMD over poses instead of one latency chain
