@@ -107,7 +107,7 @@ def _wrench_basis(A, k, N, R, Ri, beta, bound, nx, w):  # pragma: no cover - com
         bound[q] = 1.0 / math.sqrt(w[q] * nx[q])
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _cholesky(M, m, L, piv, t):  # pragma: no cover - compiled
     """Lower Cholesky factor L of M (m, m, LANES) and the smallest relative pivot min_j d_j / M_jj
     per lane (-1 where a diagonal entry is not positive), as vjm.stiffness.linalg.spd_inverse."""
@@ -133,7 +133,7 @@ def _cholesky(M, m, L, piv, t):  # pragma: no cover - compiled
                 L[i, j, q] = t[q] / L[j, j, q]
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _spd_inverse(M, m, Mi, L, piv, t):  # pragma: no cover - compiled
     """Mi = M^-1 (m, m, LANES) by Cholesky, and its relative pivot (:func:`_cholesky`)."""
     _cholesky(M, m, L, piv, t)
@@ -241,7 +241,7 @@ def _add_projected(Mi, N, m, Kl, W, t):  # pragma: no cover - compiled
                     Kl[j, i, q] += h
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
     """Largest eigenvalue of a symmetric 3x3 matrix, closed form (vjm.stiffness.linalg.sym3_max_eig_soa)."""
     q = (a00 + a11 + a22) / 3.0
@@ -256,7 +256,7 @@ def _sym3_max_eig(a00, a11, a22, a01, a02, a12):  # pragma: no cover - compiled
     return q + 2.0 * p * math.cos(math.acos(r) / 3.0)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _ldl(Kl, rtol, L, D, Dinv, di, LD, r, t):  # pragma: no cover - compiled
     """Jacobi scaling ``di`` and unpivoted LDL^T of the symmetrised Kl (6, 6, LANES), as
     vjm.stiffness.linalg.psd_rank_inverse_soa; r counts the pivots above rtol, Dinv is 0 for the others."""
@@ -287,7 +287,7 @@ def _ldl(Kl, rtol, L, D, Dinv, di, LD, r, t):  # pragma: no cover - compiled
                 L[i, j, q] = t[q] * Dinv[j, q]
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _ldl_inverse(L, Dinv, di, X, Cl, t):  # pragma: no cover - compiled
     """Cl = D^-1/2 X^T D^-1 X D^-1/2 with X = L^-1 (unit lower), all (6, 6, LANES)."""
     for i in range(6):
@@ -375,7 +375,7 @@ def machine_block(code, var, coef, T, fo, values, vo, passive, po, svar, sb, sr,
         _assemble_lanes(Kl, rtol, p0, nl, K, C, rank, inv, kt, kr, L, D, Dinv, di, LD, r, t, X, Cl)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _assemble_lanes(Kl, rtol, p0, nl, K, C, rank, inv, kt, kr, L, D, Dinv, di, LD, r, t, X,
                     Cl):  # pragma: no cover - compiled
     """K, C = K^-1, rank, invertible, k_tran, k_rot of the lanes q < nl into the poses p0 + q."""
