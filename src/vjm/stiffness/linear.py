@@ -541,11 +541,11 @@ def machine_block_compiled(chains, values, compliances, points, out, closed) -> 
         chain_rank[:, k] = len(ch.passive)
     bad = np.flatnonzero(flag)
     if bad.size:
-        Kb = 0.0
+        Kb = np.zeros((6, 6, bad.size))
         for k, (ch, v, c) in enumerate(zip(chains, values, compliances)):
             cb = {key: (x[bad] if np.ndim(x) == 3 else x) for key, x in c.items()}
             Kc, chain_rank[bad, k], _ = chain_stiffness_frames(ch, np.ascontiguousarray(v[bad].T), cb)
-            Kb = Kb + Kc
+            Kb += Kc
         Cb, rank[bad], inv[bad], kt[bad], kr[bad] = assemble_soa(Kb)
         K[bad] = np.transpose(Kb, (2, 0, 1))
         C[bad] = np.transpose(Cb, (2, 0, 1))
