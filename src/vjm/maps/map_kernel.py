@@ -4,19 +4,24 @@ The same arithmetic as the batched numpy path (:func:`vjm.stiffness.chain_stiffn
 :func:`vjm.stiffness.assemble_soa`), one pose at a time in compiled loops, so that the small
 6x6 work stays in registers and cache instead of some hundred array operations per block:
 
+One call of :func:`machine_block` per block of poses does every chain and the assembly, the
+machine's K kept in the lanes between them (no pass through an (n, 6, 6) array):
+
 * per chain: the end frame and Jacobian in one pass over the factors
   (:func:`vjm.kinematics.ik_kernel._end_and_jacobian`, the shared helper), the wrench basis ``N`` of the
   passive joints by Householder QR and its conditioning bound, ``M = sum_s Z_s C_s Z_s^T`` with
   ``Z_s = N^T J_s``, its Cholesky inverse and relative pivot, ``K_i = N M^-1 N^T`` added to the
-  machine's K;
+  machine's K in the chains' order (the numpy path's sum, to the bit);
 * per machine: the Jacobi-scaled unpivoted LDL^T of K, its rank decision (every pivot above
   ``rtol``), ``C = K^-1`` and the closed-form largest eigenvalues of its blocks (k_tran, k_rot).
 
 A pose where a chain's bound or pivot falls below ``FAST_RTOL``, or where K is not invertible,
 is flagged; the caller redoes it with the numpy path (rank-revealing bordered solve, SVD,
 pseudo-inverse), so both paths make the same rank and invertibility decisions.  ``cache=True``
-keeps the machine code on disk: the first process after an install compiles it (a few seconds),
-later ones load it; :mod:`vjm.stiffness` imports this module only for blocks of
+keeps the machine code on disk: the first process after an install compiles it (about 20 s of
+CPU, docs/benchmarks.md), later ones load it.  The helpers called in the per-chain loop are
+inlined (``inline="always"``: some 1.25x on the kernel against calls with their array arguments);
+the factorisations called once per chain or block stay calls, which keeps the compile shorter; :mod:`vjm.stiffness` imports this module only for blocks of
 ``KERNEL_FROM`` poses or more.
 """
 from __future__ import annotations
@@ -31,8 +36,10 @@ from ..kinematics import ik_kernel
 #: the chain walk of the compiled IK, inlined here (its own dispatcher stays a call in the IK)
 _end_and_jacobian = njit(error_model="numpy", inline="always")(ik_kernel._end_and_jacobian.py_func)
 
-#: poses computed side by side: every per-pose quantity is a vector of LANES values, so the
-#: short dependent sums of 6x6 algebra run as SIMD over poses instead of one latency chain
+#: poses computed side by side: every per-pose quantity is a vector of LANES values, so the short
+#: dependent sums of 6x6 algebra run as independent chains over poses instead of one latency
+#: chain.  (Not SIMD: numba's LLVM leaves its SLP vectoriser off, and a lane count known only at
+#: run time, which the loop vectoriser takes, was slower; 4 or 16 lanes: within the noise.)
 LANES = 8
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
