@@ -8,7 +8,8 @@ machine).  The batched map runs both paths side by side: the compiled kernels
 (``kernel="numba"``, :mod:`vjm.maps.map_kernel`) and the numpy reference (``kernel="numpy"``), timed
 in CPU time of this process (what other processes on a shared machine disturb least).
 Usage: ``python benchmarks/bench_vjm.py [N]``, ``... machines [N]`` (hexapod and description
-files), ``... compile`` (the kernels' one-time compile and their load from the cache).
+files), ``... compile`` (the kernels' one-time compile and their load from the cache), ``... phases``
+(where the time of the compiled 3-PUU map goes).
 """
 import os
 import platform
@@ -180,6 +181,32 @@ def machines(n=30):
           f"Python {platform.python_version()}, numpy {np.__version__}, one thread")
 
 
+def phases(n=50):
+    """Where the time of the compiled 3-PUU map goes: each phase of ``stiffness_map`` run alone over
+    the n^3 grid (best of REPEAT, CPU us per pose); the rest is the block bookkeeping and the first
+    touch of the output arrays."""
+    from vjm.kinematics.poses import as_poses
+    from vjm.stiffness.linear import machine_block_compiled
+
+    m = vjm.load_model("data/orthoglide/puu.yaml")
+    ax = np.linspace(-73.65, 126.35, n)
+    P = np.stack(np.meshgrid(ax, ax, ax, indexing="ij"), -1).reshape(-1, 3)
+    m.stiffness_map(P[:3000], kernel="numba")
+    us = 1e6 / len(P)
+    tot = best_times(lambda: m.stiffness_map(P, kernel="numba"))[1]
+    _, tf, frames = best_times(lambda: as_poses(P, m.dof))
+    blocks = [frames[a:a + 2048] for a in range(0, len(P), 2048)]
+    _, tk, kins = best_times(lambda: [m._solve_kinematics(f) for f in blocks])
+    _, tc, comps = best_times(lambda: [m.compliances(k) for k in kins])
+    outs = [(np.zeros((k.n, 6, 6)), np.zeros((k.n, 6, 6)), np.empty(k.n), np.empty(k.n), np.empty(k.n, dtype=int),
+             np.empty(k.n, dtype=bool), np.empty((k.n, 3), dtype=int)) for k in kins]
+    ts = best_times(lambda: [machine_block_compiled(k.chains, k.values, c, k.points, o, lambda i, g: None)
+                             for k, c, o in zip(kins, comps, outs)])[1]
+    print(f"3-PUU map, {len(P)} poses, CPU us per pose: total {tot * us:.2f} ({len(P) / tot:,.0f} poses/s); "
+          f"as_poses {tf * us:.2f}, inverse kinematics {tk * us:.2f}, compliances {tc * us:.2f}, stiffness and "
+          f"assembly {ts * us:.2f}, rest {(tot - tf - tk - tc - ts) * us:.2f}")
+
+
 _FIRST_MAP = """
 import time, numpy as np, vjm
 m = vjm.load_model("data/orthoglide/puu.yaml")
@@ -207,6 +234,8 @@ def compile_cost():
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "compile":
         compile_cost()
+    elif len(sys.argv) > 1 and sys.argv[1] == "phases":
+        phases()
     elif len(sys.argv) > 1 and sys.argv[1] == "machines":
         machines(int(sys.argv[2]) if len(sys.argv) > 2 else 30)
     else:
