@@ -8,7 +8,8 @@ machine).  The batched map runs both paths side by side: the compiled kernels
 (``kernel="numba"``, :mod:`vjm.maps.map_kernel`) and the numpy reference (``kernel="numpy"``), timed
 in CPU time of this process (what other processes on a shared machine disturb least).
 Usage: ``python benchmarks/bench_vjm.py [N]``, ``... machines [N]`` (hexapod and description
-files), ``... compile`` (the kernels' one-time compile and their load from the cache).
+files), ``... compile`` (the kernels' one-time compile and their load from the cache), ``... phases``
+(where the time of the compiled 3-PUU map goes).
 """
 import os
 import platform
@@ -69,6 +70,19 @@ def best_times(f, repeat=REPEAT):
     return wall, cpu, out
 
 
+def interleaved_times(fs, repeat=REPEAT):
+    """:func:`best_times` of several functions run in turn (a, b, a, b, ...), so that a change of
+    the load on a shared machine falls on all of them alike: {key: (wall, cpu, last result)}."""
+    best = {k: [np.inf, np.inf, None] for k in fs}
+    for _ in range(repeat):
+        for k, f in fs.items():
+            t, c = time.perf_counter(), time.process_time()
+            out = f()
+            b = best[k]
+            b[0], b[1], b[2] = min(b[0], time.perf_counter() - t), min(b[1], time.process_time() - c), out
+    return {k: tuple(v) for k, v in best.items()}
+
+
 def main(n=50):
     m = vjm.load_model("data/orthoglide/puu.yaml")
     ax = np.linspace(-73.65, 126.35, n)
@@ -76,7 +90,7 @@ def main(n=50):
     m.stiffness_map(P[:100])  # warm-up
     m.stiffness_map(P[:3000], kernel="numba")  # compile or load the kernels
     load0 = os.getloadavg()[0]
-    side = {k: best_times(lambda: m.stiffness_map(P, kernel=k)) for k in ("numba", "numpy")}
+    side = interleaved_times({k: (lambda k=k: m.stiffness_map(P, kernel=k)) for k in ("numba", "numpy")})
     tb, res = best_time(lambda: m.stiffness_map(P))
     step = max(1, len(P) // 2000)
     sub = P[::step]
@@ -127,18 +141,18 @@ def machines(n=30):
     load0 = os.getloadavg()[0]
 
     def fresh_map(m, P, kernel=None):
-        m._kin_cache.clear()  # time the inverse kinematics too, not the model's cache of small batches
+        m._kin_cache._kin.clear()  # time the inverse kinematics too, not the model's cache of small batches
         return m.stiffness_map(P, kernel=kernel)
 
-    side = {k: best_times(lambda: fresh_map(hexa, X, k)) for k in ("numba", "numpy")}
+    side = interleaved_times({k: (lambda k=k: fresh_map(hexa, X, k)) for k in ("numba", "numpy")})
 
     th, ch, _ = best_times(lambda: fresh_map(hexa, X))
     F = as_poses(X, 6)
     tk, ck, kins = best_times(lambda: [hexa._solve_kinematics(F[a:a + 2048]) for a in range(0, len(F), 2048)])
     ts, cs, _ = best_times(lambda: [hexa.stiffness_map(k) for k in kins])
     # the stiffness alone on either path; a fresh Kinematics each run (no geometry kept from the last)
-    stiff = {k: best_times(lambda: [hexa.stiffness_map(kin.take(slice(None)), kernel=k) for kin in kins])
-             for k in ("numba", "numpy")}
+    stiff = interleaved_times({k: (lambda k=k: [hexa.stiffness_map(kin.take(slice(None)), kernel=k) for kin in kins])
+                               for k in ("numba", "numpy")})
     a = vjm.load_model("data/orthoglide/puu.yaml")
     b = vjm.load_model("data/machines/orthoglide_puu.yaml")
     ax = np.linspace(-73.65, 126.35, 50)
@@ -165,6 +179,32 @@ def machines(n=30):
     print(f"target (within {TARGET_DESC_RATIO:g}x): {'met' if tb / ta <= TARGET_DESC_RATIO else 'NOT met'}")
     print(f"machine: {os.cpu_count()} cores, load average {load0:.1f} -> {load1:.1f} (other processes), "
           f"Python {platform.python_version()}, numpy {np.__version__}, one thread")
+
+
+def phases(n=50):
+    """Where the time of the compiled 3-PUU map goes: each phase of ``stiffness_map`` run alone over
+    the n^3 grid (best of REPEAT, CPU us per pose); the rest is the block bookkeeping and the first
+    touch of the output arrays."""
+    from vjm.kinematics.poses import as_poses
+    from vjm.stiffness.linear import machine_block_compiled
+
+    m = vjm.load_model("data/orthoglide/puu.yaml")
+    ax = np.linspace(-73.65, 126.35, n)
+    P = np.stack(np.meshgrid(ax, ax, ax, indexing="ij"), -1).reshape(-1, 3)
+    m.stiffness_map(P[:3000], kernel="numba")
+    us = 1e6 / len(P)
+    tot = best_times(lambda: m.stiffness_map(P, kernel="numba"))[1]
+    _, tf, frames = best_times(lambda: as_poses(P, m.dof))
+    blocks = [frames[a:a + 2048] for a in range(0, len(P), 2048)]
+    _, tk, kins = best_times(lambda: [m._solve_kinematics(f) for f in blocks])
+    _, tc, comps = best_times(lambda: [m.compliances(k) for k in kins])
+    outs = [(np.zeros((k.n, 6, 6)), np.zeros((k.n, 6, 6)), np.empty(k.n), np.empty(k.n), np.empty(k.n, dtype=int),
+             np.empty(k.n, dtype=bool), np.empty((k.n, 3), dtype=int)) for k in kins]
+    ts = best_times(lambda: [machine_block_compiled(k.chains, k.values, c, k.points, o, lambda i, g: None)
+                             for k, c, o in zip(kins, comps, outs)])[1]
+    print(f"3-PUU map, {len(P)} poses, CPU us per pose: total {tot * us:.2f} ({len(P) / tot:,.0f} poses/s); "
+          f"as_poses {tf * us:.2f}, inverse kinematics {tk * us:.2f}, compliances {tc * us:.2f}, stiffness and "
+          f"assembly {ts * us:.2f}, rest {(tot - tf - tk - tc - ts) * us:.2f}")
 
 
 _FIRST_MAP = """
@@ -194,6 +234,8 @@ def compile_cost():
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "compile":
         compile_cost()
+    elif len(sys.argv) > 1 and sys.argv[1] == "phases":
+        phases()
     elif len(sys.argv) > 1 and sys.argv[1] == "machines":
         machines(int(sys.argv[2]) if len(sys.argv) > 2 else 30)
     else:

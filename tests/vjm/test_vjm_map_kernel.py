@@ -148,3 +148,31 @@ def test_kernel_per_pose_compliances():
     assert _rel(out[2], kt) < 1e-12 and _rel(out[3], kr) < 1e-12
     assert out[4].tolist() == rank.tolist() and out[5].all() and inv.all()
     assert len(gaps) == 3 and max(gaps) < 1e-9
+
+
+def test_kernel_chains_of_different_structure():
+    """One block kernel call over chains of different shapes (the 3-PUU's, 17 variables and 4 passive
+    joints, beside the 3-PRPaR's, 16 and 3 with a per-pose parallelogram spring), at the same
+    points: the concatenated chain, spring and compliance arrays against chain_stiffness_frames and
+    assemble_soa chain by chain."""
+    a, b = vjm.load_model(PUU), vjm.load_model("data/orthoglide/prpar.yaml")
+    P = np.random.default_rng(11).uniform(-40.0, 40.0, (37, 3))
+    ka, kb = a.kinematics(P), b.kinematics(P)
+    chains = (kb.chains[0],) + ka.chains + kb.chains[1:]
+    values = (kb.values[0],) + ka.values + kb.values[1:]
+    ca, cb = a.compliances(ka), b.compliances(kb)
+    comps = [cb[0]] + ca + cb[1:]
+    n = len(P)
+    out = (np.empty((n, 6, 6)), np.empty((n, 6, 6)), np.empty(n), np.empty(n), np.empty(n, dtype=int),
+           np.empty(n, dtype=bool), np.empty((n, len(chains)), dtype=int))
+    gaps = []
+    stiffness.machine_block_compiled(chains, values, comps, P, out, lambda k, g: gaps.append(g))
+    Ks = sum(stiffness.chain_stiffness_frames(ch, np.ascontiguousarray(v.T), c)[0]
+             for ch, v, c in zip(chains, values, comps))
+    C, rank, inv, kt, kr = stiffness.assemble_soa(Ks)
+    assert _rel(out[0], Ks.transpose(2, 0, 1)) < 1e-12
+    assert _rel(out[1], C.transpose(2, 0, 1)) < 1e-12
+    assert _rel(out[2], kt) < 1e-12 and _rel(out[3], kr) < 1e-12
+    assert out[4].tolist() == rank.tolist() and out[5].tolist() == inv.tolist()
+    assert out[6][0].tolist() == [3, 4, 4, 4, 3, 3]
+    assert len(gaps) == 6 and max(gaps) < 1e-9

@@ -4,19 +4,24 @@ The same arithmetic as the batched numpy path (:func:`vjm.stiffness.chain_stiffn
 :func:`vjm.stiffness.assemble_soa`), one pose at a time in compiled loops, so that the small
 6x6 work stays in registers and cache instead of some hundred array operations per block:
 
+One call of :func:`machine_block` per block of poses does every chain and the assembly, the
+machine's K kept in the lanes between them (no pass through an (n, 6, 6) array):
+
 * per chain: the end frame and Jacobian in one pass over the factors
   (:func:`vjm.kinematics.ik_kernel._end_and_jacobian`, the shared helper), the wrench basis ``N`` of the
   passive joints by Householder QR and its conditioning bound, ``M = sum_s Z_s C_s Z_s^T`` with
   ``Z_s = N^T J_s``, its Cholesky inverse and relative pivot, ``K_i = N M^-1 N^T`` added to the
-  machine's K;
+  machine's K in the chains' order (the numpy path's sum, to the bit);
 * per machine: the Jacobi-scaled unpivoted LDL^T of K, its rank decision (every pivot above
   ``rtol``), ``C = K^-1`` and the closed-form largest eigenvalues of its blocks (k_tran, k_rot).
 
 A pose where a chain's bound or pivot falls below ``FAST_RTOL``, or where K is not invertible,
 is flagged; the caller redoes it with the numpy path (rank-revealing bordered solve, SVD,
 pseudo-inverse), so both paths make the same rank and invertibility decisions.  ``cache=True``
-keeps the machine code on disk: the first process after an install compiles it (a few seconds),
-later ones load it; :mod:`vjm.stiffness` imports this module only for blocks of
+keeps the machine code on disk: the first process after an install compiles it (about 20 s of
+CPU, docs/benchmarks.md), later ones load it.  The helpers called in the per-chain loop are
+inlined (``inline="always"``: some 1.25x on the kernel against calls with their array arguments);
+the factorisations called once per chain or block stay calls, which keeps the compile shorter; :mod:`vjm.stiffness` imports this module only for blocks of
 ``KERNEL_FROM`` poses or more.
 """
 from __future__ import annotations
@@ -26,13 +31,18 @@ import math
 import numpy as np
 from numba import njit
 
-from ..kinematics.ik_kernel import _end_and_jacobian
+from ..kinematics import ik_kernel
 
-#: poses computed side by side: every per-pose quantity is a vector of LANES values, so the
-#: short dependent sums of 6x6 algebra run as SIMD over poses instead of one latency chain
+#: the chain walk of the compiled IK, inlined here (its own dispatcher stays a call in the IK)
+_end_and_jacobian = njit(error_model="numpy", inline="always")(ik_kernel._end_and_jacobian.py_func)
+
+#: poses computed side by side: every per-pose quantity is a vector of LANES values, so the short
+#: dependent sums of 6x6 algebra run as independent chains over poses instead of one latency
+#: chain.  (Not SIMD: numba's LLVM leaves its SLP vectoriser off, and a lane count known only at
+#: run time, which the loop vectoriser takes, was slower; 4 or 16 lanes: within the noise.)
 LANES = 8
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _householder(A, k, R, beta, nx, w):  # pragma: no cover - compiled
     """Householder QR of the rows A[:k] (6 long, LANES): the vectors in place of A, R (k, k)."""
     for j in range(k):
@@ -54,7 +64,7 @@ def _householder(A, k, R, beta, nx, w):  # pragma: no cover - compiled
                 R[j, c, q] = A[c, j, q]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _reflect(X, a, V, j, beta, w):  # pragma: no cover - compiled
     """Row a of X (6, LANES) times the reflection of vector j of V (entries j..5)."""
     w[:] = 0.0
@@ -68,7 +78,7 @@ def _reflect(X, a, V, j, beta, w):  # pragma: no cover - compiled
             X[a, i, q] -= w[q] * V[j, i, q]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _wrench_basis(A, k, N, R, Ri, beta, bound, nx, w):  # pragma: no cover - compiled
     """Orthonormal basis N (6-k, 6, LANES) of the complement of the rows A[:k] (overwritten), and
     the lower bound ``1 / (||R^-1||_F ||R||_F)`` of sigma_min / sigma_max per lane (NaN or 0 for a
@@ -160,16 +170,14 @@ def _spd_inverse(M, m, Mi, L, piv, t):  # pragma: no cover - compiled
                 Mi[j, i, q] = L[i, j, q]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _gather(code, var, coef, T, values, passive, svar, cpose, nfix, pts, p0, nl, F, E, O, J, A, Jl,
-            cb):  # pragma: no cover - compiled
-    """Jacobians of poses p0 .. p0 + nl - 1 (a short group repeats pose p0) into the lanes: passive
-    rows A, spring rows Jl, per-pose compliances cb[nfix:]; returns the largest closure gap (mm,
-    NaN if one is NaN)."""
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _gather(code, var, coef, T, values, v0, v1, passive, svar, p0, nl, pts, F, E, O, J, A, Jl):  # pragma: no cover
+    """Jacobians of poses p0 .. p0 + nl - 1 (a short group repeats pose p0) of one chain into the
+    lanes: passive rows A, spring rows Jl; returns the largest closure gap (mm, NaN if one is NaN)."""
     gap = 0.0
     for q in range(LANES):
         p = p0 + q if q < nl else p0
-        _end_and_jacobian(code, var, coef, T, values[p], F, E, O, J)
+        _end_and_jacobian(code, var, coef, T, values[p, v0:v1], F, E, O, J)
         if q < nl:
             for i in range(3):
                 e = abs(F[i, 3] - pts[p, i])
@@ -180,14 +188,13 @@ def _gather(code, var, coef, T, values, passive, svar, cpose, nfix, pts, p0, nl,
         for c in range(svar.shape[0]):
             for i in range(6):
                 Jl[c, i, q] = J[svar[c], i]
-        for c in range(cpose.shape[1]):
-            cb[nfix + c, q] = cpose[p, c]
     return gap
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _spring_sum(N, m, Jl, nd, soff, off, cb, Z, Y, M, t):  # pragma: no cover - compiled
-    """M = sum_s Z_s C_s Z_s^T (m, m, LANES) with Z = N^T J_s (vjm.stiffness._reduced_stiffness)."""
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _spring_sum(N, m, Jl, nd, sb, s0, s1, off, cb, Z, Y, M, t):  # pragma: no cover - compiled
+    """M = sum_s Z_s C_s Z_s^T (m, m, LANES) over the springs s0 .. s1 - 1, Z = N^T J_s
+    (vjm.stiffness._reduced_stiffness); spring s is the rows sb[s] - sb[s0] ... of Jl."""
     for a in range(m):
         for c in range(nd):
             t[:] = 0.0
@@ -197,8 +204,8 @@ def _spring_sum(N, m, Jl, nd, soff, off, cb, Z, Y, M, t):  # pragma: no cover - 
             for q in range(LANES):
                 Z[a, c, q] = t[q]
     M[:m, :m, :] = 0.0
-    for s in range(off.shape[0]):
-        o, d, co = soff[s], soff[s + 1] - soff[s], off[s]
+    for s in range(s0, s1):
+        o, d, co = sb[s] - sb[s0], sb[s + 1] - sb[s], off[s]
         for a in range(m):                    # Y = Z_s C_s
             for e in range(d):
                 t[:] = 0.0
@@ -217,9 +224,9 @@ def _spring_sum(N, m, Jl, nd, soff, off, cb, Z, Y, M, t):  # pragma: no cover - 
                     M[a, b, q] += t[q]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _add_projected(Mi, N, m, K, p0, nl, W, t):  # pragma: no cover - compiled
-    """K[p0 + q] += N^T M^-1 N (symmetrised) for the lanes q < nl."""
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _add_projected(Mi, N, m, Kl, W, t):  # pragma: no cover - compiled
+    """Kl += N^T M^-1 N (symmetrised), (6, 6, LANES)."""
     for b in range(m):                        # W = M^-1 N
         for i in range(6):
             t[:] = 0.0
@@ -234,60 +241,11 @@ def _add_projected(Mi, N, m, K, p0, nl, W, t):  # pragma: no cover - compiled
             for b in range(m):
                 for q in range(LANES):
                     t[q] += W[b, i, q] * N[b, j, q] + W[b, j, q] * N[b, i, q]
-            for q in range(nl):
+            for q in range(LANES):
                 h = 0.5 * t[q]
-                K[p0 + q, i, j] += h
+                Kl[i, j, q] += h
                 if j != i:
-                    K[p0 + q, j, i] += h
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def chain_block(code, var, coef, T, values, passive, svar, soff, coff, cfix, cpose, perpose, fast_rtol,
-                pts, K, flag):  # pragma: no cover - compiled
-    """Add one chain's stiffness at every pose of a block to ``K`` (n, 6, 6).
-
-    ``values`` (n, n_vars); ``passive`` (k,) the passive variables; spring s spans the variables
-    ``svar[soff[s]:soff[s+1]]`` with its compliance at ``coff[s]`` (d*d values, row-major) in
-    ``cfix`` (constant) or, where ``perpose[s]``, in ``cpose[i]`` (n, ...).  ``flag[i]`` is set
-    where the fast closed form is not safe.  Returns the largest distance (any coordinate) of the
-    chain's end point from the pose's point ``pts`` (n, 3) (NaN if one is NaN), mm.
-    Poses go LANES at a time; a short last group repeats its first pose (results not kept)."""
-    n, nv = values.shape
-    k, nd, nf = passive.shape[0], svar.shape[0], code.size
-    m = 6 - k
-    kk, mm = max(k, 1), max(m, 1)
-    F, E, O, J = np.empty((3, 4)), np.empty((nf, 3)), np.empty((nf, 3)), np.empty((nv, 6))
-    Jl, A = np.empty((max(nd, 1), 6, LANES)), np.empty((kk, 6, LANES))
-    R, Ri = np.zeros((kk, kk, LANES)), np.zeros((kk, kk, LANES))
-    beta, bound, piv = np.empty((6, LANES)), np.empty(LANES), np.empty(LANES)
-    t, w = np.empty(LANES), np.empty(LANES)
-    N, Z, Y = np.empty((mm, 6, LANES)), np.empty((mm, max(nd, 1), LANES)), np.empty((mm, 6, LANES))
-    M, Mi, L, W = (np.empty((mm, mm, LANES)), np.empty((mm, mm, LANES)), np.empty((mm, mm, LANES)),
-                   np.empty((mm, 6, LANES)))
-    # every spring's compliance in one buffer: the constant ones once, the per-pose ones per lane
-    nfix = cfix.shape[0]
-    cb = np.empty((nfix + cpose.shape[1], LANES))
-    for c in range(nfix):
-        cb[c, :] = cfix[c]
-    off = np.empty(soff.shape[0] - 1, dtype=np.int64)
-    for s in range(off.shape[0]):
-        off[s] = coff[s] + (nfix if perpose[s] else 0)
-    gap = 0.0
-    for p0 in range(0, n, LANES):
-        nl = min(LANES, n - p0)
-        g = _gather(code, var, coef, T, values, passive, svar, cpose, nfix, pts, p0, nl, F, E, O, J, A, Jl, cb)
-        gap = g if (g > gap or math.isnan(g)) and not math.isnan(gap) else gap
-        _wrench_basis(A, k, N, R, Ri, beta, bound, t, w)
-        _spring_sum(N, m, Jl, nd, soff, off, cb, Z, Y, M, t)
-        if m:
-            _spd_inverse(M, m, Mi, L, piv, t)
-        else:
-            piv[:] = 1.0
-        for q in range(nl):
-            if not (bound[q] > fast_rtol and piv[q] > fast_rtol):
-                flag[p0 + q] = True
-        _add_projected(Mi, N, m, K, p0, nl, W, t)
-    return gap
+                    Kl[j, i, q] += h
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -360,36 +318,90 @@ def _ldl_inverse(L, Dinv, di, X, Cl, t):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def assemble_block(K, rtol, C, rank, inv, kt, kr):  # pragma: no cover - compiled
-    """C = K^-1 (n, 6, 6), rank, invertible, k_tran, k_rot per pose, as vjm.stiffness.assemble_soa where
-    K is invertible; elsewhere rank counts the LDL^T pivots above ``rtol`` and the caller redoes C.
-    Poses go LANES at a time (a short last group repeats its first pose)."""
-    L, X, Cl, Kl = (np.zeros((6, 6, LANES)), np.zeros((6, 6, LANES)), np.empty((6, 6, LANES)),
-                    np.empty((6, 6, LANES)))
+def machine_block(code, var, coef, T, fo, values, vo, passive, po, svar, sb, sr, off, cfix, cpose, pts,
+                  fast_rtol, rtol, K, C, rank, inv, kt, kr, flag, gaps):  # pragma: no cover - compiled
+    """The machine's stiffness at every pose of a block, chain sum and inverse in one pass.
+
+    Chain c is the factors ``fo[c]:fo[c+1]`` of ``code, var, coef, T`` (vjm.kinematics.ik.encode),
+    the columns ``vo[c]:vo[c+1]`` of ``values`` (n, ...) and the passive variables
+    ``passive[po[c]:po[c+1]]`` (chain-local numbers); its springs are ``sr[c]:sr[c+1]``, spring s
+    spanning the chain-local variables ``svar[sb[s]:sb[s+1]]`` with its compliance (d*d values,
+    row-major) at ``off[s]`` of the buffer ``cfix`` (constant) followed by a row of ``cpose`` (n, ...).
+    Writes K, C = K^-1 (n, 6, 6), rank, inv, k_tran, k_rot as vjm.stiffness.assemble_soa where K is
+    invertible (elsewhere rank counts the LDL^T pivots above ``rtol``: the caller redoes C), sets
+    ``flag`` where a chain's fast closed form is not safe (the caller redoes the pose), and
+    ``gaps[c]`` to chain c's largest closure gap (mm, NaN if one is NaN).
+    Poses go LANES at a time; a short last group repeats its first pose (results not kept)."""
+    n = values.shape[0]
+    nc = fo.shape[0] - 1
+    nfmax, nvmax, ndmax = 1, 1, 1
+    for c in range(nc):
+        nfmax = max(nfmax, fo[c + 1] - fo[c])
+        nvmax = max(nvmax, vo[c + 1] - vo[c])
+        ndmax = max(ndmax, sb[sr[c + 1]] - sb[sr[c]])
+    F, E, O, J = np.empty((3, 4)), np.empty((nfmax, 3)), np.empty((nfmax, 3)), np.empty((nvmax, 6))
+    Jl, A = np.empty((ndmax, 6, LANES)), np.empty((6, 6, LANES))
+    R, Ri = np.zeros((6, 6, LANES)), np.zeros((6, 6, LANES))
+    beta, bound, piv = np.empty((6, LANES)), np.empty(LANES), np.empty(LANES)
+    t, w = np.empty(LANES), np.empty(LANES)
+    N, Z, Y = np.empty((6, 6, LANES)), np.empty((6, ndmax, LANES)), np.empty((6, 6, LANES))
+    M, Mi, Lc, W = np.empty((6, 6, LANES)), np.empty((6, 6, LANES)), np.empty((6, 6, LANES)), np.empty((6, 6, LANES))
+    Kl, L, X, Cl = np.empty((6, 6, LANES)), np.zeros((6, 6, LANES)), np.zeros((6, 6, LANES)), np.empty((6, 6, LANES))
     D, Dinv, di, LD = np.empty((6, LANES)), np.empty((6, LANES)), np.empty((6, LANES)), np.empty((6, LANES))
-    t = np.empty(LANES)
     r = np.empty(LANES, dtype=np.int64)
-    n = K.shape[0]
+    # every spring's compliance in one buffer: the constant ones once, the per-pose ones per lane
+    nfix = cfix.shape[0]
+    cb = np.empty((nfix + cpose.shape[1], LANES))
+    for c in range(nfix):
+        cb[c, :] = cfix[c]
+    gaps[:] = 0.0
     for p0 in range(0, n, LANES):
         nl = min(LANES, n - p0)
         for q in range(LANES):
             p = p0 + q if q < nl else p0
-            for i in range(6):
-                for j in range(6):
-                    Kl[i, j, q] = K[p, i, j]
-        _ldl(Kl, rtol, L, D, Dinv, di, LD, r, t)
-        _ldl_inverse(L, Dinv, di, X, Cl, t)
-        for q in range(nl):
-            p = p0 + q
-            rank[p] = r[q]
-            inv[p] = r[q] == 6
-            if r[q] < 6:
-                kt[p] = math.inf
-                kr[p] = math.inf
-                continue
-            for i in range(6):
-                for j in range(i, 6):
-                    C[p, i, j] = Cl[i, j, q]
-                    C[p, j, i] = Cl[i, j, q]
-            kt[p] = _sym3_max_eig(Cl[0, 0, q], Cl[1, 1, q], Cl[2, 2, q], Cl[0, 1, q], Cl[0, 2, q], Cl[1, 2, q])
-            kr[p] = _sym3_max_eig(Cl[3, 3, q], Cl[4, 4, q], Cl[5, 5, q], Cl[3, 4, q], Cl[3, 5, q], Cl[4, 5, q])
+            for c in range(cpose.shape[1]):
+                cb[nfix + c, q] = cpose[p, c]
+        Kl[:] = 0.0
+        for c in range(nc):
+            f0, f1, ps = fo[c], fo[c + 1], passive[po[c]:po[c + 1]]
+            k = ps.shape[0]
+            m = 6 - k
+            g = _gather(code[f0:f1], var[f0:f1], coef[f0:f1], T[f0:f1], values, vo[c], vo[c + 1], ps,
+                        svar[sb[sr[c]]:sb[sr[c + 1]]], p0, nl, pts, F, E, O, J, A, Jl)
+            gaps[c] = g if (g > gaps[c] or math.isnan(g)) and not math.isnan(gaps[c]) else gaps[c]
+            _wrench_basis(A, k, N, R, Ri, beta, bound, t, w)
+            _spring_sum(N, m, Jl, sb[sr[c + 1]] - sb[sr[c]], sb, sr[c], sr[c + 1], off, cb, Z, Y, M, t)
+            if m:
+                _spd_inverse(M, m, Mi, Lc, piv, t)
+            else:
+                piv[:] = 1.0
+            for q in range(nl):
+                if not (bound[q] > fast_rtol and piv[q] > fast_rtol):
+                    flag[p0 + q] = True
+            _add_projected(Mi, N, m, Kl, W, t)
+        _assemble_lanes(Kl, rtol, p0, nl, K, C, rank, inv, kt, kr, L, D, Dinv, di, LD, r, t, X, Cl)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _assemble_lanes(Kl, rtol, p0, nl, K, C, rank, inv, kt, kr, L, D, Dinv, di, LD, r, t, X,
+                    Cl):  # pragma: no cover - compiled
+    """K, C = K^-1, rank, invertible, k_tran, k_rot of the lanes q < nl into the poses p0 + q."""
+    _ldl(Kl, rtol, L, D, Dinv, di, LD, r, t)
+    _ldl_inverse(L, Dinv, di, X, Cl, t)
+    for q in range(nl):
+        p = p0 + q
+        for i in range(6):
+            for j in range(6):
+                K[p, i, j] = Kl[i, j, q]
+        rank[p] = r[q]
+        inv[p] = r[q] == 6
+        if r[q] < 6:
+            kt[p] = math.inf
+            kr[p] = math.inf
+            continue
+        for i in range(6):
+            for j in range(i, 6):
+                C[p, i, j] = Cl[i, j, q]
+                C[p, j, i] = Cl[i, j, q]
+        kt[p] = _sym3_max_eig(Cl[0, 0, q], Cl[1, 1, q], Cl[2, 2, q], Cl[0, 1, q], Cl[0, 2, q], Cl[1, 2, q])
+        kr[p] = _sym3_max_eig(Cl[3, 3, q], Cl[4, 4, q], Cl[5, 5, q], Cl[3, 4, q], Cl[3, 5, q], Cl[4, 5, q])

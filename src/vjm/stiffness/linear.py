@@ -461,81 +461,94 @@ def use_kernel(n: int, kernel: str | None = None) -> bool:
     return _map_kernel() is not None
 
 
-#: chains as arrays for the kernels, by id (the chain is kept in the entry, so the id stays its own)
+#: machines (tuples of chains) as arrays for the kernel, by the chains' ids (the chains are kept in
+#: the entry, so the ids stay their own)
 _ENCODED: dict = {}
 
 
-def _encoded(chain: Chain):
-    hit = _ENCODED.get(id(chain))
-    if hit is None or hit[0] is not chain:
+def _encoded(chains):
+    """The chains' factors concatenated (code, var, coef, T and the offsets of each chain's), the
+    offsets of their variables, and their passive variables (chain-local numbers) with offsets."""
+    key = tuple(id(ch) for ch in chains)
+    hit = _ENCODED.get(key)
+    if hit is None or any(a is not b for a, b in zip(hit[0], chains)):
         from ..kinematics.ik import encode
 
-        if len(_ENCODED) >= 256:
+        if len(_ENCODED) >= 64:
             _ENCODED.clear()
-        hit = _ENCODED[id(chain)] = (chain, encode(chain), np.array(chain.passive, dtype=np.int64))
-    return hit[1], hit[2]
+        enc = [encode(ch) for ch in chains]
+        fo, vo, po = (np.cumsum([0] + [len(x) for x in xs]).astype(np.int64) for xs in
+                      ([e[0] for e in enc], [range(ch.n_vars) for ch in chains], [ch.passive for ch in chains]))
+        arrays = tuple(np.concatenate([e[i] for e in enc]) for i in range(4))
+        passive = np.array([v for ch in chains for v in ch.passive], dtype=np.int64)
+        hit = _ENCODED[key] = (tuple(chains), (*arrays, fo), vo, (passive, po))
+    return hit[1], hit[2], hit[3]
 
 
-def _packed_springs(chain: Chain, compliances: dict, n: int):
-    """The chain's non-rigid springs for :func:`vjm.maps.map_kernel.chain_block`: variables, offsets, and
-    compliances row-major in a constant part and a per-pose part (n, ...)."""
+def _packed_springs(chains, compliances: list, n: int):
+    """The chains' non-rigid springs for :func:`vjm.maps.map_kernel.machine_block`: their variables
+    (chain-local), each spring's bounds in them, each chain's range of springs, and the compliances
+    row-major: each spring's offset in one buffer of the constant ones followed by the per-pose ones
+    (n, ...)."""
     svar: list = []
-    soff, coff, perpose, fix, pose = [0], [], [], [], []
-    nfix = npose = 0
-    for s in chain.springs:
-        c = compliances.get(s.name)
-        if c is None:
-            continue
-        c = np.asarray(c, dtype=float)
-        d = len(s.vars)
-        svar += s.vars
-        soff.append(len(svar))
-        perpose.append(c.ndim == 3)
-        if c.ndim == 3:
-            coff.append(npose)
-            pose.append(c.reshape(n, d * d))
-            npose += d * d
-        else:
-            coff.append(nfix)
-            fix.append(c.ravel())
-            nfix += d * d
-    return (np.array(svar, dtype=np.int64), np.array(soff, dtype=np.int64), np.array(coff, dtype=np.int64),
+    sb, sr, fix, pose, where = [0], [0], [], [], []
+    for ch, comp in zip(chains, compliances):
+        for s in ch.springs:
+            c = comp.get(s.name)
+            if c is None:
+                continue
+            c = np.asarray(c, dtype=float)
+            svar += s.vars
+            sb.append(len(svar))
+            if c.ndim == 3:
+                where.append((True, sum(x.shape[1] for x in pose)))
+                pose.append(c.reshape(n, -1))
+            else:
+                where.append((False, sum(x.size for x in fix)))
+                fix.append(c.ravel())
+        sr.append(len(sb) - 1)
+    nfix = sum(x.size for x in fix)
+    off = np.array([o + (nfix if per else 0) for per, o in where], dtype=np.int64)
+    return (np.array(svar, dtype=np.int64), np.array(sb, dtype=np.int64), np.array(sr, dtype=np.int64), off,
             np.concatenate(fix) if fix else np.zeros(0),
-            np.concatenate(pose, axis=1) if pose else np.zeros((n, 0)), np.array(perpose, dtype=np.bool_))
+            np.concatenate(pose, axis=1) if pose else np.zeros((n, 0)))
 
 
 def machine_block_compiled(chains, values, compliances, points, out, closed) -> None:
-    """The machine stiffness at a block of poses by the compiled kernels, with the numpy path's
+    """The machine stiffness at a block of poses by the compiled kernel, with the numpy path's
     decisions, written into ``out`` = (K, C (n, 6, 6), k_tran, k_rot, rank, invertible (n,),
     chain ranks (n, n_chains)).
 
     ``values`` per chain (n, n_vars), ``compliances`` per chain as :func:`chain_stiffness`,
     ``points`` (n, 3) the poses' points; ``closed(k, gap)`` checks chain k's largest closure gap
     (mm).  Poses a chain's fast closed form flags are redone by :func:`chain_stiffness_frames`
-    (bordered solve near rank loss), poses whose K is not invertible by
+    (bordered solve near rank loss) and :func:`assemble_soa`, poses whose K is not invertible by
     :func:`vjm.stiffness.linalg.psd_rank_inverse` (pseudo-inverse, rank).
     """
     kern = _map_kernel()
     K, C, kt, kr, rank, inv, chain_rank = out
     n = K.shape[0]
-    K[:] = 0.0
     flag = np.zeros(n, dtype=np.bool_)
-    pts = np.ascontiguousarray(points, dtype=float)
-    for k, (ch, v, c) in enumerate(zip(chains, values, compliances)):
-        (code, var, coef, T), passive = _encoded(ch)
-        closed(k, kern.chain_block(code, var, coef, T, np.ascontiguousarray(v, dtype=float), passive,
-                                   *_packed_springs(ch, c, n), FAST_RTOL, pts, K, flag))
-        chain_rank[:, k] = len(passive)
+    gaps = np.zeros(len(chains))
+    factors, vo, (passive, po) = _encoded(chains)
+    vals = np.concatenate([np.asarray(v, dtype=float) for v in values], axis=1) if len(values) > 1 else \
+        np.ascontiguousarray(values[0], dtype=float)
+    kern.machine_block(*factors, vals, vo, passive, po, *_packed_springs(chains, compliances, n),
+                       np.ascontiguousarray(points, dtype=float), FAST_RTOL, 1e-10,  # psd_rank_inverse_soa's rtol
+                       K, C, rank, inv, kt, kr, flag, gaps)
+    for k, ch in enumerate(chains):
+        closed(k, gaps[k])
+        chain_rank[:, k] = len(ch.passive)
     bad = np.flatnonzero(flag)
     if bad.size:
-        Kb = 0.0
+        Kb = np.zeros((6, 6, bad.size))
         for k, (ch, v, c) in enumerate(zip(chains, values, compliances)):
             cb = {key: (x[bad] if np.ndim(x) == 3 else x) for key, x in c.items()}
             Kc, chain_rank[bad, k], _ = chain_stiffness_frames(ch, np.ascontiguousarray(v[bad].T), cb)
-            Kb = Kb + Kc
+            Kb += Kc
+        Cb, rank[bad], inv[bad], kt[bad], kr[bad] = assemble_soa(Kb)
         K[bad] = np.transpose(Kb, (2, 0, 1))
-    # psd_rank_inverse_soa's threshold: the same invertibility decision
-    kern.assemble_block(K, 1e-10, C, rank, inv, kt, kr)
+        C[bad] = np.transpose(Cb, (2, 0, 1))
     sing = np.flatnonzero(~inv)
     if sing.size:
         C[sing], rank[sing], _ = psd_rank_inverse(K[sing])
