@@ -7,6 +7,12 @@ import pytest
 # Shared test helpers live next to the tests (tests/meshes.py, truth.py, brackets.py).
 sys.path.insert(0, os.path.dirname(__file__))
 
+# One OpenBLAS thread per process: the suite's workers (and the commands they start) already fill the
+# cores, and OpenBLAS's threads on top of them wait on each other over the suite's small matrices (a
+# diagnosis test took 15 s of wall time with one thread against 36 s with two on a busy 2-core machine).
+# Set here, before numpy loads OpenBLAS, and inherited by the xdist workers and every subprocess.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 from linkfea.mechanics.materials import get_material
 
 
