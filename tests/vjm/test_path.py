@@ -379,8 +379,8 @@ def test_passive_clearance_against_truths_joint_slips_in_the_equilibrium(tmp_pat
 def test_a_long_path_says_how_long_before_it_starts(monkeypatch):
     """A path estimated to take more than a minute reports the estimate first, then its stages; a short one
     reports its stages only."""
+    import vjm.toolpath.passes as passes
     import vjm.toolpath.points as points
-    import vjm.toolpath.run as run
     from vjm.toolpath.run import path
     from vjm.toolpath.wrench import Constant
 
@@ -390,7 +390,7 @@ def test_a_long_path_says_how_long_before_it_starts(monkeypatch):
     assert said and not any(s.startswith("vjm path: ") for s in said)
     said.clear()
     monkeypatch.setattr(points, "PATH_SECONDS", 100.0)
-    monkeypatch.setattr(run, "CHUNK", 64)  # several passes of the nonlinear equilibrium, each reported
+    monkeypatch.setattr(passes, "CHUNK", 64)  # several passes of the nonlinear equilibrium, each reported
     res = path("puu", "data/toolpaths/pocket.nc", wrench=Constant((10.0, 0, 0, 0, 0, 0)), compensate=False,
                progress=said.append)
     n = len(res.deflection)
