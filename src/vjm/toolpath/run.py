@@ -186,7 +186,8 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
         compensated (the transition where the force turns then spans one piece)
     chord_tol, step : sampling of arcs (chord error, mm) and of straight moves (spacing, mm)
     uncertainty : propagate the calibration covariance of the model file, if it carries one
-    workers : threads for the nonlinear equilibrium (blocks of points)
+    workers : worker processes over the passes of a long path (:mod:`vjm.toolpath.passes`), threads over
+        blocks of points otherwise
     progress : called with a line at each stage (deflection, uncertainty, compensation)
     """
     if tolerance is not None and not (np.isfinite(tolerance) and tolerance > 0):
