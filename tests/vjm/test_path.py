@@ -408,3 +408,23 @@ def test_a_wrench_far_beyond_the_model_is_refused_at_once():
     for w in (1e300, 1e7):
         with pytest.raises(VjmError, match="deflects the tool by .* beyond 0.1 x the workspace"):
             path("puu", "data/toolpaths/pocket.nc", wrench=Constant((w, 0, 0, 0, 0, 0)))
+
+
+def test_rows_are_written_as_the_f_string_formats_write_them():
+    """The compensated CSV and path.csv format whole blocks by ``%`` (points.format_rows): the same text as
+    csv.writer rows of f-string formats of the same specs, over magnitudes 1e-12..1e12, signed zeros and
+    NaN, and whole line numbers."""
+    import csv
+    import io
+
+    from vjm.toolpath.points import format_rows
+
+    rng = np.random.default_rng(1)
+    A = rng.normal(size=(40, 8)) * 10.0 ** rng.integers(-12, 13, size=(40, 8))
+    A[0, 0], A[1, 1], A[2, 2] = -0.0, np.nan, -5e-7
+    for spec in (".6f", ".9f", ".12g", ".6g", ".6e", ".3e"):
+        buf = io.StringIO()
+        csv.writer(buf, lineterminator="\n").writerows([f"{v:{spec}}" for v in r] for r in A)
+        assert format_rows(["%" + spec] * 8, A) == buf.getvalue(), spec
+    lines = np.array([3, 17, 123456789])
+    assert format_rows(["%d", "%.6g"], np.column_stack([lines, np.full(3, 1.5)])) == "3,1.5\n17,1.5\n123456789,1.5\n"

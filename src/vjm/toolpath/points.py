@@ -223,12 +223,14 @@ def write_csv(fh, tp: Toolpath, poses: np.ndarray, rows: int | None = None) -> N
     (bounded memory on long paths)."""
     rows = rows or CSV_ROWS
     csv.writer(fh, lineterminator="\n").writerow(tp.header)
+    fmt = ["%.6f"] * 3 + ["%.9f"] * (poses.shape[1] - 3) + (["%.12g"] * 6 if tp.wrench is not None else [])
     for a in range(0, tp.n, rows):
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        for k in range(a, min(a + rows, tp.n)):
-            row = [f"{v:.6f}" for v in poses[k, :3]] + [f"{v:.9f}" for v in poses[k, 3:]]
-            if tp.wrench is not None:
-                row += [f"{v:.12g}" for v in tp.wrench[k]]
-            w.writerow(row)
-        fh.write(buf.getvalue())
+        b = min(a + rows, tp.n)
+        block = poses[a:b] if tp.wrench is None else np.hstack([poses[a:b], tp.wrench[a:b]])
+        fh.write(format_rows(fmt, block))
+
+
+def format_rows(fmt: list, block: np.ndarray) -> str:
+    """CSV lines of the rows of ``block``, column j formatted by ``fmt[j]`` (``%`` formats: the same text
+    as the f-string formats of the same spec, made by one formatting of the whole block)."""
+    return ((",".join(fmt) + "\n") * len(block)) % tuple(np.asarray(block, dtype=float).ravel().tolist())
