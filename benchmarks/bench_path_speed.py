@@ -49,15 +49,21 @@ def cold_equilibria(model, P, W, offsets=None, start=None):
 MODES = ("cold", "numpy", "compiled")
 
 
+def _cpu():
+    """CPU seconds of this process and its finished worker processes (the path's passes, workers > 1)."""
+    a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
+
+
 def timed(model, tp, W, workers, mode):
     saved = deflect.equilibria, eq.KERNEL
     if mode == "cold":
         deflect.equilibria = cold_equilibria
     eq.KERNEL = mode == "compiled"
     try:
-        t0, c0 = time.perf_counter(), time.process_time()
+        t0, c0 = time.perf_counter(), _cpu()
         d, _, comp, n_cold = run._deflect_and_compensate(model, tp, W, TOOL, "nonlinear", workers, True, print)
-        return time.perf_counter() - t0, time.process_time() - c0, d, comp, n_cold
+        return time.perf_counter() - t0, _cpu() - c0, d, comp, n_cold
     finally:
         deflect.equilibria, eq.KERNEL = saved
 
@@ -91,8 +97,12 @@ def side_by_side(model, n, workers, reps=2, modes=MODES):
 
 
 def _peak():
-    """Peak resident memory of this process so far, MB."""
+    """Peak resident memory of this process so far, MB (and of its largest finished worker process)."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def _peak_children():
+    return resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
 
 
 def million(model, workers=2, n=1_000_000):
@@ -103,11 +113,11 @@ def million(model, workers=2, n=1_000_000):
             fh.write("x,y,z\n")
             np.savetxt(fh, tp.points, fmt="%.4f", delimiter=",")
         del tp
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), _cpu()
         res = vjm.path(model, f, wrench=MILL, tool=TOOL, workers=workers, uncertainty=False,
                        progress=lambda s: print(f"  [{time.perf_counter() - t0:7.1f} s, {_peak():,.0f} MB] {s}",
                                                 flush=True))
-        dt = time.perf_counter() - t0
+        dt, dc = time.perf_counter() - t0, _cpu() - c0
         t1 = time.perf_counter()
         with open(os.path.join(tmp, "raster_compensated.csv"), "w") as fh:  # as the output set writes it
             res.write_compensated(fh)
@@ -116,8 +126,9 @@ def million(model, workers=2, n=1_000_000):
         dw = time.perf_counter() - t1
     peak = _peak()
     print(f"million: {res.toolpath.n:,} points in {dt:.0f} s wall ({res.toolpath.n / dt:,.0f} points/s, "
-          f"workers={workers}), then {dw:.0f} s writing the compensated CSV and path.csv; "
-          f"{time.process_time():.0f} s CPU in all; peak resident memory {peak:,.0f} MB; residual max "
+          f"workers={workers}; {dc:.0f} s CPU with the worker processes'), then {dw:.0f} s writing the "
+          f"compensated CSV and path.csv; {_cpu():.0f} s CPU in all; peak resident memory {peak:,.0f} MB "
+          f"(the largest worker process {_peak_children():,.0f} MB); residual max "
           f"{res.compensation.residual.max():.2g} mm; {[x for x in res.notes if 'cold' in x]}")
 
 

@@ -379,8 +379,8 @@ def test_passive_clearance_against_truths_joint_slips_in_the_equilibrium(tmp_pat
 def test_a_long_path_says_how_long_before_it_starts(monkeypatch):
     """A path estimated to take more than a minute reports the estimate first, then its stages; a short one
     reports its stages only."""
+    import vjm.toolpath.passes as passes
     import vjm.toolpath.points as points
-    import vjm.toolpath.run as run
     from vjm.toolpath.run import path
     from vjm.toolpath.wrench import Constant
 
@@ -390,7 +390,7 @@ def test_a_long_path_says_how_long_before_it_starts(monkeypatch):
     assert said and not any(s.startswith("vjm path: ") for s in said)
     said.clear()
     monkeypatch.setattr(points, "PATH_SECONDS", 100.0)
-    monkeypatch.setattr(run, "CHUNK", 64)  # several passes of the nonlinear equilibrium, each reported
+    monkeypatch.setattr(passes, "CHUNK", 64)  # several passes of the nonlinear equilibrium, each reported
     res = path("puu", "data/toolpaths/pocket.nc", wrench=Constant((10.0, 0, 0, 0, 0, 0)), compensate=False,
                progress=said.append)
     n = len(res.deflection)
@@ -408,3 +408,23 @@ def test_a_wrench_far_beyond_the_model_is_refused_at_once():
     for w in (1e300, 1e7):
         with pytest.raises(VjmError, match="deflects the tool by .* beyond 0.1 x the workspace"):
             path("puu", "data/toolpaths/pocket.nc", wrench=Constant((w, 0, 0, 0, 0, 0)))
+
+
+def test_rows_are_written_as_the_f_string_formats_write_them():
+    """The compensated CSV and path.csv format whole blocks by ``%`` (points.format_rows): the same text as
+    csv.writer rows of f-string formats of the same specs, over magnitudes 1e-12..1e12, signed zeros and
+    NaN, and whole line numbers."""
+    import csv
+    import io
+
+    from vjm.toolpath.points import format_rows
+
+    rng = np.random.default_rng(1)
+    A = rng.normal(size=(40, 8)) * 10.0 ** rng.integers(-12, 13, size=(40, 8))
+    A[0, 0], A[1, 1], A[2, 2] = -0.0, np.nan, -5e-7
+    for spec in (".6f", ".9f", ".12g", ".6g", ".6e", ".3e"):
+        buf = io.StringIO()
+        csv.writer(buf, lineterminator="\n").writerows([f"{v:{spec}}" for v in r] for r in A)
+        assert format_rows(["%" + spec] * 8, A) == buf.getvalue(), spec
+    lines = np.array([3, 17, 123456789])
+    assert format_rows(["%d", "%.6g"], np.column_stack([lines, np.full(3, 1.5)])) == "3,1.5\n17,1.5\n123456789,1.5\n"

@@ -207,7 +207,7 @@ def test_the_sample_count_is_the_samples_made(chord_tol, step):
     assert gc.sample_count(prog, chord_tol, step) == len(gc.sample(prog, chord_tol, step)[0])
 
 
-@pytest.mark.parametrize("kw", [{"step": 1e-6}, {"chord_tol": 1e-12}, {"chord_tol": 1e-300}])
+@pytest.mark.parametrize("kw", [{"step": 1e-6}, {"chord_tol": 1e-14}, {"chord_tol": 1e-300}])
 def test_a_sampling_beyond_the_memory_is_refused_before_it_starts(kw, monkeypatch):
     """``--step 1e-6`` grew to 24 GB before the kernel killed it: the count is made first and refused with the
     figures (the memory limit set to 64 GB, so that the answer does not depend on this machine)."""
@@ -222,3 +222,19 @@ def test_a_sampling_beyond_the_memory_is_refused_before_it_starts(kw, monkeypatc
     monkeypatch.setattr(gc, "sample", never)
     with pytest.raises(VjmError, match=r"vjm path would need about .* more than the 64 GB this machine can give"):
         from_gcode(gc.parse_text(_text()), "pocket.nc", **kw)
+
+
+@pytest.mark.parametrize("tail", ["%\r\n", "G1 X1", "G1 X1\r", ""])
+def test_a_program_read_line_by_line_is_the_program_of_its_whole_text(tmp_path, tail):
+    """vjm path parses a G-code file as it reads it (gc.parse_lines over the open file, never the whole
+    text): the same lines, endings, byte order mark and last-line ending as parse_text of the text, so the
+    program written back is the file byte for byte (LF, CRLF, CR, a form feed inside a line, no ending last)."""
+    text = gc.BOM + "%\r\nG21 G90\nG1 X10 Y0 Z0 F100\r\nG3 X0 Y10 I-10 J0 (quarter)\rG1 X0 Y20\x0c\n" + tail
+    f = tmp_path / "p.nc"
+    f.write_bytes(text.encode("utf-8"))
+    whole = gc.parse_text(text)
+    with open(f, encoding="utf-8", newline="") as fh:
+        read = gc.parse_lines(fh)
+    assert [(ln.tokens, ln.ending) for ln in read.lines] == [(ln.tokens, ln.ending) for ln in whole.lines]
+    assert (read.newline, read.trailing_newline, read.bom) == (whole.newline, whole.trailing_newline, whole.bom)
+    assert gc.write_text_of(read) == text

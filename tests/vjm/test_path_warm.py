@@ -116,7 +116,7 @@ def test_compensated_continuous_path_checked_by_a_separate_equilibrium(tmp_path)
 def test_passes_report_the_time_left_and_give_the_one_pass_result(tmp_path, monkeypatch):
     """A program longer than one pass (CHUNK made small here) reports progress with the rate and the
     time left, and its deflection and commands agree with a single pass (to the solvers' tolerance)."""
-    from vjm.toolpath import run
+    from vjm.toolpath import passes
 
     m = vjm.load_model(PUU)
     P = _line_with_corner(120)
@@ -125,7 +125,7 @@ def test_passes_report_the_time_left_and_give_the_one_pass_result(tmp_path, monk
     f.write_text("x,y,z,Fx,Fy,Fz,Mx,My,Mz\n" + "\n".join(",".join(repr(float(v)) for v in r)
                                                         for r in np.hstack([P, W])) + "\n")
     one = vjm.path(m, f)
-    monkeypatch.setattr(run, "CHUNK", 50)
+    monkeypatch.setattr(passes, "CHUNK", 50)
     lines = []
     three = vjm.path(m, f, progress=lines.append)
     left = [s for s in lines if "points/s" in s and "s left" in s]
@@ -133,3 +133,12 @@ def test_passes_report_the_time_left_and_give_the_one_pass_result(tmp_path, monk
     scale = np.abs(one.deflection[:, :3]).max()
     np.testing.assert_allclose(three.deflection, one.deflection, rtol=0, atol=1e-6 * scale)
     np.testing.assert_allclose(three.compensation.commanded, one.compensation.commanded, rtol=0, atol=1e-6 * scale)
+    # the same passes over two worker processes (the first pass here, the others forked): the same numbers
+    lines = []
+    procs = vjm.path(m, f, workers=2, progress=lines.append)
+    assert [s.split(" of ")[0].strip() for s in lines if "s left" in s] == ["50", "100"]
+    np.testing.assert_allclose(procs.deflection, three.deflection, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(procs.compensation.commanded, three.compensation.commanded, rtol=0,
+                               atol=1e-12 * scale)
+    assert procs.compensation.residual.max() == three.compensation.residual.max()
+    assert [n for n in procs.notes if "cold" in n] == [n for n in three.notes if "cold" in n]

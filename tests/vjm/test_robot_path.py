@@ -144,14 +144,14 @@ def test_unreachable_point_and_singular_seed_are_errors_naming_the_line(tmp_path
 
 
 def test_passes_of_a_long_program_carry_the_configuration(tmp_path, monkeypatch):
-    from vjm.toolpath import run
+    from vjm.toolpath import passes
 
     nc = tmp_path / "p.nc"
     nc.write_text(PROGRAM, encoding="utf-8")
     f = str(_model_file(tmp_path))
     kw = dict(wrench=Constant(WRENCH), tool=tuple(TOOL), step=10.0, chord_tol=0.05)
     one = vjm.path(f, str(nc), **kw)
-    monkeypatch.setattr(run, "CHUNK", 3)         # passes of three points
+    monkeypatch.setattr(passes, "CHUNK", 3)         # passes of three points
     lines = []
     many = vjm.path(f, str(nc), progress=lines.append, **kw)
     assert one.toolpath.n > 12 and any("points/s" in s for s in lines)

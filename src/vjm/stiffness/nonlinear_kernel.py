@@ -374,11 +374,16 @@ def _check(g, G, z, W, kappa, xr, lref, rtol, roundoff):  # pragma: no cover - c
 @njit(cache=True, nogil=True, error_model="numpy")
 def _start_from(tab, S, zp, zi, nx):  # pragma: no cover - compiled
     """Point i's start zi from its predecessor's state zp: the same chain-variable deformation (in
-    point i's spring bases, least squares as equilibrium._to_x), platform pose and chain wrenches."""
+    point i's spring bases, least squares as equilibrium._to_x), platform pose and chain wrenches.
+    A chain whose spring basis is the predecessor's (links and actuators of constant compliance)
+    keeps its coordinates as they are: the least squares would return them."""
     mk, col = tab[6], tab[8]
     Sp, Si = S
     for k in range(mk.size):
         m, c0 = mk[k], col[k]
+        if _same(Sp[k], Si[k], m):
+            zi[c0:c0 + m] = zp[c0:c0 + m]
+            continue
         nv = Si.shape[2]
         dv = np.zeros(nv)
         for a in range(m):
@@ -389,17 +394,47 @@ def _start_from(tab, S, zp, zi, nx):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _same(A, B, m):  # pragma: no cover - compiled
+    """The first m rows of two spring bases are equal (exactly)."""
+    for a in range(m):
+        for b in range(A.shape[1]):
+            if A[a, b] != B[a, b]:
+                return False
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def to_x(tab, S, states, rows, vcol, z, nx):  # pragma: no cover - compiled
     """z[i] (x, u, lam) of the transferable states (chain-variable deformations, chain k's in columns
-    vcol[k]:vcol[k + 1]; then u, lam) of points ``rows`` (equilibrium._to_x, point by point)."""
+    vcol[k]:vcol[k + 1]; then u, lam) of points ``rows`` (equilibrium._to_x, point by point).  A chain
+    whose spring basis is the previous row's reuses its least-squares operator ``(S S^T)^-1 S``."""
     mk, col = tab[6], tab[8]
     nv = S.shape[3]
+    ops = np.zeros((mk.size, S.shape[2], nv))
+    have = np.zeros(mk.size, np.bool_)
+    last = -1
     for i in rows:
         for k in range(mk.size):
+            m, c0 = mk[k], col[k]
             dv = np.zeros(nv)
             dv[:vcol[k + 1] - vcol[k]] = states[i, vcol[k]:vcol[k + 1]]
-            _x_of(S[i], k, mk[k], dv, z[i, col[k]:col[k] + mk[k]])
+            if last < 0 or not _same(S[last, k], S[i, k], m):
+                have[k] = False
+                _x_of(S[i], k, m, dv, z[i, c0:c0 + m])
+                continue
+            if not have[k]:
+                for b in range(nv):
+                    e = np.zeros(nv)
+                    e[b] = 1.0
+                    _x_of(S[i], k, m, e, ops[k, :m, b])
+                have[k] = True
+            for a in range(m):
+                t = 0.0
+                for b in range(nv):
+                    t += ops[k, a, b] * dv[b]
+                z[i, c0 + a] = t
         z[i, nx:] = states[i, vcol[mk.size]:]
+        last = i
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -83,7 +83,7 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
              step: float = typer.Option(1.0, "--step", help="straight moves: sample spacing, mm"),
              passed: str = typer.Option("MST", "--pass-through",
                                         help="G-code word letters kept verbatim (not interpreted)"),
-             workers: int = typer.Option(1, "--workers", help="threads for the nonlinear equilibrium"),
+             workers: int = typer.Option(1, "--workers", help="worker processes for the passes of a long path (threads for short ones)"),
              foot: Optional[Path] = typer.Option(None, "--foot", help="linkfea result JSON replacing the model's foot"),
              leg: Optional[Path] = typer.Option(None, "--leg", help="linkfea result JSON replacing the model's leg"),
              force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files "

@@ -96,15 +96,16 @@ def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None, sta
     while evals < MAX_ITER:
         evals += 1
         a = active
-        for _ in range(MAX_ITER):  # fixed point on the local model (linear maps only)
-            _reachable(model, cmd[a], tool, a, where, programmed[a])
-            t = ref_d[a] + linear(model, cmd[a], W[a], tool) - ref_lin[a]
+        t = ref_d[a]  # at cmd[a], where ref_lin[a] was taken: the first step needs no map
+        for k in range(MAX_ITER):  # fixed point on the local model (linear maps only)
+            if k:
+                t = ref_d[a] + linear(model, cmd[a], W[a], tool) - ref_lin[a]
             c = cmd[a]
             step = _update(c, programmed[a], t, six)
             cmd[a] = c
+            _reachable(model, cmd[a], tool, a, where, programmed[a])
             if np.all(np.linalg.norm(step, axis=1) <= 1e-3 * target[a]):
                 break
-        _reachable(model, cmd[a], tool, a, where, programmed[a])
         err, t, sol = loaded_error(model, cmd[a], programmed[a], W[a], tool, workers,
                                    None if state is None else state[a])
         cold += sol.cold
@@ -123,10 +124,10 @@ def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None, sta
                 np.maximum(REL_TOL * np.linalg.norm(d0[a, 3:], axis=1), ABS_TOL * 1e-3)
         # the points still off restart from this equilibrium
         ref_d[a] = t
-        ref_lin[a] = linear(model, cmd[a], W[a], tool)
         active = a[~done]
         if active.size == 0:
             break
+        ref_lin[active] = linear(model, cmd[active], W[active], tool)
     if active.size:
         i = int(active[0])
         raise EquilibriumError(f"{where(i) if where else f'point {i}'}: compensation did not converge in "

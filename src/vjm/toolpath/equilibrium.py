@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics.transforms import rotation_vector
+from ..kinematics.transforms import elementary, rotation_vector
 from ..stiffness import nonlinear as nl
 
 #: relative residual of every equation block at an accepted equilibrium
@@ -94,7 +94,10 @@ def _to_dv(chains, x):
 
 
 def _twist(u):
-    return np.concatenate([u[:, :3], rotation_vector(nl.platform_rotation(u[:, 3:])[0])], axis=1)
+    """Platform twists (n, 6) of platform displacements u (translation, angles of ``Rx Ry Rz``)."""
+    R = elementary("rx", u[:, 3])[:, :3, :3] @ elementary("ry", u[:, 4])[:, :3, :3] \
+        @ elementary("rz", u[:, 5])[:, :3, :3]  # nl.platform_rotation without its derivatives
+    return np.concatenate([u[:, :3], rotation_vector(R)], axis=1)
 
 
 def residual_ok(chains, z, W, P, kappa, x_rest, nx, lref, rtol=RTOL) -> np.ndarray:

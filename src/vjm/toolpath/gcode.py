@@ -133,17 +133,27 @@ def parse_line(text: str, n: int, passed: str = DEFAULT_PASS) -> Line:
 
 def parse_text(text: str, passed: str = DEFAULT_PASS, name: str = "<G-code>") -> Program:
     """Parse a whole program (see the module docstring)."""
-    bom = BOM if text.startswith(BOM) else ""
-    text = text[len(bom):]
-    newline = "\r\n" if "\r\n" in text else "\n"
-    trailing = text.endswith(("\n", "\r"))
-    lines = []
-    for k, t in enumerate(text.splitlines(keepends=True)):
-        body = t.splitlines()[0] if t.splitlines() else ""
-        ln = parse_line(body, k + 1, passed)
-        ln.ending = t[len(body):]
-        lines.append(ln)
-    return Program(lines, newline, trailing, passed, bom)
+    return parse_lines([text], passed, name)
+
+
+def parse_lines(lines, passed: str = DEFAULT_PASS, name: str = "<G-code>") -> Program:
+    """Parse a program from pieces of its text in order (a text file opened with ``newline=""``, read line by
+    line, so that the text is never held whole; or ``[text]``): the same program as :func:`parse_text` of
+    their concatenation.  Only the lines' tokens are kept."""
+    out: list = []
+    bom = ""
+    last = ""
+    for piece in lines:
+        if not out and not last and piece.startswith(BOM) and not bom:
+            bom, piece = BOM, piece[len(BOM):]
+        for t in piece.splitlines(keepends=True):
+            body = t.splitlines()[0] if t.splitlines() else ""
+            ln = parse_line(body, len(out) + 1, passed)
+            ln.ending = t[len(body):]
+            out.append(ln)
+            last = t
+    newline = "\r\n" if any(ln.ending == "\r\n" for ln in out) else "\n"
+    return Program(out, newline, last.endswith(("\n", "\r")), passed, bom)
 
 
 #: program lines per write of :func:`write_program`

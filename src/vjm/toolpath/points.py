@@ -166,12 +166,14 @@ def from_gcode(prog: gc.Program, source: str = "<G-code>", chord_tol: float = 1e
     return Toolpath(pts, numbers, vertex, kind != 0, None, source, "gcode", prog, li)
 
 
-PATH_BYTES = 21e3
-"""Peak memory per toolpath point of ``vjm path`` (nonlinear deflection and compensation, the 3-PUU):
-measured 213 MB more for a straight move sampled at 10,000 points than at 100."""
-PATH_SECONDS = 3.4e-3
-"""Seconds per toolpath point of ``vjm path`` (same measurement: 33.5 s more for 10,000 points; 7.9 ms
-per point at 50,000 on this 2-core machine under load)."""
+PATH_BYTES = 1e3
+"""Memory per toolpath point of ``vjm path`` (nonlinear deflection and compensation, the 3-PUU): the
+equilibria run in passes of ``vjm.toolpath.passes.CHUNK`` points, so what grows with the path is its
+arrays and results; measured 776 MB peak for a one-million-point CSV (~240 MB of it before the first
+pass), and about 200 MB per forked worker process."""
+PATH_SECONDS = 2e-4
+"""Seconds per toolpath point of ``vjm path`` on one core (nonlinear deflection and compensation of the
+3-PUU with FEA links, the compiled equilibria: ~190 us CPU per point, docs/benchmarks.md)."""
 
 
 def path_plan(n: float):
@@ -198,12 +200,13 @@ def read(path, chord_tol: float = 1e-3, step: float = 1.0, passed: str = gc.DEFA
         if suffix == ".csv":  # read as it is parsed; spreadsheets write a byte order mark (utf-8-sig drops it)
             with open(path, encoding="utf-8-sig", newline="") as fh:
                 return read_csv_lines(fh, name)
-        with open(path, encoding="utf-8", newline="") as fh:
-            text = fh.read()
+        if suffix in GCODE_SUFFIXES:  # parsed line by line: only the lines' tokens are kept
+            with open(path, encoding="utf-8", newline="") as fh:
+                prog = gc.parse_lines(fh, passed, name)
     except (OSError, UnicodeDecodeError) as exc:
         raise VjmError(f"cannot read toolpath {path}: {exc}") from None
     if suffix in GCODE_SUFFIXES:
-        return from_gcode(gc.parse_text(text, passed, name), name, chord_tol, step)
+        return from_gcode(prog, name, chord_tol, step)
     raise VjmError(f"toolpath {name}: unknown format {suffix or '(no suffix)'}; use .csv or a G-code suffix "
                    f"({', '.join(GCODE_SUFFIXES)})")
 
@@ -220,12 +223,14 @@ def write_csv(fh, tp: Toolpath, poses: np.ndarray, rows: int | None = None) -> N
     (bounded memory on long paths)."""
     rows = rows or CSV_ROWS
     csv.writer(fh, lineterminator="\n").writerow(tp.header)
+    fmt = ["%.6f"] * 3 + ["%.9f"] * (poses.shape[1] - 3) + (["%.12g"] * 6 if tp.wrench is not None else [])
     for a in range(0, tp.n, rows):
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        for k in range(a, min(a + rows, tp.n)):
-            row = [f"{v:.6f}" for v in poses[k, :3]] + [f"{v:.9f}" for v in poses[k, 3:]]
-            if tp.wrench is not None:
-                row += [f"{v:.12g}" for v in tp.wrench[k]]
-            w.writerow(row)
-        fh.write(buf.getvalue())
+        b = min(a + rows, tp.n)
+        block = poses[a:b] if tp.wrench is None else np.hstack([poses[a:b], tp.wrench[a:b]])
+        fh.write(format_rows(fmt, block))
+
+
+def format_rows(fmt: list, block: np.ndarray) -> str:
+    """CSV lines of the rows of ``block``, column j formatted by ``fmt[j]`` (``%`` formats: the same text
+    as the f-string formats of the same spec, made by one formatting of the whole block)."""
+    return ((",".join(fmt) + "\n") * len(block)) % tuple(np.asarray(block, dtype=float).ravel().tolist())

@@ -15,7 +15,7 @@ from typing import IO
 import numpy as np
 
 from .compensate import Compensation
-from .points import Toolpath
+from .points import Toolpath, format_rows
 from .uncertainty import Band
 
 
@@ -142,18 +142,15 @@ class PathResult:
             last = s[-1]
             e = _norm(self.deflection[a:b])
             after = None if self.after is None else _norm(self.after[a:b])
-            buf = io.StringIO()
-            wb = csv.writer(buf, lineterminator="\n")
-            for j, i in enumerate(range(a, b)):
-                row = [int(tp.lines[i]), f"{s[j]:.6g}"] + [f"{v:.6f}" for v in tp.points[i]]
-                row += [f"{v:.6g}" for v in self.wrench[i]] + [f"{v:.6e}" for v in self.deflection[i]]
-                row.append(f"{e[j]:.6e}")
-                if self.band is not None:
-                    row.append(f"{self.band.norm[i]:.3e}")
-                if after is not None:
-                    row.append(f"{after[j]:.3e}")
-                wb.writerow(row)
-            fh.write(buf.getvalue())
+            cols = [tp.lines[a:b], s, tp.points[a:b], self.wrench[a:b], self.deflection[a:b], e]
+            fmt = ["%d", "%.6g"] + ["%.6f"] * tp.points.shape[1] + ["%.6g"] * 6 + ["%.6e"] * 7
+            if self.band is not None:
+                cols.append(self.band.norm[a:b])
+                fmt.append("%.3e")
+            if after is not None:
+                cols.append(after)
+                fmt.append("%.3e")
+            fh.write(format_rows(fmt, np.column_stack(cols)))
 
     def plot_deflection(self, ax=None):
         """Deflection magnitude against arc length (before and, if compensated, after), with the band."""

@@ -39,7 +39,7 @@ from ..kinematics.transforms import rotation_vector
 from ..robot import ik
 from ..robot.model import SAG_TOL, RobotModel
 from . import gcode as gc
-from . import run
+from . import passes, run
 from .compensate import ABS_TOL, MAX_ITER, REL_TOL, Compensation
 from .points import Toolpath, path_plan
 from .points import read as read_toolpath
@@ -291,7 +291,7 @@ def check_load(rt: RobotTool, tp: Toolpath, W) -> None:
 
 
 def _passes(rt: RobotTool, tp: Toolpath, W, compensate: bool, progress):
-    """(deflection (n, 6), Compensation or None) in passes of ``run.CHUNK`` points, each pass's IK starting
+    """(deflection (n, 6), Compensation or None) in passes of ``passes.CHUNK`` points, each pass's IK starting
     from the previous pass's last joint values (the configuration carried through)."""
     import time
 
@@ -300,8 +300,8 @@ def _passes(rt: RobotTool, tp: Toolpath, W, compensate: bool, progress):
     d = np.empty((n, 6))
     cmd, res, resvec = np.empty_like(tp.poses), np.empty(n), np.empty((n, 3))
     iters, last, t0 = 0, None, time.perf_counter()
-    for a in range(0, n, run.CHUNK):
-        sl = slice(a, min(n, a + run.CHUNK))
+    for a in range(0, n, passes.CHUNK):
+        sl = slice(a, min(n, a + passes.CHUNK))
 
         def where(i, a=a):
             return tp.where(i + a)
@@ -312,7 +312,7 @@ def _passes(rt: RobotTool, tp: Toolpath, W, compensate: bool, progress):
         if compensate:
             c, _ = compensate_commands(rt, T_p[sl], tp.has_orientation, W[sl], q, d[sl], where)
             cmd[sl], res[sl], resvec[sl], iters = c.commanded, c.residual, c.residual_vector, max(iters, c.iterations)
-        run._eta(progress, sl.stop, n, t0)
+        passes._eta(progress, sl.stop, n, t0)
     return d, (Compensation(cmd, res, iters, resvec, 0) if compensate else None)
 
 

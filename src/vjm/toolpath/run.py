@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 import os
-import time
 
 import numpy as np
 
@@ -20,9 +19,9 @@ from ..errors import VjmError
 from . import gcode as gc
 from . import uncertainty as unc
 from .compensate import Compensation
-from .compensate import compensate as _compensate
-from .deflect import check_effects, nonlinear_tcp_solved, platform_poses, tcp_deflection
+from .deflect import check_effects, platform_poses, tcp_deflection
 from .equilibrium import RTOL
+from .passes import deflect_and_compensate
 from .points import Toolpath, csv_text, path_plan, write_csv
 from .points import read as read_toolpath
 from .result import PathResult
@@ -187,7 +186,8 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
         compensated (the transition where the force turns then spans one piece)
     chord_tol, step : sampling of arcs (chord error, mm) and of straight moves (spacing, mm)
     uncertainty : propagate the calibration covariance of the model file, if it carries one
-    workers : threads for the nonlinear equilibrium (blocks of points)
+    workers : worker processes over the passes of a long path (:mod:`vjm.toolpath.passes`), threads over
+        blocks of points otherwise
     progress : called with a line at each stage (deflection, uncertainty, compensation)
     """
     if tolerance is not None and not (np.isfinite(tolerance) and tolerance > 0):
@@ -249,43 +249,21 @@ def path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", com
     return PathResult(tp, W, d, method, tolerance, comp, band, after, tuple(notes), text)
 
 
-#: points per pass of deflection then compensation (their equilibrium states are kept for one pass only)
-CHUNK = 8192
-
-
-def _eta(progress, done: int, n: int, t0: float) -> None:
-    """A progress line with the rate and the time left (programs of more than one pass)."""
-    if n <= CHUNK or done >= n:
-        return
-    rate = done / max(time.perf_counter() - t0, 1e-9)
-    progress(f"  {done:,} of {n:,} points, {rate:,.0f} points/s, about {(n - done) / rate:,.0f} s left")
-
-
 def _deflect_and_compensate(m, tp: Toolpath, W, t, method: str, workers: int, compensate: bool, progress):
     """(deflection (n, 6) by ``method``, nonlinear deflection or None, Compensation or None, cold starts), in
-    passes of CHUNK points: the compensation's check equilibria start from the deflection's at the same points."""
+    passes of :data:`~.passes.CHUNK` points (:mod:`vjm.toolpath.passes`: the compensation's check equilibria
+    start from the deflection's at the same points; long paths over ``workers`` processes)."""
     n = len(tp.poses)
     d = tcp_deflection(m, tp.poses, W, t, "linear") if method == "linear" else np.empty((n, 6))
     if method == "linear" and not compensate:
         return d, None, None, 0
-    d_nl = np.empty((n, 6))
-    cmd, res, resvec = np.empty_like(tp.poses), np.empty(n), np.empty((n, 3))
-    iters = cold = cold_c = 0
-    t0 = time.perf_counter()
-    for a in range(0, n, CHUNK):
-        sl = slice(a, min(n, a + CHUNK))
-        s = nonlinear_tcp_solved(m, tp.poses[sl], W[sl], t, workers)
-        cold += s.cold
-        d_nl[sl] = s.twist
-        _named_nan(tp, s.twist, a)
-        if compensate:
-            c = _compensate(m, tp.poses[sl], W[sl], t, s.twist, workers, lambda i, a=a: tp.where(i + a), s.state)
-            cmd[sl], res[sl], resvec[sl] = c.commanded, c.residual, c.residual_vector
-            iters, cold_c = max(iters, c.iterations), cold_c + c.cold
-        _eta(progress, sl.stop, n, t0)
+    d_nl, c, cold = deflect_and_compensate(m, tp, W, t, workers, compensate, progress)
     if method == "nonlinear":
         d = d_nl
-    return d, d_nl, (Compensation(cmd, res, iters, resvec, cold_c) if compensate else None), cold + cold_c
+    if c is None:
+        return d, d_nl, None, cold
+    cmd, res, resvec, iters, cold_c = c
+    return d, d_nl, Compensation(cmd, res, iters, resvec, cold_c), cold + cold_c
 
 
 def _all_vertices(tp: Toolpath, linearize_arcs: bool, split: bool) -> Toolpath:
@@ -301,13 +279,3 @@ def _all_vertices(tp: Toolpath, linearize_arcs: bool, split: bool) -> Toolpath:
         mv = {mm.line for mm in gc.moves(tp.program) if mm.centre is not None}
         v |= np.isin(tp.line_index, list(mv))
     return replace(tp, vertex=v)
-
-
-def _named_nan(tp: Toolpath, d, offset: int = 0) -> None:
-    from ..errors import EquilibriumError
-
-    bad = ~np.all(np.isfinite(d), axis=1)
-    if bad.any():
-        i = int(np.argmax(bad)) + offset
-        raise EquilibriumError(f"{tp.where(i)}: no equilibrium of the loaded machine (load too large for the "
-                               f"model, or past a buckling load?)")
