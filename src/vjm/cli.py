@@ -289,6 +289,28 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
     typer.echo(f"wrote {out}/" + ", ".join(cr.FILES))
 
 
+@app.command("compensate")
+def compensate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf: or dh:)"),
+                   targets: Path = typer.Argument(..., help="targets CSV: x,y,z[,rx,ry,rz] (mm, rad; the robot's base "
+                                                            "frame); without rx,ry,rz the orientation is free"),
+                   seed: Optional[str] = typer.Option(None, "--seed", help="the configuration: joint values q1,... "
+                                                      "(rad, mm prismatic) or home (default: the file's home:)"),
+                   tool: Optional[str] = typer.Option(None, "--tool", help="the tool frame (default: the first)"),
+                   payload: Optional[str] = typer.Option(None, "--payload", help="KG[@x,y,z]: a point mass at a point "
+                                                         "(mm) of the tool frame"),
+                   tol: float = typer.Option(1e-6, "--tol", help="tolerance of the deflected tool pose, mm"),
+                   out: Path = typer.Option(..., "--out", help="commands CSV (joint values, residual_mm, converged)")):
+    """The joint values to command so that the tool, sagging under the robot's weight, reaches each target."""
+    try:
+        from .robot.compcmd import Request, run
+
+        m = _load(model, None, None)
+        text = run(m, Request(str(targets), seed, tool, payload, tol), out)
+    except user_errors() as exc:
+        _fail(exc)
+    typer.echo(f"{text}; wrote {out}")
+
+
 def _register_extensions():
     try:
         from .discrepancy.cli import register

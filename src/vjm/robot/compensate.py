@@ -157,7 +157,9 @@ def compensate(model, targets, seed, tool=None, gravity=None, payload=None, tol:
     T, free = targets_of(targets, orientation)
     n = len(T)
     s0 = np.asarray(seed, dtype=float)
-    q0 = model.check_q(np.broadcast_to(s0, (n, model.nq)) if s0.ndim == 1 else s0)[0]
+    q0 = model.check_q(s0)[0]
+    if len(q0) == 1:
+        q0 = np.repeat(q0, n, axis=0)
     if len(q0) != n:
         raise VjmError(f"compensate: {len(q0)} seeds for {n} targets; give one seed or one per target")
     w = 0.0 if free else LENGTH
