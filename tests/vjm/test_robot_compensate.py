@@ -6,12 +6,11 @@ import warnings
 
 import numpy as np
 import pytest
+from test_robot_closed_form import L1, L2, G, arm, grad_potential, tip
 
 import vjm
 from vjm.errors import VjmError
 from vjm.robot.model import JointSpring
-
-from test_robot_closed_form import G, L1, L2, arm, grad_potential, tip
 
 truth = pytest.importorskip("truth_serial")
 
