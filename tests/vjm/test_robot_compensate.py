@@ -105,3 +105,37 @@ def test_unreachable_and_bad_targets_are_said(ur10):
         ur10.compensate(pts, home[:5])
     with pytest.raises(VjmError, match="targets must be poses"):
         ur10.compensate(np.zeros((2, 2)), home)
+
+
+def test_cli_writes_commands_that_the_model_confirms(tmp_path, capsys):
+    """``vjm compensate`` on the shipped UR10 (joint and link springs): each row's joint values, evaluated by the
+    model's own equilibrium, put the deflected tool on its target; the unreachable row has none and is flagged;
+    its own file is replaced, a user's file never."""
+    import csv
+
+    from vjm.cli import main
+
+    ur = os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = vjm.load_model(ur)
+    home, pts = _targets(m)
+    (tmp_path / "t.csv").write_text("x,y,z,label\n" + "".join(f"{p[0]},{p[1]},{p[2]},a\n" for p in pts)
+                                    + "5000,0,0,far\n")
+    out = tmp_path / "c.csv"
+    args = ["compensate", ur, str(tmp_path / "t.csv"), "--seed", "home", "--out", str(out)]
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    assert "4 of 5 targets commanded" in captured.out and captured.err.count("warning:") == 1
+    rows = list(csv.DictReader(out.read_text().splitlines()[1:]))
+    assert [r["status"] for r in rows] == ["ok"] * 4 + ["unreachable"] and rows[4]["converged"] == "0"
+    assert rows[4][m.q_names[0]] == ""
+    q = np.array([[float(r[n]) for n in m.q_names] for r in rows[:4]])
+    landed = m.forward(q)[:, :3, 3] + m.self_weight(q)[:, :3]
+    assert np.max(np.linalg.norm(landed - pts, axis=1)) < TOL
+    assert all(float(r["sag_mm"]) > 0.5 for r in rows[:4])
+    assert main(args) == 0                        # its own file: replaced
+    (tmp_path / "mine.csv").write_text("my notes\n")
+    capsys.readouterr()
+    assert main(args[:-1] + [str(tmp_path / "mine.csv")]) == 2
+    assert capsys.readouterr().err.count("error:") == 1 and (tmp_path / "mine.csv").read_text() == "my notes\n"

@@ -195,3 +195,32 @@ def summary(c: Compensation) -> str:
         line += (f"; sag compensated {np.nanmin(c.miss[ok]):.4g}..{np.nanmax(c.miss[ok]):.4g} mm, residual at most "
                  f"{np.max(c.residual[ok]):.2g} mm after {int(np.max(c.iterations[ok]))} iterations at most")
     return line
+
+
+def check_targets(model, targets) -> np.ndarray:
+    """``--targets`` of ``vjm calibrate`` and ``vjm diagnose``, before any work: the file read, and the seed (the
+    robot file's ``home:``, the configuration the targets are reached in)."""
+    if model.home is None:
+        raise VjmError(f"--targets: {model.path or model.name} has no home: configuration, the seed of the "
+                       f"commands' configuration; add home: [q1, ..., q{model.nq}] to it")
+    read_targets(targets)
+    return seed_of(model, None)
+
+
+def calibrated_commands(cal, targets, seed) -> str:
+    """commands.csv of a calibration: the compensation of ``targets`` on the model written back (the calibrated
+    URDF and robot file, loaded again), its first tool (the first measured point's marker) as the tool."""
+    import tempfile
+
+    from ..modelio.read import load_model
+    from .calibwrite import calibrated_urdf, robot_file
+
+    with tempfile.TemporaryDirectory() as d:
+        with open(os.path.join(d, "calibrated.urdf"), "w", encoding="utf-8") as fh:
+            fh.write(calibrated_urdf(cal, cal.model.tree.source))
+        with open(os.path.join(d, "calibrated.yaml"), "w", encoding="utf-8") as fh:
+            fh.write(robot_file(cal, "calibrated.urdf"))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", VjmWarning)   # its joints' limits as the source's: said there
+            m = load_model(os.path.join(d, "calibrated.yaml"))
+        return compute(m, targets, seed, m.tools[0], None, TOL)[1]
