@@ -59,6 +59,22 @@ def test_commands_land_on_target_points_in_the_truths_equilibrium(ur10):
     assert c.miss == pytest.approx(missed, abs=AGREE)
 
 
+def test_a_payload_is_compensated_too(ur10):
+    """A 5 kg point mass at tool0 (the truth's payload at its marker): the commands that carry it land on the
+    targets; those computed without it fall short by the payload's extra sag."""
+    from vjm.robot.model import Payload
+
+    home, pts = _targets(ur10)
+    c = ur10.compensate(pts[:2], home, payload=Payload("tool0", 5.0), tol=TOL)
+    assert np.all(c.converged)
+    hidden = truth.Hidden(compliance=COMPLIANCE, payload=5.0)
+    landed = truth.measure(URDF, "tool0", ur10.q_names, c.q, hidden)
+    assert np.max(np.linalg.norm(landed - pts[:2], axis=1)) < TOL + AGREE
+    bare = ur10.compensate(pts[:2], home, tol=TOL)
+    short = np.linalg.norm(truth.measure(URDF, "tool0", ur10.q_names, bare.q, hidden) - pts[:2], axis=1)
+    assert np.all(short > 0.1)
+
+
 def test_commands_reach_target_poses_orientation_included(ur10):
     """Poses: three points of the tool frame (its origin and 100 mm along x and y) land where the target frame
     puts them, so position and orientation are both reached."""
