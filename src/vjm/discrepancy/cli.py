@@ -32,7 +32,7 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw)
     import os
 
     from ..errors import VjmError
-    from ..modelio.read import load_model
+    from ..modelio.read import is_robot_file, load_model
     from ..robot import compcmd
     from . import absolute
     from .report import check_report_dir
@@ -40,15 +40,17 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw)
 
     check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")
                        and v is not None})
-    model = load_model(model_path)
-    seed = None
-    if absolute.is_robot(model):   # absolute poses: their own report set
+    robot = is_robot_file(model_path)
+    if robot:   # absolute poses: their own report set
         absolute.check_folder(out_dir, force, commands=targets is not None)
-        seed = compcmd.check_targets(model, targets) if targets is not None else None
     elif targets is not None:
         raise VjmError("--targets is for a serial or tree robot's absolute poses (the commands reaching them)")
     else:
-        check_report_dir(out_dir, force)
+        check_report_dir(out_dir, force)   # the output checked before the model is loaded (before any work)
+    model = load_model(model_path)
+    if absolute.is_robot(model) != robot:
+        raise VjmError(f"{model_path}: read as a {'robot' if robot else 'parallel machine'} file, loaded otherwise")
+    seed = compcmd.check_targets(model, targets) if targets is not None else None
     dg = diagnose(model, data_path, model_name=os.path.basename(os.fspath(model_path)), **kw)
     if targets is not None:
         dg = dataclasses.replace(dg, commands=compcmd.calibrated_commands(dg.calibration, targets, seed))

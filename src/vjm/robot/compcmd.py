@@ -26,12 +26,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from linkfea.files.outputs import COMMANDS_CSV_MARK, is_commands_csv
+
 from ..errors import ArgumentError, VjmError, VjmWarning
 from .compensate import TOL, Compensation
 from .model import Payload
 
 #: the first line of a commands.csv (how vjm knows a file it may replace)
-MARK = "# commands by vjm compensate"
+MARK = COMMANDS_CSV_MARK
 FILE = "commands.csv"
 
 
@@ -115,15 +117,6 @@ def payload_of(text: str | None, tool: str) -> Payload | None:
         raise ArgumentError("payload", f"expects KG[@x,y,z]: a mass >= 0 (kg) at a point (mm) of the tool frame, "
                                        f"got {text!r}")
     return Payload(tool, float(m[0]), com)
-
-
-def is_commands_csv(path) -> bool:
-    """Was ``path`` written by vjm compensate (its first line says so)?"""
-    try:
-        with open(path, "rb") as fh:
-            return fh.read(len(MARK)) == MARK.encode()
-    except OSError:
-        return False
 
 
 def commands_text(model, c: Compensation, source: str, tool: str) -> str:
