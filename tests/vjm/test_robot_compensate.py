@@ -151,6 +151,9 @@ def test_cli_writes_commands_that_the_model_confirms(tmp_path, capsys):
     assert np.max(np.linalg.norm(landed - pts, axis=1)) < TOL
     assert all(float(r["sag_mm"]) > 0.5 for r in rows[:4])
     assert main(args) == 0                        # its own file: replaced
+    from linkfea.files.outputs import recognised
+
+    assert recognised(tmp_path) == {"c.csv"}      # known as the tools' own by a folder command (not t.csv)
     (tmp_path / "mine.csv").write_text("my notes\n")
     capsys.readouterr()
     assert main(args[:-1] + [str(tmp_path / "mine.csv")]) == 2
