@@ -516,6 +516,24 @@ CASES = [
     Case("27.2", "vjm calibrate r.yaml p.csv --out o --effects geometry,payload", "--effects payload: a payload is "
          "weighed at one marker; the data measure 2 points", {**CAL_FILES, "p.csv": TWO_POINTS},
          "a payload asked of two measured points"),
+    # 27.4: vjm compensate, and the commands written back by vjm calibrate / diagnose --targets
+    Case("27.4", "vjm compensate {ur10} t.csv --out c.csv", "t.csv: no column z; a targets file has the columns "
+         "x,y,z[,rx,ry,rz]", {"t.csv": "x,y\n900,100\n"}, "targets without a z column"),
+    Case("27.4", "vjm compensate {ur10} t.csv --out c.csv", "t.csv: columns rx without the other rotation components",
+         {"t.csv": "x,y,z,rx\n900,100,400,0.1\n"}, "one rotation component of three"),
+    Case("27.4", "vjm compensate {ur10} t.csv --seed 0,-1.2,1.5 --out c.csv", "--seed expects 6 joint values",
+         {"t.csv": "x,y,z\n900,100,400\n"}, "a seed of three joint values for a 6-joint arm"),
+    Case("27.4", "vjm compensate {ur10} t.csv --out c.csv", "t.csv: no target can be commanded: target 1 unreachable",
+         {"t.csv": "x,y,z\n5000,0,0\n"}, "one target 5 m out of a UR10's reach (several targets, some reachable: "
+         "the others are written and these flagged, with a warning)"),
+    Case("27.4", "vjm compensate {ur10} t.csv --out c.csv", "--out c.csv exists and is not a CSV written by vjm "
+         "compensate", {"t.csv": "x,y,z\n900,100,400\n", "c.csv": "my notes\n"}, "an output file vjm did not write"),
+    Case("27.4", "vjm compensate {ur10} t.csv --payload 5@1,2 --out c.csv", "--payload expects KG[@x,y,z]",
+         {"t.csv": "x,y,z\n900,100,400\n"}, "a payload's point with two coordinates"),
+    Case("27.4", "vjm calibrate r.yaml p.csv --out o --targets t.csv", "r.yaml has no home: configuration, the seed of the commands",
+         {**CAL_FILES, "t.csv": "x,y,z\n500,0,300\n"}, "targets for a robot file without home:"),
+    Case("27.4", "vjm diagnose {puu} m.csv --out o --targets t.csv", "--targets is for a serial or tree robot's",
+         {"m.csv": GOOD, "t.csv": "x,y,z\n0,0,0\n"}, "targets given with a parallel machine's deflections"),
 
     # 30.2: one line where a traceback was
     Case("30.2", "linkfea compute bar --out .", "--out '.' is a folder, not a file: give a file name"),

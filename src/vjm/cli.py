@@ -262,6 +262,9 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
                   frame: Optional[list[str]] = typer.Option(None, "--frame", help="a measured point (repeatable; "
                                                             "default: every point of the data)"),
                   alpha: float = typer.Option(1e-3, "--alpha", help="F test level of an effect"),
+                  targets: Optional[Path] = typer.Option(None, "--targets", help="also commands.csv: the joint values "
+                                                         "reaching these points x,y,z[,rx,ry,rz] (mm, rad, base frame) "
+                                                         "under self-weight on the calibrated model (seed: home:)"),
                   out: Path = typer.Option(..., "--out", help="output folder"),
                   force: bool = FORCE):
     """Calibrate a robot on absolute poses (laser tracker, camera): registration, geometry, joint compliance
@@ -272,21 +275,47 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
         from linkfea.files.outputs import check_folder
 
         from .robot import calibreport as cr
+        from .robot import compcmd as cc
 
         asked = tuple(e.strip() for e in effects.split(",") if e.strip()) if effects is not None else None
         opt = cr.Options(tuple(frame or ()), asked or cr.DEFAULT_EFFECTS, alpha,
                          (0 if validate else 5) if folds is None else folds, register_on)
         cr.check_options(opt)
-        check_folder(out, cr.FILES, force=force)
+        files = cr.FILES + (("commands.csv",) if targets is not None else ())
+        check_folder(out, files, force=force)
         m, d, vals, opt = cr.inputs(model, data, columns, validate or [], opt, asked is not None)
+        seed = cc.check_targets(m, targets) if targets is not None else None
         t0 = time.perf_counter()
         cal, held = cr.run(m, d, vals, opt)
         rep = cr.report(cal, opt, model, d, held, time.perf_counter() - t0)
-        cr.write_set(out, cal, rep, force)
+        extra = {"commands.csv": cc.calibrated_commands(cal, targets, seed)} if targets is not None else None
+        cr.write_set(out, cal, rep, force, extra=extra)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(cr.summary(rep), nl=False)
-    typer.echo(f"wrote {out}/" + ", ".join(cr.FILES))
+    typer.echo(f"wrote {out}/" + ", ".join(files))
+
+
+@app.command("compensate")
+def compensate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf: or dh:)"),
+                   targets: Path = typer.Argument(..., help="targets CSV: x,y,z[,rx,ry,rz] (mm, rad; the robot's base "
+                                                            "frame); without rx,ry,rz the orientation is free"),
+                   seed: Optional[str] = typer.Option(None, "--seed", help="the configuration: joint values q1,... "
+                                                      "(rad, mm prismatic) or home (default: the file's home:)"),
+                   tool: Optional[str] = typer.Option(None, "--tool", help="the tool frame (default: the first)"),
+                   payload: Optional[str] = typer.Option(None, "--payload", help="KG[@x,y,z]: a point mass at a point "
+                                                         "(mm) of the tool frame"),
+                   tol: float = typer.Option(1e-6, "--tol", help="tolerance of the deflected tool pose, mm"),
+                   out: Path = typer.Option(..., "--out", help="commands CSV (joint values, residual_mm, converged)")):
+    """The joint values to command so that the tool, sagging under the robot's weight, reaches each target."""
+    try:
+        from .robot.compcmd import Request, run
+
+        m = _load(model, None, None)
+        text = run(m, Request(str(targets), seed, tool, payload, tol), out)
+    except user_errors() as exc:
+        _fail(exc)
+    typer.echo(f"{text}; wrote {out}")
 
 
 def _register_extensions():

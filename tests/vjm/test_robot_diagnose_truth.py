@@ -20,6 +20,8 @@ HANDS = ("l_tool", "r_tool")
 REGISTRATION = dict(R=rotation_matrix([0.2, -0.4, 1.0]), t=np.array([1500.0, -800.0, 200.0]),
                     marker={"l_tool": np.array([20.0, 5.0, -10.0]), "r_tool": np.array([15.0, -8.0, 12.0])},
                     sigma=SIGMA)
+#: points (mm, base frame) for the left hand's marker to reach
+TARGETS = np.array([[400.0, 260.0, 1000.0], [300.0, 255.0, 500.0], [500.0, 150.0, 900.0]])
 COMPLIANCE = {"l1": 3e-5}   # rad/(N m): the left shoulder sags under its arm's weight
 
 
@@ -48,7 +50,7 @@ def torso(tmp_path_factory):
     parts = ['<robot name="torso">', _link("base", 20.0, "0 0 0.1"), _joint("yaw", "base", "chest", "0 0 0.5", "0 0 1"),
              _link("chest", 10.0, "0 0 0.2"), *_arm("l", 0.25), *_arm("r", -0.25), "</robot>"]
     (d / "torso.urdf").write_text("\n".join(parts))
-    (d / "torso.yaml").write_text("urdf: torso.urdf\ntools: [l_tool, r_tool]\n")
+    (d / "torso.yaml").write_text("urdf: torso.urdf\ntools: [l_tool, r_tool]\nhome: [0.1, -0.6, 1.2, -0.6, 1.2]\n")
     model = RobotModel(read_urdf(d / "torso.urdf", tools=list(HANDS)))
     cols = [f"  {n}: [Q{i}, deg]" for i, n in enumerate(model.q_names)]
     cols += [f"  {h}.{c}: [{h.upper()}_{c.upper()}, m]" for h in HANDS for c in "xyz"]
@@ -79,7 +81,9 @@ def test_a_hidden_joint_compliance_is_named_alone_and_recovered(torso):
     _write(torso, "sag.csv", truth.Hidden(**REGISTRATION, compliance=COMPLIANCE), 60, 1)
     moved = {**REGISTRATION, "R": rotation_matrix([-0.3, 0.1, 2.5]), "t": np.array([-700.0, 1900.0, -50.0])}
     _write(torso, "other.csv", truth.Hidden(**moved, compliance=COMPLIANCE), 40, 4)   # another set-up
-    code, rep = _diagnose(torso, "sag.csv", "sag", "--validate", str(torso[0] / "other.csv"), "--register", "15")
+    (torso[0] / "targets.csv").write_text("x,y,z\n" + "\n".join(",".join(map(str, p)) for p in TARGETS) + "\n")
+    code, rep = _diagnose(torso, "sag.csv", "sag", "--validate", str(torso[0] / "other.csv"), "--register", "15",
+                          "--targets", str(torso[0] / "targets.csv"))
     assert code == 0
     assert rep["kind"] == "absolute_poses" and rep["frames"] == list(HANDS)
     assert rep["named_effects"] == ["compliance"] and rep["verdict"] == "explained"
@@ -96,6 +100,16 @@ def test_a_hidden_joint_compliance_is_named_alone_and_recovered(torso):
         assert np.linalg.norm(np.array(m["offset_mm"]) - REGISTRATION["marker"][m["frame"]]) < 0.1
         assert all(0 < s < 0.1 for s in m["std_mm"])
     assert "yaw.compliance" in [r["parameter"] for r in rep["not_observable"]]   # a vertical axis: no torque
+    # commands.csv: the left hand's marker, commanded on the calibrated model, lands on the targets in the truth
+    lines = (torso[0] / "sag" / "commands.csv").read_text().splitlines()
+    assert "tool l_tool_marker" in lines[0]
+    rows = [dict(zip(lines[1].split(","), r.split(","))) for r in lines[2:]]
+    assert [r["converged"] for r in rows] == ["1"] * len(TARGETS)
+    q = np.array([[float(r[n]) for n in torso[1].q_names] for r in rows])
+    base = truth.Hidden(**{**REGISTRATION, "R": np.eye(3), "t": np.zeros(3), "sigma": 0.0}, compliance=COMPLIANCE)
+    landed = truth.measure(str(torso[0] / "torso.urdf"), HANDS, torso[1].q_names, q, base)["l_tool"]
+    assert np.max(np.linalg.norm(landed - TARGETS, axis=1)) < 3 * SIGMA
+    assert all(float(r["sag_mm"]) > 3 * SIGMA for r in rows)   # what the plain command would miss by
 
 
 def test_clean_data_name_nothing(torso):

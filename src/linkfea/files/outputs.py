@@ -53,6 +53,7 @@ _hits: dict[str, int] = {}
 #: what marks the files written outside a manifest (see :func:`recognised`)
 RESULT_SCHEMA_PREFIX = "linkfea.result/"
 SIMULATED_CSV_MARK = "# simulated by vjm simulate"
+COMMANDS_CSV_MARK = "# commands by vjm compensate"
 RECOGNISE_MAX_BYTES = 50_000_000
 
 
@@ -165,21 +166,26 @@ def is_result_json(path) -> bool:
     return _schema(path).startswith(RESULT_SCHEMA_PREFIX)
 
 
-def is_simulated_csv(path) -> bool:
-    """Was ``path`` written by vjm simulate (its first line says so)?"""
+def is_simulated_csv(path, mark: str = SIMULATED_CSV_MARK) -> bool:
+    """Was ``path`` written by vjm simulate (its first line says so; or by the command whose ``mark`` it is)?"""
     try:
         if not _regular(path):
             return False
         with open(path, "rb") as fh:
-            return fh.read(len(SIMULATED_CSV_MARK)) == SIMULATED_CSV_MARK.encode()
+            return fh.read(len(mark)) == mark.encode()
     except OSError:
         return False
+
+
+def is_commands_csv(path) -> bool:
+    """Was ``path`` written by vjm compensate (its first line says so)?"""
+    return is_simulated_csv(path, COMMANDS_CSV_MARK)
 
 
 def recognised(folder) -> set[str]:
     """Files in ``folder`` that the tools wrote outside any manifest, known by their content: link
     results (``linkfea compute``, ``LinkResult.save``) with the companions whose sha256 they record
-    (:func:`own_companions`) and CSVs of ``vjm simulate``."""
+    (:func:`own_companions`) and CSVs of ``vjm simulate`` and ``vjm compensate``."""
     folder = Path(folder)
     names = set()
     for e in os.listdir(folder):
@@ -188,7 +194,7 @@ def recognised(folder) -> set[str]:
         schema = str(doc.get("schema", ""))
         if schema.startswith(RESULT_SCHEMA_PREFIX):
             names |= {e} | own_companions(p, doc)
-        elif e.endswith(".csv") and is_simulated_csv(p):
+        elif e.endswith(".csv") and (is_simulated_csv(p) or is_commands_csv(p)):
             names.add(e)
     return names
 

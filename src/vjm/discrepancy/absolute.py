@@ -16,7 +16,9 @@ chi-square test at ``alpha``; a gap no effect of the library closes).  Without s
 is not judged.
 
 Written as one output set: ``report.json``, ``report.html``, ``summary.txt``, and the calibrated URDF and
-robot file (``calibrated.urdf``, ``calibrated.yaml``, :mod:`vjm.robot.calibwrite`).
+robot file (``calibrated.urdf``, ``calibrated.yaml``, :mod:`vjm.robot.calibwrite`); with ``--targets``, also
+``commands.csv``, the joint values reaching those points under self-weight on the calibrated model
+(:func:`vjm.robot.compcmd.calibrated_commands`).
 """
 from __future__ import annotations
 
@@ -47,6 +49,8 @@ class PoseDiagnosis:
 
     report: dict
     calibration: Any
+    #: the text of commands.csv (``--targets``), or None
+    commands: str | None = None
 
     @property
     def verdict(self) -> str:
@@ -209,15 +213,17 @@ rows; points {html.escape(', '.join(rep['frames']))}); effects tried: {html.esca
 def write(dg: PoseDiagnosis, out_dir, force: bool = False) -> None:
     """report.json, report.html, summary.txt, calibrated.urdf and calibrated.yaml, one set ``vjm diagnose``."""
     rep = plain(dg.report)
-    cr.write_set(out_dir, dg.calibration, rep, force, set_name="vjm diagnose",
-                 extra={"report.html": render_html(rep), "summary.txt": summary(rep)})
+    extra = {"report.html": render_html(rep), "summary.txt": summary(rep)}
+    if dg.commands is not None:
+        extra["commands.csv"] = dg.commands
+    cr.write_set(out_dir, dg.calibration, rep, force, set_name="vjm diagnose", extra=extra)
 
 
-def check_folder(out_dir, force: bool = False) -> None:
-    """Refuse, before any work, an output folder that will not do."""
+def check_folder(out_dir, force: bool = False, commands: bool = False) -> None:
+    """Refuse, before any work, an output folder that will not do (``commands``: commands.csv too)."""
     from linkfea.files.outputs import check_folder as check
 
-    check(out_dir, POSE_FILES, force=force)
+    check(out_dir, POSE_FILES + (("commands.csv",) if commands else ()), force=force)
 
 
 def is_robot(model) -> bool:

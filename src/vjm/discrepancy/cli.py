@@ -24,24 +24,36 @@ INSUFFICIENT_DATA_EXIT = 3
 NOTHING_NAMED = ("insufficient_data", "untrusted_data")
 
 
-def run(model_path, data_path, out_dir, force: bool = False, **kw):
+def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw):
     """Check the arguments and the output folder, load, diagnose and write: the body of ``vjm diagnose``;
-    returns the Diagnosis."""
+    returns the Diagnosis.  ``targets`` (a robot's): also commands.csv, the compensation of these points on
+    the calibrated model (:func:`vjm.robot.compcmd.calibrated_commands`)."""
+    import dataclasses
     import os
 
-    from ..modelio.read import load_model
+    from ..errors import VjmError
+    from ..modelio.read import is_robot_file, load_model
+    from ..robot import compcmd
     from . import absolute
     from .report import check_report_dir
     from .workflow import check_arguments, diagnose
 
     check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")
                        and v is not None})
-    model = load_model(model_path)
-    if absolute.is_robot(model):   # absolute poses: their own report set
-        absolute.check_folder(out_dir, force)
+    robot = is_robot_file(model_path)
+    if robot:   # absolute poses: their own report set
+        absolute.check_folder(out_dir, force, commands=targets is not None)
+    elif targets is not None:
+        raise VjmError("--targets is for a serial or tree robot's absolute poses (the commands reaching them)")
     else:
-        check_report_dir(out_dir, force)
+        check_report_dir(out_dir, force)   # the output checked before the model is loaded (before any work)
+    model = load_model(model_path)
+    if absolute.is_robot(model) != robot:
+        raise VjmError(f"{model_path}: read as a {'robot' if robot else 'parallel machine'} file, loaded otherwise")
+    seed = compcmd.check_targets(model, targets) if targets is not None else None
     dg = diagnose(model, data_path, model_name=os.path.basename(os.fspath(model_path)), **kw)
+    if targets is not None:
+        dg = dataclasses.replace(dg, commands=compcmd.calibrated_commands(dg.calibration, targets, seed))
     dg.save(out_dir, force=force)
     return dg
 
@@ -78,6 +90,9 @@ def diagnose_cmd(
                                                                            "(a new instrument set-up; repeatable)"),
     register_on: int = typer.Option(30, "--register", help="poses of each --validate file that register its "
                                                            "instrument frame (the robot frozen)"),
+    targets: Optional[Path] = typer.Option(None, "--targets", help="a robot's: also commands.csv, the joint values "
+                                                                  "reaching these points x,y,z[,rx,ry,rz] (mm, rad, "
+                                                                  "base frame) under self-weight, calibrated model"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="print each selection round"),
     suggest: int = typer.Option(0, "--suggest", min=0,
                                 help="write DIR/next_measurements.csv: N (posture, load) rows to measure next"),
@@ -100,7 +115,7 @@ def diagnose_cmd(
         dg = run(model, data, out, alpha=alpha, effects=effect or None,
                  progress=(lambda s: typer.echo(s, err=True)) if verbose else None,
                  suggest=suggest, forces_only=forces_only, force=force, outliers=outliers, noise=noise,
-                 columns=columns, validate=validate or (), register=register_on)
+                 columns=columns, validate=validate or (), register=register_on, targets=targets)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(dg.summary().rstrip("\n") if isinstance(dg.report, dict) else dg.report.summary)

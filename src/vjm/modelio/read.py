@@ -293,6 +293,24 @@ def _is_result_path(link) -> bool:
     return isinstance(link, (str, os.PathLike)) and (os.fspath(link).endswith(".json") or os.path.isfile(link))
 
 
+def is_robot_file(path) -> bool:
+    """Whether a model file (a path or a bundled name) holds a serial or tree robot, read as plain data without
+    loading it (so that a command checks its output before any work); False if it cannot be read (then
+    :func:`load_model` says why)."""
+    try:
+        path = os.fspath(data_file(path))
+        if not os.path.isfile(path):
+            return False
+        if path.lower().endswith(".urdf"):
+            return True
+        from ..robot.robotfile import is_robot
+        from .yamldata import read_yaml
+
+        return is_robot(read_yaml(path, "model file"))
+    except VjmError:
+        return False
+
+
 def load_model(path, foot=None, leg=None, links: dict | None = None) -> Model:
     """Read a model file, with some of its links replaced: a :class:`vjm.Model` of either kind, a parallel
     machine (an architecture or a machine description) or a serial or tree robot (a YAML naming a URDF or

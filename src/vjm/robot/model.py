@@ -401,6 +401,15 @@ class RobotModel(Model):
 
         return solve(self, np.asarray(poses, dtype=float).reshape(-1, 4, 4), self.check_q(seed)[0][0], tool, tol)
 
+    def compensate(self, targets, seed, tool: str | None = None, gravity=None, payload: Payload | None = None,
+                   tol: float = 1e-6, orientation=None):
+        """The joint values to command so that the tool, deflected under self-weight (and a payload), reaches
+        target poses (n, 4, 4) or points (n, 3) mm (orientation free, or ``orientation``) within ``tol`` mm, in
+        the configuration of ``seed``: a :class:`~vjm.robot.compensate.Compensation` (:mod:`vjm.robot.compensate`)."""
+        from .compensate import compensate
+
+        return compensate(self, targets, seed, tool, gravity, payload, tol, orientation)
+
     def cartesian_map(self, points, seed, orientation=None, tool: str | None = None, self_weight: bool = False):
         """k_tran, k_rot (and the sag) at tool points (n, 3) mm with one orientation (rotation vector), through
         the IK in the configuration of ``seed``, carried from point to point (:func:`vjm.robot.ik.solve_path`).
