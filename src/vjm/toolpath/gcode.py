@@ -269,8 +269,16 @@ def _arc(mv: Move, chord_tol: float):
         sweep = -((-sweep) % (2 * np.pi))
         if sweep >= -1e-12:
             sweep = -2 * np.pi
-    step = 2.0 * np.arccos(max(-1.0, 1.0 - chord_tol / r)) if chord_tol < 2 * r else np.pi
-    chords = abs(sweep) / step - 1e-12 if step > 0 else math.inf  # chord_tol 1e-300: arccos(1) = 0
+    x = chord_tol / r
+    if x >= 2.0:
+        step = np.pi
+    elif x < 1e-8:
+        # the same angle, 1 - cos(step / 2) = x, written so that a tiny x keeps its digits (arccos(1 - x)
+        # is 0 below x ~ 1e-16, which counted such an arc's points as infinite)
+        step = 4.0 * math.asin(math.sqrt(x / 2.0))
+    else:
+        step = 2.0 * np.arccos(1.0 - x)
+    chords = abs(sweep) / step - 1e-12 if step > 0 else math.inf
     return a0, sweep, r, max(1.0, math.ceil(chords) if math.isfinite(chords) else math.inf)
 
 
