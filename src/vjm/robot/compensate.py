@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import VjmError
 from ..kinematics.poses import rotation_matrix
 from ..kinematics.transforms import rotation_vector
-from .ik import LENGTH, SINGULAR
+from .ik import LENGTH, SINGULAR, levenberg_marquardt
 
 #: default tolerance (mm; rotations times LENGTH) of the deflected tool pose
 TOL = 1e-6
@@ -106,34 +106,14 @@ def _error(D, targets, w: float) -> np.ndarray:
 def _solve(model, targets, q0, tool, w: float, tol: float, max_iter: int, lam0: float, load=None):
     """Levenberg-Marquardt from q0 on the (deflected, with ``load`` = (gravity, payload)) pose error:
     q (n, nq), residual (n,), iterations (n,)."""
-    lo, hi = model.tree.limits
     sag = load is not None
     g, pl = load if sag else (None, None)
-    q = np.clip(np.array(q0, dtype=float), lo, hi)
     W = np.r_[np.ones(3), np.full(3, w)]
-    e = _error(_deflected(model, q, tool, g, pl, sag)[0], targets, w)
-    r = np.linalg.norm(e, axis=1)
-    lam = np.full(len(q), lam0)
-    its = np.zeros(len(q), dtype=int)
-    for _ in range(max_iter):
-        act = np.flatnonzero((r > tol) & (lam < 1e12))
-        if act.size == 0:
-            break
-        its[act] += 1
-        J = model.jacobian(q[act], tool) * W[None, :, None]
-        JtJ = np.swapaxes(J, 1, 2) @ J
-        grad = np.einsum("nij,ni->nj", J, np.nan_to_num(e[act], posinf=0.0))
-        scale = np.trace(JtJ, axis1=1, axis2=2)[:, None, None] / model.nq
-        dq = np.linalg.solve(JtJ + (lam[act, None, None] * scale) * np.eye(model.nq), grad[:, :, None])[:, :, 0]
-        qn = np.clip(q[act] + dq, lo, hi)
-        en = _error(_deflected(model, qn, tool, g, pl, sag)[0], targets[act], w)
-        rn = np.linalg.norm(en, axis=1)
-        better = rn < r[act]
-        ok = act[better]
-        q[ok], e[ok], r[ok] = qn[better], en[better], rn[better]
-        lam[ok] = np.maximum(lam[ok] / 3.0, 1e-12)
-        lam[act[~better]] *= 4.0
-    return q, r, its
+
+    def error(q, idx):
+        return _error(_deflected(model, q, tool, g, pl, sag)[0], targets[idx], w)
+
+    return levenberg_marquardt(model, q0, error, tool, W, tol, max_iter, lam0)
 
 
 def _singular(model, q, tool, w: float) -> np.ndarray:

@@ -56,35 +56,45 @@ def _error(model, q, targets, tool):
     return e
 
 
-def solve(model, targets, seed, tool=None, tol: float = 1e-8, max_iter: int = 200) -> IKResult:
-    """Joint values reaching ``targets`` (n, 4, 4) from ``seed`` ((nq,) or (n, nq)), each pose on its own."""
+def levenberg_marquardt(model, q0, error, tool, W: np.ndarray, tol: float, max_iter: int, lam0: float = 1e-2):
+    """Damped Gauss-Newton (Levenberg-Marquardt) on a pose error, every configuration on its own, within the
+    joint limits: ``error(q, idx)`` is the error (k, 6) (mm; rotations weighted; inf where it is not defined)
+    at configurations q (k, nq) of the targets ``idx``; the step uses the rigid tool Jacobian weighted by W (6,).
+    A configuration stops below ``tol`` or when its damping passes 1e12 (no step improves it).  Returns q
+    (n, nq), the residual norms (n,) and the iterations (n,)."""
     lo, hi = model.tree.limits
-    q = np.array(np.broadcast_to(np.asarray(seed, dtype=float), (len(targets), model.nq)))
-    q = np.clip(q, lo, hi)
-    W = np.r_[np.ones(3), LENGTH * np.ones(3)]
-    lam = np.full(len(q), 1e-2)
-    e = _error(model, q, targets, tool)
+    q = np.clip(np.array(q0, dtype=float), lo, hi)
+    e = error(q, np.arange(len(q)))
     r = np.linalg.norm(e, axis=1)
+    lam = np.full(len(q), lam0)
+    its = np.zeros(len(q), dtype=int)
     for _ in range(max_iter):
-        act = np.flatnonzero(r > tol)
+        act = np.flatnonzero((r > tol) & (lam < 1e12))
         if act.size == 0:
             break
+        its[act] += 1
         J = model.jacobian(q[act], tool) * W[None, :, None]
         JtJ = np.swapaxes(J, 1, 2) @ J
-        g = np.einsum("nij,ni->nj", J, e[act])
+        g = np.einsum("nij,ni->nj", J, np.nan_to_num(e[act], posinf=0.0))
         scale = np.trace(JtJ, axis1=1, axis2=2)[:, None, None] / model.nq
-        A = JtJ + (lam[act, None, None] * scale) * np.eye(model.nq)
-        dq = np.linalg.solve(A, g[:, :, None])[:, :, 0]
+        dq = np.linalg.solve(JtJ + (lam[act, None, None] * scale) * np.eye(model.nq), g[:, :, None])[:, :, 0]
         qn = np.clip(q[act] + dq, lo, hi)
-        en = _error(model, qn, targets[act], tool)
+        en = error(qn, act)
         rn = np.linalg.norm(en, axis=1)
         better = rn < r[act]
         ok = act[better]
         q[ok], e[ok], r[ok] = qn[better], en[better], rn[better]
         lam[ok] = np.maximum(lam[ok] / 3.0, 1e-12)
         lam[act[~better]] *= 4.0
-        if np.all(lam[act] > 1e12):
-            break
+    return q, r, its
+
+
+def solve(model, targets, seed, tool=None, tol: float = 1e-8, max_iter: int = 200) -> IKResult:
+    """Joint values reaching ``targets`` (n, 4, 4) from ``seed`` ((nq,) or (n, nq)), each pose on its own."""
+    W = np.r_[np.ones(3), LENGTH * np.ones(3)]
+    q0 = np.broadcast_to(np.asarray(seed, dtype=float), (len(targets), model.nq))
+    q, r, _ = levenberg_marquardt(model, q0, lambda qq, idx: _error(model, qq, targets[idx], tool), tool, W, tol,
+                                  max_iter)
     s = np.linalg.svd(model.jacobian(q, tool) * W[None, :, None], compute_uv=False)
     return IKResult(q, r <= tol, s[:, -1] < SINGULAR * s[:, 0], r)
 
