@@ -213,3 +213,16 @@ def gravity_torques(urdf: str, names, q: np.ndarray) -> np.ndarray:
         qc[idx] = row
         out[k] = pin.computeGeneralizedGravity(m, d, qc)[idx]
     return out
+
+
+def urdf_link(name, mass, com):
+    """A URDF link with a mass (kg) at its centre of mass ``com`` ("x y z", m) and a small inertia."""
+    return (f'<link name="{name}"><inertial><mass value="{mass}"/><origin xyz="{com}"/>'
+            f'<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>')
+
+
+def urdf_joint(name, parent, child, xyz, axis):
+    """A revolute URDF joint at ``xyz`` (m) about ``axis``, limits of +-3.2 rad."""
+    return (f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{xyz}" rpy="0 0 0"/><axis xyz="{axis}"/>'
+            f'<limit lower="-3.2" upper="3.2" effort="100" velocity="1"/></joint>')

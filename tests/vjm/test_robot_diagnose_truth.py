@@ -25,15 +25,7 @@ TARGETS = np.array([[400.0, 260.0, 1000.0], [300.0, 255.0, 500.0], [500.0, 150.0
 COMPLIANCE = {"l1": 3e-5}   # rad/(N m): the left shoulder sags under its arm's weight
 
 
-def _link(name, mass, com):
-    return (f'<link name="{name}"><inertial><mass value="{mass}"/><origin xyz="{com}"/>'
-            f'<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>')
-
-
-def _joint(name, parent, child, xyz, axis):
-    return (f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
-            f'<origin xyz="{xyz}" rpy="0 0 0"/><axis xyz="{axis}"/>'
-            f'<limit lower="-3.2" upper="3.2" effort="100" velocity="1"/></joint>')
+_link, _joint = truth.urdf_link, truth.urdf_joint
 
 
 def _arm(p, y):

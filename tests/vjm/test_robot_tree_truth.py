@@ -18,15 +18,7 @@ SIGMA = 0.01   # mm
 HANDS = ("l_tool", "r_tool")
 
 
-def _link(name, mass, com):
-    return (f'<link name="{name}"><inertial><mass value="{mass}"/><origin xyz="{com}"/>'
-            f'<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>')
-
-
-def _joint(name, parent, child, xyz, axis):
-    return (f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
-            f'<origin xyz="{xyz}" rpy="0 0 0"/><axis xyz="{axis}"/>'
-            f'<limit lower="-3.2" upper="3.2" effort="100" velocity="1"/></joint>')
+_link, _joint = truth.urdf_link, truth.urdf_joint
 
 
 def _arm(side, y):
