@@ -521,7 +521,7 @@ CASES = [
          "x,y,z[,rx,ry,rz]", {"t.csv": "x,y\n900,100\n"}, "targets without a z column"),
     Case("27.4", "vjm compensate {ur10} t.csv --out c.csv", "t.csv: columns rx without the other rotation components",
          {"t.csv": "x,y,z,rx\n900,100,400,0.1\n"}, "one rotation component of three"),
-    Case("27.4", "vjm compensate {ur10} t.csv --seed 0,-1.2,1.5 --out c.csv", "--seed expects 6 joint values",
+    Case("27.4", "vjm compensate {ur10} t.csv --seed 0,-1.2,1.5 --out c.csv", "--seed expects 6 numbers",
          {"t.csv": "x,y,z\n900,100,400\n"}, "a seed of three joint values for a 6-joint arm"),
     Case("27.4", "vjm compensate {ur10} t.csv --out c.csv", "t.csv: no target can be commanded: target 1 unreachable",
          {"t.csv": "x,y,z\n5000,0,0\n"}, "one target 5 m out of a UR10's reach (several targets, some reachable: "

@@ -30,6 +30,7 @@ from linkfea.files.outputs import COMMANDS_CSV_MARK, is_commands_csv
 
 from ..errors import ArgumentError, VjmError, VjmWarning
 from .compensate import TOL, Compensation
+from .mapcmd import numbers, seed_of
 from .model import Payload
 
 #: the first line of a commands.csv (how vjm knows a file it may replace)
@@ -82,37 +83,13 @@ def read_targets(path) -> tuple[np.ndarray, np.ndarray | None]:
     return out[:, :3], (out[:, 3:] if rot else None)
 
 
-def _numbers(text: str, option: str) -> np.ndarray:
-    try:
-        v = np.array([float(x) for x in text.split(",")])
-    except ValueError:
-        v = np.array([np.nan])
-    if not np.all(np.isfinite(v)):
-        raise ArgumentError(option, f"expects finite numbers separated by ',', got {text!r}")
-    return v
-
-
-def seed_of(model, text: str | None) -> np.ndarray:
-    """--seed q1,...,qn, or ``home`` / nothing: the model file's ``home:``."""
-    if text is None or text.strip() == "home":
-        if model.home is None:
-            raise VjmError(f"{model.path or model.name} has no home: configuration; give --seed q1,...,q{model.nq} "
-                           f"({', '.join(model.q_names)})")
-        return model.check_q(np.asarray(model.home, dtype=float))[0][0]
-    q = _numbers(text, "seed")
-    if q.shape != (model.nq,):
-        raise ArgumentError("seed", f"expects {model.nq} joint values q1,...,q{model.nq} ({', '.join(model.q_names)}; "
-                                    f"rad, mm for prismatic joints) or home, got {len(q)}: {text!r}")
-    return model.check_q(q)[0][0]
-
-
 def payload_of(text: str | None, tool: str) -> Payload | None:
     """--payload KG[@x,y,z]: a point mass at a point (mm, default the origin) of the tool frame."""
     if text is None:
         return None
     mass, _, at = text.partition("@")
-    m = _numbers(mass, "payload")
-    com = _numbers(at, "payload") if at else np.zeros(3)
+    m = numbers(mass, "--payload")
+    com = numbers(at, "--payload") if at else np.zeros(3)
     if m.shape != (1,) or not m[0] >= 0 or com.shape != (3,):
         raise ArgumentError("payload", f"expects KG[@x,y,z]: a mass >= 0 (kg) at a point (mm) of the tool frame, "
                                        f"got {text!r}")
@@ -163,7 +140,7 @@ def check(model, req: Request, out) -> tuple:
         raise VjmError(f"{getattr(model, 'path', None) or 'the model'}: a parallel machine; vjm compensate takes a "
                        f"serial or tree robot (a model file with urdf: or dh:)")
     tool = model._tool(req.tool)
-    seed = seed_of(model, req.seed)
+    seed = seed_of(model, req.seed, "--seed")
     payload = payload_of(req.payload, tool)
     if not os.path.isfile(req.targets):
         raise VjmError(f"{req.targets}: no such file (the targets: x,y,z[,rx,ry,rz] in mm, rad)")
@@ -197,7 +174,7 @@ def check_targets(model, targets) -> np.ndarray:
         raise VjmError(f"--targets: {model.path or model.name} has no home: configuration, the seed of the "
                        f"commands' configuration; add home: [q1, ..., q{model.nq}] to it")
     read_targets(targets)
-    return seed_of(model, None)
+    return seed_of(model, None, "--seed")
 
 
 def calibrated_commands(cal, targets, seed) -> str:

@@ -52,7 +52,8 @@ def files(req: Request) -> tuple[str, ...]:
     return FILES + ((SAG_FILE,) if req.self_weight else ())
 
 
-def _numbers(text: str, option: str, sep: str = ",") -> np.ndarray:
+def numbers(text: str, option: str, sep: str = ",") -> np.ndarray:
+    """The numbers of an option's text separated by ``sep``; ArgumentError naming the option if one is not finite."""
     try:
         v = np.array([float(x) for x in text.split(sep)])
     except ValueError:
@@ -62,17 +63,17 @@ def _numbers(text: str, option: str, sep: str = ",") -> np.ndarray:
     return v
 
 
-def seed_of(model, text: str | None) -> np.ndarray:
-    """--q, or the model file's ``home:``; its length and limits checked."""
-    if text is None:
+def seed_of(model, text: str | None, option: str = "--q") -> np.ndarray:
+    """``option`` q1,...,qn, or nothing or ``home``: the model file's ``home:``; its length and limits checked."""
+    if text is None or text.strip() == "home":
         if model.home is None:
-            raise VjmError(f"{model.path or model.name} has no home: configuration; give --q q1,...,q{model.nq} "
-                           f"({', '.join(model.q_names)})")
+            raise VjmError(f"{model.path or model.name} has no home: configuration; give {option} "
+                           f"q1,...,q{model.nq} ({', '.join(model.q_names)})")
         return model.check_q(np.asarray(model.home, dtype=float))[0][0]
-    q = _numbers(text, "--q")
+    q = numbers(text, option)
     if q.shape != (model.nq,):
-        raise VjmError(f"--q expects {model.nq} numbers q1,...,q{model.nq} for {model.path or model.name} "
-                       f"({', '.join(model.q_names)}; rad, mm for prismatic joints), got {text!r}")
+        raise VjmError(f"{option} expects {model.nq} numbers q1,...,q{model.nq} for {model.path or model.name} "
+                       f"({', '.join(model.q_names)}; rad, mm for prismatic joints) or home, got {text!r}")
     return model.check_q(q)[0][0]
 
 
@@ -97,7 +98,7 @@ def parse_joints(model, text: str, n_default: int) -> tuple[tuple, tuple, tuple]
         if len(parts) not in (2, 3):
             raise ArgumentError("joints", f"{name}: expects lo:hi or lo:hi:n (rad, mm for prismatic joints), "
                                           f"got {spec!r}")
-        lo, hi = _numbers(":".join(parts[:2]), "--joints", ":")
+        lo, hi = numbers(":".join(parts[:2]), "--joints", ":")
         n = n_default if len(parts) == 2 else _count(parts[2], name)
         j = model.q_names.index(name)
         if not lo < hi:
@@ -126,7 +127,7 @@ def parse_box(text: str) -> Workspace:
     parts = text.split(",")
     if len(parts) != 3:
         raise ArgumentError("box", f"expects x0:x1,y0:y1,z0:z1 (mm), got {text!r}")
-    lh = np.array([_numbers(p, "--box", ":") for p in parts if len(p.split(":")) == 2])
+    lh = np.array([numbers(p, "--box", ":") for p in parts if len(p.split(":")) == 2])
     if lh.shape != (3, 2):
         raise ArgumentError("box", f"expects x0:x1,y0:y1,z0:z1 (mm), got {text!r}")
     if not np.all(lh[:, 1] > lh[:, 0]):
@@ -156,7 +157,7 @@ def check(model, req: Request):
     box = parse_box(req.box) if req.box is not None else None
     rot = None
     if req.orientation is not None:
-        w = _numbers(req.orientation, "--orientation")
+        w = numbers(req.orientation, "--orientation")
         if w.shape != (3,):
             raise ArgumentError("orientation", f"expects the tool's rotation vector rx,ry,rz (rad), got "
                                                f"{req.orientation!r}")
