@@ -249,7 +249,7 @@ def _jacobian(prob, layout: Layout, x: np.ndarray, fixed: dict | None = None) ->
     return own(layout, x, fixed) if own is not None else jacobian_fast(prob, layout, x, fixed)
 
 
-def _residual_fn(prob: Problem, layout: Layout, meas: np.ndarray, fixed: dict):
+def _residual_fn(prob, layout: Layout, meas: np.ndarray, fixed: dict):
     def fun(x):
         return (_predict(prob, layout, x, fixed) - meas).ravel()
 
@@ -259,7 +259,7 @@ def _residual_fn(prob: Problem, layout: Layout, meas: np.ndarray, fixed: dict):
     return fun, jac
 
 
-def fit(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: dict | None = None):
+def fit(prob, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: dict | None = None):
     """Levenberg-Marquardt fit of ``layout``'s parameters: (x, std, rss)."""
     fixed = fixed or {}
     fun, jac = _residual_fn(prob, layout, meas, fixed)
@@ -371,7 +371,7 @@ def _rows(prob, mask: np.ndarray):
                    flex=None if prob.flex is None else prob.flex.rows(mask))
 
 
-def cross_validated_rms(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, folds: int) -> float:
+def cross_validated_rms(prob, layout: Layout, meas: np.ndarray, x0: np.ndarray, folds: int) -> float:
     """RMS position error (mm) of ``layout``'s fit over ``folds`` interleaved folds, each predicted by the
     fit on the others (started from ``x0``)."""
     n = len(prob.q)
@@ -524,7 +524,7 @@ def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:
                        f"{size} parameters: measure more poses")
 
 
-def _stats(prob: Problem, layout: Layout, x: np.ndarray, meas: np.ndarray) -> dict:
+def _stats(prob, layout: Layout, x: np.ndarray, meas: np.ndarray) -> dict:
     return error_stats(np.linalg.norm(_predict(prob, layout, x) - meas, axis=1))
 
 

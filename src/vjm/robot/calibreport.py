@@ -152,7 +152,7 @@ def effects_named(cal: Calibration) -> list:
             out.append({"effect": s.name, "buys_mm": before["mean"] - s.stats["mean"], "before_mm": before,
                         "after_mm": s.stats, "p_value": s.p_value,
                         "cv_rms_mm": None if np.isnan(s.cv_rms) else s.cv_rms,
-                        "parameters": [k for k in cal.robot_values() if _kind(k) == s.name]})
+                        "parameters": [k for k in cal.robot_values() if cal.kinds.get(k, (_kind(k),))[0] == s.name]})
             before = s.stats
     return sorted(out, key=lambda e: -e["buys_mm"])
 
@@ -190,7 +190,8 @@ def report(cal: Calibration, opt: Options, model_path, data, validations: list, 
         "effects_tried": list(opt.effects), "alpha": opt.alpha,
         "effects": effects_named(cal),
         "stages": [_stage(s) for s in cal.stages],
-        "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": _unit(k)} for k, v in cal.robot_values().items()},
+        "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": cal.kinds[k][1] if k in cal.kinds else _unit(k)}
+                       for k, v in cal.robot_values().items()},
         "held_out": {"folds": opt.folds, "validate": validations},
         "registration": registration(cal),
         "not_identifiable": [r for r in removed if not r["why"].startswith("not observable")],
