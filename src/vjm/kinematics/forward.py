@@ -171,7 +171,9 @@ def linearize(asm: Assembly, q: np.ndarray, v: np.ndarray, X: np.ndarray, shift:
 def lstsq(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     """The least-squares solutions (n, nu, k) of A x = B, A (n, m, nu), B (n, m, k): the normal equations of
     the unit-norm columns, batched (an LU per row: the SVD of a pseudo-inverse costs ten times more); the
-    closure's Jacobian has full column rank off singular postures."""
+    closure's Jacobian has full column rank off singular postures.  A square system is solved as it is."""
+    if A.shape[1] == A.shape[2]:
+        return np.linalg.solve(A, B)
     s = np.maximum(np.linalg.norm(A, axis=1), 1e-300)[:, None, :]
     As = A / s
     At = np.swapaxes(As, 1, 2)
@@ -271,13 +273,9 @@ def sensitivities(asm: Assembly, q: np.ndarray, st: State, shift=None) -> tuple[
     Bs = np.zeros((len(q), 6 * nc, 3 * nc))
     for k in range(nc):
         Bs[:, 6 * k:6 * k + 3, 3 * k:3 * k + 3] = np.eye(3)
-    out = []
-    for B in (Ba, Bs):
-        dz = -lstsq(A, B)[:, asm.n_passive:]
-        tw = np.zeros((len(q), 6, B.shape[2]))
-        tw[:, :asm.dof] = dz
-        out.append(tw)
-    return out[0], out[1]
+    tw = np.zeros((len(q), 6, 4 * nc))
+    tw[:, :asm.dof] = -lstsq(A, np.concatenate([Ba, Bs], axis=2))[:, asm.n_passive:]
+    return tw[:, :, :nc], tw[:, :, nc:]
 
 
 def platform_frames(model, q, start: State | None = None) -> State:
