@@ -56,7 +56,13 @@ def read(path, model, columns=None, group: str | None = None):
     from ..robot.poses import read_column_map, read_poses
 
     cmap = read_column_map(columns) if columns is not None else None
-    d = read_poses(path, cmap, actuator_names(model), group=group)
+    d = read_poses(path, cmap, group=group)
+    names = actuator_names(model)
+    missing = [a for a in names if a not in d.joints]
+    if missing:
+        raise VjmError(f"{path}: no column for actuator(s) {', '.join(missing)}: a parallel machine's absolute "
+                       f"poses have a column per actuator, <chain>.<variable> ({', '.join(names)}; or map them in "
+                       f"the column map)")
     return d if d.group is not None else d.with_group(Path(path).name)
 
 
@@ -116,10 +122,13 @@ def is_pose_file(data, columns=None) -> bool:
             return any(re.fullmatch(r".+\.x", k) for k in read_column_map(columns).columns)
         except VjmError:
             return False
+    if not os.path.isfile(data):   # a device (/dev/zero) is never read: its reader refuses it
+        return False
     try:
         with open(data, newline="", encoding="utf-8-sig") as f:
-            header = next((r for r in csv.reader(f) if r and not r[0].startswith("#")), [])
+            head = f.read(1 << 16)   # the header, at most 64 kB of it
     except (OSError, UnicodeDecodeError):
         return False
+    header = next((r for r in csv.reader(head.splitlines()) if r and not r[0].startswith("#")), [])
     names = {h.strip() for h in header}
     return any(re.fullmatch(r".+\.x", h) for h in names) and "Fx" not in names and "quantity" not in names
