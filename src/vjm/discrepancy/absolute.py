@@ -203,7 +203,7 @@ rows; points {html.escape(', '.join(rep['frames']))}); effects tried: {html.esca
 <h2>Effects named, in order of what each buys (position error of the fitted rows, mm)</h2>
 {_table(eff, ["effect", "buys (mean)"] + [f"before {k}" for k in st] + [f"after {k}" for k in st] + ["p"])}
 <h2>Stages</h2>{_table(cv, ["stage", "state", "RMS mm", "cross-validated RMS mm", "F test p", "note"])}
-<h2>Held out (each file registered on a few of its poses, the robot frozen)</h2>
+<h2>Held out (each file registered on a few of its poses, the {'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen)</h2>
 {_table(held, ["file", "registered on", "rows held out"] + [f"{k} mm" for k in st]) if held else
  f"<p>{rep['held_out']['folds']}-fold cross-validation (stages above).</p>"}
 <h2>Registration (a nuisance, not an effect)</h2>

@@ -9,9 +9,9 @@ of an Orthoglide's carriage: :func:`vjm.kinematics.forward.actuator_names`), and
 robot's poses (:mod:`vjm.discrepancy.absolute`): the effects named in order of what each buys (actuator
 offsets, chains' base attachments), the gap before and after, the held-out error (k-fold, or
 ``--validate`` files each registered on ``--register`` of its poses, the machine frozen), the registration
-apart, what is not identifiable.  Written: ``report.json``, ``report.html``, ``summary.txt`` (no
-calibrated URDF: the machine is no robot file).  Rows are not set aside as outliers (the robust pass is
-the robot's), and no elastic effect is tried: the rows carry no load.
+apart, what is not identifiable, the rows set aside as outliers (:mod:`vjm.robot.robust`, as a robot's).
+Written: ``report.json``, ``report.html``, ``summary.txt`` (no calibrated URDF: the machine is no robot
+file).  No elastic effect is tried: the rows carry no load.
 """
 from __future__ import annotations
 
@@ -27,6 +27,7 @@ from ..robot import calibreport as cr
 from ..robot.calibration import error_stats, position_errors
 from ..robot.platform import EFFECTS, FRAME
 from ..robot.platformcal import calibrate_platform, register_platform
+from ..robot.robust import calibrate_robust
 from .absolute import DEFAULT_ALPHA, PoseDiagnosis, _verdict, lack_of_fit
 
 SCHEMA = "vjm.diagnosis.absolute/1"
@@ -66,6 +67,10 @@ def read(path, model, columns=None, group: str | None = None):
     return d if d.group is not None else d.with_group(Path(path).name)
 
 
+def _fit(model, data, frame, **kw):
+    return calibrate_platform(model, data, **kw)
+
+
 def validate(cal, data, k: int) -> dict:
     """A validation file's held-out errors: its set-up registered on ``k`` of its poses, the machine frozen."""
     few, rest = cr.split(data, k)
@@ -76,9 +81,10 @@ def validate(cal, data, k: int) -> dict:
 
 def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: float | None = None, effects=None,
                             folds: int = 5, columns=None, validate_files=(), register: int = 30,
-                            progress=None) -> PoseDiagnosis:
+                            outliers: bool = True, progress=None) -> PoseDiagnosis:
     """Diagnose a parallel machine's absolute poses (the module docstring): ``model`` and ``data`` loaded or
-    their files, ``columns`` a column map file, ``validate_files`` held-out files (then no k-fold)."""
+    their files, ``columns`` a column map file, ``validate_files`` held-out files (then no k-fold),
+    ``outliers`` rows no effect explains set aside (:mod:`vjm.robot.robust`)."""
     from ..modelio.read import load_model
 
     eff = check_options(effects)
@@ -91,7 +97,10 @@ def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: f
     for v in vals:
         cr.check_validation(v, register)
     t0 = time.perf_counter()
-    cal = calibrate_platform(m, d, eff, opt.alpha, folds=opt.folds)
+    if outliers:
+        cal = calibrate_robust(m, d, FRAME, fit=_fit, effects=eff, alpha=opt.alpha, folds=opt.folds)
+    else:
+        cal = calibrate_platform(m, d, eff, opt.alpha, folds=opt.folds)
     held = [validate(cal, v, register) for v in vals]
     rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)
     lof = lack_of_fit(cal, d, opt.alpha)

@@ -230,7 +230,8 @@ def summary(rep: dict) -> str:
         cv = [f"{s['name']} {s['cv_rms_mm']:.3f}" for s in rep["stages"] if s["cv_rms_mm"] is not None]
         lines.append(f"Held out, {rep['held_out']['folds']}-fold cross-validated RMS (mm): " + ", ".join(cv))
     for v in rep["held_out"]["validate"]:
-        lines.append(f"Held out, {v['file']} (registered on {v['registered_on']} of its poses, robot frozen; "
+        lines.append(f"Held out, {v['file']} (registered on {v['registered_on']} of its poses, "
+                     f"{'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen; "
                      f"{v['rows']} others): {_fmt(v['errors_mm'])}")
     lines.append(f"Not identifiable (removed): {len(rep['not_identifiable'])}; not observable: "
                  + (", ".join(r["parameter"] for r in rep["not_observable"]) or "none"))

@@ -276,8 +276,8 @@ class PlatformPoseKind:
 
         return read(path, model, columns)
 
-    def run(self, model, data, validate=(), outliers: bool = True, **kw):
-        """The diagnosis (a :class:`~vjm.discrepancy.absolute.PoseDiagnosis`); rows are not set aside."""
+    def run(self, model, data, validate=(), **kw):
+        """The diagnosis (a :class:`~vjm.discrepancy.absolute.PoseDiagnosis`)."""
         from ..platformposes import diagnose_platform_poses
 
         return diagnose_platform_poses(model, data, validate_files=validate, **kw)
