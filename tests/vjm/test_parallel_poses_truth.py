@@ -50,6 +50,26 @@ def test_forward_kinematics_matches_the_independent_one(hexapod):
         assert np.max(np.abs(st.X[k, :3, :3] @ off - Rt @ off)) < 1e-9
 
 
+def test_rows_newton_leaves_open_are_continued_along_the_actuators_path(hexapod, monkeypatch):
+    """Newton from the seed cut to one iteration (so that every row is left open): the continuation from the
+    seed's strut lengths closes every row, on the poses of the independent forward kinematics, at the
+    workspace's corners and tilts of 0.15 rad."""
+    asm = fk.assembly(hexapod)
+    p = np.array([[80.0, -80.0, 630.0], [-80.0, 80.0, 470.0]])
+    w = np.array([[0.15, -0.12, 0.2], [-0.15, 0.1, -0.25]])
+    q = tp.lengths(p, w)
+    newton, calls = fk.newton, []
+
+    def first_cut(asm, q, start, shift=None, max_iter=fk.MAX_ITER):
+        calls.append(len(q))
+        return newton(asm, q, start, shift, 1 if len(calls) == 1 else max_iter)
+
+    monkeypatch.setattr(fk, "newton", first_cut)
+    st = fk.solve(asm, q)
+    assert len(calls) == 1 + fk.PATH_STEPS and st.ok.all()
+    assert np.max(np.abs(st.X[:, :3, 3] - p)) < 1e-9 and np.max(fk.closure_gap(asm, q, st)) < 1e-9
+
+
 def test_orthoglide_forward_kinematics_matches_the_closed_form():
     """The 3-PUU of data/machines/orthoglide_puu.yaml (a 3-dof platform: 15 unknowns, 18 equations): the
     forward kinematics inverts the closed-form inverse kinematics of tests/truth.py to 1e-9 mm."""
