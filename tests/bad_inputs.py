@@ -196,6 +196,10 @@ CAL_FILES = {"r.yaml": ROBOT, "r.urdf": ARM, "p.csv": POSES}
 #: two measured points per row, l1 and l2 (27.2)
 TWO_POINTS = "j1,j2,l1.x,l1.y,l1.z,l2.x,l2.y,l2.z\n" + "".join(
     f"{0.1 * k:.2f},{-0.05 * k:.3f},{k},{-k},{300 + k},{k},{2 * k},{600 + k}\n" for k in range(40))
+#: a hexapod's absolute poses: its six strut lengths (near the home pose's 598 mm) and the platform's point (27.1)
+HEX_POSES = ("A1.l,A2.l,A3.l,B1.l,B2.l,B3.l,platform.x,platform.y,platform.z\n" + "".join(
+    ",".join([f"{598 + 0.5 * ((k + i) % 7):.2f}" for i in range(6)] + [f"{k}", f"{-k}", f"{550 + k}"]) + "\n"
+    for k in range(40)))
 
 CASES = [
     # 18.2: numeric options, vjm
@@ -491,9 +495,26 @@ CASES = [
     Case("27", "vjm calibrate r.yaml p.csv --out o", "o: report.json is there and was not written by linkfea or vjm",
          {**CAL_FILES, "o/report.json": "{}\n"}, "an output folder holding the user's report.json"),
     # 27.1: vjm diagnose on absolute poses (a robot's model)
-    Case("27.1", "vjm diagnose {puu} p.csv --out o", "p.csv: row 1, column 'l2.x': absolute poses (columns "
-         "<frame>.x,.y,.z): vjm diagnose reads them for a serial or tree robot", {"p.csv": POSES},
-         "a parallel machine's model given absolute poses"),
+    Case("27.1", "vjm diagnose {puu} p.csv --out o", "p.csv: no column for actuator(s) x.q0, y.q0, z.q0: a parallel "
+         "machine's absolute poses have a column per actuator", {"p.csv": POSES},
+         "a parallel machine's model given a robot's absolute poses"),
+    Case("27.1", "vjm diagnose {hexapod} p.csv --out o --targets t.csv", "--targets is for a serial or tree robot's "
+         "absolute poses (the commands reaching them); a parallel machine's commands are its inverse kinematics",
+         {"p.csv": HEX_POSES, "t.csv": "x,y,z\n0,0,550\n"}, "targets (compensated commands) asked of a parallel "
+         "machine's absolute poses"),
+    Case("27.1", "vjm diagnose {hexapod} p.csv --out o --effect compliance", "--effect compliance: not an effect of a "
+         "parallel machine's absolute poses; effects: offset, attachment", {"p.csv": HEX_POSES},
+         "a robot's effect asked of a parallel machine's absolute poses"),
+    Case("27.1", "vjm diagnose {hexapod} p.csv --out o --suggest 5", "--suggest designs (posture, load) rows of "
+         "deflection data", {"p.csv": HEX_POSES}, "rows to measure next asked of a parallel machine's absolute poses"),
+    Case("27.1", "vjm diagnose {hexapod} p.csv --out o", "p.csv: measured point tool: a parallel machine's measured "
+         "point is on its platform", {"p.csv": HEX_POSES.replace("platform.", "tool.")},
+         "a parallel machine's measured point named otherwise than platform"),
+    Case("27.1", "vjm diagnose {hexapod} p.csv --out o", "the forward kinematics does not close at the actuator values "
+         "of 40 row(s)", {"p.csv": HEX_POSES.replace("598", "98")}, "strut lengths no assembly of the hexapod has"),
+    Case("27.1", "vjm diagnose {hexapod} p.csv --out o", "o: report.json is there and was not written by linkfea or vjm",
+         {"p.csv": HEX_POSES, "o/report.json": "{}\n"}, "a parallel machine's report folder holding the user's "
+         "report.json"),
     Case("27.1", "vjm diagnose {puu} m.csv --columns c.yaml --out o", "--columns and --validate read absolute poses",
          {"m.csv": GOOD, "c.yaml": "columns: {}\n"}, "a column map given with a parallel machine's deflections"),
     Case("27.1", "vjm diagnose r.yaml p.csv --out o --suggest 5", "--suggest designs (posture, load) rows of "

@@ -23,6 +23,7 @@ robot file (``calibrated.urdf``, ``calibrated.yaml``, :mod:`vjm.robot.calibwrite
 from __future__ import annotations
 
 import html
+import json
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -38,6 +39,8 @@ from ..robot.calibration import STAGES, predict_points
 
 #: the files of an absolute-pose diagnosis, one output set
 POSE_FILES = cr.FILES + ("report.html",)
+#: those of a parallel machine's (:mod:`vjm.discrepancy.platformposes`): no calibrated robot file
+PLATFORM_FILES = ("report.json", "summary.txt", "report.html")
 SCHEMA = "vjm.diagnosis.absolute/1"
 #: the F test's level of an effect when none is given (that of ``vjm calibrate``)
 DEFAULT_ALPHA = 1e-3
@@ -200,7 +203,7 @@ rows; points {html.escape(', '.join(rep['frames']))}); effects tried: {html.esca
 <h2>Effects named, in order of what each buys (position error of the fitted rows, mm)</h2>
 {_table(eff, ["effect", "buys (mean)"] + [f"before {k}" for k in st] + [f"after {k}" for k in st] + ["p"])}
 <h2>Stages</h2>{_table(cv, ["stage", "state", "RMS mm", "cross-validated RMS mm", "F test p", "note"])}
-<h2>Held out (each file registered on a few of its poses, the robot frozen)</h2>
+<h2>Held out (each file registered on a few of its poses, the {'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen)</h2>
 {_table(held, ["file", "registered on", "rows held out"] + [f"{k} mm" for k in st]) if held else
  f"<p>{rep['held_out']['folds']}-fold cross-validation (stages above).</p>"}
 <h2>Registration (a nuisance, not an effect)</h2>
@@ -216,14 +219,31 @@ def write(dg: PoseDiagnosis, out_dir, force: bool = False) -> None:
     extra = {"report.html": render_html(rep), "summary.txt": summary(rep)}
     if dg.commands is not None:
         extra["commands.csv"] = dg.commands
+    if not is_robot(dg.calibration.model):
+        _write_platform(out_dir, {"report.json": json.dumps(rep, indent=1) + "\n", **extra}, force)
+        return
     cr.write_set(out_dir, dg.calibration, rep, force, set_name="vjm diagnose", extra=extra)
 
 
-def check_folder(out_dir, force: bool = False, commands: bool = False) -> None:
-    """Refuse, before any work, an output folder that will not do (``commands``: commands.csv too)."""
+def _write_platform(out_dir, texts: dict, force: bool) -> None:
+    """A parallel machine's report set (:data:`PLATFORM_FILES`), one set ``vjm diagnose``."""
+    from pathlib import Path
+
+    from linkfea.files.outputs import OutputSet
     from linkfea.files.outputs import check_folder as check
 
-    check(out_dir, POSE_FILES + (("commands.csv",) if commands else ()), force=force)
+    check(out_dir, PLATFORM_FILES, force=force)
+    with OutputSet(Path(out_dir), "vjm diagnose") as s:
+        for name in PLATFORM_FILES:
+            Path(s.path(name)).write_text(texts[name], encoding="utf-8")
+
+
+def check_folder(out_dir, force: bool = False, commands: bool = False, robot: bool = True) -> None:
+    """Refuse, before any work, an output folder that will not do (``commands``: commands.csv too; ``robot``
+    False: a parallel machine's set, :data:`PLATFORM_FILES`)."""
+    from linkfea.files.outputs import check_folder as check
+
+    check(out_dir, (POSE_FILES if robot else PLATFORM_FILES) + (("commands.csv",) if commands else ()), force=force)
 
 
 def is_robot(model) -> bool:

@@ -35,6 +35,7 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw)
     from ..modelio.read import is_robot_file, load_model
     from ..robot import compcmd
     from . import absolute
+    from .platformposes import is_pose_file
     from .report import check_report_dir
     from .workflow import check_arguments, diagnose
 
@@ -44,7 +45,10 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw)
     if robot:   # absolute poses: their own report set
         absolute.check_folder(out_dir, force, commands=targets is not None)
     elif targets is not None:
-        raise VjmError("--targets is for a serial or tree robot's absolute poses (the commands reaching them)")
+        raise VjmError("--targets is for a serial or tree robot's absolute poses (the commands reaching them); a "
+                       "parallel machine's commands are its inverse kinematics")
+    elif is_pose_file(data_path, kw.get("columns")):   # a parallel machine's absolute poses
+        absolute.check_folder(out_dir, force, robot=False)
     else:
         check_report_dir(out_dir, force)   # the output checked before the model is loaded (before any work)
     model = load_model(model_path)

@@ -273,9 +273,9 @@ def read_csv(path) -> Deflections | StiffnessObs:
     missing = [c for c in POS + WRENCH + TWIST if c not in header]
     if missing and any(re.match(r"^.+\.[xyz]$", h) for h in header):
         raise _err(path, hdr_row, next(h for h in header if re.match(r"^.+\.[xyz]$", h)),
-                   "absolute poses (columns <frame>.x,.y,.z): vjm diagnose reads them for a serial or tree robot (a "
-                   "model file with urdf: or dh:); a parallel machine's platform poses at commanded actuator "
-                   "positions are not supported yet")
+                   "absolute poses (columns <frame>.x,.y,.z), not deflections: vjm diagnose reads them as such "
+                   "(vjm.robot.poses.read_poses), a robot's joint values or a parallel machine's actuator values "
+                   "with the platform's point")
     if missing:
         raise _err(path, hdr_row, missing[0],
                    f"missing column(s) {', '.join(missing)}; expected "

@@ -12,7 +12,6 @@ from linkfea.runtime.checks import Bounds, integer, number
 from ..errors import ArgumentError, VjmError
 from ..modelio.read import load_model
 from . import covariance
-from .absolute import check_options
 from .data import Deflections, read_csv
 from .diagnosis import Diagnosis
 from .stages import outliers as outl
@@ -148,9 +147,9 @@ def diagnose(model, data, alpha: float | None = None, effects=None, folds: int =
     if isinstance(model, (str, os.PathLike)):
         model_name = model_name or os.path.basename(os.fspath(model))
         model = load_model(model)
-    kind = kind_for(model)
+    kind = kind_for(model, data, columns)
     if kind is not None:
-        check_options(effects, suggest, forces_only, noise)
+        kind.check(effects, suggest, forces_only, noise)
         return kind.run(model, data, model_name=model_name, alpha=alpha if was_given else None, effects=effects,
                         folds=folds, columns=columns, validate=validate, register=register, outliers=outliers,
                         progress=progress)

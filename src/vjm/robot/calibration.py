@@ -57,6 +57,7 @@ from .absolute import (
     rotation_matrix,
 )
 from .flex import TEMPERATURE, flex_loads
+from .platform import points as platform_points
 
 STAGES = ("registration", "geometry", "compliance", "coupling", "lateral", "bending", "varying", "thermal", "tilt",
           "backlash", "payload")
@@ -101,6 +102,8 @@ class Calibration:
     set_aside: tuple = ()
     #: the other measured frames and their markers' base offsets ((frame, p0), ...): several points per row
     extra: tuple = ()
+    #: {parameter: (effect, unit)} where the names do not say them (a parallel machine's, vjm.robot.platform)
+    kinds: dict = field(default_factory=dict)
 
     @property
     def measured(self) -> tuple:
@@ -203,10 +206,15 @@ def initial_registration(model, data, frame: str, p0=None, rounds: int = 8) -> t
     each group's points alternating with the linear least squares of the marker offset (kept at ``p0`` if
     given)."""
     q = data.q_for(model.q_names)
-    T = model.forward(q, frame).reshape(-1, 4, 4)
-    m = data.points[frame]
-    groups = sorted({str(g) for g in data.groups})
-    rows = {g: np.array([str(x) == g for x in data.groups]) for g in groups}
+    return registration_from_frames(model.forward(q, frame).reshape(-1, 4, 4), data.points[frame], data.groups, p0,
+                                    rounds)
+
+
+def registration_from_frames(T: np.ndarray, m: np.ndarray, group, p0=None, rounds: int = 8) -> tuple[dict, np.ndarray]:
+    """:func:`initial_registration` of the nominal frames T (n, 4, 4) carrying the marker and the points m
+    (n, 3) measured, rows in the groups ``group`` (n,)."""
+    groups = sorted({str(g) for g in group})
+    rows = {g: np.array([str(x) == g for x in group]) for g in groups}
     p = np.zeros(3) if p0 is None else np.asarray(p0, dtype=float)
     frames: dict = {}
     for _ in range(1 if p0 is not None else rounds):
@@ -215,8 +223,8 @@ def initial_registration(model, data, frame: str, p0=None, rounds: int = 8) -> t
         if p0 is not None:
             break
         # m - R T_o - t = R T_R p: stack the groups, their t's as unknowns too
-        A = np.zeros((3 * len(q), 3 + 3 * len(groups)))
-        b = np.zeros(3 * len(q))
+        A = np.zeros((3 * len(T), 3 + 3 * len(groups)))
+        b = np.zeros(3 * len(T))
         for gi, g in enumerate(groups):
             R, _ = frames[g]
             idx = np.flatnonzero(rows[g])
@@ -229,17 +237,29 @@ def initial_registration(model, data, frame: str, p0=None, rounds: int = 8) -> t
     return frames, p
 
 
-def _residual_fn(prob: Problem, layout: Layout, meas: np.ndarray, fixed: dict):
+def _predict(prob, layout: Layout, x: np.ndarray, fixed: dict | None = None) -> np.ndarray:
+    """The predictions of a measurement model: a robot's :class:`Problem` (:mod:`vjm.robot.absolute`), or an
+    object answering ``predict`` (a parallel machine's :class:`vjm.robot.platform.PlatformProblem`)."""
+    own = getattr(prob, "predict", None)
+    return own(layout, x, fixed) if own is not None else predict(prob, layout, x, fixed)
+
+
+def _jacobian(prob, layout: Layout, x: np.ndarray, fixed: dict | None = None) -> np.ndarray:
+    own = getattr(prob, "jacobian", None)
+    return own(layout, x, fixed) if own is not None else jacobian_fast(prob, layout, x, fixed)
+
+
+def _residual_fn(prob, layout: Layout, meas: np.ndarray, fixed: dict):
     def fun(x):
-        return (predict(prob, layout, x, fixed) - meas).ravel()
+        return (_predict(prob, layout, x, fixed) - meas).ravel()
 
     def jac(x):
-        return jacobian_fast(prob, layout, x, fixed)
+        return _jacobian(prob, layout, x, fixed)
 
     return fun, jac
 
 
-def fit(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: dict | None = None):
+def fit(prob, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: dict | None = None):
     """Levenberg-Marquardt fit of ``layout``'s parameters: (x, std, rss)."""
     fixed = fixed or {}
     fun, jac = _residual_fn(prob, layout, meas, fixed)
@@ -341,6 +361,8 @@ def _one_sign(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[
 
 
 def _rows(prob, mask: np.ndarray):
+    if hasattr(prob, "rows"):
+        return prob.rows(mask)
     if isinstance(prob, Points):
         return Points(tuple(_rows(p, mask) for p in prob.parts))
     return replace(prob, q=prob.q[mask], gidx=prob.gidx[mask], torques=prob.torques[mask],
@@ -349,7 +371,7 @@ def _rows(prob, mask: np.ndarray):
                    flex=None if prob.flex is None else prob.flex.rows(mask))
 
 
-def cross_validated_rms(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.ndarray, folds: int) -> float:
+def cross_validated_rms(prob, layout: Layout, meas: np.ndarray, x0: np.ndarray, folds: int) -> float:
     """RMS position error (mm) of ``layout``'s fit over ``folds`` interleaved folds, each predicted by the
     fit on the others (started from ``x0``)."""
     n = len(prob.q)
@@ -359,7 +381,7 @@ def cross_validated_rms(prob: Problem, layout: Layout, meas: np.ndarray, x0: np.
     for f in range(folds):
         tr = fold != f
         x, _, _ = fit(_rows(prob, tr), layout, meas[np.tile(tr, k)], x0)
-        r = predict(_rows(prob, ~tr), layout, x) - meas[np.tile(~tr, k)]
+        r = _predict(_rows(prob, ~tr), layout, x) - meas[np.tile(~tr, k)]
         rss += float(np.sum(r * r))
     return float(np.sqrt(rss / len(meas)))
 
@@ -388,6 +410,18 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
     prob = _problems(model, data, measured, frames, **use)
     meas = _measurements(data, measured)
     full = _layout(model, measured, prob.groups, coupling="coupling" in effects, **use)
+    stages, best, removed = run_stages(prob, full, meas, [s for s in STAGES[1:] if s in effects], alpha, tol, flat,
+                                       folds)
+    lay = full.pick(best[0])
+    return Calibration(model, fr[0], dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, ps[0],
+                       tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:])
+
+
+def run_stages(prob, full: Layout, meas: np.ndarray, order, alpha: float, tol: float, flat: float, folds: int,
+               removed: list | None = None) -> tuple[list, tuple, list]:
+    """The engine of :func:`calibrate` on any measurement model ``prob`` (see :func:`_predict`) and its
+    parameters ``full`` (kinds ``reg`` and ``marker`` the nuisance, fitted first; then one kind per stage of
+    ``order``): (the stages, the best fit (indices, x, std, rss, cv), the parameters removed [(index, why)])."""
     active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
     x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
     m = meas.size
@@ -395,13 +429,11 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
     stages = [Stage("registration", True, len(active), rss, float(np.sqrt(rss / len(meas))), float("nan"), cv,
                     _stats(prob, full.pick(active), x, meas))]
     best = (active, x, sd, rss, cv)
-    removed: list = []
-    for name in STAGES[1:]:
-        if name not in effects:
-            continue
+    removed = list(removed or [])
+    for name in order:
         x_all = np.zeros(full.size)
         x_all[best[0]] = best[1]
-        J = jacobian_fast(prob, full, x_all)   # at the stage's start: the payload acts through the compliances
+        J = _jacobian(prob, full, x_all)   # at the stage's start: the payload acts through the compliances
         cands = [i for i, k in enumerate(full.kinds) if k == name]
         if name in ("compliance", "backlash", "lateral", "varying", "thermal"):
             cands, flat_out = (_one_sign if name == "backlash" else _flat_joints)(prob, full, cands, flat)
@@ -421,9 +453,7 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
         if ok:
             best = (trial, xt, sdt, rsst, cvt)
     stages, best = _backward(prob, full, meas, stages, best, alpha, folds)
-    lay = full.pick(best[0])
-    return Calibration(model, fr[0], dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, ps[0],
-                       tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:])
+    return stages, best, removed
 
 
 #: effects acting through another's parameters: the tilt's and the payload's torques through the compliances,
@@ -494,8 +524,8 @@ def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:
                        f"{size} parameters: measure more poses")
 
 
-def _stats(prob: Problem, layout: Layout, x: np.ndarray, meas: np.ndarray) -> dict:
-    return error_stats(np.linalg.norm(predict(prob, layout, x) - meas, axis=1))
+def _stats(prob, layout: Layout, x: np.ndarray, meas: np.ndarray) -> dict:
+    return error_stats(np.linalg.norm(_predict(prob, layout, x) - meas, axis=1))
 
 
 def _only_frame(data) -> str:
@@ -531,6 +561,8 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
 def predict_points(cal: Calibration, data) -> np.ndarray:
     """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups;
     with several measured points (k n, 3), frame after frame (``cal.measured``)."""
+    if not hasattr(cal.model, "tree"):
+        return platform_points(cal, data)
     prob = _problems(cal.model, data, cal.measured, cal.frames, **_uses(cal.values))
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
     return predict(prob, lay, np.array(list(cal.values.values())))

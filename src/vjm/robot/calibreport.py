@@ -152,7 +152,7 @@ def effects_named(cal: Calibration) -> list:
             out.append({"effect": s.name, "buys_mm": before["mean"] - s.stats["mean"], "before_mm": before,
                         "after_mm": s.stats, "p_value": s.p_value,
                         "cv_rms_mm": None if np.isnan(s.cv_rms) else s.cv_rms,
-                        "parameters": [k for k in cal.robot_values() if _kind(k) == s.name]})
+                        "parameters": [k for k in cal.robot_values() if cal.kinds.get(k, (_kind(k),))[0] == s.name]})
             before = s.stats
     return sorted(out, key=lambda e: -e["buys_mm"])
 
@@ -190,7 +190,8 @@ def report(cal: Calibration, opt: Options, model_path, data, validations: list, 
         "effects_tried": list(opt.effects), "alpha": opt.alpha,
         "effects": effects_named(cal),
         "stages": [_stage(s) for s in cal.stages],
-        "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": _unit(k)} for k, v in cal.robot_values().items()},
+        "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": cal.kinds[k][1] if k in cal.kinds else _unit(k)}
+                       for k, v in cal.robot_values().items()},
         "held_out": {"folds": opt.folds, "validate": validations},
         "registration": registration(cal),
         "not_identifiable": [r for r in removed if not r["why"].startswith("not observable")],
@@ -229,7 +230,8 @@ def summary(rep: dict) -> str:
         cv = [f"{s['name']} {s['cv_rms_mm']:.3f}" for s in rep["stages"] if s["cv_rms_mm"] is not None]
         lines.append(f"Held out, {rep['held_out']['folds']}-fold cross-validated RMS (mm): " + ", ".join(cv))
     for v in rep["held_out"]["validate"]:
-        lines.append(f"Held out, {v['file']} (registered on {v['registered_on']} of its poses, robot frozen; "
+        lines.append(f"Held out, {v['file']} (registered on {v['registered_on']} of its poses, "
+                     f"{'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen; "
                      f"{v['rows']} others): {_fmt(v['errors_mm'])}")
     lines.append(f"Not identifiable (removed): {len(rep['not_identifiable'])}; not observable: "
                  + (", ".join(r["parameter"] for r in rep["not_observable"]) or "none"))

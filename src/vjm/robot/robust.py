@@ -24,15 +24,18 @@ def outlying(errors: np.ndarray, kept: np.ndarray, ratio: float) -> np.ndarray:
 
 
 def calibrate_robust(model, data, frame: str | tuple | None = None, ratio: float = 4.5, rounds: int = 4,
-                     **kw) -> Calibration:
-    """:func:`~vjm.robot.calibration.calibrate` with outlying rows set aside (see the module docstring)."""
+                     fit=None, **kw) -> Calibration:
+    """:func:`~vjm.robot.calibration.calibrate` with outlying rows set aside (see the module docstring);
+    ``fit(model, data, frame, **kw)`` another calibration (a parallel machine's,
+    :func:`vjm.robot.platformcal.calibrate_platform`)."""
+    calibrate_ = fit or calibrate
     kept = np.ones(data.n, dtype=bool)
-    cal = calibrate(model, data, frame, **kw)
+    cal = calibrate_(model, data, frame, **kw)
     for _ in range(rounds):
         e = position_errors(cal, data)
         new = ~outlying(e, kept, ratio)
         if np.array_equal(new, kept):
             break
         kept = new
-        cal = calibrate(model, data.subset(kept), frame, **kw)
+        cal = calibrate_(model, data.subset(kept), frame, **kw)
     return replace(cal, set_aside=tuple(int(i) for i in np.flatnonzero(~kept)))

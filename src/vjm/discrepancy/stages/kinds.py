@@ -235,6 +235,12 @@ class AbsolutePoseKind:
 
     name = "absolute"
 
+    def check(self, effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
+        """The effects tried, the options that have no meaning on absolute poses refused."""
+        from ..absolute import check_options
+
+        return check_options(effects, suggest, forces_only, noise)
+
     def read(self, path, model, columns=None):
         """The data set of ``path`` (through the column map file ``columns``), the model's joints required."""
         from ...robot.poses import read_column_map, read_poses
@@ -252,6 +258,35 @@ class AbsolutePoseKind:
                        "to design")
 
 
+class PlatformPoseKind:
+    """Absolute poses of a parallel machine: the platform's point measured at commanded actuator values.  The
+    sibling of :class:`AbsolutePoseKind`: the same engine on the platform's measurement model
+    (:mod:`vjm.robot.platform`), handed over to
+    :func:`vjm.discrepancy.platformposes.diagnose_platform_poses`."""
+
+    name = "platform_absolute"
+
+    def check(self, effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
+        from ..platformposes import check_options
+
+        return check_options(effects, suggest, forces_only, noise)
+
+    def read(self, path, model, columns=None):
+        from ..platformposes import read
+
+        return read(path, model, columns)
+
+    def run(self, model, data, validate=(), **kw):
+        """The diagnosis (a :class:`~vjm.discrepancy.absolute.PoseDiagnosis`)."""
+        from ..platformposes import diagnose_platform_poses
+
+        return diagnose_platform_poses(model, data, validate_files=validate, **kw)
+
+    def design_scales(self, data, w, s2) -> tuple:
+        raise VjmError("--suggest needs deflection data (x,y,z,Fx..Mz,dx..rz): absolute poses have no loads "
+                       "to design")
+
+
 #: the strategy of a data kind that goes through the stages
 DataKind = DeflectionKind | StiffnessKind
 
@@ -262,14 +297,18 @@ def kind_of(data) -> DataKind:
     from ...robot.poses import AbsolutePoses
 
     if isinstance(data, AbsolutePoses):
-        raise VjmError(f"{data.source}: absolute poses are diagnosed on a serial or tree robot (a model file with "
-                       f"urdf: or dh:), not a parallel machine")
+        raise VjmError(f"{data.source}: absolute poses are diagnosed by their own kinds (AbsolutePoseKind, "
+                       f"PlatformPoseKind: kind_for), not the stages")
     return StiffnessKind() if isinstance(data, StiffnessObs) else DeflectionKind()
 
 
-def kind_for(model) -> AbsolutePoseKind | None:
-    """The kind a model fixes: absolute poses for a serial or tree robot; None for a parallel machine, whose
-    file says its kind (deflections or stiffness observations)."""
+def kind_for(model, data=None, columns=None) -> AbsolutePoseKind | PlatformPoseKind | None:
+    """The kind of absolute poses: a serial or tree robot's always; a parallel machine's when ``data`` holds
+    them (:func:`vjm.discrepancy.platformposes.is_pose_file`); else None: the file says its kind
+    (deflections or stiffness observations)."""
     from ..absolute import is_robot
+    from ..platformposes import is_pose_file
 
-    return AbsolutePoseKind() if is_robot(model) else None
+    if is_robot(model):
+        return AbsolutePoseKind()
+    return PlatformPoseKind() if is_pose_file(data, columns) else None

@@ -1,0 +1,143 @@
+"""``vjm diagnose`` on a parallel machine's absolute poses: the platform's point measured by an instrument at
+commanded actuator values, diagnosed by the calibration engine (:func:`vjm.robot.platformcal.calibrate_platform`,
+the robot's stages on the measurement model of :mod:`vjm.robot.platform`).
+
+The file has a column per actuator, named ``<chain>.<variable>`` (``A1.l`` of a hexapod's strut, ``x.q0``
+of an Orthoglide's carriage: :func:`vjm.kinematics.forward.actuator_names`), and the measured point
+``platform.x``, ``platform.y``, ``platform.z`` (mm, instrument frame; optional ``platform.sigma``,
+``group``), read as it is through a column map (``--columns``) like a robot's.  The report is that of a
+robot's poses (:mod:`vjm.discrepancy.absolute`): the effects named in order of what each buys (actuator
+offsets, chains' base attachments), the gap before and after, the held-out error (k-fold, or
+``--validate`` files each registered on ``--register`` of its poses, the machine frozen), the registration
+apart, what is not identifiable, the rows set aside as outliers (:mod:`vjm.robot.robust`, as a robot's).
+Written: ``report.json``, ``report.html``, ``summary.txt`` (no calibrated URDF: the machine is no robot
+file).  No elastic effect is tried: the rows carry no load.
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from ..errors import VjmError
+from ..kinematics.forward import actuator_names
+from ..robot import calibreport as cr
+from ..robot.calibration import error_stats, position_errors
+from ..robot.platform import EFFECTS, FRAME
+from ..robot.platformcal import calibrate_platform, register_platform
+from ..robot.robust import calibrate_robust
+from .absolute import DEFAULT_ALPHA, PoseDiagnosis, _verdict, lack_of_fit
+
+SCHEMA = "vjm.diagnosis.absolute/1"
+
+
+def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
+    """The effects tried (names of :data:`vjm.robot.platform.EFFECTS`; None: all), and a refusal of the
+    options that have no meaning on a parallel machine's absolute poses."""
+    if suggest:
+        raise VjmError("--suggest designs (posture, load) rows of deflection data; absolute poses have no loads "
+                       "to design (measure more configurations)")
+    if forces_only:
+        raise VjmError("--forces-only goes with --suggest, for deflection data")
+    if noise is not None:
+        raise VjmError("--tracker: absolute poses state their sigmas in <frame>.sigma columns (or the column map)")
+    eff = tuple(effects) if effects else EFFECTS
+    bad = sorted(set(eff) - set(EFFECTS))
+    if bad:
+        raise VjmError(f"--effect {bad[0]}: not an effect of a parallel machine's absolute poses; effects: "
+                       f"{', '.join(EFFECTS)}")
+    return eff
+
+
+def read(path, model, columns=None, group: str | None = None):
+    """A parallel machine's absolute poses (its actuators' columns required), one group per file without a
+    ``group`` column."""
+    from ..robot.poses import read_column_map, read_poses
+
+    cmap = read_column_map(columns) if columns is not None else None
+    d = read_poses(path, cmap, group=group)
+    names = actuator_names(model)
+    missing = [a for a in names if a not in d.joints]
+    if missing:
+        raise VjmError(f"{path}: no column for actuator(s) {', '.join(missing)}: a parallel machine's absolute "
+                       f"poses have a column per actuator, <chain>.<variable> ({', '.join(names)}; or map them in "
+                       f"the column map)")
+    return d if d.group is not None else d.with_group(Path(path).name)
+
+
+def _fit(model, data, frame, **kw):
+    return calibrate_platform(model, data, **kw)
+
+
+def validate(cal, data, k: int) -> dict:
+    """A validation file's held-out errors: its set-up registered on ``k`` of its poses, the machine frozen."""
+    few, rest = cr.split(data, k)
+    reg = register_platform(cal, few)
+    return {"file": data.source, "registered_on": k, "rows": int(rest.n),
+            "errors_mm": error_stats(position_errors(reg, rest))}
+
+
+def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: float | None = None, effects=None,
+                            folds: int = 5, columns=None, validate_files=(), register: int = 30,
+                            outliers: bool = True, progress=None) -> PoseDiagnosis:
+    """Diagnose a parallel machine's absolute poses (the module docstring): ``model`` and ``data`` loaded or
+    their files, ``columns`` a column map file, ``validate_files`` held-out files (then no k-fold),
+    ``outliers`` rows no effect explains set aside (:mod:`vjm.robot.robust`)."""
+    from ..modelio.read import load_model
+
+    eff = check_options(effects)
+    opt = cr.Options(FRAME, eff, DEFAULT_ALPHA if alpha is None else alpha, 0 if validate_files else folds, register)
+    cr.check_options(replace(opt, effects=()))
+    m: Any = load_model(model) if isinstance(model, (str, os.PathLike)) else model
+    d = read(data, m, columns) if isinstance(data, (str, os.PathLike)) else (
+        data if data.group is not None else data.with_group(os.path.basename(data.source) or "data"))
+    vals = [read(v, m, columns, group=f"validate:{Path(v).name}") for v in validate_files]
+    for v in vals:
+        cr.check_validation(v, register)
+    t0 = time.perf_counter()
+    if outliers:
+        cal = calibrate_robust(m, d, FRAME, fit=_fit, effects=eff, alpha=opt.alpha, folds=opt.folds)
+    else:
+        cal = calibrate_platform(m, d, eff, opt.alpha, folds=opt.folds)
+    held = [validate(cal, v, register) for v in vals]
+    rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)
+    lof = lack_of_fit(cal, d, opt.alpha)
+    named = [e["effect"] for e in rep["effects"]]
+    rep = {**rep, "schema": SCHEMA, "kind": "absolute_poses", "machine": "parallel", "actuators": list(d.joints),
+           "verdict": _verdict(named, lof), "named_effects": named, "lack_of_fit": lof}
+    if progress:
+        for s in rep["stages"]:
+            progress(f"{s['name']}: {'named' if s['kept'] else 'not named'}, RMS {s['rms_mm']:.4f} mm")
+    return PoseDiagnosis(rep, cal)
+
+
+def is_pose_file(data, columns=None) -> bool:
+    """Whether ``data`` (a path, or data read) holds absolute poses: read ones, a column map naming a point
+    (``<frame>.x``), or a header with ``<frame>.x`` columns and no deflection's wrench columns; False
+    where the file cannot be read (the deflections' reader then says why)."""
+    import csv
+    import re
+
+    from ..robot.poses import AbsolutePoses, read_column_map
+
+    if isinstance(data, AbsolutePoses):
+        return True
+    if not isinstance(data, (str, os.PathLike)):
+        return False
+    if columns is not None:
+        try:
+            return any(re.fullmatch(r".+\.x", k) for k in read_column_map(columns).columns)
+        except VjmError:
+            return False
+    if not os.path.isfile(data):   # a device (/dev/zero) is never read: its reader refuses it
+        return False
+    try:
+        with open(data, newline="", encoding="utf-8-sig") as f:
+            head = f.read(1 << 16)   # the header, at most 64 kB of it
+    except (OSError, UnicodeDecodeError):
+        return False
+    header = next((r for r in csv.reader(head.splitlines()) if r and not r[0].startswith("#")), [])
+    names = {h.strip() for h in header}
+    return any(re.fullmatch(r".+\.x", h) for h in names) and "Fx" not in names and "quantity" not in names
