@@ -14,6 +14,8 @@ parallelogram's own mobility (translation along ``(-sin q, 0, -cos q)``).
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..errors import VjmError
@@ -31,6 +33,7 @@ def _tz(a):
     return homogeneous(p=(0.0, 0.0, a))
 
 
+@functools.lru_cache(maxsize=8)
 def bar_chains(L: float, d: float):
     """The "up" and "down" chains of eq. 21-22 (variables: pivots p1, p2 and the bar spring)."""
     out = []
@@ -62,15 +65,39 @@ def parallelogram_stiffness(C_bar, L: float, d: float, q) -> tuple[np.ndarray, n
     """
     q = np.atleast_1d(np.asarray(q, dtype=float))
     Ks, ranks = [], []
-    for ch in bar_chains(L, d):
-        v = np.zeros((q.size, ch.n_vars))
-        v[:, ch.index("p1")] = q
-        v[:, ch.index("p2")] = -q
-        _, J = jacobian(ch, v)
+    for ch, J in zip(bar_chains(L, d), _bar_jacobians(float(L), float(d), q)):
         K, r = chain_stiffness(ch, J, {"bar": np.asarray(C_bar, dtype=float)})
         Ks.append(K)
         ranks.append(r)
     return Ks[0] + Ks[1], np.stack(ranks, axis=1)
+
+
+#: the bar chains' Jacobians of the last angle sets: a fit of a bar's compliance evaluates the same
+#: poses again and again, and the Jacobians (half of a parallelogram's cost) depend on the angles only
+_JACOBIANS: dict = {}
+#: ... kept for angle sets of at most this many poses (a large map computes them once anyway)
+JACOBIAN_MEMO_POSES = 4096
+_JACOBIAN_MEMO_SIZE = 8
+
+
+def _bar_jacobians(L: float, d: float, q: np.ndarray) -> tuple:
+    """The Jacobians of :func:`bar_chains` at parallelogram angles q (read-only arrays, memoized)."""
+    key = (L, d, q.tobytes())
+    if q.size <= JACOBIAN_MEMO_POSES and key in _JACOBIANS:
+        return _JACOBIANS[key]
+    out = []
+    for ch in bar_chains(L, d):
+        v = np.zeros((q.size, ch.n_vars))
+        v[:, ch.index("p1")] = q
+        v[:, ch.index("p2")] = -q
+        J = jacobian(ch, v)[1]
+        J.flags.writeable = False
+        out.append(J)
+    if q.size <= JACOBIAN_MEMO_POSES:
+        if len(_JACOBIANS) >= _JACOBIAN_MEMO_SIZE:
+            _JACOBIANS.pop(next(iter(_JACOBIANS)))   # the oldest
+        _JACOBIANS[key] = tuple(out)
+    return tuple(out)
 
 
 def mobility_direction(q) -> np.ndarray:

@@ -561,7 +561,7 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
 def predict_points(cal: Calibration, data) -> np.ndarray:
     """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups;
     with several measured points (k n, 3), frame after frame (``cal.measured``)."""
-    if not hasattr(cal.model, "tree"):
+    if cal.model.kind == "parallel":
         return platform_points(cal, data)
     prob = _problems(cal.model, data, cal.measured, cal.frames, **_uses(cal.values))
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
