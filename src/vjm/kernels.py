@@ -38,6 +38,7 @@ def _ik() -> None:
     the map kernel on a 6-dof platform, on the bundled hexapod."""
     import vjm
     from vjm.kinematics import ik
+    from vjm.kinematics.poses import as_poses
 
     m = vjm.load_model("machines/hexapod_6ups.yaml")
     # the IK kernels serve batches of COMPILED_FROM poses or more; anchors and predictions from 4 x ANCHOR_EVERY
@@ -45,7 +46,12 @@ def _ik() -> None:
     x, y = np.meshgrid(np.linspace(-10.0, 10.0, side), np.linspace(-10.0, 10.0, side))
     X = np.zeros((side * side, 6))
     X[:, 0], X[:, 1], X[:, 2] = x.ravel(), y.ravel(), 550.0
-    m.stiffness_map(X, kernel="numba")
+    m.stiffness_map(X, kernel="numba")   # its legs in closed form (ik_kernel.leg)
+    closed, ik.CLOSED_FORM = ik.CLOSED_FORM, False
+    try:   # and by Newton, as the legs of other machines
+        m.arch.solve_all(m, as_poses(X + 1.0, 6))
+    finally:
+        ik.CLOSED_FORM = closed
 
 
 def _path() -> None:

@@ -35,9 +35,13 @@ from typing import Any
 
 import numpy as np
 
+from . import closed_form
 from .chain import Chain, Factor, _frame_product
 from .transforms import AXIS, KINDS, ROTATION, rotation_vector, vee
 
+#: legs of the form of :mod:`vjm.kinematics.closed_form` (a 6-UPS hexapod's) are solved in closed form;
+#: False: every chain by Newton (the reference the tests compare with)
+CLOSED_FORM = True
 #: in a batch, one pose in this many (along a curve through the poses) is solved from the seed
 #: and the others start from a near one of them
 ANCHOR_EVERY = 16
@@ -311,10 +315,21 @@ def solve_chain(chain: Chain, unknowns, seed: np.ndarray, seed_frame: np.ndarray
         compiled = n >= COMPILED_FROM
     U = list(unknowns)
     seed = np.asarray(seed, dtype=float)
-    vu, ok, err = _solve(closure(chain, U), seed[U], seed_frame, np.asarray(frames, dtype=float), compiled)
+    frames = np.asarray(frames, dtype=float)
+    cl = closure(chain, U)
+    cf = closed_form.solve(cl.chain, seed[U], frames, cl.ell, _kernel() if compiled else None) if CLOSED_FORM else None
     out = np.empty((n, chain.n_vars))
     out[:] = seed
-    out[:, U] = vu.T
+    if cf is None:
+        vu, ok, err = _solve(cl, seed[U], seed_frame, frames, compiled)
+        out[:, U] = vu.T
+        return out, ok, err
+    vr, ok, err = cf  # a 6-UPS leg: closed form, the numeric solver where it does not close
+    bad = np.flatnonzero(~ok)
+    if bad.size:
+        vb, ok[bad], err[bad] = _solve(cl, seed[U], seed_frame, frames[bad], compiled)
+        vr[bad] = vb.T
+    out[:, U] = vr
     return out, ok, err
 
 

@@ -310,3 +310,88 @@ def conjugate(Si, S, frames, out):  # pragma: no cover - compiled
             m3 = Si[a, 0] * f[0, 3] + Si[a, 1] * f[1, 3] + Si[a, 2] * f[2, 3] + Si[a, 3] * f[3, 3]
             for b in range(4):
                 o[a, b] = m0 * S[0, b] + m1 * S[1, b] + m2 * S[2, b] + m3 * S[3, b]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _rot(ax, t, out):  # pragma: no cover - compiled
+    """out (3, 3) = the rotation by t about axis ax (0, 1, 2), right-handed."""
+    c, s = math.cos(t), math.sin(t)
+    i, j = (ax + 1) % 3, (ax + 2) % 3
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = 0.0
+    out[ax, ax] = 1.0
+    out[i, i] = c
+    out[j, j] = c
+    out[i, j] = -s
+    out[j, i] = s
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _mul3(A, B, out):  # pragma: no cover - compiled
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = A[a, 0] * B[0, b] + A[a, 1] * B[1, b] + A[a, 2] * B[2, b]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _wrap(a, seed):  # pragma: no cover - compiled
+    return a + 2.0 * math.pi * math.floor((seed - a) / (2.0 * math.pi) + 0.5)
+
+
+@njit(cache=True, error_model="numpy")
+def leg(R0i, t0i, R1i, t1i, axes, vars_, coefs, th, sgn, frames, ell, v, err):  # pragma: no cover - compiled
+    """:func:`vjm.kinematics.closed_form.solve` pose by pose: values v (n, 6) and closure errors err (n,) of
+    a U-P-S leg ``C0 R R T R R R C1`` on frames (n, 4, 4), with ``C0^-1 = (R0i, t0i)`` and ``C1^-1 = (R1i,
+    t1i)``.  ``axes`` (6,) the factors' axes, ``vars_`` and ``coefs`` their variables and coefficients, ``th``
+    the seed's factor values, ``sgn`` the signs (sb, sa, strut, cos of the U joint's second angle, wrist
+    permutation, cos of its middle angle).  The error is measured in the frame of ``C0^-1 F C1^-1``."""
+    Rg, A, Ra, Rb, Rp, W, T, U = (np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)),
+                                  np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)))
+    p, x = np.empty(3), np.empty(6)
+    a, b, c = axes[0], axes[1], axes[2]
+    i, j, k = axes[3], axes[4], axes[5]
+    sb, sa, sl, sc, e, cw = sgn[0], sgn[1], sgn[2], sgn[3], sgn[4], sgn[5]
+    for n in range(frames.shape[0]):
+        F = frames[n]
+        # G = C0^-1 F C1^-1: rotation R0i RF R1i, centre R0i (RF t1i + tF) + t0i
+        _mul3(R0i, F[:3, :3], A)
+        _mul3(A, R1i, Rg)
+        for r in range(3):
+            y = t0i[r]
+            for q in range(3):
+                y += A[r, q] * t1i[q] + R0i[r, q] * F[q, 3]
+            p[r] = y
+        ll = sl * math.sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2])
+        t2 = math.asin(min(1.0, max(-1.0, sb * p[a] / ll)))
+        if sc < 0.0:
+            t2 = math.pi - t2
+        x[0] = _wrap(math.atan2(sc * sa * p[b] / ll, sc * p[c] / ll), th[0])
+        x[1], x[2] = _wrap(t2, th[1]), ll
+        _rot(a, x[0], Ra)
+        _rot(b, x[1], Rb)
+        _mul3(Ra, Rb, Rp)
+        for r in range(3):   # W = Rp^T Rg
+            for s in range(3):
+                W[r, s] = Rp[0, r] * Rg[0, s] + Rp[1, r] * Rg[1, s] + Rp[2, r] * Rg[2, s]
+        s2 = math.asin(min(1.0, max(-1.0, e * W[i, k])))
+        if cw < 0.0:
+            s2 = math.pi - s2
+        x[3] = _wrap(math.atan2(-cw * e * W[j, k], cw * W[k, k]), th[3])
+        x[4] = _wrap(s2, th[4])
+        x[5] = _wrap(math.atan2(-cw * e * W[i, j], cw * W[i, i]), th[5])
+        for f in range(6):
+            v[n, vars_[f]] = x[f] / coefs[f]
+        # the check: the leg multiplied out (Rp R_i R_j R_k, Rp l e_c) against G
+        _rot(i, x[3], T)
+        _rot(j, x[4], U)
+        _mul3(T, U, W)
+        _rot(k, x[5], T)
+        _mul3(W, T, U)
+        _mul3(Rp, U, T)
+        er = ep = 0.0
+        for r in range(3):
+            ep = max(ep, abs(ll * Rp[r, c] - p[r]))
+            for s in range(3):
+                er = max(er, abs(T[r, s] - Rg[r, s]))
+        err[n] = max(ep, ell * er) if math.isfinite(ep + er) else math.nan
