@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from linkfea.options import ComputeOptions
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))  # the filleted bracket (tests/brackets.py)
 

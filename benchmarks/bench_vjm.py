@@ -126,6 +126,17 @@ def _side_by_side(name, n, side, target):
 TARGET_HEXAPOD, TARGET_DESC_RATIO = 20_000, 3.0
 
 
+def _with_legs(closed, f):
+    """f() with the 6-UPS legs in closed form (``closed``) or by Newton (vjm.kinematics.ik.CLOSED_FORM)."""
+    from vjm.kinematics import ik
+
+    was, ik.CLOSED_FORM = ik.CLOSED_FORM, closed
+    try:
+        return f()
+    finally:
+        ik.CLOSED_FORM = was
+
+
 def machines(n=30):
     import scipy.spatial  # noqa: F401  (imported by the IK on first use: keep it out of the timing)
 
@@ -145,6 +156,8 @@ def machines(n=30):
         return m.stiffness_map(P, kernel=kernel)
 
     side = interleaved_times({k: (lambda k=k: fresh_map(hexa, X, k)) for k in ("numba", "numpy")})
+    legs = interleaved_times({cf: (lambda cf=cf: _with_legs(cf, lambda: fresh_map(hexa, X, "numba")))
+                              for cf in (True, False)}, repeat=5)
 
     th, ch, _ = best_times(lambda: fresh_map(hexa, X))
     F = as_poses(X, 6)
@@ -170,6 +183,13 @@ def machines(n=30):
     print(f"  CPU time: {ch:.2f} s, {nh / ch:,.0f} poses/s  (IK alone {nh / ck:,.0f}, stiffness {nh / cs:,.0f})")
     print(f"target (>= {TARGET_HEXAPOD:,} poses/s): {'met' if rh >= TARGET_HEXAPOD else 'NOT met'}")
     _side_by_side("hexapod", nh, side, TARGET_KERNEL_HEXAPOD)
+    (_, cc, rc), (_, cn, rn) = legs[True], legs[False]
+    err = max(np.max(np.abs(getattr(rc, f) - getattr(rn, f)).reshape(nh, -1)
+                     / np.max(np.abs(getattr(rn, f)).reshape(nh, -1), axis=1)[:, None]) for f in ("K", "C"))
+    same = bool((rc.rank == rn.rank).all() and (rc.invertible == rn.invertible).all())
+    print(f"  compiled map, legs in closed form: CPU {cc:.3f} s, {nh / cc:,.0f} poses/s; legs by Newton: CPU "
+          f"{cn:.3f} s, {nh / cn:,.0f} poses/s; ratio {cn / cc:.2f}x (best of 5, interleaved); max relative "
+          f"difference of K, C {err:.1e}; same ranks: {same}")
     print(f"  stiffness from the kinematics alone (CPU): compiled {nh / stiff['numba'][1]:,.0f} poses/s, "
           f"numpy {nh / stiff['numpy'][1]:,.0f} poses/s; inverse kinematics alone {nh / ck:,.0f} poses/s")
     print(f"Orthoglide 3-PUU, {len(P)} poses (50^3 grid): description file {tb:.2f} s ({len(P) / tb:,.0f} poses/s), "

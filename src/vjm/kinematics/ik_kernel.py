@@ -313,9 +313,8 @@ def conjugate(Si, S, frames, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _rot(ax, t, out):  # pragma: no cover - compiled
-    """out (3, 3) = the rotation by t about axis ax (0, 1, 2), right-handed."""
-    c, s = math.cos(t), math.sin(t)
+def _rot(ax, c, s, out):  # pragma: no cover - compiled
+    """out (3, 3) = the rotation about axis ax (0, 1, 2) of cosine c and sine s, right-handed."""
     i, j = (ax + 1) % 3, (ax + 2) % 3
     for a in range(3):
         for b in range(3):
@@ -363,30 +362,41 @@ def leg(R0i, t0i, R1i, t1i, axes, vars_, coefs, th, sgn, frames, ell, v, err):  
                 y += A[r, q] * t1i[q] + R0i[r, q] * F[q, 3]
             p[r] = y
         ll = sl * math.sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2])
-        t2 = math.asin(min(1.0, max(-1.0, sb * p[a] / ll)))
+        # the angles, and their cosines and sines from the same numbers (for the check: no more trigonometry)
+        z = min(1.0, max(-1.0, sb * p[a] / ll))
+        c2 = sc * math.sqrt(1.0 - z * z)
+        t2 = math.asin(z)
         if sc < 0.0:
             t2 = math.pi - t2
-        x[0] = _wrap(math.atan2(sc * sa * p[b] / ll, sc * p[c] / ll), th[0])
+        y1, x1 = sc * sa * p[b] / ll, sc * p[c] / ll
+        h = math.sqrt(x1 * x1 + y1 * y1)
+        x[0] = _wrap(math.atan2(y1, x1), th[0])
         x[1], x[2] = _wrap(t2, th[1]), ll
-        _rot(a, x[0], Ra)
-        _rot(b, x[1], Rb)
+        _rot(a, x1 / h, y1 / h, Ra)
+        _rot(b, c2, z, Rb)
         _mul3(Ra, Rb, Rp)
         for r in range(3):   # W = Rp^T Rg
             for s in range(3):
                 W[r, s] = Rp[0, r] * Rg[0, s] + Rp[1, r] * Rg[1, s] + Rp[2, r] * Rg[2, s]
-        s2 = math.asin(min(1.0, max(-1.0, e * W[i, k])))
+        z = min(1.0, max(-1.0, e * W[i, k]))
+        c2 = cw * math.sqrt(1.0 - z * z)
+        s2 = math.asin(z)
         if cw < 0.0:
             s2 = math.pi - s2
-        x[3] = _wrap(math.atan2(-cw * e * W[j, k], cw * W[k, k]), th[3])
+        y1, x1 = -cw * e * W[j, k], cw * W[k, k]
+        y3, x3 = -cw * e * W[i, j], cw * W[i, i]
+        x[3] = _wrap(math.atan2(y1, x1), th[3])
         x[4] = _wrap(s2, th[4])
-        x[5] = _wrap(math.atan2(-cw * e * W[i, j], cw * W[i, i]), th[5])
+        x[5] = _wrap(math.atan2(y3, x3), th[5])
         for f in range(6):
             v[n, vars_[f]] = x[f] / coefs[f]
         # the check: the leg multiplied out (Rp R_i R_j R_k, Rp l e_c) against G
-        _rot(i, x[3], T)
-        _rot(j, x[4], U)
+        h = math.sqrt(x1 * x1 + y1 * y1)
+        _rot(i, x1 / h, y1 / h, T)
+        _rot(j, c2, z, U)
         _mul3(T, U, W)
-        _rot(k, x[5], T)
+        h = math.sqrt(x3 * x3 + y3 * y3)
+        _rot(k, x3 / h, y3 / h, T)
         _mul3(W, T, U)
         _mul3(Rp, U, T)
         er = ep = 0.0
