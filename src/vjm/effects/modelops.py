@@ -7,19 +7,31 @@ One home for the coupling to the VJM core: the helpers only use the public model
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from ..errors import VjmError
 from ..model.links import LinkSpring
+from ..stiffness.linear import KERNEL_ENV
 
 # --------------------------------------------------------------- per-pose quantities
 
 
+#: a fit evaluates the map of the same poses thousands of times: from this many poses it runs the
+#: compiled kernels (loaded once per process, about 1 s; compiled once per install), far below the
+#: ``KERNEL_FROM`` of a single map.  ``VJM_MAP_KERNEL`` set in the environment decides instead.
+REPEATED_FROM = 16
+
+
 def stiffness_result(model, P):
     """``model.stiffness_map(P)``.  The model keeps the kinematics of recent pose batches and
-    shares them with the models ``replace`` derives from it (same geometry), so a fit that
-    changes stiffness parameters only redoes the spring part (eq. 11, 13)."""
-    return model.stiffness_map(P)
+    shares them (and its chains) with the models ``replace`` derives from it (same geometry), so a
+    fit that changes stiffness parameters only redoes the spring part (eq. 11, 13), compiled
+    from :data:`REPEATED_FROM` poses."""
+    n = np.shape(getattr(P, "frames", P))[0]
+    repeated = n >= REPEATED_FROM and not os.environ.get(KERNEL_ENV)
+    return model.stiffness_map(P, kernel="numba" if repeated else None)
 
 
 def compliance_map(model, P) -> np.ndarray:

@@ -292,7 +292,7 @@ class ParallelModel(Model):
         :class:`linkfea.LinkResult`, a :class:`linkfea.Compliance`, a 6x6 matrix, the path of a
         result JSON or a bundled link name (see :func:`vjm.model.links.as_link`).
 
-        The copy shares this model's cache of recent kinematics when its
+        The copy shares this model's cache of recent kinematics and its chains when its
         kinematic key is unchanged (a change of springs, say), so repeated
         stiffness evaluations at the same poses redo only the spring part.
         """
@@ -308,6 +308,10 @@ class ParallelModel(Model):
         new = dataclasses.replace(self, links=links, **changes)
         if new.kinematic_key == self.kinematic_key:
             object.__setattr__(new, "_kin_cache", self._kin_cache)
+            if "chains" in self.__dict__ and "chains" not in new.__dict__:
+                # the chains are a function of the kinematic key (never of a compliance): a fit that
+                # changes springs only does not rebuild them at every step
+                new.__dict__["chains"] = self.chains
         return new
 
     # -- per-pose computations --------------------------------------------
