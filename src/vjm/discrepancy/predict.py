@@ -83,7 +83,7 @@ class Predictor:
                     if nm == CALIBRATION or REGISTRY[nm].kind == "model")
         C = self._cache.get(key)
         if C is None:
-            C = mo.compliance_map(model, self.ctx.P)
+            C = mo.compliance_map(model, self.ctx.P, repeated=True)   # a fit's map: compiled
             if len(self._cache) > 64:
                 self._cache.clear()
             self._cache[key] = C
@@ -142,7 +142,7 @@ class Predictor:
     def kvalues(self, names, theta) -> np.ndarray:
         """(m, 2) k_tran, k_rot of the unique postures."""
         model, _ = self.build_model(names, theta)
-        return mo.kvalues_map(model, self.ctx.P)
+        return mo.kvalues_map(model, self.ctx.P, repeated=True)
 
 
 def deflection_problem(pred: Predictor, data: Deflections, sig, sigma_known, candidates) -> Problem:

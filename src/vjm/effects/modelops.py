@@ -18,30 +18,32 @@ from ..stiffness.linear import KERNEL_ENV
 # --------------------------------------------------------------- per-pose quantities
 
 
-#: a fit evaluates the map of the same poses thousands of times: from this many poses it runs the
-#: compiled kernels (loaded once per process, about 1 s; compiled once per install), far below the
-#: ``KERNEL_FROM`` of a single map.  ``VJM_MAP_KERNEL`` set in the environment decides instead.
+#: a fit evaluates the map of the same poses thousands of times: its maps (``repeated=True``) run the
+#: compiled kernels from this many poses (loaded once per process, about 1 s; compiled once per install),
+#: far below the ``KERNEL_FROM`` of a single map.  ``VJM_MAP_KERNEL`` set in the environment decides instead.
 REPEATED_FROM = 16
 
 
-def stiffness_result(model, P):
+def stiffness_result(model, P, repeated: bool = False):
     """``model.stiffness_map(P)``.  The model keeps the kinematics of recent pose batches and
     shares them (and its chains) with the models ``replace`` derives from it (same geometry), so a
-    fit that changes stiffness parameters only redoes the spring part (eq. 11, 13), compiled
-    from :data:`REPEATED_FROM` poses."""
+    fit that changes stiffness parameters only redoes the spring part (eq. 11, 13).  ``repeated``: the
+    map of a fit, compiled from :data:`REPEATED_FROM` poses.  Only the fits ask for it: a caller that
+    cuts its poses into chunks (``simulate``, for its progress) keeps the default, so that its numbers do
+    not depend on the chunks."""
     n = np.shape(getattr(P, "frames", P))[0]
-    repeated = n >= REPEATED_FROM and not os.environ.get(KERNEL_ENV)
-    return model.stiffness_map(P, kernel="numba" if repeated else None)
+    compiled = repeated and n >= REPEATED_FROM and not os.environ.get(KERNEL_ENV)
+    return model.stiffness_map(P, kernel="numba" if compiled else None)
 
 
-def compliance_map(model, P) -> np.ndarray:
+def compliance_map(model, P, repeated: bool = False) -> np.ndarray:
     """(m, 6, 6) compliance C at postures P (world axes at the end-effector point)."""
-    return stiffness_result(model, P).C
+    return stiffness_result(model, P, repeated).C
 
 
-def kvalues_map(model, P) -> np.ndarray:
+def kvalues_map(model, P, repeated: bool = False) -> np.ndarray:
     """(m, 2) ``k_tran``, ``k_rot`` at postures P (vjm's definitions)."""
-    r = stiffness_result(model, P)
+    r = stiffness_result(model, P, repeated)
     return np.stack([r.k_tran, r.k_rot], axis=1)
 
 
