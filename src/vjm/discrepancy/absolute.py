@@ -81,9 +81,11 @@ class PoseDiagnosis:
         return f"<PoseDiagnosis {self.verdict}: named {self.named or 'nothing'}>"
 
 
-def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
-    """The effects tried (``effects`` names of :data:`vjm.robot.calibration.STAGES`, None: the default ones),
-    and a refusal of the options that have no meaning on absolute poses."""
+def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=None, known=None, default=None,
+                  what: str = "absolute poses") -> tuple:
+    """The effects tried (``effects`` names of ``known``, default :data:`vjm.robot.calibration.STAGES`; None:
+    ``default``, the default ones), and a refusal of the options that have no meaning on absolute poses
+    (``what`` they are in the error line)."""
     if suggest:
         raise VjmError("--suggest designs (posture, load) rows of deflection data; absolute poses have no loads "
                        "to design (measure more configurations)")
@@ -91,10 +93,11 @@ def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=No
         raise VjmError("--forces-only goes with --suggest, for deflection data")
     if noise is not None:
         raise VjmError("--tracker: absolute poses state their sigmas in <frame>.sigma columns (or the column map)")
-    eff = tuple(effects) if effects else cr.DEFAULT_EFFECTS
-    bad = sorted(set(eff) - set(STAGES[1:]))
+    known = tuple(STAGES[1:] if known is None else known)
+    eff = tuple(effects) if effects else tuple(cr.DEFAULT_EFFECTS if default is None else default)
+    bad = sorted(set(eff) - set(known))
     if bad:
-        raise VjmError(f"--effect {bad[0]}: not an effect of absolute poses; effects: {', '.join(STAGES[1:])}")
+        raise VjmError(f"--effect {bad[0]}: not an effect of {what}; effects: {', '.join(known)}")
     return eff
 
 

@@ -28,6 +28,7 @@ from ..robot.calibration import error_stats, position_errors
 from ..robot.platform import EFFECTS, FRAME
 from ..robot.platformcal import calibrate_platform, register_platform
 from ..robot.robust import calibrate_robust
+from . import absolute
 from .absolute import DEFAULT_ALPHA, PoseDiagnosis, _verdict, lack_of_fit
 
 SCHEMA = "vjm.diagnosis.absolute/1"
@@ -36,19 +37,8 @@ SCHEMA = "vjm.diagnosis.absolute/1"
 def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
     """The effects tried (names of :data:`vjm.robot.platform.EFFECTS`; None: all), and a refusal of the
     options that have no meaning on a parallel machine's absolute poses."""
-    if suggest:
-        raise VjmError("--suggest designs (posture, load) rows of deflection data; absolute poses have no loads "
-                       "to design (measure more configurations)")
-    if forces_only:
-        raise VjmError("--forces-only goes with --suggest, for deflection data")
-    if noise is not None:
-        raise VjmError("--tracker: absolute poses state their sigmas in <frame>.sigma columns (or the column map)")
-    eff = tuple(effects) if effects else EFFECTS
-    bad = sorted(set(eff) - set(EFFECTS))
-    if bad:
-        raise VjmError(f"--effect {bad[0]}: not an effect of a parallel machine's absolute poses; effects: "
-                       f"{', '.join(EFFECTS)}")
-    return eff
+    return absolute.check_options(effects, suggest, forces_only, noise, known=EFFECTS, default=EFFECTS,
+                                  what="a parallel machine's absolute poses")
 
 
 def read(path, model, columns=None, group: str | None = None):

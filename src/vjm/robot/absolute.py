@@ -82,18 +82,25 @@ class Layout:
                       tuple(self.units[i] for i in k))
 
 
-def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = False,
-                coupling: bool = False, flex: bool = False, thermal: bool = False) -> Layout:
-    """Every parameter of the measurement model of a point on ``frame`` (registration of each group
-    first, the marker offset, then per joint of the path its offset and origin error, then the compliances,
-    the backlashes, with ``coupling`` each joint's value coupled to each other's (``a.coupling[b]``: a
-    turns by that times b's value, a gear train's or a misread joint's), the base tilt and the payload)."""
+def registration_parameters(groups) -> tuple[list, list, list]:
+    """Names, kinds and units of every group's instrument frame (``reg[g].tx .. rz``): the first
+    parameters of a layout, the robot's and the parallel machine's."""
     names, kinds, units = [], [], []
     for g in groups:
         for k in _REG:
             names.append(f"reg[{g}].{k}")
             kinds.append("reg")
             units.append("mm" if k[0] == "t" else "rad")
+    return names, kinds, units
+
+
+def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = False,
+                coupling: bool = False, flex: bool = False, thermal: bool = False) -> Layout:
+    """Every parameter of the measurement model of a point on ``frame`` (registration of each group
+    first, the marker offset, then per joint of the path its offset and origin error, then the compliances,
+    the backlashes, with ``coupling`` each joint's value coupled to each other's (``a.coupling[b]``: a
+    turns by that times b's value, a gear train's or a misread joint's), the base tilt and the payload)."""
+    names, kinds, units = registration_parameters(groups)
     for k in ("px", "py", "pz"):
         names.append(f"{frame}.{k}")
         kinds.append("marker")
@@ -473,19 +480,28 @@ def jacobian_fast(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | No
     vals = dict(fixed or {})
     vals.update(zip(layout.names, x))
     pb, cols = _base_columns(prob, vals)
+    return instrument_jacobian(pb, cols, layout, vals, prob.groups, prob.gidx, prob.R0)
+
+
+def instrument_jacobian(pb: np.ndarray, cols: dict, layout: Layout, vals: dict, groups, gidx, R0) -> np.ndarray:
+    """d (measured points) / d (parameters of ``layout``), (3n, size), from the points ``pb`` (n, 3) in the
+    base frame and their columns ``cols`` (name: (n, 3) or (3,) base-frame motion per unit of the parameter):
+    each group's instrument rotation applied to them, the registration's own columns added (translations,
+    and rotations by central differences of ``_STEP["rad"]``).  The robot's and the parallel machine's
+    measurement models share it."""
     J = np.zeros((len(pb), 3, layout.size))
     h = _STEP["rad"]
-    for gi, g in enumerate(prob.groups):
-        rows = prob.gidx == gi
+    for gi, g in enumerate(groups):
+        rows = gidx == gi
         w = np.array([vals.get(f"reg[{g}].r{c}", 0.0) for c in "xyz"])
-        R = rotation_matrix(w) @ prob.R0[gi]
+        R = rotation_matrix(w) @ R0[gi]
         for i, name in enumerate(layout.names):
             if name.startswith(f"reg[{g}].t"):
                 J[rows, "xyz".index(name[-1]), i] = 1.0
             elif name.startswith(f"reg[{g}].r"):
                 e = np.zeros(3)
                 e["xyz".index(name[-1])] = h
-                dR = (rotation_matrix(w + e) - rotation_matrix(w - e)) @ prob.R0[gi] / (2 * h)
+                dR = (rotation_matrix(w + e) - rotation_matrix(w - e)) @ R0[gi] / (2 * h)
                 J[rows, :, i] = pb[rows] @ dR.T
             elif name in cols:
                 J[rows, :, i] = np.broadcast_to(cols[name], pb.shape)[rows] @ R.T

@@ -30,14 +30,12 @@ import numpy as np
 
 from ..errors import VjmError
 from ..kinematics import forward as fk
-from .absolute import Layout, rotation_matrix
+from .absolute import Layout, instrument_jacobian, registration_parameters, rotation_matrix
 
 #: the measured frame of a parallel machine
 FRAME = "platform"
 #: the geometric effects, in the order they are tried
 EFFECTS = ("offset", "attachment")
-_REG = ("tx", "ty", "tz", "rx", "ry", "rz")
-_H = 1e-7   # rad: central-difference step of the registration's rotation vector (as vjm.robot.absolute)
 
 
 def actuator_units(asm: fk.Assembly) -> tuple:
@@ -52,12 +50,7 @@ def actuator_units(asm: fk.Assembly) -> tuple:
 def full_layout(model, asm: fk.Assembly, groups) -> Layout:
     """Every parameter: each group's registration, the marker (6-dof platforms), the actuator offsets,
     the chains' base translations."""
-    names, kinds, units = [], [], []
-    for g in groups:
-        for k in _REG:
-            names.append(f"reg[{g}].{k}")
-            kinds.append("reg")
-            units.append("mm" if k[0] == "t" else "rad")
+    names, kinds, units = registration_parameters(groups)
     if asm.dof == 6:
         for c in "xyz":
             names.append(f"{FRAME}.p{c}")
@@ -145,22 +138,7 @@ class PlatformProblem:
         cols.update({f"{ch.name}.base.d{c}": v for (ch, c), v in
                      zip([(ch, c) for ch in self.asm.chains for c in "xyz"], np.moveaxis(moved(ts), 2, 0))})
         cols.update({f"{self.frame}.p{c}": R[:, :, i] for i, c in enumerate("xyz")})
-        J = np.zeros((len(pb), 3, layout.size))
-        for gi, g in enumerate(self.groups):
-            rows = self.gidx == gi
-            Rg = _rotation(vals, g, self.R0[gi])
-            w = np.array([vals.get(f"reg[{g}].r{c}", 0.0) for c in "xyz"])
-            for i, name in enumerate(layout.names):
-                if name.startswith(f"reg[{g}].t"):
-                    J[rows, "xyz".index(name[-1]), i] = 1.0
-                elif name.startswith(f"reg[{g}].r"):
-                    e = np.zeros(3)
-                    e["xyz".index(name[-1])] = _H
-                    dR = (rotation_matrix(w + e) - rotation_matrix(w - e)) @ self.R0[gi] / (2 * _H)
-                    J[rows, :, i] = pb[rows] @ dR.T
-                elif name in cols:
-                    J[rows, :, i] = cols[name][rows] @ Rg.T
-        return J.reshape(-1, layout.size)
+        return instrument_jacobian(pb, cols, layout, vals, self.groups, self.gidx, self.R0)
 
 
 def _rotation(vals: dict, g: str, R0: np.ndarray) -> np.ndarray:
