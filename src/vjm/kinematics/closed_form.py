@@ -29,7 +29,8 @@ import numpy as np
 from .chain import Chain
 from .transforms import AXIS, ROTATION, elementary
 
-#: closure tolerance relative to the chain's size (as vjm.kinematics.ik.CLOSE_TOL)
+#: closure tolerance of the check, relative to the chain's size (ten times Newton's
+#: vjm.kinematics.ik.CLOSE_TOL: the check's own product adds its round-off)
 CLOSE_TOL = 1e-12
 
 

@@ -23,6 +23,9 @@ then is continued along the straight path of poses from the seed pose to it
 which keeps the solution on the seed's assembly branch; a pose that still does
 not close is reported unreachable.
 
+A 6-UPS leg (a U joint, a strut, an S joint) needs none of this: :mod:`vjm.kinematics.closed_form`
+solves it without iterating, and Newton only takes the poses it does not close.
+
 Batches of ``COMPILED_FROM`` poses or more run the compiled kernels of
 :mod:`vjm.kinematics.ik_kernel` (numba) pose by pose, smaller ones the numpy code below
 batched over poses: same steps, same results to round-off.
@@ -304,9 +307,11 @@ def solve_chain(chain: Chain, unknowns, seed: np.ndarray, seed_frame: np.ndarray
     """Values (n, n_vars) of one chain closing on platform frames (n, 4, 4), from a seed posture.
 
     ``seed`` (n_vars,) are the chain's values at the platform frame ``seed_frame`` (4, 4); the
-    variables other than ``unknowns`` keep their seed values.  Direct Newton from the seed, or
-    from a near anchor in a large batch; poses left open are continued along the path of poses
-    from the seed frame (see the module docstring).  Returns values (n, n_vars), converged mask
+    variables other than ``unknowns`` keep their seed values.  A leg of the form of
+    :mod:`vjm.kinematics.closed_form` (with ``CLOSED_FORM``) is solved in closed form, the poses it
+    does not close by Newton; otherwise direct Newton from the seed, or from a near anchor in a large
+    batch; poses left open are continued along the path of poses from the seed frame (see the module
+    docstring).  Returns values (n, n_vars), converged mask
     (n,) and closure error (n,) mm.  ``compiled``: use the compiled kernels (default: for
     batches of ``COMPILED_FROM`` poses or more, where they repay loading them).
     """
