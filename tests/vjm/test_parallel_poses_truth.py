@@ -184,3 +184,32 @@ def test_orthoglide_carriage_offsets_are_recovered():
         assert abs(pars[f"{name}.offset"]["value"] - true) < 4 * pars[f"{name}.offset"]["std"] < 0.04
     gone = {r["parameter"] for r in dg.report["not_identifiable"]}
     assert {"platform.px", "platform.py", "platform.pz", "x.base.dx"} <= gone
+
+
+@pytest.mark.parametrize("name", ["hexapod_6ups", "delta_rrpar", "linear_delta"])
+def test_units_and_step_limits_follow_the_transforms_of_the_file(name):
+    """An actuator's unit is rad where the file writes its transform as a rotation (``Rz(q0) actuated``),
+    mm for a translation; a passive angle's Newton step is limited to 0.3 rad, a passive length's and the
+    platform's translation to 0.3 of the machine's size.  Read from the YAML's transform strings."""
+    import re
+
+    import yaml
+
+    from vjm.robot.platform import actuator_units
+
+    path = os.path.join(tr.ROOT, "data", "machines", f"{name}.yaml")
+    with open(path, encoding="utf-8") as f:
+        spec = yaml.safe_load(f)
+    model = vjm.load_model(path)
+    asm = fk.assembly(model)
+    kind: dict = {}   # variable name -> "R" or "T", as the file writes its transform (the same in every chain)
+    for ch in spec["chains"]:
+        for m in re.finditer(r"([RT])[xyz]\((\w+)\)", " ".join(str(t) for t in ch["transforms"])):
+            assert kind.setdefault(m.group(2), m.group(1)) == m.group(1)
+    want_units = tuple("rad" if kind[c.var_names[a]] == "R" else "mm" for c, a in zip(asm.chains, asm.actuated))
+    assert actuator_units(asm) == want_units
+    want_lim = [0.3 if kind[c.var_names[u]] == "R" else 0.3 * asm.ell for c, p in zip(asm.chains, asm.passive)
+                for u in p]
+    want_lim += [0.3 * asm.ell] * 3 + [0.3] * (asm.dof - 3)
+    assert np.allclose(fk._limits(asm), want_lim, rtol=0, atol=0)
+    assert "rad" in want_units or name != "delta_rrpar"   # the delta's arms are turned: a rotary actuator

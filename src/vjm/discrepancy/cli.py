@@ -88,12 +88,13 @@ def diagnose_cmd(
                                                                 "effect, default 0.001)"),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="restrict the candidates (repeatable); a "
                                                                       "robot's: the effects tried, in this order"),
-    columns: Optional[Path] = typer.Option(None, "--columns", help="a robot's absolute poses: column map YAML (the "
-                                                                   "file's own names, units, separator)"),
-    validate: Optional[List[Path]] = typer.Option(None, "--validate", help="a robot's absolute poses: held-out file "
-                                                                           "(a new instrument set-up; repeatable)"),
+    columns: Optional[Path] = typer.Option(None, "--columns", help="absolute poses (a robot's or a parallel "
+                                                                   "machine's): column map YAML (the file's own names, "
+                                                                   "units, separator)"),
+    validate: Optional[List[Path]] = typer.Option(None, "--validate", help="absolute poses: held-out file (a new "
+                                                                           "instrument set-up; repeatable)"),
     register_on: int = typer.Option(30, "--register", help="poses of each --validate file that register its "
-                                                           "instrument frame (the robot frozen)"),
+                                                           "instrument frame (the robot or machine frozen)"),
     targets: Optional[Path] = typer.Option(None, "--targets", help="a robot's: also commands.csv, the joint values "
                                                                   "reaching these points x,y,z[,rx,ry,rz] (mm, rad, "
                                                                   "base frame) under self-weight, calibrated model"),

@@ -28,20 +28,13 @@ import numpy as np
 
 from ..errors import VjmError
 from .chain import forward, jacobian
-from .ik import chain_size
+from .ik import CLOSE_TOL, MAX_STEP, PATH_STEPS, STALL_TOL, _step_limits, chain_size
 from .poses import rotation_matrix
 from .transforms import vee
 
-#: Newton iterations per start
+#: Newton iterations per start.  The step limit (MAX_STEP), the closure and stall tolerances and the
+#: continuation's PATH_STEPS are the inverse kinematics' (:mod:`vjm.kinematics.ik`).
 MAX_ITER = 30
-#: intermediate steps of the continuation from the start's actuator values
-PATH_STEPS = 8
-#: largest change of an angle (rad), or of a length over ``ell``, in one Newton step
-MAX_STEP = 0.3
-#: closure error (relative to ``ell``) at which a row is closed
-CLOSE_TOL = 1e-13
-#: a row whose error stops halving below this (relative to ``ell``) has reached the round-off floor
-STALL_TOL = 1e-10
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,13 +188,10 @@ def _step(asm: Assembly, v, X, dz):
 
 
 def _limits(asm: Assembly) -> np.ndarray:
-    lim = []
-    for k, ch in enumerate(asm.chains):
-        for u in asm.passive[k]:
-            rot = any(f.var == u and f.kind[0] == "R" for f in ch.factors if f.kind != "const")
-            lim.append(MAX_STEP if rot else MAX_STEP * asm.ell)
-    lim += [MAX_STEP * asm.ell] * 3 + [MAX_STEP] * (asm.dof - 3)
-    return np.array(lim)
+    """The largest step of each unknown: the passives' as the inverse kinematics limits them, then the
+    platform's translation (times ``ell``) and rotation (rad)."""
+    lim = [_step_limits(ch, asm.passive[k], asm.ell) for k, ch in enumerate(asm.chains)]
+    return np.concatenate(lim + [np.full(3, MAX_STEP * asm.ell), np.full(asm.dof - 3, MAX_STEP)])
 
 
 def newton(asm: Assembly, q: np.ndarray, start: State, shift=None, max_iter: int = MAX_ITER) -> State:

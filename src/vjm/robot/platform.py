@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import VjmError
 from ..kinematics import forward as fk
+from ..kinematics.transforms import ROTATION
 from .absolute import Layout, instrument_jacobian, registration_parameters, rotation_matrix
 
 #: the measured frame of a parallel machine
@@ -43,7 +44,7 @@ def actuator_units(asm: fk.Assembly) -> tuple:
     out = []
     for ch, a in zip(asm.chains, asm.actuated):
         kind = next(f.kind for f in ch.factors if f.kind != "const" and f.var == a)
-        out.append("rad" if kind[0] == "R" else "mm")
+        out.append("rad" if ROTATION[kind] else "mm")
     return tuple(out)
 
 
