@@ -36,9 +36,10 @@ def _mm3(A, B, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _platform_rotation(phi, R, D1, D2):  # pragma: no cover - compiled
-    """``Rx Ry Rz`` and its first and second derivatives (nonlinear.platform_rotation)."""
-    A = np.zeros((3, 3, 3, 3))  # A[i, k]: factor i times its generator to the power k
+def _platform_rotation(phi, R, D1, D2, second, A, Gm, tmp):  # pragma: no cover - compiled
+    """``Rx Ry Rz`` and its first and (``second``) second derivatives (nonlinear.platform_rotation);
+    A (3, 3, 3, 3), Gm and tmp (3, 3) are scratch."""
+    A[:] = 0.0  # A[i, k]: factor i times its generator to the power k
     for i in range(3):
         c, s = math.cos(phi[i]), math.sin(phi[i])
         a, b = ((1, 2), (2, 0), (0, 1))[i]
@@ -47,17 +48,18 @@ def _platform_rotation(phi, R, D1, D2):  # pragma: no cover - compiled
         A[i, 0, b, b] = c
         A[i, 0, a, b] = -s
         A[i, 0, b, a] = s
-        Gm = np.zeros((3, 3))
+        Gm[:] = 0.0
         Gm[a, b] = -1.0
         Gm[b, a] = 1.0
         _mm3(A[i, 0], Gm, A[i, 1])
-        _mm3(A[i, 1], Gm, A[i, 2])
-    tmp = np.empty((3, 3))
+        if second:
+            _mm3(A[i, 1], Gm, A[i, 2])
     for i in range(3):
-        for j in range(3):  # the derivative orders of the three factors
-            o0, o1, o2 = int(i == 0) + int(j == 0), int(i == 1) + int(j == 1), int(i == 2) + int(j == 2)
-            _mm3(A[0, o0], A[1, o1], tmp)
-            _mm3(tmp, A[2, o2], D2[i, j])
+        if second:
+            for j in range(3):  # the derivative orders of the three factors
+                o0, o1, o2 = int(i == 0) + int(j == 0), int(i == 1) + int(j == 1), int(i == 2) + int(j == 2)
+                _mm3(A[0, o0], A[1, o1], tmp)
+                _mm3(tmp, A[2, o2], D2[i, j])
         _mm3(A[0, int(i == 0)], A[1, int(i == 1)], tmp)
         _mm3(tmp, A[2, int(i == 2)], D1[i])
     _mm3(A[0, 0], A[1, 0], tmp)
@@ -65,12 +67,12 @@ def _platform_rotation(phi, R, D1, D2):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _chain(code, var, coef, Tc, jof, nf, v, F, X):  # pragma: no cover - compiled
-    """End frame F (4, 4) and world twist matrices X (nJ, 4, 4) of one chain at variables v."""
+def _chain(code, var, coef, Tc, jof, nf, v, F, X, tmp):  # pragma: no cover - compiled
+    """End frame F (4, 4) and world twist matrices X (nJ, 4, 4) of one chain at variables v; tmp (4, 4)
+    is scratch."""
     F[:] = 0.0
     for i in range(4):
         F[i, i] = 1.0
-    tmp = np.empty((4, 4))
     for f in range(nf):
         c = code[f]
         if c == CONST:
@@ -115,68 +117,76 @@ def _vee_into(M, out, k):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def workspace_lin(tab, nv):  # pragma: no cover - compiled
+    """Scratch arrays of :func:`linearize_ws` for the chains of ``tab`` with ``nv`` (padded) chain
+    variables (allocated once per run of points)."""
+    nJmax = max(1, tab[7].max())
+    return (np.empty((3, 3)), np.empty((3, 3, 3)), np.empty((3, 3, 3, 3)), np.empty((3, 3, 3, 3)),
+            np.empty((3, 3)), np.empty((4, 4)), np.zeros((nJmax, 4, 4)), np.zeros((nJmax, 4, 4)),
+            np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)),
+            np.empty(nv), np.empty((nJmax, 6)), np.empty((4, 4)), np.empty((3, 3)))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def linearize(tab, pt, z, P, hess, g, G, Hs):  # pragma: no cover - compiled
     """Closure residual g (nc,), gradient G (nc, nx + 6) and (``hess``) the Hessian Hs of ``lam . g``
     (nx + 6, nx + 6) at the unknowns z = (x, u, lam) of one point (nonlinear._linearize)."""
+    linearize_ws(tab, pt, z, P, hess, g, G, Hs, workspace_lin(tab, pt[0].shape[1]))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def linearize_ws(tab, pt, z, P, hess, g, G, Hs, ws):  # pragma: no cover - compiled
+    """:func:`linearize` with the scratch arrays ``ws`` of :func:`workspace_lin`.
+
+    The gradient's rotation rows of joint j are ``vee(X_j F_3 Rp^T) = vee(w_j^ M)`` with the closure's
+    ``M = F_3 Rp^T``, which is ``(tr(M) I - M) w_j / 2`` (w_j the joint's world axis; zero for a
+    prismatic joint): no product of 3x3 matrices per joint.  The Hessian needs the products X_j F."""
     code, var, coef, Tc, jof, nf, mk, nJk, col = tab
     v0, R0, S, D, fixed = pt
     nch = code.shape[0]
     nx = G.shape[1] - 6
     u = z[nx:nx + 6]
     lam = z[nx + 6:]
-    Rxyz, D1, D2 = np.empty((3, 3)), np.empty((3, 3, 3)), np.empty((3, 3, 3, 3))
-    _platform_rotation(u[3:], Rxyz, D1, D2)
+    Rxyz, D1, D2, A3, Gm, F, X, dT, Rp, RpT, tmp, M, tmpT, v, Gf, tmp4, Nm = ws
+    _platform_rotation(u[3:], Rxyz, D1, D2, hess, A3, Gm, tmp)
     g[:] = 0.0
     G[:] = 0.0
     if hess:
         Hs[:] = 0.0
-    nJmax = D.shape[2]
-    F = np.empty((4, 4))
-    X = np.zeros((nJmax, 4, 4))
-    dT = np.zeros((nJmax, 4, 4))
-    Rp, RpT, tmp, M = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
-    tmpT = np.empty((3, 3))
-    v = np.empty(v0.shape[1])
-    Gf = np.empty((nJmax, 6))
     for k in range(nch):
         m, nJ, c0, r0 = mk[k], nJk[k], col[k], 6 * k
-        v[:] = v0[k]
+        nv = v0.shape[1]
+        for b in range(nv):
+            v[b] = v0[k, b]
         for a in range(m):
             xa = z[c0 + a]
-            for b in range(v.size):
+            for b in range(nv):
                 v[b] += xa * S[k, a, b]
-        _chain(code[k], var[k], coef[k], Tc[k], jof[k], nf[k], v, F, X)
-        for j in range(nJ):  # X_j F; the last rows of X_j and of X_j F are zero, F's is (0, 0, 0, 1)
-            for r in range(3):
-                for q in range(3):
-                    dT[j, r, q] = X[j, r, 0] * F[0, q] + X[j, r, 1] * F[1, q] + X[j, r, 2] * F[2, q]
-                dT[j, r, 3] = X[j, r, 0] * F[0, 3] + X[j, r, 1] * F[1, 3] + X[j, r, 2] * F[2, 3] + X[j, r, 3]
+        _chain(code[k], var[k], coef[k], Tc[k], jof[k], nf[k], v, F, X, tmp4)
         _mm3(Rxyz, R0[k], Rp)
         RpT[:] = Rp.T
         for i in range(3):
             g[r0 + i] = F[i, 3] - (P[i] + u[i])
         _mm3(F[:3, :3], RpT, M)
         _vee_into(M, g, r0 + 3)
-        for j in range(nJ):
-            for i in range(3):
-                Gf[j, i] = dT[j, i, 3]
-            _mm3(dT[j, :3, :3], RpT, M)
-            _vee_into(M, Gf[j], 3)
-        for a in range(m):  # G = D Gf, the zeros of the spring bases D skipped (exact: 0 * finite adds 0)
-            if fixed[c0 + a]:
-                continue
-            g0 = g1 = g2 = g3 = g4 = g5 = 0.0
-            for j in range(nJ):
-                d = D[k, a, j]
-                if d != 0.0:
-                    g0 += d * Gf[j, 0]
-                    g1 += d * Gf[j, 1]
-                    g2 += d * Gf[j, 2]
-                    g3 += d * Gf[j, 3]
-                    g4 += d * Gf[j, 4]
-                    g5 += d * Gf[j, 5]
-            G[r0, c0 + a], G[r0 + 1, c0 + a], G[r0 + 2, c0 + a] = g0, g1, g2
-            G[r0 + 3, c0 + a], G[r0 + 4, c0 + a], G[r0 + 5, c0 + a] = g3, g4, g5
+        tr = M[0, 0] + M[1, 1] + M[2, 2]
+        for i in range(3):
+            for q in range(3):
+                Nm[i, q] = 0.5 * ((tr if i == q else 0.0) - M[i, q])
+        for j in range(nJ):  # X_j F's last column and vee(X_j F_3 Rp^T); the last rows of X_j are zero
+            Xj = X[j]
+            for r in range(3):
+                Gf[j, r] = Xj[r, 0] * F[0, 3] + Xj[r, 1] * F[1, 3] + Xj[r, 2] * F[2, 3] + Xj[r, 3]
+            w0, w1, w2 = Xj[2, 1], Xj[0, 2], Xj[1, 0]
+            for r in range(3):
+                Gf[j, 3 + r] = Nm[r, 0] * w0 + Nm[r, 1] * w1 + Nm[r, 2] * w2
+        if hess:
+            for j in range(nJ):  # X_j F; the last rows of X_j and of X_j F are zero, F's is (0, 0, 0, 1)
+                for r in range(3):
+                    for q in range(3):
+                        dT[j, r, q] = X[j, r, 0] * F[0, q] + X[j, r, 1] * F[1, q] + X[j, r, 2] * F[2, q]
+                    dT[j, r, 3] = Gf[j, r]
+        _spring_columns(D[k], fixed, m, nJ, c0, r0, Gf, G)
         for i in range(3):
             G[r0 + i, nx + i] = -1.0
             _mm3(D1[i], R0[k], tmp)
@@ -185,6 +195,27 @@ def linearize(tab, pt, z, P, hess, g, G, Hs):  # pragma: no cover - compiled
             _vee_into(M, G[r0 + 3:r0 + 6, nx + 3 + i], 0)
         if hess:
             _hessian_chain(k, m, nJ, c0, nx, lam, Rp, R0[k], D1, D2, F, X, dT, D, fixed, Hs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _spring_columns(Dk, fixed, m, nJ, c0, r0, Gf, G):  # pragma: no cover - compiled
+    """Chain rows r0.. of G's spring columns c0..: G = D Gf, the zeros of the spring bases D skipped
+    (exact: 0 * finite adds 0)."""
+    for a in range(m):
+        if fixed[c0 + a]:
+            continue
+        g0 = g1 = g2 = g3 = g4 = g5 = 0.0
+        for j in range(nJ):
+            d = Dk[a, j]
+            if d != 0.0:
+                g0 += d * Gf[j, 0]
+                g1 += d * Gf[j, 1]
+                g2 += d * Gf[j, 2]
+                g3 += d * Gf[j, 3]
+                g4 += d * Gf[j, 4]
+                g5 += d * Gf[j, 5]
+        G[r0, c0 + a], G[r0 + 1, c0 + a], G[r0 + 2, c0 + a] = g0, g1, g2
+        G[r0 + 3, c0 + a], G[r0 + 4, c0 + a], G[r0 + 5, c0 + a] = g3, g4, g5
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -462,27 +493,26 @@ CHORD = 4
 CHORD_RATE = 0.01
 #: a point settled by a chord step is accepted when that step was below this fraction of the platform's
 #: deflection (the error left is about the step times the contraction, 1e-2 or less)
-CHORD_ACCEPT = 1e-6
+CHORD_ACCEPT = 1e-4
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff, ws, have,
-            count):  # pragma: no cover - compiled
+            count, scratch):  # pragma: no cover - compiled
     """Steps zi to the point's equilibrium: chord steps with the factorization in ws (``have[0]``: one is
     there, from an earlier point), full Newton steps (refactorized, at most ``max_steps``) when there is
     none or a chord step converges slowly.  Accepted once a step was taken and the residual check passes
-    (after a chord step, also a step below CHORD_ACCEPT of the deflection).  count: full, chord steps."""
+    (after a chord step, also a step below CHORD_ACCEPT of the deflection).  count: full, chord steps;
+    scratch: :func:`_scratch`."""
     nx, nz = kap.size, zi.size
-    nc = nz - nx - 6
-    g, G, Hs = np.empty(nc), np.empty((nc, nx + 6)), np.empty((nx + 6, nx + 6))
-    b, dz = np.empty(nz), np.empty(nz)
+    g, G, Hs, b, dz, wl = scratch
     full_left, chord_left = max_steps, CHORD
     taken, last_chord, step, prev = 0, False, math.inf, math.inf
     while True:
         for q in range(nz):
             if not math.isfinite(zi[q]):
                 return False
-        linearize(tab, pt, zi, Pi, False, g, G, Hs)
+        linearize_ws(tab, pt, zi, Pi, False, g, G, Hs, wl)
         if taken > 0 and _check(g, G, zi, Wi, kap, xri, lref, rtol, roundoff):
             umax = 0.0
             for q in range(6):
@@ -499,7 +529,7 @@ def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff,
         else:
             if full_left == 0:
                 return False
-            linearize(tab, pt, zi, Pi, True, g, G, Hs)
+            linearize_ws(tab, pt, zi, Pi, True, g, G, Hs, wl)
             _rhs(g, G, zi, Wi, kap, xri, b)
             have[0] = nonlinear_block.factor(tab, nx, kdi, G, Hs, ws)
             if have[0]:
@@ -518,18 +548,29 @@ def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff,
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _scratch(tab, nx, nz, nv):  # pragma: no cover - compiled
+    """The arrays :func:`_settle` works in: g, G, Hs, the right-hand side, the step, linearize_ws's."""
+    nc = nz - nx - 6
+    return (np.empty(nc), np.empty((nc, nx + 6)), np.empty((nx + 6, nx + 6)), np.empty(nz), np.empty(nz),
+            workspace_lin(tab, nv))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def march(tab, v0, R0, S, D, fixed, kappa, kd, xr, W, P, trivial, z, pos, end, given, max_steps,
           lref, rtol, roundoff, ok, steps):  # pragma: no cover - compiled
     """Runs of consecutive points, each from ``pos[r]`` to ``end[r]`` (exclusive): every point starts
     from its predecessor's equilibrium (extrapolated from the two before it where the wrench changes
-    linearly), or from z as given where ``given[i]``, then settles
+    linearly), or where ``given[i]`` from z as given, corrected by what the predecessor's settling
+    changed in its own given start (:func:`_shift_given`), then settles
     (:func:`_settle`: chord steps with the factorization of an earlier point of the run, full Newton
     steps where needed, the residual check).  A run stops at a point that fails (``pos[r]`` is left
     there, ``ok`` False) for the caller's reference solve; ``steps[r]``: full Newton and chord steps."""
     nx = kappa.shape[1]
     ws = nonlinear_block.workspace(tab)
+    scratch = _scratch(tab, nx, z.shape[1], v0.shape[2])
     have = np.zeros(1, np.bool_)
     z2 = np.empty(z.shape[1])
+    zs, c1, c2 = np.empty(z.shape[1]), np.empty(z.shape[1]), np.empty(z.shape[1])  # given start, corrections
     for r in range(pos.size):
         i = pos[r]
         have[0] = False
@@ -547,14 +588,45 @@ def march(tab, v0, R0, S, D, fixed, kappa, kd, xr, W, P, trivial, z, pos, end, g
                     _start_from(tab, (S[i - 2], S[i]), z[i - 2], z2, nx)
                     for q in range(z2.size):  # linear extrapolation of the two settled predecessors
                         z[i, q] += z[i, q] - z2[q]
+            else:
+                zs[:] = z[i]
+                if settled >= 1 and given[i - 1]:
+                    lin = settled >= 2 and given[i - 2] and _steady(W[i - 2], W[i - 1], W[i])
+                    _shift_given(tab, (S[i - 2], S[i - 1], S[i]), c1, c2, lin, z[i], nx)
             pt = (v0[i], R0[i], S[i], D[i], fixed[i])
             ok[i] = _settle(tab, pt, z[i], W[i], P[i], kappa[i], kd[i], xr[i], max_steps, lref, rtol, roundoff,
-                            ws, have, steps[r])
+                            ws, have, steps[r], scratch)
             if not ok[i]:
                 break
+            if given[i]:
+                c2[:] = c1
+                for q in range(zs.size):
+                    c1[q] = z[i, q] - zs[q]
             i += 1
             settled += 1
         pos[r] = i
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _shift_given(tab, S3, c1, c2, lin, zi, nx):  # pragma: no cover - compiled
+    """Point i's given start zi plus the correction settling made to its predecessor's given start, c1,
+    or (``lin``) the corrections c2, c1 of the two before it extrapolated linearly, ``2 c1 - c2``.
+
+    The compensation's checks start each point from the deflection's equilibrium at the programmed
+    pose, while the commanded pose differs from it by the deflection: that start is off by the
+    equilibrium's change over a deflection (~1e-3 of it on the 3-PUU), which varies slowly along the
+    path.  S3: the spring bases of points i - 2, i - 1, i; a chain whose basis changed between them
+    keeps its spring coordinates as given."""
+    mk, col = tab[6], tab[8]
+    Sa, Sb, Si = S3
+    for k in range(mk.size):
+        m, c0 = mk[k], col[k]
+        if _same(Sb[k], Si[k], m):
+            two = lin and _same(Sa[k], Sb[k], m)
+            for a in range(c0, c0 + m):
+                zi[a] += 2.0 * c1[a] - c2[a] if two else c1[a]
+    for q in range(nx, zi.size):
+        zi[q] += 2.0 * c1[q] - c2[q] if lin else c1[q]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
