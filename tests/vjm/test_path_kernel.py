@@ -64,8 +64,9 @@ def test_compiled_equations_are_the_numpy_ones(name, path):
     g, G, Hs = nl._linearize(b.chains, z[:, :b.nx], z[:, b.nx:b.nx + 6], z[:, b.nx + 6:], b.P)[:3]
     dz = nl._newton_step(b.chains, z, np.ones(len(z)), b.W, b.P, b.kappa, b.kd, b.x_rest, b.nx, b.nc)
     ok = eq.residual_ok(b.chains, z, b.W, b.P, b.kappa, b.x_rest, b.nx, b.lref)
+    assert len(S) == len(D) == 1  # constant compliances: one spring basis packed for every point
     for i in range(len(z)):
-        pt = (v0[i], R0[i], S[i], D[i], fixed[i])
+        pt = (v0[i], R0[i], S[0], D[0], fixed[i])
         gk, Gk, Hk = np.empty(b.nc), np.empty((b.nc, b.nx + 6)), np.empty((b.nx + 6, b.nx + 6))
         K.linearize(tab, pt, z[i], Pd[i], True, gk, Gk, Hk)
         # closure: round-off of the machine's size (positions of ~500 mm cancel), and of 1 rad
@@ -145,3 +146,25 @@ def test_vjm_path_compiled_gives_the_numpy_commands(tmp_path, monkeypatch):
     back = [read_csv_text(r.compensated_text).points for r in (a, b)]  # written to 6 decimals of mm
     np.testing.assert_allclose(back[1], back[0], rtol=0, atol=1.01e-6)
     np.testing.assert_allclose(back[1], b.compensation.commanded, rtol=0, atol=5.1e-7)
+
+
+def test_one_shared_spring_basis_gives_the_per_point_results(monkeypatch):
+    """Constant compliances pack one spring basis for all points; packed per point (as a machine whose
+    compliances change with the pose), the kernel gives the same equilibria to the bit, marched and from
+    given starts (the compensation's checks, with their corrections from point to point)."""
+    m = vjm.load_model(PUU)
+    P, W = _puu_path()
+    s1 = eq.equilibria(m, P, W)
+    P2 = P + np.random.default_rng(1).normal(0, 2e-3, P.shape)
+    t1 = eq.equilibria(m, P2, W, start=s1.state)
+    b = eq._Block(m, P, W, None)
+    assert len(eq._pack(b)[1][2]) == 1
+    monkeypatch.setattr(nl._ChainData, "constant", property(lambda self: False))
+    assert len(eq._pack(b)[1][2]) == len(P)
+    s2 = eq.equilibria(m, P, W)
+    t2 = eq.equilibria(m, P2, W, start=s2.state)
+    for a, c in ((s1, s2), (t1, t2)):
+        np.testing.assert_array_equal(a.twist, c.twist)
+        np.testing.assert_array_equal(a.state, c.state)
+        assert (a.newton, a.chord, a.cold) == (c.newton, c.chord, c.cold)
+    assert t1.chord > 0

@@ -49,7 +49,7 @@ import numpy as np
 from linkfea.mechanics.frames import skew as _skew
 
 from ..errors import EquilibriumError, VjmError
-from ..kinematics.chain import Chain, forward
+from ..kinematics.chain import Chain, end_frames
 from ..kinematics.poses import Kinematics, as_poses
 from ..kinematics.transforms import AXIS, ROTATION, elementary, generator, rotation_vector, vee
 
@@ -101,9 +101,21 @@ class _ChainData:
     loads: tuple = ()   # body loads: (factor index, point (n, 3) in the frame after it, world force (n, 3))
 
     def take(self, idx):
-        return _ChainData(self.chain, self.v0[idx], self.R0[idx], self.S[idx], self.kappa[idx],
-                          self.fixed[idx], self.D[idx], self.joints, self.x0[idx],
+        return _ChainData(self.chain, self.v0[idx], self.R0[idx], _rows(self.S, idx), self.kappa[idx],
+                          self.fixed[idx], _rows(self.D, idx), self.joints, self.x0[idx],
                           tuple((i, c[idx], f[idx]) for i, c, f in self.loads))
+
+    @property
+    def constant(self) -> bool:
+        """The spring basis S and D are the same at every pose (views over the poses)."""
+        return self.S.strides[0] == 0
+
+
+def _rows(a, idx):
+    """a[idx] of integer indices; a view over the new poses where ``a`` is one row at every pose."""
+    if a.strides[0] == 0:
+        return np.broadcast_to(a[:1], (len(idx),) + a.shape[1:])
+    return a[idx]
 
 
 def _spring_basis(C):
@@ -176,16 +188,20 @@ def _setup(model, P, offsets=None, body_loads=None):
                 x0 = _rest_coordinates(ch, s.name, th[..., ci, :], B, fx, n)
             blocks.append((list(s.vars), B, kap, fx, x0))
         for j in ch.passive:
-            blocks.append(([j], np.ones((n, 1, 1)), np.zeros((n, 1)), np.zeros((n, 1), bool), np.zeros((n, 1))))
+            blocks.append(([j], np.broadcast_to(1.0, (n, 1, 1)), np.zeros((n, 1)), np.zeros((n, 1), bool),
+                           np.zeros((n, 1))))
         m = sum(len(b[0]) for b in blocks)
-        S = np.zeros((n, m, ch.n_vars))
+        # springs of the same compliance at every pose (links, actuators): one basis S and one D, as
+        # read-only views over the poses, instead of n copies
+        ns = 1 if n and all(b[1].strides[0] == 0 for b in blocks) else n
+        S = np.zeros((ns, m, ch.n_vars))
         kappa = np.zeros((n, m))
         fixed = np.zeros((n, m), bool)
         rest = np.zeros((n, m))
         row = 0
         for vars_, B, kap, fx, x0 in blocks:
             k = len(vars_)
-            S[:, row:row + k, vars_] = np.swapaxes(B, 1, 2)  # d theta_v / d xi_j = B[v, j]
+            S[:, row:row + k, vars_] = np.swapaxes(B[:ns], 1, 2)  # d theta_v / d xi_j = B[v, j]
             kappa[:, row:row + k] = kap
             fixed[:, row:row + k] = fx
             rest[:, row:row + k] = x0
@@ -194,9 +210,12 @@ def _setup(model, P, offsets=None, body_loads=None):
         Fm = np.zeros((ch.n_vars, len(joints)))
         for jj, i in enumerate(joints):
             Fm[ch.factors[i].var, jj] += ch.factors[i].coef
-        T0 = forward(ch, v)
+        D = S @ Fm
+        if ns < n:
+            S, D = np.broadcast_to(S, (n,) + S.shape[1:]), np.broadcast_to(D, (n,) + D.shape[1:])
+        R0 = np.ascontiguousarray(end_frames(ch, v)[:, :3, :3]) if n else np.zeros((0, 3, 3))
         loads = _body_loads(ch, (body_loads or [()] * len(kin.chains))[ci], n)
-        out.append(_ChainData(ch, v, T0[:, :3, :3].copy(), S, kappa, fixed, S @ Fm, joints, rest, loads))
+        out.append(_ChainData(ch, v, R0, S, kappa, fixed, D, joints, rest, loads))
     return P, out
 
 

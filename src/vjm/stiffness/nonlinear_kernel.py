@@ -441,6 +441,7 @@ def to_x(tab, S, states, rows, vcol, z, nx):  # pragma: no cover - compiled
     whose spring basis is the previous row's reuses its least-squares operator ``(S S^T)^-1 S``."""
     mk, col = tab[6], tab[8]
     nv = S.shape[3]
+    ks = 1 if S.shape[0] > 1 else 0  # one spring basis per point, or one for all
     ops = np.zeros((mk.size, S.shape[2], nv))
     have = np.zeros(mk.size, np.bool_)
     last = -1
@@ -449,15 +450,15 @@ def to_x(tab, S, states, rows, vcol, z, nx):  # pragma: no cover - compiled
             m, c0 = mk[k], col[k]
             dv = np.zeros(nv)
             dv[:vcol[k + 1] - vcol[k]] = states[i, vcol[k]:vcol[k + 1]]
-            if last < 0 or not _same(S[last, k], S[i, k], m):
+            if last < 0 or not _same(S[last * ks, k], S[i * ks, k], m):
                 have[k] = False
-                _x_of(S[i], k, m, dv, z[i, c0:c0 + m])
+                _x_of(S[i * ks], k, m, dv, z[i, c0:c0 + m])
                 continue
             if not have[k]:
                 for b in range(nv):
                     e = np.zeros(nv)
                     e[b] = 1.0
-                    _x_of(S[i], k, m, e, ops[k, :m, b])
+                    _x_of(S[i * ks], k, m, e, ops[k, :m, b])
                 have[k] = True
             for a in range(m):
                 t = 0.0
@@ -566,6 +567,7 @@ def march(tab, v0, R0, S, D, fixed, kappa, kd, xr, W, P, trivial, z, pos, end, g
     steps where needed, the residual check).  A run stops at a point that fails (``pos[r]`` is left
     there, ``ok`` False) for the caller's reference solve; ``steps[r]``: full Newton and chord steps."""
     nx = kappa.shape[1]
+    ks = 1 if S.shape[0] > 1 else 0  # S and D per point, or one for all
     ws = nonlinear_block.workspace(tab)
     scratch = _scratch(tab, nx, z.shape[1], v0.shape[2])
     have = np.zeros(1, np.bool_)
@@ -583,17 +585,18 @@ def march(tab, v0, R0, S, D, fixed, kappa, kd, xr, W, P, trivial, z, pos, end, g
                 settled = 0
                 continue
             if not given[i]:
-                _start_from(tab, (S[i - 1], S[i]), z[i - 1], z[i], nx)
+                _start_from(tab, (S[(i - 1) * ks], S[i * ks]), z[i - 1], z[i], nx)
                 if settled >= 2 and _steady(W[i - 2], W[i - 1], W[i]):
-                    _start_from(tab, (S[i - 2], S[i]), z[i - 2], z2, nx)
+                    _start_from(tab, (S[(i - 2) * ks], S[i * ks]), z[i - 2], z2, nx)
                     for q in range(z2.size):  # linear extrapolation of the two settled predecessors
                         z[i, q] += z[i, q] - z2[q]
             else:
                 zs[:] = z[i]
                 if settled >= 1 and given[i - 1]:
                     lin = settled >= 2 and given[i - 2] and _steady(W[i - 2], W[i - 1], W[i])
-                    _shift_given(tab, (S[i - 2], S[i - 1], S[i]), c1, c2, lin, z[i], nx)
-            pt = (v0[i], R0[i], S[i], D[i], fixed[i])
+                    _shift_given(tab, (S[(i - 2) * ks], S[(i - 1) * ks], S[i * ks]), c1, c2, lin, z[i],
+                                 nx)
+            pt = (v0[i], R0[i], S[i * ks], D[i * ks], fixed[i])
             ok[i] = _settle(tab, pt, z[i], W[i], P[i], kappa[i], kd[i], xr[i], max_steps, lref, rtol, roundoff,
                             ws, have, steps[r], scratch)
             if not ok[i]:

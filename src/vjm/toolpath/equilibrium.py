@@ -232,7 +232,8 @@ def equilibria(model, P, W, offsets=None, start=None) -> Solved:
 
 def _pack(b: _Block):
     """The block's chains as the arrays of :mod:`vjm.stiffness.nonlinear_kernel`: the factor tables (padded to the
-    longest chain) and, per point, the chain data of ``nonlinear._ChainData`` (padded likewise)."""
+    longest chain) and, per point, the chain data of ``nonlinear._ChainData`` (padded likewise; the spring
+    bases S and D once for all points where every chain's are the same at every point)."""
     from ..kinematics.transforms import KINDS
 
     ch = b.chains
@@ -248,8 +249,9 @@ def _pack(b: _Block):
     jof = np.full((nch, nf.max()), -1, np.int64)
     v0 = np.zeros((n, nch, nv))
     R0 = np.zeros((n, nch, 3, 3))
-    S = np.zeros((n, nch, mk.max(), nv))
-    D = np.zeros((n, nch, mk.max(), nJ.max()))
+    ns = 1 if all(cd.constant for cd in ch) else n  # one spring basis for every point (constant compliances)
+    S = np.zeros((ns, nch, mk.max(), nv))
+    D = np.zeros((ns, nch, mk.max(), nJ.max()))
     for k, cd in enumerate(ch):
         for f, fac in enumerate(cd.chain.factors):
             if fac.kind == "const":
@@ -259,8 +261,8 @@ def _pack(b: _Block):
         jof[k, list(cd.joints)] = np.arange(len(cd.joints))
         v0[:, k, :cd.S.shape[2]] = cd.v0
         R0[:, k] = cd.R0
-        S[:, k, :mk[k], :cd.S.shape[2]] = cd.S
-        D[:, k, :mk[k], :nJ[k]] = cd.D
+        S[:, k, :mk[k], :cd.S.shape[2]] = cd.S[:ns]
+        D[:, k, :mk[k], :nJ[k]] = cd.D[:ns]
     col = np.concatenate([[0], np.cumsum(mk)[:-1]]).astype(np.int64)
     tab = (code, var, coef, Tc, jof, nf, mk, nJ, col)
     c = np.ascontiguousarray
