@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 import os
 from dataclasses import dataclass
 
@@ -134,24 +133,27 @@ def read_csv_lines(lines, source: str = "<csv>", max_rows: int | None = None) ->
     idx = [head.index(c) for c in cols]
     A = np.empty((max_rows, len(cols)))
     numbers = np.empty(max_rows, np.int64)
-    n = 0
+    n, nh = 0, len(head)
     for k, r in rows:
+        if len(r) == nh:  # a data row, parsed at once; anything else is looked at below
+            try:
+                A[n] = [float(r[i]) for i in idx]
+                numbers[n] = k
+                n += 1
+                continue
+            except ValueError:
+                pass
         if not r or r[0].lstrip().startswith("#") or not any(c.strip() for c in r):
             continue
-        if len(r) != len(head):
-            raise VjmError(f"{source}: line {k}: {len(r)} fields, the header has {len(head)}")
-        try:
-            vals = [float(r[i]) for i in idx]
-        except ValueError:
-            raise VjmError(f"{source}: line {k}: a value is not a number: {','.join(r)!r}") from None
-        if not all(math.isfinite(v) for v in vals):
-            raise VjmError(f"{source}: line {k}: values must be finite numbers")
-        A[n] = vals
-        numbers[n] = k
-        n += 1
+        if len(r) != nh:
+            raise VjmError(f"{source}: line {k}: {len(r)} fields, the header has {nh}")
+        raise VjmError(f"{source}: line {k}: a value is not a number: {','.join(r)!r}")
     if n == 0:
         raise VjmError(f"{source}: no data rows after the header")
     A = A[:n]
+    bad = ~np.all(np.isfinite(A), axis=1)
+    if bad.any():
+        raise VjmError(f"{source}: line {numbers[np.argmax(bad)]}: values must be finite numbers")
     npose = 6 if "rx" in head else 3
     return Toolpath(A[:, :npose], numbers[:n], np.ones(n, bool), np.ones(n, bool),
                     A[:, npose:] if "Fx" in head else None, source, "csv", None, np.arange(n), tuple(cols))
