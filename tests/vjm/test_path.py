@@ -352,6 +352,16 @@ def test_bad_csv_toolpath_is_one_line_naming_the_line(text, words):
     assert "\n" not in str(e.value) and str(e.value).startswith("t.csv") and words in str(e.value)
 
 
+def test_csv_comment_and_blank_rows_with_the_header_s_fields_are_skipped():
+    """Rows with as many fields as the header that are comments or empty are not data; the others keep
+    their line numbers, and a non-finite value further down is named by its line."""
+    tp = read_csv_text("x,y,z\n1,2,3\n# a,b,c\n,,\n\n4, 5 ,6e0\n", "t.csv")
+    np.testing.assert_array_equal(tp.poses, [[1, 2, 3], [4, 5, 6]])
+    np.testing.assert_array_equal(tp.lines, [2, 6])
+    with pytest.raises(VjmError, match="t.csv: line 4: values must be finite"):
+        read_csv_text("x,y,z\n1,2,3\n#\n1,inf,3\n", "t.csv")
+
+
 @pytest.mark.parametrize("kw,words", [
     ({"tolerance": -1.0}, "--tolerance"), ({"step": 0.0}, "--step"), ({"workers": 0}, "workers"),
     ({"method": "quadratic"}, "--method"), ({"tool": (0, 0)}, "tool must be three"),
