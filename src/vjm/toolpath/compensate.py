@@ -33,6 +33,10 @@ REL_TOL = 1e-4
 ABS_TOL = 1e-7
 #: nonlinear equilibria (and fixed-point steps on the local model between two of them) allowed
 MAX_ITER = 10
+#: the fixed point on the local model stops once its step is below this fraction of a point's target:
+#: what is left, the step times the local model's contraction (the stiffness' change over a deflection,
+#: ~1e-3), is some 1e-4 of the target, and the next nonlinear equilibrium checks the point anyway
+LOCAL_TOL = 0.1
 
 
 @dataclass(frozen=True)
@@ -104,7 +108,7 @@ def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None, sta
             step = _update(c, programmed[a], t, six)
             cmd[a] = c
             _reachable(model, cmd[a], tool, a, where, programmed[a])
-            if np.all(np.linalg.norm(step, axis=1) <= 1e-3 * target[a]):
+            if np.all(np.linalg.norm(step, axis=1) <= LOCAL_TOL * target[a]):
                 break
         err, t, sol = loaded_error(model, cmd[a], programmed[a], W[a], tool, workers,
                                    None if state is None else state[a])
