@@ -214,6 +214,9 @@ def march(tab, v0, R0, S, D, fixed, kappa, kd, xr, W, P, trivial, z, pos, end, g
                     lin = settled >= 2 and given[i - 2] and _steady(W[i - 2], W[i - 1], W[i])
                     _shift_given(tab, (S[(i - 2) * ks], S[(i - 1) * ks], S[i * ks]), c1, c2, lin, z[i],
                                  nx)
+            for q in range(nx):  # a coordinate rigid at this point stays at rest (no step moves it)
+                if fixed[i, q]:
+                    z[i, q] = xr[i, q]
             pt = (v0[i], R0[i], S[i * ks], D[i * ks], fixed[i])
             ok[i] = _settle(tab, pt, z[i], W[i], P[i], kappa[i], kd[i], xr[i], max_steps, lref, rtol, roundoff,
                             ws, have, steps[r], scratch)

@@ -153,6 +153,9 @@ class _Block:
         (z, passed (k,) bool, Newton steps)."""
         ch = [cd.take(idx) for cd in self.chains]
         W, P, kap, xr = self.W[idx], self.P[idx], self.kappa[idx], self.x_rest[idx]
+        # a spring coordinate that is rigid at this point stays at rest: no Newton step moves it (its
+        # column is not in the equations), so a deformation carried over from a neighbour would stay
+        z[:, :self.nx] = np.where(self.fixed[idx], xr, z[:, :self.nx])
         ok = np.zeros(len(idx), bool)
         steps = 0
         for _ in range(WARM_STEPS):
