@@ -171,11 +171,11 @@ def from_gcode(prog: gc.Program, source: str = "<G-code>", chord_tol: float = 1e
 PATH_BYTES = 1e3
 """Memory per toolpath point of ``vjm path`` (nonlinear deflection and compensation, the 3-PUU): the
 equilibria run in passes of ``vjm.toolpath.passes.CHUNK`` points, so what grows with the path is its
-arrays and results; measured 776 MB peak for a one-million-point CSV (~240 MB of it before the first
-pass), and about 200 MB per forked worker process."""
-PATH_SECONDS = 2e-4
+arrays and results; measured 587 MB peak for a one-million-point CSV (776 MB before the spring bases
+were shared between points), and about 320 MB in the forked worker process."""
+PATH_SECONDS = 1e-4
 """Seconds per toolpath point of ``vjm path`` on one core (nonlinear deflection and compensation of the
-3-PUU with FEA links, the compiled equilibria: ~190 us CPU per point, docs/benchmarks.md)."""
+3-PUU with FEA links, the compiled equilibria: ~80 us CPU per point, docs/benchmarks.md)."""
 
 
 def path_plan(n: float):
