@@ -55,9 +55,8 @@ def _ik() -> None:
 
 
 def _path() -> None:
-    """The nonlinear equilibrium along a path (:mod:`vjm.stiffness.march_kernel` and the equations of
-    :mod:`vjm.stiffness.nonlinear_kernel`), on the 3-PUU: the kernel serves blocks of at least ``KERNEL_MIN``
-    points."""
+    """The nonlinear equilibrium along a path (:mod:`vjm.stiffness.nonlinear_kernel`), on the 3-PUU:
+    the kernel serves blocks of at least ``KERNEL_MIN`` points."""
     import vjm
     from vjm.toolpath import equilibrium
 

@@ -40,7 +40,7 @@ SEGMENTS = 128
 BATCH = 256
 #: Newton steps from a warm start before the point is solved cold
 WARM_STEPS = 3
-#: use the compiled kernels (:mod:`vjm.stiffness.march_kernel`) where numba is installed; False: the numpy path
+#: use the compiled kernels (:mod:`vjm.stiffness.nonlinear_kernel`) where numba is installed; False: the numpy path
 KERNEL = True
 #: ... on blocks of at least this many points (a short path does not wait for the kernel's compilation
 #: or its load from the cache, ~1 s)
@@ -49,13 +49,13 @@ KERNEL_MIN = 1000
 
 @functools.cache
 def _kernel():
-    """The compiled runs of Newton steps (:mod:`vjm.stiffness.march_kernel`), or None without numba (the numpy
+    """The compiled runs of Newton steps (:mod:`vjm.stiffness.nonlinear_kernel`), or None without numba (the numpy
     path)."""
     try:
-        from ..stiffness import march_kernel
+        from ..stiffness import nonlinear_kernel
     except ImportError:  # pragma: no cover - numba is a dependency
         return None
-    return march_kernel
+    return nonlinear_kernel
 
 
 @dataclass(frozen=True)
