@@ -12,7 +12,10 @@ the reference and the cold start), organised for a sequence of nearby (pose, wre
   of a deflection between two samples), at most ``WARM_STEPS``; a point still failing is
   solved by :func:`vjm.stiffness.nonlinear.deflection_map` (load steps if needed) and counted;
 * the compensation's check equilibria start from the deflection's equilibrium at the same
-  point (``start=``): the commanded pose differs from the programmed one by a deflection.
+  point (``start=``): the commanded pose differs from the programmed one by a deflection (the
+  compiled path adds the correction the points before needed, :func:`vjm.stiffness.nonlinear_kernel.march`);
+* a spring coordinate that is rigid at a point (no Newton step moves it) starts at rest, whatever
+  its neighbour's deformation.
 
 Every equilibrium reached by these Newton steps (warm, or cold from the unloaded posture) passes
 the residual check before it is accepted; a point handed to the reference solver is accepted by
