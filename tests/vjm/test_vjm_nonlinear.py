@@ -165,3 +165,21 @@ def test_failure_is_reported_not_silent(puu):
     assert info["converged"].tolist() == [False, True]
     assert np.all(np.isnan(D[0]))
     assert np.allclose(D[1], deflection(puu, P[1], W[1]), rtol=0, atol=1e-12)
+
+
+def test_shared_spring_bases_are_taken_as_views_with_the_copies_values():
+    """Constant compliances give one spring basis for every pose (a stride-0 view); taking poses by
+    indices, a mask or a slice keeps a view with the values a copy per pose would have."""
+    from vjm.stiffness.nonlinear import _rows
+
+    m = vjm.load_model("data/orthoglide/puu.yaml")
+    P = np.array([[0.0, 0.0, 0.0], [10.0, -5.0, 3.0], [-20.0, 15.0, 8.0], [5.0, 5.0, -12.0]])
+    _, chains = _setup(m, P)
+    cd = chains[0]
+    assert cd.constant and np.shares_memory(cd.S[0], cd.S[3])
+    full = np.array(cd.S)  # a copy per pose
+    for idx in (np.array([3, 1]), np.array([True, False, True, True]), slice(1, 3)):
+        r = _rows(cd.S, idx)
+        assert r.strides[0] == 0
+        np.testing.assert_array_equal(r, full[idx])
+    np.testing.assert_array_equal(cd.take(np.array([2, 0])).D, np.array(cd.D)[[2, 0]])

@@ -112,9 +112,9 @@ class _ChainData:
 
 
 def _rows(a, idx):
-    """a[idx] of integer indices; a view over the new poses where ``a`` is one row at every pose."""
-    if a.strides[0] == 0:
-        return np.broadcast_to(a[:1], (len(idx),) + a.shape[1:])
+    """a[idx] (indices, a mask or a slice); a view over the new poses where ``a`` is one row at every pose."""
+    if a.strides[0] == 0 and a.shape[0]:
+        return np.broadcast_to(a[:1], (np.arange(a.shape[0])[idx].size,) + a.shape[1:])
     return a[idx]
 
 
