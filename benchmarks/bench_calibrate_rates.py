@@ -2,7 +2,7 @@
 
 Truth from tests/truth_serial.py (pinocchio, no vjm code): a UR10 seen by an instrument in a random frame
 through a marker at a random offset, 150 random configurations, 0.01 mm noise.  For each effect of
-:mod:`vjm.robot.calibration`'s library, ``--sets`` random truth sets carry it, with a random size in a
+:mod:`vjm.calibration.engine`'s library, ``--sets`` random truth sets carry it, with a random size in a
 fixed range, on top of a realistic arm (joint offsets, an origin error and joint compliances; for the
 geometry and compliance rows only that effect), and the calibration is run with geometry, joint compliance
 and that effect: the rate at which the effect is named (its stage kept) is its power.  The same number of
@@ -26,9 +26,9 @@ sys.path.insert(0, os.path.join(ROOT, "tests"))
 import truth_serial as truth  # noqa: E402
 
 import vjm  # noqa: E402
-from vjm.robot.absolute import rotation_matrix  # noqa: E402
-from vjm.robot.calibration import calibrate  # noqa: E402
-from vjm.robot.poses import AbsolutePoses  # noqa: E402
+from vjm.calibration.engine import calibrate  # noqa: E402
+from vjm.calibration.poses import AbsolutePoses  # noqa: E402
+from vjm.calibration.serial import rotation_matrix  # noqa: E402
 
 URDF = os.path.join(ROOT, "data", "robots", "ur10", "ur10.urdf")
 ROWS, SIGMA = 150, 0.01

@@ -7,11 +7,11 @@ frozen, and the errors are those of its other poses.  Four models, each held out
 
 1. nominal: the URDF, the T-Mac offset of ``Trafo_TM_F_init.txt``, only the instrument frame fitted;
 2. registration only: the URDF, the instrument frame and the T-Mac offset fitted on A;
-3. geometry: + the identifiable joint offsets and URDF-origin errors (vjm.robot.calibration);
+3. geometry: + the identifiable joint offsets and URDF-origin errors (vjm.calibration.engine);
 4. geometry + joint compliance under self-weight (and the T-Mac's weight, a payload at the marker, if the
    F test keeps it);
 5. what the calibration names from the whole library (+ lateral joint compliance, link bending, compliance
-   varying with the joint's value, a thermal length scale: vjm.robot.flex), each effect kept only if its F
+   varying with the joint's value, a thermal length scale: vjm.calibration.flex), each effect kept only if its F
    test passes and A's 5-fold cross-validated error drops -- chosen on A alone, never on C or D.
 
 Usage: ``python benchmarks/bench_ur10.py [--train 3000] [--register 30] [--out table.md]``.
@@ -25,14 +25,14 @@ import warnings
 import numpy as np
 
 import vjm
-from vjm.robot.calibration import Calibration, calibrate, error_stats, position_errors, register
-from vjm.robot.poses import read_column_map, read_poses
+from vjm.calibration.engine import Calibration, calibrate, error_stats, position_errors, register
+from vjm.calibration.poses import read_column_map, read_poses
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 IPA = os.path.join(ROOT, "data", "realdata", "ur10_ipa")
 FILES = {"A": "Series_A/measurements_grid.csv", "B": "Series_B/measurements_joint_configurations.csv",
          "C": "Series_C/measurements_random_poses.csv", "D": "Series_D/measurements_iso_cubes.csv"}
-#: the effect library beyond geometry and joint compliance (vjm.robot.flex), tried in this order
+#: the effect library beyond geometry and joint compliance (vjm.calibration.flex), tried in this order
 FLEX_LIBRARY = ("geometry", "compliance", "lateral", "bending", "varying", "thermal", "payload")
 #: (row, effects, folds): folds > 0 keeps an effect only if A's k-fold cross-validated error drops too
 MODELS = (("nominal", None, 0), ("registration only", (), 0), ("geometry", ("geometry",), 0),

@@ -21,8 +21,8 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench_ur10 as b
 
-from vjm.robot.absolute import kabsch
-from vjm.robot.calibration import error_stats
+from vjm.calibration.engine import error_stats
+from vjm.calibration.serial import kabsch
 
 CONFIG = """tasks:
   calibration:

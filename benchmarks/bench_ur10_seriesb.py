@@ -15,7 +15,7 @@ import sys
 
 import numpy as np
 
-from vjm.robot.calibration import calibrate, predict_points, register
+from vjm.calibration.engine import calibrate, predict_points, register
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_ur10 import FLEX_LIBRARY, load_ur10, split, training_rows

@@ -23,7 +23,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_ur10 import load_ur10, split, training_rows
 
-from vjm.robot.calibration import calibrate, instrument_frame, position_errors, predict_points, register
+from vjm.calibration.engine import calibrate, instrument_frame, position_errors, predict_points, register
 
 EFFECTS = ("geometry", "compliance")
 

@@ -10,7 +10,7 @@ import pytest
 
 import vjm
 from linkfea.files.atomic import plain
-from vjm.discrepancy.cli import run
+from vjm.cli.diagnose import run
 from vjm.discrepancy.data import Deflections, StiffnessObs, read_csv
 from vjm.discrepancy.stages.kinds import DeflectionKind, StiffnessKind, kind_of
 from vjm.discrepancy.stages.record import Report

@@ -10,13 +10,11 @@ import json
 
 import numpy as np
 import pytest
-import typer
 from scipy import stats
 from typer.testing import CliRunner
 
 import vjm
 from vjm.discrepancy import observe
-from vjm.discrepancy.cli import register
 from vjm.discrepancy.data import Deflections, read_csv, write_deflections
 from vjm.discrepancy.simulate import design_loads, simulate
 from vjm.discrepancy.workflow import diagnose
@@ -233,12 +231,7 @@ def test_clipped_fit_is_never_named():
 # ---------------------------------------------------------------- suggested measurements
 
 def _cli():
-    app = typer.Typer()
-    register(app)
-
-    @app.callback()
-    def _root():
-        pass
+    from vjm.cli import app
 
     return app
 

@@ -7,11 +7,10 @@ import json
 
 import numpy as np
 import pytest
-import typer
 from typer.testing import CliRunner
 
 import vjm
-from vjm.discrepancy.cli import register, run
+from vjm.cli.diagnose import run
 from vjm.discrepancy.data import Deflections, read_csv
 from vjm.discrepancy.diagnosis import write_diagnosis
 from vjm.discrepancy.simulate import design_loads, simulate
@@ -120,12 +119,7 @@ def test_actuator_influence_by_castigliano():
 
 
 def _cli():
-    app = typer.Typer()
-    register(app)
-
-    @app.callback()
-    def _root():
-        pass
+    from vjm.cli import app
 
     return app
 

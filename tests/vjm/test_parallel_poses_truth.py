@@ -13,11 +13,11 @@ tp = pytest.importorskip("truth_parallel")
 tr = pytest.importorskip("truth")
 
 import vjm  # noqa: E402
+from vjm.calibration.parallel_diagnosis import diagnose_platform_poses  # noqa: E402
+from vjm.calibration.poses import AbsolutePoses  # noqa: E402
+from vjm.calibration.serial import rotation_matrix  # noqa: E402
 from vjm.cli import main  # noqa: E402
-from vjm.discrepancy.platformposes import diagnose_platform_poses  # noqa: E402
 from vjm.kinematics import forward as fk  # noqa: E402
-from vjm.robot.absolute import rotation_matrix  # noqa: E402
-from vjm.robot.poses import AbsolutePoses  # noqa: E402
 
 SIGMA = 0.01   # mm
 OFFSETS = np.array([0.5, -0.3, 0.0, 0.25, 0.0, -0.4])   # mm: the struts' hidden encoder offsets
@@ -195,7 +195,7 @@ def test_units_and_step_limits_follow_the_transforms_of_the_file(name):
 
     import yaml
 
-    from vjm.robot.platform import actuator_units
+    from vjm.calibration.parallel import actuator_units
 
     path = os.path.join(tr.ROOT, "data", "machines", f"{name}.yaml")
     with open(path, encoding="utf-8") as f:

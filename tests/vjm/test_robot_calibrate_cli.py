@@ -11,8 +11,8 @@ truth = pytest.importorskip("truth_serial")
 
 import vjm  # noqa: E402
 from linkfea.files.outputs import read_manifest  # noqa: E402
+from vjm.calibration.serial import rotation_matrix  # noqa: E402
 from vjm.cli import main  # noqa: E402
-from vjm.robot.absolute import rotation_matrix  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 UR10 = os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml")

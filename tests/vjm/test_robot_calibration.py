@@ -10,9 +10,9 @@ import pytest
 truth = pytest.importorskip("truth_serial")
 
 import vjm  # noqa: E402
-from vjm.robot.absolute import kabsch, rotation_matrix  # noqa: E402
-from vjm.robot.calibration import calibrate, instrument_frame, position_errors, predict_points, register  # noqa: E402
-from vjm.robot.poses import AbsolutePoses  # noqa: E402
+from vjm.calibration.engine import calibrate, instrument_frame, position_errors, predict_points, register  # noqa: E402
+from vjm.calibration.poses import AbsolutePoses  # noqa: E402
+from vjm.calibration.serial import kabsch, rotation_matrix  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(__file__)))
 URDF = os.path.join(ROOT, "data", "robots", "ur10", "ur10.urdf")
@@ -128,8 +128,8 @@ def test_a_new_set_up_is_registered_with_the_robot_frozen(model, hidden_fit):
 
 
 def test_one_pass_jacobian_matches_central_differences(model):
-    from vjm.robot import calibration as cm
-    from vjm.robot.absolute import full_layout, jacobian, jacobian_fast
+    from vjm.calibration import engine as cm
+    from vjm.calibration.serial import full_layout, jacobian, jacobian_fast
 
     rng = np.random.default_rng(11)
     q = _q(40, 12)
@@ -161,8 +161,8 @@ def test_a_payload_at_the_marker_is_weighed_through_the_compliances(model):
 
 
 def test_the_calibrated_urdf_reproduces_the_calibrated_positions_in_pinocchio(model, hidden_fit, tmp_path):
+    from vjm.calibration.write import write_calibrated
     from vjm.errors import VjmError
-    from vjm.robot.calibwrite import write_calibrated
 
     data, cal = hidden_fit
     urdf, yml = tmp_path / "ur10_cal.urdf", tmp_path / "ur10_cal.yaml"

@@ -10,10 +10,10 @@ import pytest
 
 truth = pytest.importorskip("truth_serial")
 
+from vjm.calibration.serial import rotation_matrix  # noqa: E402
 from vjm.cli import main  # noqa: E402
-from vjm.robot.absolute import rotation_matrix  # noqa: E402
+from vjm.modelio.urdf import read_urdf  # noqa: E402
 from vjm.robot.model import RobotModel  # noqa: E402
-from vjm.robot.urdf import read_urdf  # noqa: E402
 
 SIGMA = 0.01   # mm
 HANDS = ("l_tool", "r_tool")
@@ -116,8 +116,8 @@ def test_the_calibrated_urdf_carries_both_markers(torso):
     """The URDF written beside the report (Python API: diagnose, then save), loaded in pinocchio at the
     configurations the fitted compliances deflect, puts each hand's marker where the calibration puts it
     (base frame) to 1e-9 m."""
+    from vjm.calibration.engine import instrument_frame, predict_points
     from vjm.discrepancy.workflow import diagnose
-    from vjm.robot.calibration import instrument_frame, predict_points
 
     d, model = torso
     _write(torso, "urdf.csv", truth.Hidden(**REGISTRATION, compliance=COMPLIANCE, offsets={"r1": 2e-3}), 60, 3)
@@ -129,7 +129,7 @@ def test_the_calibrated_urdf_carries_both_markers(torso):
     pd = pm.createData()
     idx = [pm.idx_qs[pm.getJointId(n)] for n in model.q_names]
     c = np.array([cal.values.get(f"{j}.compliance", 0.0) for j in model.q_names])
-    from vjm.robot.poses import read_column_map, read_poses
+    from vjm.calibration.poses import read_column_map, read_poses
     data = read_poses(d / "urdf.csv", read_column_map(d / "map.yaml"), model.q_names).subset(np.arange(20))
     data = data.with_group("urdf.csv")
     R, t = instrument_frame(cal, "urdf.csv")

@@ -1,4 +1,4 @@
-"""The flex effects of vjm.robot.flex against pinocchio's truth (tests/truth_serial.py): a UR10 with joint
+"""The flex effects of vjm.calibration.flex against pinocchio's truth (tests/truth_serial.py): a UR10 with joint
 offsets and joint compliances plus one hidden effect -- lateral joint compliance, link bending, a compliance
 varying with the joint's value, a length scale with temperature -- is calibrated with that effect in the
 library: the effect is named and its value recovered; the same arm without it names nothing beyond the
@@ -12,9 +12,9 @@ import pytest
 truth = pytest.importorskip("truth_serial")
 
 import vjm  # noqa: E402
-from vjm.robot.absolute import full_layout, jacobian, jacobian_fast, rotation_matrix  # noqa: E402
-from vjm.robot.calibration import _problem, calibrate, position_errors  # noqa: E402
-from vjm.robot.poses import AbsolutePoses  # noqa: E402
+from vjm.calibration.engine import _problem, calibrate, position_errors  # noqa: E402
+from vjm.calibration.poses import AbsolutePoses  # noqa: E402
+from vjm.calibration.serial import full_layout, jacobian, jacobian_fast, rotation_matrix  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(__file__)))
 URDF = os.path.join(ROOT, "data", "robots", "ur10", "ur10.urdf")

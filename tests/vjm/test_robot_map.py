@@ -91,7 +91,7 @@ def test_cartesian_grid_stiffness_matches_pinocchio_and_unreachable_points_are_m
 
 
 def test_cartesian_map_default_box_is_the_tools_reach():
-    from vjm.robot.cartmap import reach_box
+    from vjm.maps.robot_cartesian import reach_box
 
     m = vjm.load_model(UR10)
     box = reach_box(m)

@@ -7,8 +7,8 @@ import pytest
 
 pin = pytest.importorskip("pinocchio")
 
+from vjm.modelio.urdf import read_urdf  # noqa: E402
 from vjm.robot.model import GRAVITY, JointSpring, RobotModel  # noqa: E402
-from vjm.robot.urdf import read_urdf  # noqa: E402
 
 HERE = os.path.dirname(__file__)
 ROOT = os.path.dirname(os.path.dirname(HERE))

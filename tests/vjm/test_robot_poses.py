@@ -4,9 +4,9 @@ import os
 import numpy as np
 import pytest
 
+from vjm.calibration.poses import column_map_from_dict, read_column_map, read_poses
+from vjm.calibration.serial import rotation_matrix
 from vjm.errors import VjmError
-from vjm.robot.absolute import rotation_matrix
-from vjm.robot.poses import column_map_from_dict, read_column_map, read_poses
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(__file__)))
 IPA = os.path.join(ROOT, "data", "realdata", "ur10_ipa")

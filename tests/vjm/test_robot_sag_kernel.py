@@ -5,8 +5,8 @@ import os
 import numpy as np
 
 import vjm
+from vjm.modelio.urdf import read_urdf
 from vjm.robot.model import JointSpring, Payload, RobotModel
-from vjm.robot.urdf import read_urdf
 from vjm.robot.weight import body_loads
 from vjm.stiffness.nonlinear import deflection_map
 

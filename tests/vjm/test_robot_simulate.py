@@ -6,8 +6,8 @@ import os
 import numpy as np
 import pytest
 
+from vjm.calibration.poses import read_poses
 from vjm.cli import main
-from vjm.robot.poses import read_poses
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 UR10_DIR = os.path.join(ROOT, "data", "robots", "ur10")

@@ -7,12 +7,12 @@ import pytest
 
 truth = pytest.importorskip("truth_serial")
 
-from vjm.robot.absolute import rotation_matrix  # noqa: E402
-from vjm.robot.calibration import calibrate, position_errors  # noqa: E402
+from vjm.calibration.engine import calibrate, position_errors  # noqa: E402
+from vjm.calibration.poses import AbsolutePoses  # noqa: E402
+from vjm.calibration.robust import calibrate_robust  # noqa: E402
+from vjm.calibration.serial import rotation_matrix  # noqa: E402
+from vjm.modelio.urdf import read_urdf  # noqa: E402
 from vjm.robot.model import RobotModel  # noqa: E402
-from vjm.robot.poses import AbsolutePoses  # noqa: E402
-from vjm.robot.robust import calibrate_robust  # noqa: E402
-from vjm.robot.urdf import read_urdf  # noqa: E402
 
 SIGMA = 0.01   # mm
 HANDS = ("l_tool", "r_tool")

@@ -9,9 +9,9 @@ import pytest
 truth = pytest.importorskip("truth_serial")
 
 import vjm  # noqa: E402
-from vjm.robot.absolute import rotation_matrix  # noqa: E402
-from vjm.robot.calibration import calibrate, position_errors  # noqa: E402
-from vjm.robot.poses import AbsolutePoses  # noqa: E402
+from vjm.calibration.engine import calibrate, position_errors  # noqa: E402
+from vjm.calibration.poses import AbsolutePoses  # noqa: E402
+from vjm.calibration.serial import rotation_matrix  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 URDF = os.path.join(ROOT, "data", "robots", "ur10", "ur10.urdf")
@@ -73,7 +73,7 @@ def test_clean_data_name_no_backlash(model):
 def test_rows_of_a_swapped_marker_are_set_aside_not_fitted(model):
     """5 % of the rows measured the other reflector (150 mm away on the flange): out of the library, they are
     set aside and listed, and the clean rest names nothing beyond the registration."""
-    from vjm.robot.robust import calibrate_robust
+    from vjm.calibration.robust import calibrate_robust
 
     q = _q(model, 300, 7)
     data = _data(model, truth.Hidden(**BASE), q, 8)

@@ -5,8 +5,8 @@ the package's own simulator check files, arguments and progress, never an effect
 import ast
 import os
 
-from vjm.robot.calibration import STAGES
-from vjm.robot.platform import EFFECTS
+from vjm.calibration.engine import STAGES
+from vjm.calibration.parallel import EFFECTS
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 

@@ -9,5 +9,5 @@ runs the ``stages``, listed in run order in :mod:`vjm.discrepancy.stages`),
 line, the summary), ``suggest`` (next measurements), ``loads`` (load levels),
 ``localize`` (where a gap is), ``observe`` (what a data set can see),
 ``simulate``, ``report`` (JSON/HTML/PNG), ``cli`` (the commands and
-:func:`~vjm.discrepancy.cli.run`).  The statistics engine is :mod:`vjm.stats`.
+:func:`~vjm.cli.diagnose.run`).  The statistics engine is :mod:`vjm.stats`.
 """

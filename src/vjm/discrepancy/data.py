@@ -274,7 +274,7 @@ def read_csv(path) -> Deflections | StiffnessObs:
     if missing and any(re.match(r"^.+\.[xyz]$", h) for h in header):
         raise _err(path, hdr_row, next(h for h in header if re.match(r"^.+\.[xyz]$", h)),
                    "absolute poses (columns <frame>.x,.y,.z), not deflections: vjm diagnose reads them as such "
-                   "(vjm.robot.poses.read_poses), a robot's joint values or a parallel machine's actuator values "
+                   "(vjm.calibration.poses.read_poses), a robot's joint values or a parallel machine's actuator values "
                    "with the platform's point")
     if missing:
         raise _err(path, hdr_row, missing[0],

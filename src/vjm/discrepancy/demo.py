@@ -10,8 +10,8 @@ from __future__ import annotations
 import os
 import sys
 
+from ..cli import diagnose as cli
 from ..resources import data_dir
-from . import cli
 from . import simulate as sim
 
 MODEL = str(data_dir() / "orthoglide" / "puu.yaml")

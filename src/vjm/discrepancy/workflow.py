@@ -126,7 +126,7 @@ def diagnose(model, data, alpha: float | None = None, effects=None, folds: int =
 
     A serial or tree robot's data are absolute poses (:class:`~vjm.discrepancy.stages.kinds.AbsolutePoseKind`:
     ``columns`` a column map file, ``validate`` held-out files registered on ``register`` of their poses;
-    ``alpha`` default 1e-3); the outcome is then a :class:`~vjm.discrepancy.absolute.PoseDiagnosis`.
+    ``alpha`` default 1e-3); the outcome is then a :class:`~vjm.calibration.diagnosis.PoseDiagnosis`.
 
     Parameters
     ----------

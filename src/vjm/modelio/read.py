@@ -165,10 +165,10 @@ def parse_links(d: dict, base_dir: str) -> dict:
 
 def model_from_dict(d: dict, base_dir: str = ".", path: str | None = None) -> Model:
     """Build a validated :class:`vjm.Model` from the mapping of a model file: a robot (a ``urdf:`` or
-    ``dh:`` key, :mod:`vjm.robot.robotfile`) or a parallel machine."""
+    ``dh:`` key, :mod:`vjm.modelio.robotfile`) or a parallel machine."""
     if not isinstance(d, dict):
         raise VjmError("a model file must be a YAML mapping")
-    from ..robot.robotfile import is_robot, robot_from_dict
+    from .robotfile import is_robot, robot_from_dict
 
     if is_robot(d):  # a serial or tree robot: a URDF or a DH table beside its springs (vjm.robot)
         return robot_from_dict(d, base_dir, path, parse_link)
@@ -303,7 +303,7 @@ def is_robot_file(path) -> bool:
             return False
         if path.lower().endswith(".urdf"):
             return True
-        from ..robot.robotfile import is_robot
+        from .robotfile import is_robot
         from .yamldata import read_yaml
 
         return is_robot(read_yaml(path, "model file"))
@@ -314,7 +314,7 @@ def is_robot_file(path) -> bool:
 def load_model(path, foot=None, leg=None, links: dict | None = None) -> Model:
     """Read a model file, with some of its links replaced: a :class:`vjm.Model` of either kind, a parallel
     machine (an architecture or a machine description) or a serial or tree robot (a YAML naming a URDF or
-    holding a DH table, :mod:`vjm.robot.robotfile`; or a ``.urdf`` file alone, a rigid robot).
+    holding a DH table, :mod:`vjm.modelio.robotfile`; or a ``.urdf`` file alone, a rigid robot).
 
     ``foot``, ``leg`` and the entries of ``links`` (name -> link) override the file's links;
     each may be a :class:`linkfea.LinkResult`, a :class:`linkfea.Compliance`, a
@@ -334,7 +334,7 @@ def load_model(path, foot=None, leg=None, links: dict | None = None) -> Model:
 
     d = read_yaml(path, "model file")  # plain data: a YAML tag that builds objects is refused
     given = {k: v for k, v in {**(links or {}), "foot": foot, "leg": leg}.items() if v is not None}
-    from ..robot.robotfile import is_robot
+    from .robotfile import is_robot
 
     if is_robot(d) and given:
         raise VjmError(f"{path}: a robot's link springs are replaced in its model file (links:), not by "

@@ -76,7 +76,7 @@ OWN_MAX_BYTES = 50_000_000
 #: the header of a robot's model file (its first line is HEADER's: how :func:`own_model_file` knows both)
 ROBOT_HEADER = (HEADER.split("\n", 1)[0] + "\n"
                 "# A serial or tree robot: a URDF (m, kg, converted to mm at the edge) or a DH table, its joint and\n"
-                "# link springs, masses and payload in N, mm, kg, rad. See vjm.robot.robotfile for the format.\n")
+                "# link springs, masses and payload in N, mm, kg, rad. See vjm.modelio.robotfile for the format.\n")
 
 
 def model_file_text(doc: dict, header: str = HEADER) -> str:
@@ -121,7 +121,7 @@ def save_model(model, path) -> None:
 
     An existing file at ``path`` is replaced only if vjm wrote it and it is unchanged since
     (:func:`own_model_file`); anything else (your ``notes.txt``, a model file you edited) is refused."""
-    if getattr(model, "kind", "") == "serial":  # a robot writes its own mapping (vjm.robot.robotwrite)
+    if getattr(model, "kind", "") == "serial":  # a robot writes its own mapping (vjm.modelio.robotwrite)
         model.save(path)
         return
     path = os.path.abspath(os.fspath(path))

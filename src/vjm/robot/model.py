@@ -389,8 +389,8 @@ class RobotModel(Model):
 
     def joint_map(self, q0, joints, ranges, n=41, tool: str | None = None, self_weight: bool = False):
         """k_tran, k_rot, K (and the sag) over two joints, the others at ``q0``; ``n`` values per joint (or one
-        count per joint) (:func:`vjm.robot.jointmap.joint_map`)."""
-        from .jointmap import joint_map
+        count per joint) (:func:`vjm.maps.robot_joint.joint_map`)."""
+        from ..maps.robot_joint import joint_map
 
         return joint_map(self, q0, joints, ranges, n, tool, self_weight)
 
@@ -444,6 +444,6 @@ class RobotModel(Model):
 
     def save(self, path) -> None:
         """Write this model's file (its mapping as read; a URDF path is kept absolute)."""
-        from .robotwrite import save_robot
+        from ..modelio.robotwrite import save_robot
 
         save_robot(self, path)

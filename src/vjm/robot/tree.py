@@ -3,7 +3,7 @@
 A :class:`Tree` is pinocchio's model reduced to what the virtual joint method needs: joints
 (revolute, continuous, prismatic; a ``mimic`` joint follows another one), the frames fixed to
 them (tool frames, spring frames) and the bodies' masses and centres of mass.  Every quantity
-here is in mm, kg and rad: a URDF's metres are converted where it is read (:mod:`vjm.robot.urdf`).
+here is in mm, kg and rad: a URDF's metres are converted where it is read (:mod:`vjm.modelio.urdf`).
 
 From the tree, :func:`path_chain` writes the :class:`vjm.kinematics.chain.Chain` from the base to one
 frame -- the product of constant placements, joint factors and virtual springs (eq. 1) -- so

@@ -225,31 +225,31 @@ class StiffnessKind:
 
 class AbsolutePoseKind:
     """Absolute poses: per joint configuration of a serial or tree robot, points on it measured by an instrument
-    in its own frame (:class:`vjm.robot.poses.AbsolutePoses`, read as it is through a column map).
+    in its own frame (:class:`vjm.calibration.poses.AbsolutePoses`, read as it is through a column map).
 
     The stages of the two kinds above (a calibrated baseline, each candidate alone on top of it, groups that
     cannot be told apart) do not fit these data: the instrument frame and the markers are a nuisance fitted
     with everything, the geometry is identified by the rank of its Jacobian, the effects act through the
     robot's self-weight and are tried in turn.  The calibration engine of :mod:`vjm.robot` does that (one
-    home): this kind reads the data and hands them to :func:`vjm.discrepancy.absolute.diagnose_poses`."""
+    home): this kind reads the data and hands them to :func:`vjm.calibration.diagnosis.diagnose_poses`."""
 
     name = "absolute"
 
     def check(self, effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
         """The effects tried, the options that have no meaning on absolute poses refused."""
-        from ..absolute import check_options
+        from ...calibration.diagnosis import check_options
 
         return check_options(effects, suggest, forces_only, noise)
 
     def read(self, path, model, columns=None):
         """The data set of ``path`` (through the column map file ``columns``), the model's joints required."""
-        from ...robot.poses import read_column_map, read_poses
+        from ...calibration.poses import read_column_map, read_poses
 
         return read_poses(path, read_column_map(columns) if columns is not None else None, model.q_names)
 
     def run(self, model, data, **kw):
-        """The diagnosis (a :class:`~vjm.discrepancy.absolute.PoseDiagnosis`)."""
-        from ..absolute import diagnose_poses
+        """The diagnosis (a :class:`~vjm.calibration.diagnosis.PoseDiagnosis`)."""
+        from ...calibration.diagnosis import diagnose_poses
 
         return diagnose_poses(model, data, **kw)
 
@@ -261,24 +261,24 @@ class AbsolutePoseKind:
 class PlatformPoseKind:
     """Absolute poses of a parallel machine: the platform's point measured at commanded actuator values.  The
     sibling of :class:`AbsolutePoseKind`: the same engine on the platform's measurement model
-    (:mod:`vjm.robot.platform`), handed over to
-    :func:`vjm.discrepancy.platformposes.diagnose_platform_poses`."""
+    (:mod:`vjm.calibration.parallel`), handed over to
+    :func:`vjm.calibration.parallel_diagnosis.diagnose_platform_poses`."""
 
     name = "platform_absolute"
 
     def check(self, effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
-        from ..platformposes import check_options
+        from ...calibration.parallel_diagnosis import check_options
 
         return check_options(effects, suggest, forces_only, noise)
 
     def read(self, path, model, columns=None):
-        from ..platformposes import read
+        from ...calibration.parallel_diagnosis import read
 
         return read(path, model, columns)
 
     def run(self, model, data, validate=(), **kw):
-        """The diagnosis (a :class:`~vjm.discrepancy.absolute.PoseDiagnosis`)."""
-        from ..platformposes import diagnose_platform_poses
+        """The diagnosis (a :class:`~vjm.calibration.diagnosis.PoseDiagnosis`)."""
+        from ...calibration.parallel_diagnosis import diagnose_platform_poses
 
         return diagnose_platform_poses(model, data, validate_files=validate, **kw)
 
@@ -294,7 +294,7 @@ DataKind = DeflectionKind | StiffnessKind
 def kind_of(data) -> DataKind:
     """The strategy of a data set read by :func:`~vjm.discrepancy.data.read_csv` (absolute poses go to
     :class:`AbsolutePoseKind` by their model, :func:`kind_for`)."""
-    from ...robot.poses import AbsolutePoses
+    from ...calibration.poses import AbsolutePoses
 
     if isinstance(data, AbsolutePoses):
         raise VjmError(f"{data.source}: absolute poses are diagnosed by their own kinds (AbsolutePoseKind, "
@@ -304,10 +304,10 @@ def kind_of(data) -> DataKind:
 
 def kind_for(model, data=None, columns=None) -> AbsolutePoseKind | PlatformPoseKind | None:
     """The kind of absolute poses: a serial or tree robot's always; a parallel machine's when ``data`` holds
-    them (:func:`vjm.discrepancy.platformposes.is_pose_file`); else None: the file says its kind
+    them (:func:`vjm.calibration.parallel_diagnosis.is_pose_file`); else None: the file says its kind
     (deflections or stiffness observations)."""
-    from ..absolute import is_robot
-    from ..platformposes import is_pose_file
+    from ...calibration.diagnosis import is_robot
+    from ...calibration.parallel_diagnosis import is_pose_file
 
     if is_robot(model):
         return AbsolutePoseKind()

@@ -168,7 +168,7 @@ def simulate_robot(model_path, effects, poses, loads: str, noise_t: float, noise
     from linkfea.files.outputs import check_file, is_simulated_csv
 
     from ..modelio.read import load_model
-    from .model import RobotModel
+    from ..robot.model import RobotModel
 
     check_file(out, is_simulated_csv, "a CSV written by vjm simulate")  # before any work, robot or not
     model = load_model(model_path)

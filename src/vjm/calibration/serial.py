@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from ..kinematics.transforms import elementary
+from ..robot.tree import _rigid_inverse
 from .flex import beam_axes, beam_name, transforms
-from .tree import _rigid_inverse
 
 GEOMETRY = ("offset", "dx", "dy", "dz", "ex", "ey", "ez")
 _REG = ("tx", "ty", "tz", "rx", "ry", "rz")
@@ -148,7 +148,7 @@ def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = F
 
 
 def _flex_layout(model, path, frame: str, names: list, kinds: list, units: list) -> None:
-    """The flex effects' parameters (:mod:`vjm.robot.flex`): lateral compliances, beams, varying compliances."""
+    """The flex effects' parameters (:mod:`vjm.calibration.flex`): lateral compliances, beams, varying compliances."""
     for j in path:
         if j.mimic is None:
             names.append(f"{j.name}.lateral")
@@ -184,7 +184,7 @@ class Problem:
     unit_torques: np.ndarray | None = None
     #: the robot's gravity torques (3, n, nq) N mm for a unit gravity along each base axis (the base tilt's), or None
     gravity_basis: np.ndarray | None = None
-    #: the loads of the lateral compliances, link bending and temperature (:class:`vjm.robot.flex.Flex`), or None
+    #: the loads of the lateral compliances, link bending and temperature (:class:`vjm.calibration.flex.Flex`), or None
     flex: Any = None
 
 
@@ -222,7 +222,7 @@ def chain_frames(model, q: np.ndarray, frame: str, values: dict, dq: np.ndarray 
                  flex=None) -> np.ndarray:
     """Frames (n, 4, 4) of ``frame`` with origin errors and offsets ``values`` ({"<joint>.<kind>": value},
     missing ones 0), extra joint values ``dq`` (n, nq) (the compliance's deflections) and the flex effects
-    of ``values`` on the loads ``flex`` (:func:`vjm.robot.flex.transforms`)."""
+    of ``values`` on the loads ``flex`` (:func:`vjm.calibration.flex.transforms`)."""
     pre, post, tool = transforms(flex, model, frame, values)
     tree = model.tree
     qn = list(tree.q_names)

@@ -16,8 +16,8 @@ import numpy as np
 
 from ..errors import VjmError
 from ..kinematics.transforms import elementary
-from .absolute import GEOMETRY, _delta
-from .tree import _rigid_inverse, origin_transform
+from ..robot.tree import _rigid_inverse, origin_transform
+from .serial import GEOMETRY, _delta
 
 MM = 1000.0
 
@@ -92,12 +92,12 @@ def robot_file(cal, urdf_name: str) -> str:
          "tools": [f"{f}_marker" for f in cal.markers], "gravity": [float(g) for g in cal.model.gravity]}
     if joints:
         d["joints"] = joints
-    head = ("# Calibrated by vjm.robot.calibration: joint stiffnesses (N mm/rad) fitted under self-weight;\n"
+    head = ("# Calibrated by vjm.calibration.engine: joint stiffnesses (N mm/rad) fitted under self-weight;\n"
             "# the joints without one were rigid in the fit (not observable, or not fitted).\n")
     flex = {k: v for k, v in cal.values.items()
             if k.rsplit(".", 1)[-1] in ("lateral", "bending", "varying", "alpha", "backlash") or ".coupling[" in k}
     if flex:   # fitted, but neither the URDF nor the robot file has a place for them: said, not dropped silently
-        head += ("# Fitted effects this file and the URDF do not carry (vjm.robot.flex, vjm.robot.absolute units):\n"
+        head += ("# Fitted effects this file and the URDF do not carry (vjm.calibration.flex, vjm.calibration.serial units):\n"
                  + "".join(f"#   {k} = {v:.6g}\n" for k, v in flex.items()))
     return head + yaml.safe_dump(d, sort_keys=False)
 

@@ -22,7 +22,7 @@ def _numbers(text: Optional[str], option: str, k: int):
 
 
 def _wrench_source(wrench, kc, fz, depth, width, diameter):
-    from .wrench import Constant, Milling
+    from ..toolpath.wrench import Constant, Milling
 
     milling = [kc, fz, depth, width]
     if wrench is not None and any(v is not None for v in milling):
@@ -89,8 +89,8 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
              force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files "
                                                                "(they are never overwritten or deleted)")):
     """Deflection of the tool along TOOLPATH under the process wrench, and the compensated toolpath."""
-    from .dispatch import path
-    from .output import check_out, write_outputs
+    from ..toolpath.dispatch import path
+    from ..toolpath.output import check_out, write_outputs
 
     try:
         if method not in ("linear", "nonlinear"):
@@ -115,7 +115,3 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
     typer.echo(f"wrote {out}/" + ", ".join(names))
     if res.passed is False:
         raise typer.Exit(1)
-
-
-def register(app) -> None:
-    app.command("path")(path_cmd)

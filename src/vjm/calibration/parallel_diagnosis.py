@@ -1,15 +1,15 @@
 """``vjm diagnose`` on a parallel machine's absolute poses: the platform's point measured by an instrument at
-commanded actuator values, diagnosed by the calibration engine (:func:`vjm.robot.platformcal.calibrate_platform`,
-the robot's stages on the measurement model of :mod:`vjm.robot.platform`).
+commanded actuator values, diagnosed by the calibration engine (:func:`vjm.calibration.parallel_fit.calibrate_platform`,
+the robot's stages on the measurement model of :mod:`vjm.calibration.parallel`).
 
 The file has a column per actuator, named ``<chain>.<variable>`` (``A1.l`` of a hexapod's strut, ``x.q0``
 of an Orthoglide's carriage: :func:`vjm.kinematics.forward.actuator_names`), and the measured point
 ``platform.x``, ``platform.y``, ``platform.z`` (mm, instrument frame; optional ``platform.sigma``,
 ``group``), read as it is through a column map (``--columns``) like a robot's.  The report is that of a
-robot's poses (:mod:`vjm.discrepancy.absolute`): the effects named in order of what each buys (actuator
+robot's poses (:mod:`vjm.calibration.diagnosis`): the effects named in order of what each buys (actuator
 offsets, chains' base attachments), the gap before and after, the held-out error (k-fold, or
 ``--validate`` files each registered on ``--register`` of its poses, the machine frozen), the registration
-apart, what is not identifiable, the rows set aside as outliers (:mod:`vjm.robot.robust`, as a robot's).
+apart, what is not identifiable, the rows set aside as outliers (:mod:`vjm.calibration.robust`, as a robot's).
 Written: ``report.json``, ``report.html``, ``summary.txt`` (no calibrated URDF: the machine is no robot
 file).  No elastic effect is tried: the rows carry no load.
 """
@@ -23,19 +23,19 @@ from typing import Any
 
 from ..errors import VjmError
 from ..kinematics.forward import actuator_names
-from ..robot import calibreport as cr
-from ..robot.calibration import error_stats, position_errors
-from ..robot.platform import EFFECTS, FRAME
-from ..robot.platformcal import calibrate_platform, register_platform
-from ..robot.robust import calibrate_robust
-from . import absolute
-from .absolute import DEFAULT_ALPHA, PoseDiagnosis, _verdict, lack_of_fit
+from . import diagnosis as absolute
+from . import report as cr
+from .diagnosis import DEFAULT_ALPHA, PoseDiagnosis, _verdict, lack_of_fit
+from .engine import error_stats, position_errors
+from .parallel import EFFECTS, FRAME
+from .parallel_fit import calibrate_platform, register_platform
+from .robust import calibrate_robust
 
 SCHEMA = "vjm.diagnosis.absolute/1"
 
 
 def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
-    """The effects tried (names of :data:`vjm.robot.platform.EFFECTS`; None: all), and a refusal of the
+    """The effects tried (names of :data:`vjm.calibration.parallel.EFFECTS`; None: all), and a refusal of the
     options that have no meaning on a parallel machine's absolute poses."""
     return absolute.check_options(effects, suggest, forces_only, noise, known=EFFECTS, default=EFFECTS,
                                   what="a parallel machine's absolute poses")
@@ -44,7 +44,7 @@ def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=No
 def read(path, model, columns=None, group: str | None = None):
     """A parallel machine's absolute poses (its actuators' columns required), one group per file without a
     ``group`` column."""
-    from ..robot.poses import read_column_map, read_poses
+    from .poses import read_column_map, read_poses
 
     cmap = read_column_map(columns) if columns is not None else None
     d = read_poses(path, cmap, group=group)
@@ -74,7 +74,7 @@ def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: f
                             outliers: bool = True, progress=None) -> PoseDiagnosis:
     """Diagnose a parallel machine's absolute poses (the module docstring): ``model`` and ``data`` loaded or
     their files, ``columns`` a column map file, ``validate_files`` held-out files (then no k-fold),
-    ``outliers`` rows no effect explains set aside (:mod:`vjm.robot.robust`)."""
+    ``outliers`` rows no effect explains set aside (:mod:`vjm.calibration.robust`)."""
     from ..modelio.read import load_model
 
     eff = check_options(effects)
@@ -110,7 +110,7 @@ def is_pose_file(data, columns=None) -> bool:
     import csv
     import re
 
-    from ..robot.poses import AbsolutePoses, read_column_map
+    from .poses import AbsolutePoses, read_column_map
 
     if isinstance(data, AbsolutePoses):
         return True

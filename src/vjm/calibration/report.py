@@ -1,7 +1,7 @@
 """``vjm calibrate``: a robot calibrated on absolute poses, held out, reported and written back as one set.
 
 The run (:func:`run`) reads the robot model, the calibration file through its column map and the
-``--validate`` files, fits :func:`vjm.robot.calibration.calibrate`, registers every validation file on a
+``--validate`` files, fits :func:`vjm.calibration.engine.calibrate`, registers every validation file on a
 few of its own poses (the robot frozen: a validation file is a new instrument set-up) and measures the
 error on its other poses.  :func:`report` gathers what a user judges a calibration on:
 
@@ -10,7 +10,7 @@ error on its other poses.  :func:`report` gathers what a user judges a calibrati
 - the held-out error: k-fold cross-validated RMS of the stages (``folds``), and the validation files';
 - the registration (instrument frame of each group, marker offset) and its standard deviations, apart;
 - the parameters removed: combinations that cannot be identified, joints that are not observable;
-- the rows set aside as outliers (:mod:`vjm.robot.robust`), with their errors.
+- the rows set aside as outliers (:mod:`vjm.calibration.robust`), with their errors.
 
 :func:`write_set` writes ``report.json``, ``summary.txt``, ``calibrated.urdf`` and ``calibrated.yaml``
 into a folder as one set (:mod:`linkfea.files.outputs`: complete or untouched, a manifest, never a user's file).
@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import VjmError
-from .calibration import STAGES, Calibration, calibrate, error_stats, instrument_frame, position_errors, register
+from .engine import STAGES, Calibration, calibrate, error_stats, instrument_frame, position_errors, register
 from .robust import calibrate_robust
 
 FILES = ("report.json", "summary.txt", "calibrated.urdf", "calibrated.yaml")
@@ -271,7 +271,7 @@ def inputs(model, data, columns, validate_paths, opt: Options, asked: bool, opti
 
 def run(model, data, validate_sets: list, opt: Options, robust: bool = True) -> tuple[Calibration, list]:
     """Fit and hold out: (the calibration, the validation files' held-out errors); ``robust``: rows no effect
-    explains set aside (:mod:`vjm.robot.robust`)."""
+    explains set aside (:mod:`vjm.calibration.robust`)."""
     fit = calibrate_robust if robust else calibrate
     cal = fit(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
     return cal, [validate(cal, v, opt.register_on) for v in validate_sets]
@@ -284,7 +284,7 @@ def write_set(out, cal: Calibration, rep: dict, force: bool = False, set_name: s
     from linkfea.files.atomic import plain
     from linkfea.files.outputs import OutputSet, check_folder
 
-    from .calibwrite import calibrated_urdf, robot_file
+    from .write import calibrated_urdf, robot_file
 
     extra = extra or {}
     files = FILES + tuple(k for k in extra if k not in FILES)

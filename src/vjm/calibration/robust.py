@@ -2,7 +2,7 @@
 hands, a reflector lost to another one, a mistyped row.
 
 A gross error pulls a least-squares fit everywhere and makes the F tests name effects that are not there.
-:func:`calibrate_robust` fits (:func:`vjm.robot.calibration.calibrate`), sets aside the rows whose position
+:func:`calibrate_robust` fits (:func:`vjm.calibration.engine.calibrate`), sets aside the rows whose position
 error exceeds ``ratio`` times the median error of the rows kept, and fits again on the others from the
 start (registration included), until the set aside no longer changes.  With Gaussian noise the error
 norm is Maxwell-distributed: its median is 1.54 sigma and 4.5 medians (6.9 sigma) are passed by one row
@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .calibration import Calibration, calibrate, position_errors
+from .engine import Calibration, calibrate, position_errors
 
 
 def outlying(errors: np.ndarray, kept: np.ndarray, ratio: float) -> np.ndarray:
@@ -25,9 +25,9 @@ def outlying(errors: np.ndarray, kept: np.ndarray, ratio: float) -> np.ndarray:
 
 def calibrate_robust(model, data, frame: str | tuple | None = None, ratio: float = 4.5, rounds: int = 4,
                      fit=None, **kw) -> Calibration:
-    """:func:`~vjm.robot.calibration.calibrate` with outlying rows set aside (see the module docstring);
+    """:func:`~vjm.calibration.engine.calibrate` with outlying rows set aside (see the module docstring);
     ``fit(model, data, frame, **kw)`` another calibration (a parallel machine's,
-    :func:`vjm.robot.platformcal.calibrate_platform`)."""
+    :func:`vjm.calibration.parallel_fit.calibrate_platform`)."""
     calibrate_ = fit or calibrate
     kept = np.ones(data.n, dtype=bool)
     cal = calibrate_(model, data, frame, **kw)

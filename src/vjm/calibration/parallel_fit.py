@@ -1,11 +1,11 @@
-"""Absolute-pose calibration of a parallel machine: the engine of :mod:`vjm.robot.calibration` on the
-measurement model of :mod:`vjm.robot.platform`.
+"""Absolute-pose calibration of a parallel machine: the engine of :mod:`vjm.calibration.engine` on the
+measurement model of :mod:`vjm.calibration.parallel`.
 
-The stages are those of a robot's calibration (:func:`vjm.robot.calibration.run_stages`, one engine):
+The stages are those of a robot's calibration (:func:`vjm.calibration.engine.run_stages`, one engine):
 
 1. **registration** (nuisance, always fitted, reported apart): the instrument frame of each group and the
    marker's offset on a 6-dof platform, started from a Kabsch fit on the nominal forward kinematics
-   (:func:`vjm.robot.calibration.registration_from_frames`);
+   (:func:`vjm.calibration.engine.registration_from_frames`);
 2. **offset**: an offset per actuator (the zero of its encoder);
 3. **attachment**: each chain's base translated (where its first joint is fixed).
 
@@ -23,9 +23,9 @@ import numpy as np
 
 from ..errors import VjmError
 from ..kinematics import forward as fk
-from .absolute import Layout
-from .calibration import Calibration, fit, registration_from_frames, run_stages
-from .platform import EFFECTS, FRAME, full_layout, nominal_state, problem
+from .engine import Calibration, fit, registration_from_frames, run_stages
+from .parallel import EFFECTS, FRAME, full_layout, nominal_state, problem
+from .serial import Layout
 
 #: why a 3-dof platform's marker offset is no parameter
 FIXED_MARKER = ("not identifiable: a 3-dof platform does not turn; its marker offset is the instrument "

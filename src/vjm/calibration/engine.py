@@ -1,7 +1,7 @@
 """Absolute-pose calibration of a robot: registration, geometry, joint compliance under self-weight.
 
-On an :class:`~vjm.robot.poses.AbsolutePoses` data set (points measured by an instrument in its own frame)
-the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marquardt (scipy), in stages:
+On an :class:`~vjm.calibration.poses.AbsolutePoses` data set (points measured by an instrument in its own frame)
+the measurement model of :mod:`vjm.calibration.serial` is fitted by Levenberg-Marquardt (scipy), in stages:
 
 1. **registration** (nuisance, always fitted, reported apart): the instrument frame of each group
    (6 parameters) and the marker's offset on its frame (3), started from a Kabsch fit on the nominal model;
@@ -17,7 +17,7 @@ the measurement model of :mod:`vjm.robot.absolute` is fitted by Levenberg-Marqua
    Then **coupling** (asked only): a joint turning by ``k`` times another's value (a wrist's gear train, or
    a column holding a combination of joints written as an ordinary joint), the same selection deciding
    (after the compliance: tried before it, 30 couplings pass for an arm's sag);
-   Then the effects of :mod:`vjm.robot.flex` (asked only): **lateral** joint compliance, link **bending**,
+   Then the effects of :mod:`vjm.calibration.flex` (asked only): **lateral** joint compliance, link **bending**,
    compliance **varying** with the joint's value (their loads hardly varying: not observable), and the
    **thermal** length scale (a ``meta_temperature`` column; its spread under 0.1 K: not observable);
 4. **tilt**: the base tilted against the gravity the model assumes (2 angles, about the base x and y axes):
@@ -45,7 +45,9 @@ from scipy.optimize import least_squares
 from scipy.stats import f as f_dist
 
 from ..errors import VjmError
-from .absolute import (
+from .flex import TEMPERATURE, flex_loads
+from .parallel import points as platform_points
+from .serial import (
     Layout,
     Points,
     Problem,
@@ -56,12 +58,10 @@ from .absolute import (
     predict,
     rotation_matrix,
 )
-from .flex import TEMPERATURE, flex_loads
-from .platform import points as platform_points
 
 STAGES = ("registration", "geometry", "compliance", "coupling", "lateral", "bending", "varying", "thermal", "tilt",
           "backlash", "payload")
-#: the stages acting through the loads of vjm.robot.flex
+#: the stages acting through the loads of vjm.calibration.flex
 FLEX = ("lateral", "bending", "varying", "thermal")
 
 
@@ -87,7 +87,7 @@ class Stage:
 @dataclass(frozen=True, eq=False)
 class Calibration:
     """A fitted measurement model: ``values`` and ``std`` of the fitted parameters (names of
-    :mod:`vjm.robot.absolute`), the groups' base registration ``frames`` {group: (R0, t0)}, the marker's
+    :mod:`vjm.calibration.serial`), the groups' base registration ``frames`` {group: (R0, t0)}, the marker's
     base offset ``p0``, the parameters ``removed`` [(name, why)], and the ``stages``."""
 
     model: Any
@@ -98,11 +98,11 @@ class Calibration:
     p0: np.ndarray
     removed: tuple = ()
     stages: tuple = ()
-    #: rows of the data set aside as outliers (indices), not fitted (:mod:`vjm.robot.robust`)
+    #: rows of the data set aside as outliers (indices), not fitted (:mod:`vjm.calibration.robust`)
     set_aside: tuple = ()
     #: the other measured frames and their markers' base offsets ((frame, p0), ...): several points per row
     extra: tuple = ()
-    #: {parameter: (effect, unit)} where the names do not say them (a parallel machine's, vjm.robot.platform)
+    #: {parameter: (effect, unit)} where the names do not say them (a parallel machine's, vjm.calibration.parallel)
     kinds: dict = field(default_factory=dict)
 
     @property
@@ -238,8 +238,8 @@ def registration_from_frames(T: np.ndarray, m: np.ndarray, group, p0=None, round
 
 
 def _predict(prob, layout: Layout, x: np.ndarray, fixed: dict | None = None) -> np.ndarray:
-    """The predictions of a measurement model: a robot's :class:`Problem` (:mod:`vjm.robot.absolute`), or an
-    object answering ``predict`` (a parallel machine's :class:`vjm.robot.platform.PlatformProblem`)."""
+    """The predictions of a measurement model: a robot's :class:`Problem` (:mod:`vjm.calibration.serial`), or an
+    object answering ``predict`` (a parallel machine's :class:`vjm.calibration.parallel.PlatformProblem`)."""
     own = getattr(prob, "predict", None)
     return own(layout, x, fixed) if own is not None else predict(prob, layout, x, fixed)
 

@@ -25,8 +25,8 @@ import numpy as np
 
 from ..errors import VjmError
 from ..kinematics.transforms import elementary
-from ..modelio.description import evaluate
-from .tree import Body, Frame, Tree, TreeJoint, origin_transform
+from ..robot.tree import Body, Frame, Tree, TreeJoint, origin_transform
+from .description import evaluate
 
 ROW_KEYS = ("name", "type", "a", "alpha", "d", "theta", "beta", "limits", "mass", "com")
 

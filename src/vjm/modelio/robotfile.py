@@ -3,7 +3,7 @@
 Units N, mm, kg, rad (the URDF's metres are converted where it is read)::
 
     name: UR10
-    urdf: ur10.urdf                 # relative to this file; or dh: {...} (vjm.robot.dh)
+    urdf: ur10.urdf                 # relative to this file; or dh: {...} (vjm.modelio.dh)
     tools: [tool0]                  # optional: the tool frames (default: the links without a child)
     gravity: [0, 0, -9.80665]       # optional, m/s^2 in the base frame (a wall or ceiling mount turns it)
     strict_limits: false            # optional: a q outside a joint's limits is an error, not a warning
@@ -33,8 +33,8 @@ import os
 import numpy as np
 
 from ..errors import VjmError
-from .model import GRAVITY, JointSpring, Payload, PlacedSpring, RobotModel
-from .tree import Body, Tree, origin_transform
+from ..robot.model import GRAVITY, JointSpring, Payload, PlacedSpring, RobotModel
+from ..robot.tree import Body, Tree, origin_transform
 
 ROBOT_KEYS = ("name", "urdf", "dh", "tools", "gravity", "strict_limits", "home", "joints", "links", "masses", "payload")
 
@@ -53,7 +53,7 @@ def _vec3(v, where: str) -> np.ndarray:
 
 def _joint_spring(spec, where: str) -> JointSpring:
     if isinstance(spec, str):
-        from ..modelio.description import evaluate
+        from .description import evaluate
 
         evaluate(spec, {"q": 0.0}, where)  # read once now: a typo fails at load, not in a map
         return JointSpring(expression=spec)

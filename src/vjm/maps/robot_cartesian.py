@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import VjmError
-from ..maps.grid import Grid, Workspace
-from .ik import IKResult, pose_targets, solve
+from ..robot.ik import IKResult, pose_targets, solve
+from .grid import Grid, Workspace
 
 #: configurations sampled for the default box (the tool's reach)
 REACH_SAMPLES = 4096
@@ -92,7 +92,7 @@ class CartesianMap:
 
     def stiffness_map(self):
         """k_tran and k_rot as a :class:`vjm.maps.compute.StiffnessMap` (its pictures: log scale, contours)."""
-        from ..maps.compute import StiffnessMap
+        from .compute import StiffnessMap
 
         return StiffnessMap(self.name, list(self.grid.axes), self.grid.fixed, self.points, self.ok, self.K,
                             self.k_tran, self.k_rot)
@@ -104,7 +104,7 @@ class CartesianMap:
             return self.stiffness_map().plot(name, ax=ax)
         if self.sag is None:
             raise VjmError("this map has no self-weight sag (cartesian grid map with self_weight=True)")
-        from ..maps.views import pyplot
+        from .views import pyplot
 
         shape = self.grid.shape
         k, idx = (2, shape[2] // 2) if self.grid.fixed is None else (self.grid.fixed[0], 0)

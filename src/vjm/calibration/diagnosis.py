@@ -1,7 +1,7 @@
 """``vjm diagnose`` on absolute poses: a robot's measured points, diagnosed by the calibration engine of
-:mod:`vjm.robot` (one home for the fit: :func:`vjm.robot.calibration.calibrate`).
+:mod:`vjm.robot` (one home for the fit: :func:`vjm.calibration.engine.calibrate`).
 
-The data (:class:`vjm.robot.poses.AbsolutePoses`, read as it is through a column map) hold per row the
+The data (:class:`vjm.calibration.poses.AbsolutePoses`, read as it is through a column map) hold per row the
 joint values and the points an instrument measured in its own frame.  The diagnosis fits the
 registration (each instrument set-up's frame and the markers' offsets: a nuisance, reported apart with its
 standard deviations), then tries the effects in order (default: geometry, joint compliance under
@@ -16,9 +16,9 @@ chi-square test at ``alpha``; a gap no effect of the library closes).  Without s
 is not judged.
 
 Written as one output set: ``report.json``, ``report.html``, ``summary.txt``, and the calibrated URDF and
-robot file (``calibrated.urdf``, ``calibrated.yaml``, :mod:`vjm.robot.calibwrite`); with ``--targets``, also
+robot file (``calibrated.urdf``, ``calibrated.yaml``, :mod:`vjm.calibration.write`); with ``--targets``, also
 ``commands.csv``, the joint values reaching those points under self-weight on the calibrated model
-(:func:`vjm.robot.compcmd.calibrated_commands`).
+(:func:`vjm.cli.compensate.calibrated_commands`).
 """
 from __future__ import annotations
 
@@ -34,12 +34,12 @@ from scipy.stats import chi2
 from linkfea.files.atomic import plain
 
 from ..errors import VjmError
-from ..robot import calibreport as cr
-from ..robot.calibration import STAGES, predict_points
+from . import report as cr
+from .engine import STAGES, predict_points
 
 #: the files of an absolute-pose diagnosis, one output set
 POSE_FILES = cr.FILES + ("report.html",)
-#: those of a parallel machine's (:mod:`vjm.discrepancy.platformposes`): no calibrated robot file
+#: those of a parallel machine's (:mod:`vjm.calibration.parallel_diagnosis`): no calibrated robot file
 PLATFORM_FILES = ("report.json", "summary.txt", "report.html")
 SCHEMA = "vjm.diagnosis.absolute/1"
 #: the F test's level of an effect when none is given (that of ``vjm calibrate``)
@@ -83,7 +83,7 @@ class PoseDiagnosis:
 
 def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=None, known=None, default=None,
                   what: str = "absolute poses") -> tuple:
-    """The effects tried (``effects`` names of ``known``, default :data:`vjm.robot.calibration.STAGES`; None:
+    """The effects tried (``effects`` names of ``known``, default :data:`vjm.calibration.engine.STAGES`; None:
     ``default``, the default ones), and a refusal of the options that have no meaning on absolute poses
     (``what`` they are in the error line)."""
     if suggest:

@@ -2,10 +2,10 @@
 
 ``--joints q2=-2:0:41,q3=0:2.5:41`` varies two joints (``name=lo:hi[:n]``, rad or mm; n defaults to
 ``--grid``) with the others at ``--q`` (default: the model file's ``home:``)
-(:func:`vjm.robot.jointmap.joint_map`).  Without ``--joints`` the map is over a Cartesian grid of
+(:func:`vjm.maps.robot_joint.joint_map`).  Without ``--joints`` the map is over a Cartesian grid of
 tool points (``--grid``, ``--slice z=...``, ``--box``; default box: the tool's reach), each reached by
 the IK in the configuration of ``--q`` with the tool held at ``--orientation`` (default: its
-orientation at ``--q``) (:func:`vjm.robot.cartmap.cartesian_grid_map`); unreachable and singular
+orientation at ``--q``) (:func:`vjm.maps.robot_cartesian.cartesian_grid_map`); unreachable and singular
 points are masked and counted.  ``--self-weight`` adds the sag under the robot's own weight.
 
 Files (one set, :class:`linkfea.files.outputs.OutputSet`): ``map.npz`` (every array), ``map.csv`` (one row a
@@ -168,7 +168,7 @@ def check(model, req: Request):
 
 def run(model, req: Request, out, force: bool = False) -> str:
     """``vjm map robot.yaml``: check, compute, write the set; the one-line summary."""
-    from .cartmap import cartesian_grid_map, reach_box
+    from ..maps.robot_cartesian import cartesian_grid_map, reach_box
 
     kind, tool, seed, spec = check(model, req)
     check_folder(out, files(req), force=force)

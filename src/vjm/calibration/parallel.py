@@ -1,6 +1,6 @@
 """Absolute positions of a point on a parallel machine's platform, as an instrument sees them.
 
-The sibling of :mod:`vjm.robot.absolute` (a serial or tree robot's measurement model) for a parallel
+The sibling of :mod:`vjm.calibration.serial` (a serial or tree robot's measurement model) for a parallel
 machine (:class:`vjm.ParallelModel`): the measured point ``p`` on the platform at commanded actuator
 values ``a``, in the instrument frame of group ``g``::
 
@@ -16,8 +16,8 @@ values ``a``, in the instrument frame of group ``g``::
 
 The machine has no load per row (no self-weight model): the elastic effects of a robot do not apply.
 
-A :class:`PlatformProblem` answers what the calibration engine (:mod:`vjm.robot.calibration`) asks of a
-measurement model: the predictions and their Jacobian for a parameter :class:`~vjm.robot.absolute.Layout`,
+A :class:`PlatformProblem` answers what the calibration engine (:mod:`vjm.calibration.engine`) asks of a
+measurement model: the predictions and their Jacobian for a parameter :class:`~vjm.calibration.serial.Layout`,
 and the problem on a subset of the rows.  The Jacobian is the implicit derivative of the closure
 (:func:`vjm.kinematics.forward.sensitivities`), exact at the solved platform frames.
 """
@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import VjmError
 from ..kinematics import forward as fk
 from ..kinematics.transforms import ROTATION
-from .absolute import Layout, instrument_jacobian, registration_parameters, rotation_matrix
+from .serial import Layout, instrument_jacobian, registration_parameters, rotation_matrix
 
 #: the measured frame of a parallel machine
 FRAME = "platform"
@@ -178,7 +178,7 @@ def problem(model, asm: fk.Assembly, data, frames: dict, p0, nominal: fk.State |
 
 def points(cal, data) -> np.ndarray:
     """A parallel machine's calibrated points (n, 3) mm in the instrument frames of ``data``'s (registered)
-    groups (a :class:`vjm.robot.calibration.Calibration` ``cal`` of this module's parameters)."""
+    groups (a :class:`vjm.calibration.engine.Calibration` ``cal`` of this module's parameters)."""
     prob = problem(cal.model, fk.assembly(cal.model), data, cal.frames, cal.p0)
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
     return prob.predict(lay, np.array(list(cal.values.values())))

@@ -12,7 +12,7 @@ import os
 import numpy as np
 
 from ..errors import VjmError
-from .tree import Body, Frame, Tree, TreeJoint, axis_alignment
+from ..robot.tree import Body, Frame, Tree, TreeJoint, axis_alignment
 
 #: metres to millimetres (URDF to vjm)
 MM = 1000.0

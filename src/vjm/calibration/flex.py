@@ -1,6 +1,6 @@
 """Elastic and thermal effects of a robot beyond its joints' torsion, for absolute-pose calibration.
 
-Each is a per-row small rigid motion inserted in the chain of :func:`vjm.robot.absolute.chain_frames`,
+Each is a per-row small rigid motion inserted in the chain of :func:`vjm.calibration.serial.chain_frames`,
 driven by the nominal model's self-weight (or the temperature) and scaled by one fitted parameter:
 
 - **lateral joint compliance** ``<joint>.lateral`` (rad per N mm): the joint's bearing tilts under the

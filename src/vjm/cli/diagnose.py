@@ -1,21 +1,19 @@
-"""Command functions ``diagnose`` and ``simulate``, registered on the ``vjm`` typer app, and :func:`run`,
-the body of ``vjm diagnose``.
+"""``vjm diagnose``, and :func:`run`, its body.
 
-``register(app)`` adds both commands; errors (VjmError) become one line on
-stderr and exit status 2, like the other ``vjm`` commands.  ``vjm diagnose``
+Errors (VjmError) become one line on stderr and exit status 2, like the other ``vjm`` commands.  ``vjm diagnose``
 exits with status 3 when its verdict is ``insufficient_data`` or ``untrusted_data`` (the report
 is written, but nothing may be taken as named: the design is too weak to name what fits, or more
 than 10 % of the rows are gross outliers), 0 for the other verdicts.
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import List, Optional
 
 import typer
 
-from ..errors import one_line, user_errors
+from ..errors import user_errors
+from .common import _fail
 
 #: exit status of ``vjm diagnose`` when the verdict is "insufficient_data" or "untrusted_data" (report
 #: written, nothing named)
@@ -27,17 +25,17 @@ NOTHING_NAMED = ("insufficient_data", "untrusted_data")
 def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw):
     """Check the arguments and the output folder, load, diagnose and write: the body of ``vjm diagnose``;
     returns the Diagnosis.  ``targets`` (a robot's): also commands.csv, the compensation of these points on
-    the calibrated model (:func:`vjm.robot.compcmd.calibrated_commands`)."""
+    the calibrated model (:func:`vjm.cli.compensate.calibrated_commands`)."""
     import dataclasses
     import os
 
+    from ..calibration import diagnosis as absolute
+    from ..calibration.parallel_diagnosis import is_pose_file
+    from ..discrepancy.report import check_report_dir
+    from ..discrepancy.workflow import check_arguments, diagnose
     from ..errors import VjmError
     from ..modelio.read import is_robot_file, load_model
-    from ..robot import compcmd
-    from . import absolute
-    from .platformposes import is_pose_file
-    from .report import check_report_dir
-    from .workflow import check_arguments, diagnose
+    from . import compensate as compcmd
 
     check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")
                        and v is not None})
@@ -64,17 +62,12 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw)
 
 def _tracker(position, noise):
     """The TrackerNoise of --tracker and --tracker-noise (both or neither), or None."""
+    from ..discrepancy.tracker import TrackerNoise
     from ..errors import VjmError
-    from .tracker import TrackerNoise
 
     if (position is None) != (noise is None):
         raise VjmError("--tracker and --tracker-noise go together (the tracker's position and its noise)")
     return None if position is None else TrackerNoise.parse(position, noise)
-
-
-def _fail(exc: Exception):
-    typer.echo(f"error: {one_line(exc)}", err=True)
-    raise typer.Exit(2)
 
 
 def diagnose_cmd(
@@ -129,47 +122,3 @@ def diagnose_cmd(
         typer.echo(f"Next measurements: {Path(out) / 'next_measurements.csv'}")
     if dg.verdict in NOTHING_NAMED:  # the report is written, but nothing may be taken as named
         raise typer.Exit(INSUFFICIENT_DATA_EXIT)
-
-
-def simulate_cmd(
-    model: Path = typer.Argument(..., help="model YAML"),
-    effect: Optional[List[str]] = typer.Option(None, "--effect", help="hidden effect NAME[:param=value,...] (repeatable)"),
-    poses: Optional[str] = typer.Option(None, "--poses", help="grid:N | random:N | CSV with x,y,z[,ox,oy,oz] "
-                                                               "(default grid:4); robots: random:N (default "
-                                                               "random:100) | CSV of joint values"),
-    loads: str = typer.Option("axes:100", "--loads", help="axes:F[:M] | random:N:F | CSV with Fx..Mz; several "
-                                                           "magnitudes (load levels): axes:50,100, random:N:50,100"),
-    noise_t: float = typer.Option(0.001, "--noise-t", help="translation noise sigma, mm"),
-    noise_r: Optional[float] = typer.Option(None, "--noise-r", help="rotation noise sigma, rad (omit: rotations not measured)"),
-    seed: int = typer.Option(0, "--seed"),
-    out: Path = typer.Option(..., "--out", help="output CSV"),
-    tilt: float = typer.Option(0.0, "--tilt", help="6-dof platform: random orientations of grid/random poses, "
-                                                   "each rotation-vector component within +-TILT rad"),
-):
-    """Write synthetic measurements of MODEL with hidden effects (a robot: absolute poses for vjm calibrate or diagnose)."""
-    from .simulate import run
-
-    try:
-        from ..robot.simposes import simulate_robot
-
-        n = simulate_robot(model, effect or [], poses, loads, noise_t, noise_r, seed, out, tilt)
-        if n is not None:
-            typer.echo(f"wrote {n} absolute poses to {out}")
-            return
-        d = run(model, effect or [], poses or "grid:4", loads, noise_t, noise_r, seed, out,
-                progress=lambda line: typer.echo(line, err=True), tilt=tilt)
-    except user_errors() as exc:
-        _fail(exc)
-    typer.echo(f"wrote {d.n} measurements to {out}")
-
-
-def register(app) -> None:
-    """Add ``diagnose`` and ``simulate`` to a typer app."""
-    app.command("diagnose")(diagnose_cmd)
-    app.command("simulate")(simulate_cmd)
-
-
-if __name__ == "__main__":  # pragma: no cover
-    _app = typer.Typer(add_completion=False)
-    register(_app)
-    sys.exit(_app())

@@ -33,11 +33,11 @@ def save_robot(model, path) -> None:
     """Write a robot's model file: its mapping as read, its file paths made absolute (atomic, checksummed)."""
     from linkfea.files.atomic import write_text
 
-    from ..modelio.write import ROBOT_HEADER, check_model_out, model_file_text
+    from .write import ROBOT_HEADER, check_model_out, model_file_text
 
     if model.raw is None:
         raise VjmError("this robot model was not read from a file, or its tree or springs were replaced since: "
-                       "its file would not say what it holds; write its YAML by hand (see vjm.robot.robotfile)")
+                       "its file would not say what it holds; write its YAML by hand (see vjm.modelio.robotfile)")
     path = os.path.abspath(os.fspath(path))
     check_model_out(path)
     base = os.path.dirname(model.path) if model.path else os.path.dirname(model.tree.source)

@@ -23,15 +23,19 @@ import io
 import os
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
 
 import numpy as np
+import typer
 
 from linkfea.files.outputs import COMMANDS_CSV_MARK, is_commands_csv
 
-from ..errors import ArgumentError, VjmError, VjmWarning
-from .compensate import TOL, Compensation
-from .mapcmd import numbers, seed_of
-from .model import Payload
+from ..errors import ArgumentError, VjmError, VjmWarning, user_errors
+from ..robot.compensate import TOL, Compensation
+from ..robot.model import Payload
+from .common import _fail, _load
+from .robot_map import numbers, seed_of
 
 #: the first line of a commands.csv (how vjm knows a file it may replace)
 MARK = COMMANDS_CSV_MARK
@@ -182,8 +186,8 @@ def calibrated_commands(cal, targets, seed) -> str:
     URDF and robot file, loaded again), its first tool (the first measured point's marker) as the tool."""
     import tempfile
 
+    from ..calibration.write import calibrated_urdf, robot_file
     from ..modelio.read import load_model
-    from .calibwrite import calibrated_urdf, robot_file
 
     with tempfile.TemporaryDirectory() as d:
         with open(os.path.join(d, "calibrated.urdf"), "w", encoding="utf-8") as fh:
@@ -194,3 +198,24 @@ def calibrated_commands(cal, targets, seed) -> str:
             warnings.simplefilter("ignore", VjmWarning)   # its joints' limits as the source's: said there
             m = load_model(os.path.join(d, "calibrated.yaml"))
         return compute(m, targets, seed, m.tools[0], None, TOL)[1]
+
+
+def compensate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf: or dh:)"),
+                   targets: Path = typer.Argument(..., help="targets CSV: x,y,z[,rx,ry,rz] (mm, rad; the robot's base "
+                                                            "frame); without rx,ry,rz the orientation is free"),
+                   seed: Optional[str] = typer.Option(None, "--seed", help="the configuration: joint values q1,... "
+                                                      "(rad, mm prismatic) or home (default: the file's home:)"),
+                   tool: Optional[str] = typer.Option(None, "--tool", help="the tool frame (default: the first)"),
+                   payload: Optional[str] = typer.Option(None, "--payload", help="KG[@x,y,z]: a point mass at a point "
+                                                         "(mm) of the tool frame"),
+                   tol: float = typer.Option(1e-6, "--tol", help="tolerance of the deflected tool pose, mm"),
+                   out: Path = typer.Option(..., "--out", help="commands CSV (joint values, residual_mm, converged)")):
+    """The joint values to command so that the tool, sagging under the robot's weight, reaches each target."""
+    try:
+        from .compensate import Request, run
+
+        m = _load(model, None, None)
+        text = run(m, Request(str(targets), seed, tool, payload, tol), out)
+    except user_errors() as exc:
+        _fail(exc)
+    typer.echo(f"{text}; wrote {out}")
