@@ -40,7 +40,8 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
         from linkfea.files.outputs import check_folder
 
         from ..calibration import report as cr
-        from . import compensate as cc
+        from ..calibration.write import calibrated_commands
+        from ..robot.compensate import check_targets
 
         asked = tuple(e.strip() for e in effects.split(",") if e.strip()) if effects is not None else None
         opt = cr.Options(tuple(frame or ()), asked or cr.DEFAULT_EFFECTS, alpha,
@@ -49,11 +50,11 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
         files = cr.FILES + (("commands.csv",) if targets is not None else ())
         check_folder(out, files, force=force)
         m, d, vals, opt = cr.inputs(model, data, columns, validate or [], opt, asked is not None)
-        seed = cc.check_targets(m, targets) if targets is not None else None
+        seed = check_targets(m, targets) if targets is not None else None
         t0 = time.perf_counter()
         cal, held = cr.run(m, d, vals, opt)
         rep = cr.report(cal, opt, model, d, held, time.perf_counter() - t0)
-        extra = {"commands.csv": cc.calibrated_commands(cal, targets, seed)} if targets is not None else None
+        extra = {"commands.csv": calibrated_commands(cal, targets, seed)} if targets is not None else None
         cr.write_set(out, cal, rep, force, extra=extra)
     except user_errors() as exc:
         _fail(exc)

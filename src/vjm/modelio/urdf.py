@@ -16,6 +16,9 @@ from ..robot.tree import Body, Frame, Tree, TreeJoint, axis_alignment
 
 #: metres to millimetres (URDF to vjm)
 MM = 1000.0
+#: the model file's key this format reads (:mod:`vjm.modelio.robotformats`), and how a message names it
+KEYS = ("urdf",)
+DESCRIBES = "urdf: (a file)"
 
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
@@ -60,6 +63,18 @@ def _build(pin, path: str, mimic: bool):
     except (ValueError, RuntimeError, IndexError) as exc:
         msg = " ".join(str(exc).split()) or "unreadable"
         raise VjmError(f"{path}: not a valid URDF: {msg}") from None
+
+
+def recognises(mapping) -> bool:
+    """A model file naming a URDF (``urdf: robot.urdf``)."""
+    return isinstance(mapping, dict) and "urdf" in mapping
+
+
+def read(mapping: dict, base_dir: str) -> Tree:
+    """The tree of a model file's ``urdf:`` (relative to ``base_dir``), its ``tools:`` the tool frames."""
+    if not isinstance(mapping["urdf"], str):
+        raise VjmError("urdf must be a file path")
+    return read_urdf(os.path.normpath(os.path.join(base_dir, mapping["urdf"])), mapping.get("tools"))
 
 
 def read_urdf(path, tools=None) -> Tree:
