@@ -243,7 +243,8 @@ def _residual_fn(prob, layout: Layout, meas: np.ndarray, fixed: dict):
 
 def fit(prob, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: dict | None = None):
     """Levenberg-Marquardt fit of ``layout``'s parameters (:func:`vjm.stats.staged.least_squares_fit`): (x, std, rss)."""
-    return least_squares_fit(*_residual_fn(prob, layout, meas, fixed or {}), x0)
+    fun, jac = _residual_fn(prob, layout, meas, fixed or {})
+    return least_squares_fit(fun, jac, x0)
 
 
 def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[list, list]:
@@ -348,8 +349,8 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
     full = _layout(model, measured, prob.groups, coupling="coupling" in effects, **use)
     stages, best, removed = run_stages(prob, full, meas, [s for s in STAGES[1:] if s in effects], alpha, tol, flat,
                                        folds)
-    lay = full.pick(best[0])
-    return Calibration(model, fr[0], dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, ps[0],
+    lay = full.pick(best.idx)
+    return Calibration(model, fr[0], dict(zip(lay.names, best.x)), dict(zip(lay.names, best.std)), frames, ps[0],
                        tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:])
 
 
