@@ -255,6 +255,19 @@ def f_test(rss0: float, k0: int, rss1: float, k1: int, n: int) -> float:
     return float(stats.f.sf(F, q, d2))
 
 
+def f_ratio(extra: float, q: int, rest: float, d2: int) -> tuple[float, float]:
+    """(F, p-value) of ``q`` added degrees of freedom that remove the sum of squares ``extra`` against the
+    residual sum ``rest`` on ``d2`` degrees of freedom: ``F = (extra/q) / (rest/d2) ~ F(q, d2)`` (the callers
+    checked that both counts are positive; a residual sum below 1e-300 per degree is taken as 1e-300)."""
+    F = extra / q / max(rest / d2, 1e-300)
+    return float(F), float(stats.f.sf(F, q, d2))
+
+
+def chi2_p(stat: float, dof: int) -> float:
+    """p-value of a chi-square statistic ``stat`` on ``dof`` degrees of freedom (known sigmas)."""
+    return float(stats.chi2.sf(stat, dof))
+
+
 def grouped_folds(groups, k: int = 5, seed: int = 0) -> list:
     """Boolean test masks of a k-fold split that keeps each group (posture) whole."""
     g = np.asarray(groups)
