@@ -24,7 +24,6 @@ from linkfea.files.outputs import (
     is_commands_csv,
     is_simulated_csv,
     recover,
-    refuse_inputs,
 )
 from linkfea.runtime.errors import LinkFeaError
 from vjm.errors import VjmError
@@ -69,6 +68,8 @@ def test_an_edited_commands_csv_is_refused_by_vjm_compensate(tmp_path):
 
 def test_an_output_that_would_replace_an_input_is_refused(tmp_path):
     """`vjm calibrate o/calibrated.yaml data.csv --out o --force`: the set would replace the model it reads."""
+    from linkfea.files.outputs import refuse_inputs
+
     o = tmp_path / "o"
     with OutputSet(o, "vjm calibrate") as s:
         Path(s.path("calibrated.yaml")).write_text(f"urdf: {UR10.with_suffix('.urdf')}\n")

@@ -10,9 +10,11 @@ other origin: it is never overwritten and never deleted.  A single result file
 in the user's own folder (``linkfea compute --out r.json``, ``vjm simulate
 --out d.csv``) gets no manifest; there the tool recognises its own files by
 their content (a ``linkfea.result.linkresult`` JSON, and the ``.vtu``/``.png`` beside it
-whose sha256 the JSON records; a CSV whose first line says vjm simulate wrote
-it).  A symbolic link is never the tool's own: an output path that is one is
-refused.
+whose sha256 the JSON records; a CSV whose first line says vjm simulate or vjm
+compensate wrote it and records the sha256 of its content, :func:`~linkfea.files.atomic.seal`).
+A symbolic link is never the tool's own: an output path that is one is
+refused; nor is an input of the command (:func:`refuse_inputs`).  A set that rewrites
+a file of another set in the folder replaces that set whole (:func:`_superseded`).
 
 **Complete sets.**  Members are written to temporaries beside their targets
 (:func:`linkfea.files.atomic.temp_beside`) and flushed to disk; then a journal
