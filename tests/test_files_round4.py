@@ -250,8 +250,8 @@ def test_two_million_targets_are_refused_before_the_work(tmp_path, monkeypatch):
     """vjm compensate: the estimate (8 kB a target) against what the process can get, before the solver
     runs (it ended in a MemoryError traceback); a long run says how long first."""
     import vjm
-    from vjm.cli import compensate as cc
     from vjm.maps import grid
+    from vjm.robot.compensate import compensate_file
 
     t = tmp_path / "t.csv"
     t.write_text("x,y,z\n" + "884,164,436\n" * 2_000_000)
@@ -259,7 +259,7 @@ def test_two_million_targets_are_refused_before_the_work(tmp_path, monkeypatch):
     monkeypatch.setattr(type(m), "compensate", lambda *a, **k: pytest.fail("the work started"))
     monkeypatch.setattr(grid, "memory_limit", lambda: 8e9)
     with pytest.raises(VjmError, match="vjm compensate would need about 16 GB .* 2e\\+06 targets"):
-        cc.compute(m, t, m.home, m.tools[0], None, 1e-6)
+        compensate_file(m, t, m.home, m.tools[0])
 
 
 def test_long_runs_say_so_before_the_work(capsys):
