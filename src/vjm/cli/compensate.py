@@ -74,7 +74,7 @@ def check(model, req: Request, out) -> tuple:
     payload = payload_of(req.payload, tool)
     if not os.path.isfile(req.targets):
         raise VjmError(f"{req.targets}: no such file (the targets: x,y,z[,rx,ry,rz] in mm, rad)")
-    check_file(out, is_commands_csv, "a CSV written by vjm compensate")
+    check_file(out, is_commands_csv, "a CSV written by vjm compensate", inputs=(req.targets, model.path))
     return tool, seed, payload
 
 
@@ -83,7 +83,8 @@ def run(model, req: Request, out) -> str:
     from linkfea.files.atomic import write_text
 
     tool, seed, payload = check(model, req, out)
-    c, text = compensate_file(model, req.targets, seed, tool, payload, req.tol)
+    c, text = compensate_file(model, req.targets, seed, tool, payload, req.tol,
+                              progress=lambda line: typer.echo(line, err=True))
     write_text(out, text)
     return summary(c)
 

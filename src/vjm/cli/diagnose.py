@@ -29,6 +29,8 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw)
     import dataclasses
     import os
 
+    from linkfea.files.outputs import refuse_inputs
+
     from ..calibration import diagnosis as absolute
     from ..calibration.parallel_diagnosis import is_pose_file
     from ..calibration.write import calibrated_commands
@@ -50,6 +52,7 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw)
         absolute.check_folder(out_dir, force, robot=False)
     else:
         check_report_dir(out_dir, force)   # the output checked before the model is loaded (before any work)
+    refuse_inputs(out_dir, None, (model_path, data_path, kw.get("columns"), *(kw.get("validate") or ()), targets))
     model = load_model(model_path)
     if absolute.is_robot(model) != robot:
         raise VjmError(f"{model_path}: read as a {'robot' if robot else 'parallel machine'} file, loaded otherwise")

@@ -42,7 +42,7 @@ from ..robot.model import SAG_TOL, RobotModel
 from . import gcode as gc
 from . import passes, run
 from .compensate import ABS_TOL, MAX_ITER, REL_TOL
-from .points import Toolpath, path_plan
+from .points import ROBOT_PATH_SECONDS, Toolpath, path_plan
 from .points import read as read_toolpath
 from .result import PathResult
 from .wrench import PerPoint, at_platform
@@ -256,7 +256,7 @@ def robot_path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear
     tp = toolpath if isinstance(toolpath, Toolpath) else read_toolpath(toolpath, chord_tol, step, passed)
     W = (wrench or PerPoint()).wrenches(tp)
     check_load(rt, tp, W)
-    plan = path_plan(tp.n)  # a CSV's points, or a program's samples (checked before sampling)
+    plan = path_plan(tp.n, ROBOT_PATH_SECONDS)  # a CSV's points, or a program's samples (checked before sampling)
     progress = or_quiet(progress)
     if plan.long:  # a run of more than a minute says so before it starts
         progress(f"{plan.describe()}; progress follows")
