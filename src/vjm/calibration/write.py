@@ -115,3 +115,17 @@ def write_calibrated(cal, urdf_path, out_urdf, out_yaml) -> None:
         with atomic_path(p) as tmp:
             with open(tmp, "w") as f:
                 f.write(text)
+
+
+def calibrated_model(cal):
+    """The calibrated robot in memory (a :class:`vjm.robot.model.RobotModel`): the calibrated URDF and robot file
+    of :func:`write_calibrated`, loaded back.  Written to a temporary folder and read with
+    :func:`vjm.modelio.read.load_model`, so the model is the one a user gets from the files written."""
+    import tempfile
+
+    from ..modelio.read import load_model
+
+    with tempfile.TemporaryDirectory() as tmp:
+        urdf, robot = os.path.join(tmp, "calibrated.urdf"), os.path.join(tmp, "calibrated.yaml")
+        write_calibrated(cal, cal.model.tree.source, urdf, robot)
+        return load_model(robot)

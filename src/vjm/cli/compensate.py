@@ -140,7 +140,7 @@ def check(model, req: Request, out) -> tuple:
 
     if not (np.isfinite(req.tol) and req.tol > 0):
         raise ArgumentError("tol", f"must be a number > 0 (mm), got {req.tol!r}")
-    if not hasattr(model, "tree"):
+    if model.kind != "serial":
         raise VjmError(f"{getattr(model, 'path', None) or 'the model'}: a parallel machine; vjm compensate takes a "
                        f"serial or tree robot (a model file with urdf: or dh:)")
     tool = model._tool(req.tool)

@@ -1,10 +1,11 @@
-"""The data kinds as strategy objects: what differs between deflections and stiffness observations.
+"""The stages' strategy of a data kind: what differs between deflections and stiffness observations.
 
 :class:`DeflectionKind` (``x,y,z,Fx..Mz,dx..rz``: twists under loads) and
 :class:`StiffnessKind` (``x,y,z,quantity,value``: k_tran, k_rot per posture)
 answer the same questions for the stages: which rows apply, the loads, the
 weights and residual problem, the groups of repeats, the residuals in physical
-units and where the gap is, and the scales a suggested design needs.
+units and where the gap is, and the scales a suggested design needs.  The data kinds themselves (recognising,
+reading, running, the output files) are the registry of :mod:`vjm.discrepancy.kinds`.
 """
 from __future__ import annotations
 
@@ -69,6 +70,12 @@ class DeflectionKind:
     """Twists measured under applied wrenches (some components may be missing)."""
 
     name = "deflection"
+    #: rows carry loads: load levels are tested, a design of loads can be suggested
+    loaded = True
+
+    def with_noise(self, data, noise):
+        """The data with a laser tracker's sigmas (:class:`~vjm.discrepancy.tracker.TrackerNoise`)."""
+        return noise.apply(data)
 
     def rows(self, data, model):
         return data
@@ -164,6 +171,10 @@ class StiffnessKind:
     """k_tran / k_rot observed per posture (no loads); residuals are ln(predicted / observed)."""
 
     name = "stiffness"
+    loaded = False
+
+    def with_noise(self, data, noise):
+        raise VjmError("noise: a tracker noise model applies to deflection data (x,y,z,Fx..Mz,dx..rz)")
 
     def rows(self, data, model) -> StiffnessObs:
         """The rows whose ``architecture`` column names the model's (all rows without that column)."""
@@ -223,92 +234,11 @@ class StiffnessKind:
                        "have no loads to design")
 
 
-class AbsolutePoseKind:
-    """Absolute poses: per joint configuration of a serial or tree robot, points on it measured by an instrument
-    in its own frame (:class:`vjm.calibration.poses.AbsolutePoses`, read as it is through a column map).
-
-    The stages of the two kinds above (a calibrated baseline, each candidate alone on top of it, groups that
-    cannot be told apart) do not fit these data: the instrument frame and the markers are a nuisance fitted
-    with everything, the geometry is identified by the rank of its Jacobian, the effects act through the
-    robot's self-weight and are tried in turn.  The calibration engine of :mod:`vjm.robot` does that (one
-    home): this kind reads the data and hands them to :func:`vjm.calibration.diagnosis.diagnose_poses`."""
-
-    name = "absolute"
-
-    def check(self, effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
-        """The effects tried, the options that have no meaning on absolute poses refused."""
-        from ...calibration.diagnosis import check_options
-
-        return check_options(effects, suggest, forces_only, noise)
-
-    def read(self, path, model, columns=None):
-        """The data set of ``path`` (through the column map file ``columns``), the model's joints required."""
-        from ...calibration.poses import read_column_map, read_poses
-
-        return read_poses(path, read_column_map(columns) if columns is not None else None, model.q_names)
-
-    def run(self, model, data, **kw):
-        """The diagnosis (a :class:`~vjm.calibration.diagnosis.PoseDiagnosis`)."""
-        from ...calibration.diagnosis import diagnose_poses
-
-        return diagnose_poses(model, data, **kw)
-
-    def design_scales(self, data, w, s2) -> tuple:
-        raise VjmError("--suggest needs deflection data (x,y,z,Fx..Mz,dx..rz): absolute poses have no loads "
-                       "to design")
-
-
-class PlatformPoseKind:
-    """Absolute poses of a parallel machine: the platform's point measured at commanded actuator values.  The
-    sibling of :class:`AbsolutePoseKind`: the same engine on the platform's measurement model
-    (:mod:`vjm.calibration.parallel`), handed over to
-    :func:`vjm.calibration.parallel_diagnosis.diagnose_platform_poses`."""
-
-    name = "platform_absolute"
-
-    def check(self, effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
-        from ...calibration.parallel_diagnosis import check_options
-
-        return check_options(effects, suggest, forces_only, noise)
-
-    def read(self, path, model, columns=None):
-        from ...calibration.parallel_diagnosis import read
-
-        return read(path, model, columns)
-
-    def run(self, model, data, validate=(), **kw):
-        """The diagnosis (a :class:`~vjm.calibration.diagnosis.PoseDiagnosis`)."""
-        from ...calibration.parallel_diagnosis import diagnose_platform_poses
-
-        return diagnose_platform_poses(model, data, validate_files=validate, **kw)
-
-    def design_scales(self, data, w, s2) -> tuple:
-        raise VjmError("--suggest needs deflection data (x,y,z,Fx..Mz,dx..rz): absolute poses have no loads "
-                       "to design")
-
-
 #: the strategy of a data kind that goes through the stages
 DataKind = DeflectionKind | StiffnessKind
 
 
 def kind_of(data) -> DataKind:
-    """The strategy of a data set read by :func:`~vjm.discrepancy.data.read_csv` (absolute poses go to
-    :class:`AbsolutePoseKind` by their model, :func:`kind_for`)."""
-    from ...calibration.poses import AbsolutePoses
-
-    if isinstance(data, AbsolutePoses):
-        raise VjmError(f"{data.source}: absolute poses are diagnosed by their own kinds (AbsolutePoseKind, "
-                       f"PlatformPoseKind: kind_for), not the stages")
+    """The strategy of a data set read by :func:`~vjm.discrepancy.data.read_csv` (in memory: the data kinds of
+    :mod:`vjm.discrepancy.kinds` give theirs)."""
     return StiffnessKind() if isinstance(data, StiffnessObs) else DeflectionKind()
-
-
-def kind_for(model, data=None, columns=None) -> AbsolutePoseKind | PlatformPoseKind | None:
-    """The kind of absolute poses: a serial or tree robot's always; a parallel machine's when ``data`` holds
-    them (:func:`vjm.calibration.parallel_diagnosis.is_pose_file`); else None: the file says its kind
-    (deflections or stiffness observations)."""
-    from ...calibration.diagnosis import is_robot
-    from ...calibration.parallel_diagnosis import is_pose_file
-
-    if is_robot(model):
-        return AbsolutePoseKind()
-    return PlatformPoseKind() if is_pose_file(data, columns) else None

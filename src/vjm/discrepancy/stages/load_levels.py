@@ -28,10 +28,8 @@ import numpy as np
 from scipy import stats
 
 from .. import observe
-from ..data import Deflections
 from ..loads import load_levels
 from .goodness import Goodness
-from .kinds import DeflectionKind
 from .problem import Setup
 from .select import Selected
 
@@ -67,7 +65,7 @@ def _final_jacobian(prob, final) -> np.ndarray:
 
 def level_check(s: Setup, chosen: Selected, fit: Goodness) -> LevelTest | None:
     """The load-level lack-of-fit test of the final model, or None (no levels, or stiffness data)."""
-    if not isinstance(s.kind, DeflectionKind) or not isinstance(s.data, Deflections):
+    if not s.kind.loaded:
         return None
     lv = load_levels(s.data.W)
     if lv is None:
