@@ -174,7 +174,8 @@ def diagnose_poses(model, data, model_name: str | None = None, alpha: float | No
     opt = cr.Options(frame or None, eff, DEFAULT_ALPHA if alpha is None else alpha, 0 if validate else folds,
                      register)
     cr.check_options(opt)
-    m, d, vals, opt = cr.inputs(model, data, columns, list(validate), opt, bool(effects), "measured point")
+    m, d, vals, opt = cr.inputs(model, data, columns, list(validate), opt, bool(effects),
+                                "--frame" if frame else "measured point")
     t0 = time.perf_counter()
     cal, held = cr.run(m, d, vals, opt, robust=outliers)
     rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)

@@ -40,12 +40,13 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, kind=
     from . import compensate as compcmd
 
     check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "max_effects", "suggest") and v is not None})
-    model = load_model(model_path)
-    k = kinds.get(kind) if kind is not None else kinds.find(data_path, model, kw.get("columns"))
+    # the kind from the model file, not the model: the output folder is checked before any work
+    k = kinds.get(kind) if kind is not None else kinds.find(data_path, model_path, kw.get("columns"))
     if targets is not None and not k.commands:
         raise VjmError("--targets is for a serial or tree robot's absolute poses (the commands reaching them); a "
                        "parallel machine's commands are its inverse kinematics")
-    check_folder(out_dir, k.output_files(targets is not None), force=force)   # before any fitting
+    check_folder(out_dir, k.output_files(targets is not None), force=force)
+    model = load_model(model_path)
     seed = compcmd.check_targets(model, targets) if targets is not None else None
     dg = diagnose(model, data_path, model_name=kw.pop("model_name", None) or os.path.basename(os.fspath(model_path)),
                   kind=k.name, **kw)

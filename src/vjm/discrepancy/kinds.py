@@ -27,6 +27,7 @@ from ..calibration import diagnosis as absolute
 from ..calibration import parallel_diagnosis as platform
 from ..calibration.poses import AbsolutePoses, read_column_map
 from ..errors import ArgumentError, VjmError
+from ..modelio.read import file_kind
 from .data import QUANTITIES, StiffnessObs, read_csv
 from .pipeline import diagnose_stages
 from .report import REPORT_FILES
@@ -50,7 +51,8 @@ class Kind:
     stages: DeflectionKind | StiffnessKind | None = None
 
     def sniff(self, data, model, columns=None) -> bool:
-        """Whether ``data`` (a path, or a data set read) is of this kind for ``model``."""
+        """Whether ``data`` (a path, or a data set read) is of this kind for ``model`` (a loaded model or a
+        model file: :func:`model_kind` says which kind it is)."""
         raise NotImplementedError
 
     def read(self, path, model, columns=None):
@@ -134,7 +136,7 @@ class RobotPoseData(_Poses):
     commands = True
 
     def sniff(self, data, model, columns=None) -> bool:
-        return model.kind == "serial"
+        return model_kind(model) == "serial"
 
     def read(self, path, model, columns=None):
         return absolute.read(path, model, columns)
@@ -152,7 +154,7 @@ class PlatformPoseData(_Poses):
     module = platform
 
     def sniff(self, data, model, columns=None) -> bool:
-        if model.kind != "parallel":
+        if model_kind(model) != "parallel":
             return False
         if isinstance(data, AbsolutePoses):
             return True
@@ -171,6 +173,12 @@ class PlatformPoseData(_Poses):
         if frame:
             raise VjmError("--frame: a parallel machine's absolute poses measure one point, the platform's")
         return platform.diagnose_platform_poses(model, data, validate_files=validate, **options)
+
+
+def model_kind(model) -> str:
+    """The kind of ``model``: a loaded model's :attr:`~vjm.Model.kind`, or that of a model file, read without
+    loading it (so that ``vjm diagnose`` checks its output folder before any work)."""
+    return file_kind(model) if isinstance(model, (str, os.PathLike)) else model.kind
 
 
 def header(data) -> set:

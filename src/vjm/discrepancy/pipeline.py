@@ -70,7 +70,7 @@ def set_aside(first: Pass, run, sigma_known: bool) -> tuple[Pass, Outliers | Non
     while outl.again(got, aside, seen, passes):
         aside = got[0]
         seen.add(aside)
-        cur = run(outl.kept_rows(full.data, aside))
+        cur = run(outl.kept_rows(full, aside))
         passes += 1
         got = outl.flag(full, cur.s, cur.final, sigma_known)
         if cur.verdict.verdict == "unexplained":

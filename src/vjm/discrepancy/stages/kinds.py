@@ -14,9 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from linkfea.mechanics.compliance import TWIST
+
 from ...effects import modelops as mo
 from ...errors import VjmError
-from ..data import StiffnessObs
+from ..data import QUANTITIES, Deflections, StiffnessObs
 from ..localize import localize
 from ..predict import deflection_problem, stiffness_problem
 from .norms import per_pose, rms, robust_scale
@@ -166,6 +168,28 @@ class DeflectionKind:
         mcomp = np.flatnonzero(mask.any(axis=0))
         return mcomp, np.where(mask, sigm, np.inf)[:, mcomp], np.median(sigm[:, mcomp], axis=0)
 
+    def subset(self, data, keep: np.ndarray) -> Deflections:
+        """The rows ``keep`` (bool), file row numbers and text columns kept."""
+        rows = None if data.rows is None else np.asarray(data.rows)[keep]
+        return Deflections(data.P[keep], data.W[keep], data.T[keep],
+                           None if data.sigma_t is None else data.sigma_t[keep],
+                           None if data.sigma_r is None else data.sigma_r[keep], rows, data.source,
+                           {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.meta.items()},
+                           None if data.sigma is None else data.sigma[keep])
+
+    def whitened(self, full, pred, final) -> tuple:
+        """(residual / sigma of every measured component of ``full``'s data under ``final``, row position of
+        each, component name of each): the outlier stage's view."""
+        data, w = full.data, full.weights
+        mask = data.mask
+        # the file's own sigmas where it states them: the noise check may have widened the weights, and a
+        # share of gross values would then hide among them; the robust scale (flag) takes a misstated level
+        stated = data.stated_sigmas()
+        sig = np.where(np.isfinite(stated), stated, w.sig) if w.sigma_known else w.sig
+        r = ((data.T - pred.twists(final.names, final.theta)) / sig)[mask]
+        pos, comp = np.nonzero(mask)
+        return r, pos, [TWIST[c] for c in comp]
+
 
 class StiffnessKind:
     """k_tran / k_rot observed per posture (no loads); residuals are ln(predicted / observed)."""
@@ -232,6 +256,20 @@ class StiffnessKind:
     def design_scales(self, data, w: Weights, s2) -> tuple:
         raise VjmError("--suggest needs deflection data (x,y,z,Fx..Mz,dx..rz): stiffness observations "
                        "have no loads to design")
+
+    def subset(self, data, keep: np.ndarray) -> StiffnessObs:
+        """The rows ``keep`` (bool), file row numbers and text columns kept."""
+        rows = None if data.rows is None else np.asarray(data.rows)[keep]
+        return StiffnessObs(data.P[keep], data.quantity[keep], data.value[keep],
+                            None if data.sigma_rel is None else data.sigma_rel[keep], rows, data.source,
+                            {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.extra.items()})
+
+    def whitened(self, full, pred, final) -> tuple:
+        """(ln(predicted / observed) / sigma_rel of every observation under ``final``, its row, its quantity)."""
+        data, w = full.data, full.weights
+        k = pred.kvalues(final.names, final.theta)[full.ctx.idx, data.quantity]
+        r = (np.log(np.maximum(k, 1e-300)) - np.log(data.value)) / w.sig_rel
+        return r, np.arange(data.n), [QUANTITIES[q] for q in data.quantity]
 
 
 #: the strategy of a data kind that goes through the stages
