@@ -127,12 +127,6 @@ def _verdict(named: list, lof: dict) -> str:
     return "explained" if named else "no_discrepancy"
 
 
-def _verdict(named: list, lof: dict) -> str:
-    if lof.get("lack_of_fit"):
-        return "unexplained"
-    return "explained" if named else "no_discrepancy"
-
-
 def pose_report(rep: dict, cal, data, alpha: float, **machine) -> PoseReport:
     """The typed report of a calibration's report mapping (:func:`vjm.calibration.report.report`): the lack
     of fit judged, the verdict and the effects named added (``machine``: a parallel machine's ``machine`` and
@@ -179,9 +173,9 @@ def diagnose_poses(model, data, model_name: str | None = None, alpha: float | No
     t0 = time.perf_counter()
     cal, held = cr.run(m, d, vals, opt, robust=outliers)
     rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)
-    rep = pose_report(rep, cal, d, opt.alpha)
-    progress_lines(rep, progress)
-    return Diagnosis(rep, "absolute", write, calibrated, calibration=cal)
+    report = pose_report(rep, cal, d, opt.alpha)
+    progress_lines(report, progress)
+    return Diagnosis(report, "absolute", write, calibrated, calibration=cal)
 
 
 def calibrated(dg: Diagnosis):

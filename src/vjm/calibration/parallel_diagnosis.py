@@ -92,6 +92,6 @@ def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: f
         cal = calibrate_platform(m, d, eff, opt.alpha, folds=opt.folds)
     held = [validate(cal, v, register) for v in vals]
     rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)
-    rep = pose_report(rep, cal, d, opt.alpha, machine="parallel", actuators=list(d.joints))
-    progress_lines(rep, progress)
-    return Diagnosis(rep, "platform_absolute", write, calibrated, calibration=cal)
+    report = pose_report(rep, cal, d, opt.alpha, machine="parallel", actuators=list(d.joints))
+    progress_lines(report, progress)
+    return Diagnosis(report, "platform_absolute", write, calibrated, calibration=cal)

@@ -163,7 +163,7 @@ def check_stated(s: Setup, final: FitResult, alpha: float, scale=(1.0, 1.0)) -> 
         g = _group_numbers(s, E, final.k, final.n, cols, alpha)
         if g is None:
             continue
-        typical = float(np.median((s.weights.sig / f6)[:, cols][s.data.mask[:, cols]])) * unit
+        typical = float(np.median((s.weights.sig / f6)[:, cols][_data(s).mask[:, cols]])) * unit
         g["stated_sigma"] = typical
         g["unit"] = uname
         if g["stated"] == "too_small":

@@ -14,6 +14,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
+from typing import Any, cast
 
 import numpy as np
 
@@ -48,12 +49,12 @@ class FrozenReport(Mapping):
     OPTIONAL: tuple = ()
 
     def __post_init__(self):
-        for f in dataclasses.fields(self):  # frozen all the way down: the report is assembled once
+        for f in dataclasses.fields(cast(Any, self)):  # frozen all the way down: the report is assembled once
             object.__setattr__(self, f.name, frozen(getattr(self, f.name)))
 
     def _keys(self) -> list:
         """report.json's keys, in the file's order."""
-        return [f.name for f in dataclasses.fields(self) if not (f.name in self.OPTIONAL and getattr(self, f.name) is None)]
+        return [f.name for f in dataclasses.fields(cast(Any, self)) if not (f.name in self.OPTIONAL and getattr(self, f.name) is None)]
 
     def to_dict(self) -> dict:
         """The report.json dictionary (keys in the file's order): a fresh, mutable copy."""
