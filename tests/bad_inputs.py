@@ -481,7 +481,7 @@ CASES = [
          CAL_FILES, "one fold"),
     Case("27", "vjm calibrate r.yaml p.csv --out o --register 2", "--register must be at least 3 poses", CAL_FILES,
          "validation files registered on 2 poses"),
-    Case("27", "vjm calibrate r.yaml p.csv --out o --effects geometry,creep", "--effects: unknown effect(s) creep",
+    Case("27", "vjm calibrate r.yaml p.csv --out o --effects geometry,creep", "--effect creep: not an effect of absolute poses",
          CAL_FILES, "an effect the library does not have"),
     Case("27", "vjm calibrate r.yaml p.csv --out o --effects geometry,thermal", "p.csv: the thermal effect needs the "
          "rows' temperature, a meta_temperature column (C)", CAL_FILES, "a thermal scale without a temperature column"),
@@ -489,7 +489,7 @@ CASES = [
          {**CAL_FILES, "p.csv": POSES.replace("j2,", "jj,")}, "a data file without a joint's column"),
     Case("27", "vjm calibrate r.yaml p.csv --out o --frame l1", "--frame l1: p.csv measures l2", CAL_FILES,
          "a frame the data does not measure"),
-    Case("27", "vjm calibrate r.yaml p.csv --out o", "--frame hand: not a frame of the model",
+    Case("27", "vjm calibrate r.yaml p.csv --out o", "measured point hand: not a frame of the model",
          {**CAL_FILES, "p.csv": POSES.replace("l2.", "hand.")}, "a measured point that is no frame of the URDF"),
     Case("27", "vjm calibrate r.yaml p.csv --out o --validate v.csv", "v.csv: 5 rows; a validation file needs more "
          "than --register (30) rows", {**CAL_FILES, "v.csv": "\n".join(POSES.splitlines()[:6]) + "\n"},

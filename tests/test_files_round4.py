@@ -265,7 +265,7 @@ def test_two_million_targets_are_refused_before_the_work(tmp_path, monkeypatch):
 def test_long_runs_say_so_before_the_work(capsys):
     """calibrate (200,000 rows) and a robot's path (388,000 points, 1.2 ms a point) announce their time: the
     estimate's line, printed before the work (the path's estimate was the 3-PUU's 0.1 ms a point, so silent)."""
-    from vjm.cli.calibrate import ROW_COST
+    from vjm.calibration.diagnosis import ROW_COST
     from vjm.maps.grid import plan
     from vjm.toolpath.points import ROBOT_PATH_SECONDS, path_plan
 

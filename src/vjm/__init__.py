@@ -24,7 +24,13 @@ from .modelio.write import save_model
 from .stiffness.linear import StiffnessResult
 
 __all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "LinkSpring", "Joints", "StiffnessResult",
+           "StiffnessMap", "JointMap", "CartesianMap", "Diagnosis", "PathResult",
            "load_model", "save_model", "with_links", "diagnose", "path"]
+
+#: what the verbs return, imported on first use (matplotlib, scipy): name -> (module, attribute)
+_LAZY = {"path": ("toolpath.dispatch", "path"), "PathResult": ("toolpath.result", "PathResult"),
+         "StiffnessMap": ("maps.compute", "StiffnessMap"), "JointMap": ("maps.robot_joint", "JointMap"),
+         "CartesianMap": ("maps.robot_cartesian", "CartesianMap"), "Diagnosis": ("discrepancy.diagnosis", "Diagnosis")}
 
 
 def __dir__():
@@ -33,11 +39,12 @@ def __dir__():
 
 
 def __getattr__(name):
-    # ``vjm.path(...)``: deflection along a toolpath (vjm/toolpath/), imported on first use (matplotlib)
-    if name == "path":
-        from .toolpath.dispatch import path
+    # ``vjm.path(...)``: deflection along a toolpath (vjm/toolpath/), and the result types, imported on first use
+    if name in _LAZY:
+        import importlib
 
-        return path
+        module, attr = _LAZY[name]
+        return getattr(importlib.import_module(f"{__name__}.{module}"), attr)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -48,13 +55,16 @@ def diagnose(model, data, **options):
     ----------
     model : a :class:`Model`, the path of a model file or a bundled model name ("puu").
     data : measurements (``vjm.discrepancy.data.Deflections`` / ``StiffnessObs``) or a CSV path.
-    options : ``alpha``, ``effects``, ``suggest``, ``forces_only``, ``progress`` (a callable given a line per
-        selection round) ... of :func:`vjm.discrepancy.workflow.diagnose`.
+    options : ``alpha``, ``effects``, ``folds``, ``suggest``, ``forces_only``, ``progress`` (a callable given a
+        line per selection round) ... of :func:`vjm.discrepancy.workflow.diagnose`.  The data kind is
+        recognised by the registry of :mod:`vjm.discrepancy.kinds` (deflections, stiffness observations, a
+        robot's or a parallel machine's absolute poses, and any kind registered there).
 
     Returns
     -------
-    vjm.discrepancy.diagnosis.Diagnosis
-        ``.verdict``, ``.named``, ``.confounded``, ``.summary()``, ``.updated_model``, ``.save(dir)``.
+    Diagnosis
+        one type for every data kind: ``.verdict``, ``.named``, ``.confounded``, ``.summary()``,
+        ``.updated_model`` (a :class:`Model`), ``.save(dir)``, ``.report`` (typed, frozen).
 
     >>> d = vjm.diagnose("data/orthoglide/puu.yaml", "measurements.csv")   # doctest: +SKIP
     >>> d.verdict, d.named                                                  # doctest: +SKIP

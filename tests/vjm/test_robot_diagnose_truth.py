@@ -125,6 +125,8 @@ def test_the_calibrated_urdf_carries_both_markers(torso):
     assert sorted(dg.named) == ["compliance", "geometry"]
     dg.save(d / "urdf")
     cal = dg.calibration
+    upd = dg.updated_model   # the calibrated robot in memory: the files written, loaded back
+    assert upd.kind == "serial" and {f"{h}_marker" for h in HANDS} <= {f.name for f in upd.tree.frames}
     pm = truth.pin.buildModelFromUrdf(str(d / "urdf" / "calibrated.urdf"))
     pd = pm.createData()
     idx = [pm.idx_qs[pm.getJointId(n)] for n in model.q_names]

@@ -21,17 +21,16 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from ..discrepancy.diagnosis import Diagnosis
 from ..errors import VjmError
 from ..kinematics.forward import actuator_names
 from . import diagnosis as absolute
 from . import report as cr
-from .diagnosis import DEFAULT_ALPHA, PoseDiagnosis, _verdict, lack_of_fit
+from .diagnosis import DEFAULT_ALPHA, calibrated, pose_report, progress_lines, write
 from .engine import error_stats, position_errors
 from .parallel import EFFECTS, FRAME
 from .parallel_fit import calibrate_platform, register_platform
 from .robust import calibrate_robust
-
-SCHEMA = "vjm.diagnosis.absolute/1"
 
 
 def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
@@ -71,7 +70,7 @@ def validate(cal, data, k: int) -> dict:
 
 def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: float | None = None, effects=None,
                             folds: int = 5, columns=None, validate_files=(), register: int = 30,
-                            outliers: bool = True, progress=None) -> PoseDiagnosis:
+                            outliers: bool = True, progress=None) -> Diagnosis:
     """Diagnose a parallel machine's absolute poses (the module docstring): ``model`` and ``data`` loaded or
     their files, ``columns`` a column map file, ``validate_files`` held-out files (then no k-fold),
     ``outliers`` rows no effect explains set aside (:mod:`vjm.calibration.robust`)."""
@@ -93,41 +92,6 @@ def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: f
         cal = calibrate_platform(m, d, eff, opt.alpha, folds=opt.folds)
     held = [validate(cal, v, register) for v in vals]
     rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)
-    lof = lack_of_fit(cal, d, opt.alpha)
-    named = [e["effect"] for e in rep["effects"]]
-    rep = {**rep, "schema": SCHEMA, "kind": "absolute_poses", "machine": "parallel", "actuators": list(d.joints),
-           "verdict": _verdict(named, lof), "named_effects": named, "lack_of_fit": lof}
-    if progress:
-        for s in rep["stages"]:
-            progress(f"{s['name']}: {'named' if s['kept'] else 'not named'}, RMS {s['rms_mm']:.4f} mm")
-    return PoseDiagnosis(rep, cal)
-
-
-def is_pose_file(data, columns=None) -> bool:
-    """Whether ``data`` (a path, or data read) holds absolute poses: read ones, a column map naming a point
-    (``<frame>.x``), or a header with ``<frame>.x`` columns and no deflection's wrench columns; False
-    where the file cannot be read (the deflections' reader then says why)."""
-    import csv
-    import re
-
-    from .poses import AbsolutePoses, read_column_map
-
-    if isinstance(data, AbsolutePoses):
-        return True
-    if not isinstance(data, (str, os.PathLike)):
-        return False
-    if columns is not None:
-        try:
-            return any(re.fullmatch(r".+\.x", k) for k in read_column_map(columns).columns)
-        except VjmError:
-            return False
-    if not os.path.isfile(data):   # a device (/dev/zero) is never read: its reader refuses it
-        return False
-    try:
-        with open(data, newline="", encoding="utf-8-sig") as f:
-            head = f.read(1 << 16)   # the header, at most 64 kB of it
-    except (OSError, UnicodeDecodeError):
-        return False
-    header = next((r for r in csv.reader(head.splitlines()) if r and not r[0].startswith("#")), [])
-    names = {h.strip() for h in header}
-    return any(re.fullmatch(r".+\.x", h) for h in names) and "Fx" not in names and "quantity" not in names
+    report = pose_report(rep, cal, d, opt.alpha, machine="parallel", actuators=list(d.joints))
+    progress_lines(report, progress)
+    return Diagnosis(report, "platform_absolute", write, calibrated, calibration=cal)

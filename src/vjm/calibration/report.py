@@ -12,8 +12,8 @@ error on its other poses.  :func:`report` gathers what a user judges a calibrati
 - the parameters removed: combinations that cannot be identified, joints that are not observable;
 - the rows set aside as outliers (:mod:`vjm.calibration.robust`), with their errors.
 
-:func:`write_set` writes ``report.json``, ``summary.txt``, ``calibrated.urdf`` and ``calibrated.yaml``
-into a folder as one set (:mod:`linkfea.files.outputs`: complete or untouched, a manifest, never a user's file).
+:func:`write_set` writes ``report.json``, ``summary.txt`` (:func:`vjm.discrepancy.summary.pose_text`),
+``calibrated.urdf`` and ``calibrated.yaml`` into a folder as one set (:mod:`linkfea.files.outputs`: complete or untouched, a manifest, never a user's file).
 """
 from __future__ import annotations
 
@@ -66,7 +66,7 @@ def check_options(opt: Options) -> None:
 
 def robot_of(model) -> None:
     """Refuse a parallel machine: the absolute-pose calibration takes serial and tree robots."""
-    if not hasattr(model, "tree"):
+    if model.kind != "serial":
         raise VjmError(f"{getattr(model, 'path', None) or 'the model'}: a parallel machine; vjm calibrate takes a "
                        f"serial or tree robot (a model file with urdf: or dh:)")
 
@@ -201,49 +201,6 @@ def report(cal: Calibration, opt: Options, model_path, data, validations: list, 
     }
 
 
-def _fmt(st: dict) -> str:
-    return " / ".join(f"{st[k]:.3f}" for k in ("mean", "std", "max", "p95"))
-
-
-def _p(p: float) -> str:
-    return f"p = {p:.2g}" if p > 0 else "p < 1e-300"
-
-
-def summary(rep: dict) -> str:
-    """A short text of the report."""
-    reg = rep["stages"][0]
-    lines = [f"Calibration of {rep['model']} on {rep['data']} ({rep['rows']} rows, "
-             f"point{'s' if len(rep['frames']) > 1 else ''} {', '.join(rep['frames'])}).",
-             "Position error (mm) mean / std / max / p95, fitted rows:",
-             f"  registration only: {_fmt(reg['errors_mm'])}"]
-    if not rep["effects"]:
-        lines.append("  no effect named beyond the registration.")
-    for e in rep["effects"]:
-        lines.append(f"  {e['effect']} buys {e['buys_mm']:.3f} mm: {_fmt(e['before_mm'])} -> {_fmt(e['after_mm'])} "
-                     f"({_p(e['p_value'])}; {len(e['parameters'])} parameters)")
-    for s in rep["stages"][1:]:
-        if not s["kept"]:
-            lines.append(f"  {s['name']}: not named ({s['note'] or _p(s['p_value'])}"
-                         + (f", cross-validated RMS {s['cv_rms_mm']:.3f} mm" if s["cv_rms_mm"] is not None else "")
-                         + ")")
-    if rep["held_out"]["folds"]:
-        cv = [f"{s['name']} {s['cv_rms_mm']:.3f}" for s in rep["stages"] if s["cv_rms_mm"] is not None]
-        lines.append(f"Held out, {rep['held_out']['folds']}-fold cross-validated RMS (mm): " + ", ".join(cv))
-    for v in rep["held_out"]["validate"]:
-        lines.append(f"Held out, {v['file']} (registered on {v['registered_on']} of its poses, "
-                     f"{'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen; "
-                     f"{v['rows']} others): {_fmt(v['errors_mm'])}")
-    lines.append(f"Not identifiable (removed): {len(rep['not_identifiable'])}; not observable: "
-                 + (", ".join(r["parameter"] for r in rep["not_observable"]) or "none"))
-    if rep["set_aside"]:
-        rows = [str(r["row"] + 1) for r in rep["set_aside"]]
-        lines.append(f"Set aside as outliers (not fitted): {len(rows)} rows, data rows (1 = the first under the "
-                     f"header) "
-                     + ", ".join(rows[:20]) + (" ..." if len(rows) > 20 else ""))
-    lines.append(f"Fitted in {rep['seconds']:.1f} s.")
-    return "\n".join(lines) + "\n"
-
-
 def inputs(model, data, columns, validate_paths, opt: Options, asked: bool, option: str = "--frame") -> tuple:
     """(robot model, data, validation sets, options with the measured frames and the effects tried) of a run,
     checked before any fitting; ``model`` and ``data`` a loaded model and data set, or their files (a data file
@@ -284,6 +241,7 @@ def write_set(out, cal: Calibration, rep: dict, force: bool = False, set_name: s
     from linkfea.files.atomic import plain
     from linkfea.files.outputs import OutputSet, check_folder
 
+    from ..discrepancy.summary import pose_text
     from .write import calibrated_urdf, robot_file
 
     extra = extra or {}
@@ -292,7 +250,7 @@ def write_set(out, cal: Calibration, rep: dict, force: bool = False, set_name: s
     check_folder(out, files, force=force)
     check_writeback(cal.model)
     urdf = cal.model.tree.source
-    texts = {"report.json": json.dumps(plain(rep), indent=1) + "\n", "summary.txt": summary(rep),
+    texts = {"report.json": json.dumps(plain(rep), indent=1) + "\n", "summary.txt": pose_text(rep),
              "calibrated.urdf": calibrated_urdf(cal, urdf), "calibrated.yaml": robot_file(cal, "calibrated.urdf"),
              **extra}
     with OutputSet(out, set_name) as s:

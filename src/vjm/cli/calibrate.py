@@ -1,4 +1,10 @@
-"""``vjm calibrate``: a robot calibrated on absolute poses, held out, written back as one set."""
+"""``vjm calibrate``: a robot calibrated on absolute poses, held out, written back as one set.
+
+The calibration-only form of ``vjm diagnose``: the same body (:func:`vjm.cli.diagnose.run`), the data kind
+fixed to a robot's absolute poses (:class:`vjm.discrepancy.kinds.RobotPoseData`), the same flags for what
+they share and the same report files (report.json, report.html, summary.txt, calibrated.urdf,
+calibrated.yaml; commands.csv with ``--targets``).
+"""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,11 +14,6 @@ import typer
 
 from ..errors import user_errors
 from .common import FORCE, _fail
-
-#: memory (B) and time (s) per row of a calibration at the default effects and folds, for the estimate before
-#: the work: 6 kB measured (UR10, 20,000 rows); 1.5 ms (200,000 rows on one machine) to 10 ms (20,000 rows on a
-#: shared 2-core one)
-ROW_COST = (8e3, 5e-3)
 
 
 def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf: ...)"),
@@ -25,46 +26,37 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
                                                   "register its instrument frame (the robot frozen)"),
                   folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation in the choice "
                                                       "of effects (0: none; default 5, or 0 with --validate)"),
-                  effects: Optional[str] = typer.Option(None, "--effects",
-                                                        help="stages tried, in this order (default geometry,"
-                                                             "compliance,payload; also: coupling, lateral, bending, "
-                                                             "varying, thermal, tilt, backlash)"),
+                  effect: Optional[list[str]] = typer.Option(None, "--effect", help="an effect tried (repeatable, "
+                                                             "in this order; default geometry, compliance, payload; "
+                                                             "also: coupling, lateral, bending, varying, thermal, "
+                                                             "tilt, backlash)"),
+                  effects: Optional[str] = typer.Option(None, "--effects", help="the same as --effect, "
+                                                        "comma-separated: a,b"),
                   frame: Optional[list[str]] = typer.Option(None, "--frame", help="a measured point (repeatable; "
                                                             "default: every point of the data)"),
-                  alpha: float = typer.Option(1e-3, "--alpha", help="F test level of an effect"),
+                  alpha: Optional[float] = typer.Option(None, "--alpha", help="F test level of an effect "
+                                                        "(default 0.001)"),
                   targets: Optional[Path] = typer.Option(None, "--targets", help="also commands.csv: the joint values "
                                                          "reaching these points x,y,z[,rx,ry,rz] (mm, rad, base frame) "
                                                          "under self-weight on the calibrated model (seed: home:)"),
+                  outliers: bool = typer.Option(True, "--outliers/--no-outliers", help="set aside the rows no "
+                                                "effect explains"),
+                  verbose: bool = typer.Option(False, "--verbose", "-v", help="print each stage"),
                   out: Path = typer.Option(..., "--out", help="output folder"),
                   force: bool = FORCE):
     """Calibrate a robot on absolute poses (laser tracker, camera): registration, geometry, joint compliance
     under self-weight; held out; the calibrated URDF and robot file written back."""
-    import time
+    from .diagnose import effect_names, run
 
     try:
-        from linkfea.files.outputs import check_folder
+        from ..discrepancy.kinds import get
 
-        from ..calibration import report as cr
-        from ..calibration.write import calibrated_commands
-        from ..maps.grid import plan
-        from ..robot.compensate import check_targets
-
-        asked = tuple(e.strip() for e in effects.split(",") if e.strip()) if effects is not None else None
-        opt = cr.Options(tuple(frame or ()), asked or cr.DEFAULT_EFFECTS, alpha,
-                         (0 if validate else 5) if folds is None else folds, register_on)
-        cr.check_options(opt)
-        files = cr.FILES + (("commands.csv",) if targets is not None else ())
-        check_folder(out, files, force=force, inputs=(model, data, columns, *(validate or ()), targets))
-        m, d, vals, opt = cr.inputs(model, data, columns, validate or [], opt, asked is not None)
-        plan("vjm calibrate", d.n, *ROW_COST, unit="rows", hint="calibrate on a subset of the rows (postures "
-             "spread over the workspace, not repeats)", progress=lambda line: typer.echo(line, err=True))
-        seed = check_targets(m, targets) if targets is not None else None
-        t0 = time.perf_counter()
-        cal, held = cr.run(m, d, vals, opt)
-        rep = cr.report(cal, opt, model, d, held, time.perf_counter() - t0)
-        extra = {"commands.csv": calibrated_commands(cal, targets, seed)} if targets is not None else None
-        cr.write_set(out, cal, rep, force, extra=extra)
+        files = get("absolute").output_files(targets is not None)
+        dg = run(model, data, out, force=force, targets=targets, kind="absolute", set_name="vjm calibrate",
+                 model_name=str(model), alpha=alpha, effects=effect_names(effect, effects), folds=folds,
+                 frame=frame or None, columns=columns, validate=validate or (), register=register_on,
+                 outliers=outliers, progress=(lambda s: typer.echo(s, err=True)) if verbose else None)
     except user_errors() as exc:
         _fail(exc)
-    typer.echo(cr.summary(rep), nl=False)
+    typer.echo(dg.summary().brief(), nl=False)
     typer.echo(f"wrote {out}/" + ", ".join(files))

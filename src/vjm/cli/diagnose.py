@@ -22,46 +22,47 @@ INSUFFICIENT_DATA_EXIT = 3
 NOTHING_NAMED = ("insufficient_data", "untrusted_data")
 
 
-def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw):
-    """Check the arguments and the output folder, load, diagnose and write: the body of ``vjm diagnose``;
-    returns the Diagnosis.  ``targets`` (a robot's): also commands.csv, the compensation of these points on
-    the calibrated model (:func:`vjm.calibration.write.calibrated_commands`)."""
+def run(model_path, data_path, out_dir, force: bool = False, targets=None, kind=None,
+        set_name: str = "vjm diagnose", **kw):
+    """Check the arguments, load, ask the registry of data kinds (:mod:`vjm.discrepancy.kinds`; ``kind`` a
+    name: that kind), check the output folder, diagnose and write: the body of ``vjm diagnose`` and
+    ``vjm calibrate``; returns the Diagnosis.  ``targets`` (a robot's): also commands.csv, the compensation
+    of these points on the calibrated model (:func:`vjm.calibration.write.calibrated_commands`)."""
     import dataclasses
     import os
 
-    from linkfea.files.outputs import refuse_inputs
+    from linkfea.files.outputs import check_folder
 
-    from ..calibration import diagnosis as absolute
-    from ..calibration.parallel_diagnosis import is_pose_file
     from ..calibration.write import calibrated_commands
-    from ..discrepancy.report import check_report_dir
+    from ..discrepancy import kinds
     from ..discrepancy.workflow import check_arguments, diagnose
     from ..errors import VjmError
-    from ..modelio.read import is_robot_file, load_model
+    from ..modelio.read import load_model
     from ..robot.compensate import check_targets
 
-    check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")
-                       and v is not None})
-    robot = is_robot_file(model_path)
-    if robot:   # absolute poses: their own report set
-        absolute.check_folder(out_dir, force, commands=targets is not None)
-    elif targets is not None:
+    check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "max_effects", "suggest") and v is not None})
+    # the kind from the model file, not the model: the output folder is checked before any work
+    k = kinds.get(kind) if kind is not None else kinds.find(data_path, model_path, kw.get("columns"))
+    if targets is not None and not k.commands:
         raise VjmError("--targets is for a serial or tree robot's absolute poses (the commands reaching them); a "
                        "parallel machine's commands are its inverse kinematics")
-    elif is_pose_file(data_path, kw.get("columns")):   # a parallel machine's absolute poses
-        absolute.check_folder(out_dir, force, robot=False)
-    else:
-        check_report_dir(out_dir, force)   # the output checked before the model is loaded (before any work)
-    refuse_inputs(out_dir, None, (model_path, data_path, kw.get("columns"), *(kw.get("validate") or ()), targets))
+    check_folder(out_dir, k.output_files(targets is not None), force=force,
+                 inputs=(model_path, data_path, kw.get("columns"), *(kw.get("validate") or ()), targets))
     model = load_model(model_path)
-    if absolute.is_robot(model) != robot:
-        raise VjmError(f"{model_path}: read as a {'robot' if robot else 'parallel machine'} file, loaded otherwise")
     seed = check_targets(model, targets) if targets is not None else None
-    dg = diagnose(model, data_path, model_name=os.path.basename(os.fspath(model_path)), **kw)
+    dg = diagnose(model, data_path, model_name=kw.pop("model_name", None) or os.path.basename(os.fspath(model_path)),
+                  kind=k.name, **kw)
     if targets is not None:
         dg = dataclasses.replace(dg, commands=calibrated_commands(dg.calibration, targets, seed))
-    dg.save(out_dir, force=force)
+    dg.save(out_dir, force=force, set_name=set_name)
     return dg
+
+
+def effect_names(effect, effects) -> list | None:
+    """The effects of ``--effect`` (repeated) and ``--effects a,b`` (kept for the commands written with it), in
+    order; None when neither is given."""
+    names = list(effect or []) + [e.strip() for e in (effects or "").split(",") if e.strip()]
+    return names or None
 
 
 def _tracker(position, noise):
@@ -85,6 +86,11 @@ def diagnose_cmd(
                                                                 "effect, default 0.001)"),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="restrict the candidates (repeatable); a "
                                                                       "robot's: the effects tried, in this order"),
+    effects: Optional[str] = typer.Option(None, "--effects", help="the same as --effect, comma-separated: a,b"),
+    folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation (default 5; absolute poses: "
+                                                              "0 none, and 0 with --validate)"),
+    frame: Optional[List[str]] = typer.Option(None, "--frame", help="a robot's: a measured point fitted "
+                                                                    "(repeatable; default: every point of the data)"),
     columns: Optional[Path] = typer.Option(None, "--columns", help="absolute poses (a robot's or a parallel "
                                                                    "machine's): column map YAML (the file's own names, "
                                                                    "units, separator)"),
@@ -114,13 +120,13 @@ def diagnose_cmd(
     """Name the physical effect missing from MODEL that the measurements in DATA reveal."""
     try:
         noise = _tracker(tracker, tracker_noise)
-        dg = run(model, data, out, alpha=alpha, effects=effect or None,
+        dg = run(model, data, out, alpha=alpha, effects=effect_names(effect, effects), folds=folds, frame=frame or None,
                  progress=(lambda s: typer.echo(s, err=True)) if verbose else None,
                  suggest=suggest, forces_only=forces_only, force=force, outliers=outliers, noise=noise,
                  columns=columns, validate=validate or (), register=register_on, targets=targets)
     except user_errors() as exc:
         _fail(exc)
-    typer.echo(dg.summary().rstrip("\n") if isinstance(dg.report, dict) else dg.report.summary)
+    typer.echo(dg.summary().brief().rstrip("\n"))
     typer.echo(f"Report: {Path(out) / 'report.html'}")
     if suggest:
         typer.echo(f"Next measurements: {Path(out) / 'next_measurements.csv'}")

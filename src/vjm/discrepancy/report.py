@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import html
 import json
+from collections.abc import Mapping
 
 import numpy as np
 
 from linkfea.files.atomic import plain
 from linkfea.files.outputs import OutputSet, check_folder
+
+from .summary import Summary, alternative_lines, is_pose_report, verdict_line
 
 #: the files a report folder may hold (next_measurements.csv with --suggest)
 REPORT_FILES = ("report.json", "report.html", "before_after.png", "residuals_per_posture.png",
@@ -80,7 +83,7 @@ def plot_before_after(path, rms_before, rms_after, verdict):
 
 
 def _table(rows, header):
-    h = "".join(f"<th>{html.escape(c)}</th>" for c in header)
+    h = "".join(f"<th>{html.escape(str(c))}</th>" for c in header)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
     return f"<table><tr>{h}</tr>{body}</table>"
 
@@ -94,10 +97,16 @@ def _fmt(v, f="{:.4g}"):
         return str(v)
 
 
-def render_html(rep: dict, figures) -> str:
-    """The HTML report: one-line verdict and the before/after picture first, then the evidence."""
-    from .summary import Summary, alternative_lines, verdict_line
+def render_html(rep: Mapping, figures=()) -> str:
+    """report.html of a diagnosis of any kind: one-line verdict first, then the evidence (the stages' report:
+    the before/after picture, the candidates; absolute poses': the effects named, the held-out errors)."""
+    if is_pose_report(rep):
+        return _pose_html(rep)
+    return _stages_html(rep, figures)
 
+
+def _stages_html(rep: Mapping, figures) -> str:
+    """The stages' report: one-line verdict and the before/after picture first, then the evidence."""
     named = rep["named_effects"]
     cand_rows = []
     for name, c in rep["candidates"].items():
@@ -186,7 +195,8 @@ def check_report_dir(out_dir, force: bool = False) -> None:
     check_folder(out_dir, REPORT_FILES, force=force)
 
 
-def write_report_dir(out_dir, rep: dict, model_writer, figure_writer, force: bool = False) -> None:
+def write_report_dir(out_dir, rep: dict, model_writer, figure_writer, force: bool = False,
+                     set_name: str = SET_NAME) -> None:
     """Write ``report.json``, ``report.html``, figures and the model file into ``out_dir`` as one set.
 
     ``model_writer(path)`` writes model_updated.yaml; ``figure_writer(path_of)`` writes PNGs
@@ -195,10 +205,56 @@ def write_report_dir(out_dir, rep: dict, model_writer, figure_writer, force: boo
     that this one does not have; other files are left alone.
     """
     check_folder(out_dir, REPORT_FILES, force=force)
-    with OutputSet(out_dir, SET_NAME) as s:
+    with OutputSet(out_dir, set_name) as s:
         model_writer(s.path("model_updated.yaml"))
         figures = figure_writer(s.path)
         with open(s.path("report.json"), "w", encoding="utf-8") as fh:
             json.dump(plain(rep), fh, indent=2)
         with open(s.path("report.html"), "w", encoding="utf-8") as fh:
             fh.write(render_html(plain(rep), figures))
+
+
+def _pv(p) -> str:
+    return "-" if p is None else (f"{p:.2g}" if p > 0 else "< 1e-300")
+
+
+def _stats(st: Mapping) -> list:
+    return [f"{st[k]:.4f}" for k in ("mean", "std", "max", "p95")]
+
+
+def _pose_html(rep: Mapping) -> str:
+    """Absolute poses' report.html: the verdict, the effects named with the gap before and after each, the
+    held-out errors, the registration apart, the parameters, what was removed."""
+    eff = [[e["effect"], f"{e['buys_mm']:.4f}", *_stats(e["before_mm"]), *_stats(e["after_mm"]),
+            _pv(e["p_value"])] for e in rep["effects"]]
+    held = [[v["file"], v["registered_on"], v["rows"], *_stats(v["errors_mm"])] for v in rep["held_out"]["validate"]]
+    cv = [[s["name"], "named" if s["kept"] else "not named", f"{s['rms_mm']:.4f}",
+           "-" if s["cv_rms_mm"] is None else f"{s['cv_rms_mm']:.4f}", _pv(s["p_value"]),
+           s.get("note", "")] for s in rep["stages"]]
+    reg = rep["registration"]
+    frames = [[g, " ".join(f"{x:.3f}" for x in f["t_mm"]), ", ".join(f"{k} {v:.2g}" for k, v in f["std"].items())]
+              for g, f in reg["instrument_frames"].items()]
+    marks = [[mk["frame"], " ".join(f"{x:.3f}" for x in mk["offset_mm"]), " ".join(f"{x:.2g}" for x in mk["std_mm"])]
+             for mk in reg["markers"]]
+    pars = [[k, f"{v['value']:.6g}", "-" if v["std"] is None else f"{v['std']:.2g}", v["unit"]]
+            for k, v in rep["parameters"].items()]
+    removed = [[r["parameter"], r["why"]] for r in rep["not_observable"] + rep["not_identifiable"]]
+    st = ["mean", "std", "max", "p95"]
+    return f"""<!doctype html><html><head><meta charset="utf-8"><title>VJM diagnosis of absolute poses</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:auto}}table{{border-collapse:collapse;margin:6px 0}}
+td,th{{border:1px solid #ccc;padding:3px 6px;font-size:90%}}</style></head><body>
+<h1>Diagnosis of absolute poses</h1>
+<p style="font-size:120%"><b>{html.escape(verdict_line(rep))}</b></p>
+<p>Model: <code>{html.escape(str(rep['model']))}</code>; data: <code>{html.escape(rep['data'])}</code> ({rep['rows']}
+rows; points {html.escape(', '.join(rep['frames']))}); effects tried: {html.escape(', '.join(rep['effects_tried']))}.</p>
+<h2>Effects named, in order of what each buys (position error of the fitted rows, mm)</h2>
+{_table(eff, ["effect", "buys (mean)"] + [f"before {k}" for k in st] + [f"after {k}" for k in st] + ["p"])}
+<h2>Stages</h2>{_table(cv, ["stage", "state", "RMS mm", "cross-validated RMS mm", "F test p", "note"])}
+<h2>Held out (each file registered on a few of its poses, the {'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen)</h2>
+{_table(held, ["file", "registered on", "rows held out"] + [f"{k} mm" for k in st]) if held else
+ f"<p>{rep['held_out']['folds']}-fold cross-validation (stages above).</p>"}
+<h2>Registration (a nuisance, not an effect)</h2>
+{_table(frames, ["set-up", "t (mm)", "standard deviations"])}{_table(marks, ["marker on", "offset (mm)", "std (mm)"])}
+<h2>Fitted parameters</h2>{_table(pars, ["parameter", "value", "std", "unit"])}
+<h2>Removed: not observable, not identifiable</h2>{_table(removed, ["parameter", "why"])}
+</body></html>"""

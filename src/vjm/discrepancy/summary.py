@@ -1,5 +1,6 @@
-"""The diagnosis in words and tables: the verdict line, the one-paragraph ``summary(report)``
-and a statsmodels-like Summary.
+"""The diagnosis in words and tables, for every data kind: the verdict line, the one-paragraph
+``summary(report)`` and a statsmodels-like Summary (absolute poses: the text of summary.txt,
+:func:`pose_text`).
 
 ``Summary(report)`` prints as fixed-width text (``str()``) and renders as an
 HTML table set (``as_html()``, ``_repr_html_`` for notebooks); both come
@@ -39,8 +40,15 @@ def outlier_words(rep) -> str:
             f"(file rows {rows})")
 
 
+def is_pose_report(rep) -> bool:
+    """Whether ``rep`` is an absolute-pose diagnosis' report (:class:`vjm.calibration.diagnosis.PoseReport`)."""
+    return rep.get("kind") == "absolute_poses"
+
+
 def verdict_line(rep) -> str:
     """One sentence: the verdict, the named effects (or groups) and the lack of fit (and the rows set aside)."""
+    if is_pose_report(rep):
+        return _pose_verdict_line(rep)
     line = _verdict_line(rep)
     o = outlier_words(rep)
     if o and rep["verdict"] != "untrusted_data":
@@ -93,6 +101,10 @@ class Summary:
     def __init__(self, report: Mapping):
         self.report = report
 
+    def brief(self) -> str:
+        """What ``vjm diagnose`` prints: the one-paragraph summary (absolute poses: summary.txt's text)."""
+        return pose_text(self.report) if is_pose_report(self.report) else self.report["summary"]
+
     def tables(self) -> list:
         """[(title, header, rows)] with string cells."""
         r = self.report
@@ -139,6 +151,8 @@ class Summary:
         return out
 
     def as_text(self) -> str:
+        if is_pose_report(self.report):
+            return pose_text(self.report)
         lines = [verdict_line(self.report), ""]
         for title, header, rows in self.tables():
             w = [max(len(str(x)) for x in col) for col in zip(header, *rows)] if rows else [len(h) for h in header]
@@ -152,6 +166,9 @@ class Summary:
         return "\n".join(lines)
 
     def as_html(self) -> str:
+        if is_pose_report(self.report):
+            text = html.escape(pose_text(self.report))
+            return f"<pre>{text}</pre>"
         parts = [f"<p><b>{html.escape(verdict_line(self.report))}</b></p>"]
         for title, header, rows in self.tables():
             h = "".join(f"<th>{html.escape(str(c))}</th>" for c in header) if any(header) else ""
@@ -193,3 +210,59 @@ def summary(rep) -> str:
             f" RMS {rep['rms_nominal']:.3g} (nominal) -> {rep['rms_before']:.3g} (calibrated) -> {rep['rms_after']:.3g} "
             f"{rep['rms_units']}; reduced chi2 {rep['chi2_nominal']:.3g} -> {rep['chi2_before']:.3g} -> "
             f"{rep['chi2_after']:.3g}. Gap before naming: {rep['localization']['summary']}.")
+
+
+def _pose_verdict_line(rep) -> str:
+    v = rep["verdict"]
+    if v == "no_discrepancy":
+        return "Verdict: no_discrepancy (nothing named beyond the registration)."
+    line = f"Verdict: {v}; named: {', '.join(rep['named_effects']) or 'nothing'}."
+    lof = rep["lack_of_fit"]
+    if v == "unexplained":
+        line += (f" The residuals stay {lof['rms_over_sigma']:.3g}x the stated sigmas (chi-square p = "
+                 f"{lof['p_value']:.2g}): a gap no effect tried closes.")
+    return line
+
+
+def _stats(st) -> str:
+    return " / ".join(f"{st[k]:.3f}" for k in ("mean", "std", "max", "p95"))
+
+
+def _p(p: float) -> str:
+    return f"p = {p:.2g}" if p > 0 else "p < 1e-300"
+
+
+def pose_text(rep) -> str:
+    """The text of an absolute-pose diagnosis' summary.txt: the verdict, the position error before and after
+    each effect named, the held-out errors, what was removed and set aside."""
+    reg = rep["stages"][0]
+    lines = [_pose_verdict_line(rep),
+             f"Calibration of {rep['model']} on {rep['data']} ({rep['rows']} rows, "
+             f"point{'s' if len(rep['frames']) > 1 else ''} {', '.join(rep['frames'])}).",
+             "Position error (mm) mean / std / max / p95, fitted rows:",
+             f"  registration only: {_stats(reg['errors_mm'])}"]
+    if not rep["effects"]:
+        lines.append("  no effect named beyond the registration.")
+    for e in rep["effects"]:
+        lines.append(f"  {e['effect']} buys {e['buys_mm']:.3f} mm: {_stats(e['before_mm'])} -> "
+                     f"{_stats(e['after_mm'])} ({_p(e['p_value'])}; {len(e['parameters'])} parameters)")
+    for s in rep["stages"][1:]:
+        if not s["kept"]:
+            lines.append(f"  {s['name']}: not named ({s['note'] or _p(s['p_value'])}"
+                         + (f", cross-validated RMS {s['cv_rms_mm']:.3f} mm" if s["cv_rms_mm"] is not None else "")
+                         + ")")
+    if rep["held_out"]["folds"]:
+        cv = [f"{s['name']} {s['cv_rms_mm']:.3f}" for s in rep["stages"] if s["cv_rms_mm"] is not None]
+        lines.append(f"Held out, {rep['held_out']['folds']}-fold cross-validated RMS (mm): " + ", ".join(cv))
+    for v in rep["held_out"]["validate"]:
+        lines.append(f"Held out, {v['file']} (registered on {v['registered_on']} of its poses, "
+                     f"{'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen; "
+                     f"{v['rows']} others): {_stats(v['errors_mm'])}")
+    lines.append(f"Not identifiable (removed): {len(rep['not_identifiable'])}; not observable: "
+                 + (", ".join(r["parameter"] for r in rep["not_observable"]) or "none"))
+    if rep["set_aside"]:
+        rows = [str(r["row"] + 1) for r in rep["set_aside"]]
+        lines.append(f"Set aside as outliers (not fitted): {len(rows)} rows, data rows (1 = the first under the "
+                     f"header) " + ", ".join(rows[:20]) + (" ..." if len(rows) > 20 else ""))
+    lines.append(f"Fitted in {rep['seconds']:.1f} s.")
+    return "\n".join(lines) + "\n"

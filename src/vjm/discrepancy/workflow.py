@@ -1,7 +1,9 @@
-"""The discrepancy workflow: calibrate, locate, name, add, show.
+"""The front door of a diagnosis, for every data kind: :func:`diagnose` checks the arguments, loads the model,
+asks the registry of data kinds (:mod:`vjm.discrepancy.kinds`) which kind the data are, reads them and runs
+that kind, to one :class:`~vjm.discrepancy.diagnosis.Diagnosis`.
 
-:func:`diagnose` runs the stages of :mod:`vjm.discrepancy.stages` in turn on a
-model and a data set and returns a :class:`~vjm.discrepancy.diagnosis.Diagnosis`.
+The stages' diagnosis of deflections and stiffness observations is :mod:`vjm.discrepancy.pipeline`;
+absolute poses go to the calibration engine (:mod:`vjm.calibration.diagnosis`).
 """
 from __future__ import annotations
 
@@ -9,31 +11,14 @@ import os
 
 from linkfea.runtime.checks import Bounds, integer, number
 
-from ..errors import ArgumentError, VjmError
+from ..errors import ArgumentError
 from ..modelio.read import load_model
-from . import covariance
-from .data import Deflections, read_csv
+from . import kinds
 from .diagnosis import Diagnosis
-from .stages import outliers as outl
-from .stages.calibrate import calibrate
-from .stages.candidates import candidates
-from .stages.confounding import confounding
-from .stages.design import next_measurements
-from .stages.goodness import goodness
-from .stages.kinds import kind_for, kind_of
-from .stages.load_levels import level_check
-from .stages.locate import locate
-from .stages.noise import check_stated
-from .stages.observability import observability
-from .stages.outliers import Outliers, untrusted_model
-from .stages.problem import build_problem, with_weights
-from .stages.record import Pass, assemble
-from .stages.select import select
-from .stages.strength import weak_design
-from .stages.thresholds import DEFAULT_ALPHA
-from .stages.update import updated_model
-from .stages.verdict import verdict
+from .pipeline import diagnose_plan, run_stages, set_aside
 from .tracker import TrackerNoise
+
+__all__ = ["diagnose", "check_arguments", "diagnose_plan", "run_stages", "set_aside"]
 
 #: valid ranges of diagnose's numeric arguments: a level of 0 or 1 makes every test pass or fail
 ALPHA = Bounds(0, 1, lo_open=True, hi_open=True)
@@ -42,96 +27,26 @@ MAX_EFFECTS = Bounds(1)
 SUGGEST = Bounds(0)
 
 
-def check_arguments(alpha=DEFAULT_ALPHA, folds=5, max_effects=3, suggest=0):
-    """The numeric arguments of :func:`diagnose`, checked (type, finiteness, range): ArgumentError naming one."""
-    return (number(alpha, "alpha", ALPHA, ArgumentError), integer(folds, "folds", FOLDS, ArgumentError),
+def check_arguments(alpha=None, folds=None, max_effects=3, suggest=0):
+    """The numeric arguments of :func:`diagnose` that every kind reads alike, checked (type, finiteness, range):
+    ArgumentError naming one (``folds`` is the kind's to check: absolute poses take 0, none)."""
+    return (None if alpha is None else number(alpha, "alpha", ALPHA, ArgumentError), folds,
             integer(max_effects, "max_effects", MAX_EFFECTS, ArgumentError),
             integer(suggest, "suggest", SUGGEST, ArgumentError))
 
 
-def run_stages(model, data, alpha, effects, folds, max_effects, progress, scale=None) -> Pass:
-    """The stages from the problem to the verdict on the rows of ``data``, each returning its value.
-    ``scale`` (translations, rotations): the stated sigmas widened by these factors from the start and not
-    looked at again (the outlier reruns keep the first run's); None: widened, and the selection run
-    again, only if the noise check finds them too small and the excess noise-like."""
-    s = build_problem(model, data, kind_of(data), effects)
-    terms = dict(s.terms)
-    if scale is not None and any(f != 1.0 for f in scale):
-        s = with_weights(s, terms, s.weights.scaled(scale[0], scale[1], _widened(s, scale)))
-    cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, progress)
-    nc = check_stated(s, chosen.sel.final, alpha, (1.0, 1.0) if scale is None else scale)
-    if nc is not None and nc.rescale and scale is None:
-        # the stated sigmas look too small and the excess is noise-like: the tests again, at the residuals' scale
-        if progress:
-            progress(f"stated sigmas look too small (x{nc.scale[0]:.2f} translations, x{nc.scale[1]:.2f} rotations): "
-                     "selecting again at that scale")
-        s = with_weights(s, terms, s.weights.scaled(nc.scale[0], nc.scale[1], _widened(s, nc.scale)))
-        cal, obs, chosen, fit = _name(s, alpha, max_effects, folds, progress)
-        nc = check_stated(s, chosen.sel.final, alpha, nc.scale)
-    lev = level_check(s, chosen, fit)
-    loc = locate(s, chosen, fit)
-    table = candidates(s, obs, chosen)
-    conf = confounding(s.prob, chosen.sel, obs.sens, cal.cols, table.entries, alpha, chosen.rivals)
-    v = verdict(s, cal, chosen, fit, lev, weak_design(s, chosen))
-    return Pass(s, cal, obs, chosen, fit, nc, lev, loc, table, conf, v)
-
-
-def set_aside(first: Pass, run, sigma_known: bool) -> tuple[Pass, Outliers | None]:
-    """(the run to report, the rows set aside or None): the stages run again (``run(rows)``) without the
-    rows the last run flags as gross outliers until the set aside is the set flagged
-    (:mod:`~vjm.discrepancy.stages.outliers` decides each step)."""
-    full = first.s
-    got = outl.first_look(full, first.final, sigma_known, judged=first.fit.lack_of_fit.get("p_value") is not None)
-    if got is None or isinstance(got, Outliers):
-        return first, got
-    seen: set = {()}
-    cur, aside, passes = first, (), 1
-    while outl.again(got, aside, seen, passes):
-        aside = got[0]
-        seen.add(aside)
-        cur = run(outl.kept_rows(full.data, aside))
-        passes += 1
-        got = outl.flag(full, cur.s, cur.final, sigma_known)
-        if cur.verdict.verdict == "unexplained":
-            break  # the other rows still lack fit: the rows flagged are part of a gap, not gross errors
-    found = outl.decide(full, got, aside, passes, cur.verdict.verdict)
-    return (cur if found.accepted else first), found
-
-
-DIAGNOSE_BYTES_PER_ROW = 2.1e5
-"""Peak memory of ``vjm diagnose`` per data row with every candidate of the registry (25): measured on the
-3-PUU, 247 MB at 601 rows, 640 MB at 2,401, 2.1 GB at 9,601 (205-218 kB per added row, outlier stage
-included); the candidates' Jacobians make most of it, so ``--effect`` scales it by its share of them."""
-DIAGNOSE_SECONDS_PER_ROW = 5.8e-3
-"""Seconds per row of the same runs (25 s at 2,401 rows, 67 s at 9,601, on this 2-core machine)."""
-
-
-def diagnose_plan(n_rows: int, n_candidates: int | None = None):
-    """The :class:`vjm.maps.grid.Plan` of a diagnosis of ``n_rows`` rows (``n_candidates``: None for the whole
-    registry); VjmError naming the figures if it cannot fit in memory."""
-    from ..effects import REGISTRY
-    from ..maps.grid import plan
-
-    share = 1.0 if n_candidates is None else min(1.0, max(1, n_candidates) / max(1, len(REGISTRY)))
-    return plan("vjm diagnose", n_rows, DIAGNOSE_BYTES_PER_ROW * share, DIAGNOSE_SECONDS_PER_ROW, unit="rows",
-                hint="diagnose a subset of the rows (the diagnosis needs postures and loads, not repeats), "
-                     "or fewer candidates (--effect)")
-
-
-def diagnose(model, data, alpha: float | None = None, effects=None, folds: int = 5, max_effects: int = 3,
+def diagnose(model, data, alpha: float | None = None, effects=None, folds: int | None = None, max_effects: int = 3,
              model_name: str | None = None, progress=None, suggest: int = 0, forces_only: bool = False,
              outliers: bool = True, noise: TrackerNoise | None = None, columns=None, validate=(),
-             register: int = 30):
-    """Run the workflow on a model (loaded, or a YAML path) and a data set (:func:`read_csv` output, or a path).
-
-    A serial or tree robot's data are absolute poses (:class:`~vjm.discrepancy.stages.kinds.AbsolutePoseKind`:
-    ``columns`` a column map file, ``validate`` held-out files registered on ``register`` of their poses;
-    ``alpha`` default 1e-3); the outcome is then a :class:`~vjm.calibration.diagnosis.PoseDiagnosis`.
+             register: int = 30, frame=None, kind: str | None = None) -> Diagnosis:
+    """Diagnose a model (loaded, or a model file) on a data set (read, or a file) of any registered kind.
 
     Parameters
     ----------
-    alpha : family-wise significance level of each selection round.
-    effects : candidate names (default: the whole registry).
+    alpha : family-wise significance level of each selection round (default 0.01; absolute poses: the F test
+        level of an effect, default 1e-3).
+    effects : candidate names (default: the whole registry; absolute poses: geometry, compliance, payload).
+    folds : cross-validation folds (default 5; absolute poses: 0 none, and 0 with ``validate``).
     model_name : the model's name in the report (default: the file name of a path, else "<model>").
     suggest : number of (posture, load) rows to suggest measuring next (0: none).
     forces_only : suggest force loads only (a rig that cannot apply torques).
@@ -139,60 +54,20 @@ def diagnose(model, data, alpha: float | None = None, effects=None, folds: int =
         (:mod:`~vjm.discrepancy.stages.outliers`); False: every row is used as it is.
     noise : the translations' sigmas of a laser tracker (:class:`~vjm.discrepancy.tracker.TrackerNoise`:
         growing with the distance from it, per axis) for deflection data whose file states none.
+    columns, validate, register, frame : absolute poses: a column map file, held-out files (each registered
+        on ``register`` of its poses), the measured points fitted.
+    kind : the name of the data kind (:mod:`vjm.discrepancy.kinds`); None: the registry recognises the data.
     progress : called with a line per selection round.
     """
-    was_given = alpha is not None
-    alpha, folds, max_effects, suggest = check_arguments(DEFAULT_ALPHA if alpha is None else alpha, folds,
-                                                         max_effects, suggest)
+    alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
     if isinstance(model, (str, os.PathLike)):
         model_name = model_name or os.path.basename(os.fspath(model))
         model = load_model(model)
-    kind = kind_for(model, data, columns)
-    if kind is not None:
-        kind.check(effects, suggest, forces_only, noise)
-        return kind.run(model, data, model_name=model_name, alpha=alpha if was_given else None, effects=effects,
-                        folds=folds, columns=columns, validate=validate, register=register, outliers=outliers,
-                        progress=progress)
-    if columns is not None or validate:
-        raise VjmError("--columns and --validate read absolute poses, the data of a serial or tree robot (a model "
-                       "file with urdf: or dh:)")
+    k = kinds.get(kind) if kind is not None else kinds.find(data, model, columns)
+    options = dict(alpha=alpha, effects=effects, folds=folds, max_effects=max_effects, model_name=model_name,
+                   progress=progress, suggest=suggest, forces_only=forces_only, outliers=outliers, noise=noise,
+                   columns=columns, validate=validate, register=register, frame=frame)
+    k.check(options)
     if isinstance(data, (str, os.PathLike)):
-        data = read_csv(data)
-    diagnose_plan(data.n, len(effects) if effects else None)  # before the stages: 120k rows passed 12 GB in 45 s
-    if noise is not None:
-        if not isinstance(data, Deflections):
-            raise VjmError("noise: a tracker noise model applies to deflection data (x,y,z,Fx..Mz,dx..rz)")
-        data = noise.apply(data)
-
-    def run(rows, scale=None) -> Pass:
-        return run_stages(model, rows, alpha, effects, folds, max_effects, progress, scale)
-
-    p, found = run(data), None
-    if outliers:  # the reruns on the rows kept use the first run's noise scale
-        p, found = set_aside(p, lambda rows, first=p: run(rows, first.scale), p.s.weights.sigma_known)
-    s, chosen = p.s, p.chosen
-    untrusted = found is not None and found.untrusted
-    if found is not None and progress:
-        progress(f"outliers: {len(found.positions)} rows beyond the threshold after {found.passes} diagnoses; "
-                 f"{'set aside' if found.accepted else 'kept (part of the gap)'}")
-    if untrusted:
-        upd, cov = untrusted_model(s, chosen.sel.baseline), covariance.record(s.prob, s.pred, chosen.sel.baseline)
-    else:
-        upd, cov = updated_model(s, chosen), covariance.record(s.prob, s.pred, chosen.sel.final)
-    sg = (next_measurements(s, p.obs, chosen, p.fit, p.table, p.conf, untrusted, suggest, forces_only)
-          if suggest else None)
-    rep = assemble(p, found, sg, model_name=model_name or "<model>", alpha=alpha, folds=folds)
-    return Diagnosis(rep, upd, s.U, p.loc.per_before, p.loc.per_after, sg.rows if sg is not None else None, cov)
-
-
-def _name(s, alpha, max_effects, folds, progress):
-    """Calibration, observability, selection, goodness of fit."""
-    cal = calibrate(s, progress)
-    obs = observability(s, cal, progress)
-    chosen = select(s, cal, obs, alpha, max_effects, folds, progress)
-    return cal, obs, chosen, goodness(s, obs, chosen, alpha)
-
-
-def _widened(s, scale) -> str:
-    """The weights' source once the stated sigmas are widened by ``scale``."""
-    return f"{s.weights.source}, x{scale[0]:.3g} translations, x{scale[1]:.3g} rotations (see noise)"
+        data = k.read(data, model, columns)
+    return k.run(model, data, **options)

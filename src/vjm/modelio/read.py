@@ -311,6 +311,12 @@ def is_robot_file(path) -> bool:
         return False
 
 
+def file_kind(path) -> str:
+    """The :attr:`vjm.Model.kind` a model file (a path or a bundled name) loads to, "serial" or "parallel", read
+    without loading it (:func:`is_robot_file`)."""
+    return "serial" if is_robot_file(path) else "parallel"
+
+
 def load_model(path, foot=None, leg=None, links: dict | None = None) -> Model:
     """Read a model file, with some of its links replaced: a :class:`vjm.Model` of either kind, a parallel
     machine (an architecture or a machine description) or a serial or tree robot (a YAML naming a URDF or

@@ -1,10 +1,11 @@
-"""The data kinds as strategy objects: what differs between deflections and stiffness observations.
+"""The stages' strategy of a data kind: what differs between deflections and stiffness observations.
 
 :class:`DeflectionKind` (``x,y,z,Fx..Mz,dx..rz``: twists under loads) and
 :class:`StiffnessKind` (``x,y,z,quantity,value``: k_tran, k_rot per posture)
 answer the same questions for the stages: which rows apply, the loads, the
 weights and residual problem, the groups of repeats, the residuals in physical
-units and where the gap is, and the scales a suggested design needs.
+units and where the gap is, and the scales a suggested design needs.  The data kinds themselves (recognising,
+reading, running, the output files) are the registry of :mod:`vjm.discrepancy.kinds`.
 """
 from __future__ import annotations
 
@@ -13,9 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from linkfea.mechanics.compliance import TWIST
+
 from ...effects import modelops as mo
 from ...errors import VjmError
-from ..data import StiffnessObs
+from ..data import QUANTITIES, Deflections, StiffnessObs
 from ..localize import localize
 from ..predict import deflection_problem, stiffness_problem
 from .norms import per_pose, rms, robust_scale
@@ -69,6 +72,12 @@ class DeflectionKind:
     """Twists measured under applied wrenches (some components may be missing)."""
 
     name = "deflection"
+    #: rows carry loads: load levels are tested, a design of loads can be suggested
+    loaded = True
+
+    def with_noise(self, data, noise):
+        """The data with a laser tracker's sigmas (:class:`~vjm.discrepancy.tracker.TrackerNoise`)."""
+        return noise.apply(data)
 
     def rows(self, data, model):
         return data
@@ -159,11 +168,37 @@ class DeflectionKind:
         mcomp = np.flatnonzero(mask.any(axis=0))
         return mcomp, np.where(mask, sigm, np.inf)[:, mcomp], np.median(sigm[:, mcomp], axis=0)
 
+    def subset(self, data, keep: np.ndarray) -> Deflections:
+        """The rows ``keep`` (bool), file row numbers and text columns kept."""
+        rows = None if data.rows is None else np.asarray(data.rows)[keep]
+        return Deflections(data.P[keep], data.W[keep], data.T[keep],
+                           None if data.sigma_t is None else data.sigma_t[keep],
+                           None if data.sigma_r is None else data.sigma_r[keep], rows, data.source,
+                           {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.meta.items()},
+                           None if data.sigma is None else data.sigma[keep])
+
+    def whitened(self, full, pred, final) -> tuple:
+        """(residual / sigma of every measured component of ``full``'s data under ``final``, row position of
+        each, component name of each): the outlier stage's view."""
+        data, w = full.data, full.weights
+        mask = data.mask
+        # the file's own sigmas where it states them: the noise check may have widened the weights, and a
+        # share of gross values would then hide among them; the robust scale (flag) takes a misstated level
+        stated = data.stated_sigmas()
+        sig = np.where(np.isfinite(stated), stated, w.sig) if w.sigma_known else w.sig
+        r = ((data.T - pred.twists(final.names, final.theta)) / sig)[mask]
+        pos, comp = np.nonzero(mask)
+        return r, pos, [TWIST[c] for c in comp]
+
 
 class StiffnessKind:
     """k_tran / k_rot observed per posture (no loads); residuals are ln(predicted / observed)."""
 
     name = "stiffness"
+    loaded = False
+
+    def with_noise(self, data, noise):
+        raise VjmError("noise: a tracker noise model applies to deflection data (x,y,z,Fx..Mz,dx..rz)")
 
     def rows(self, data, model) -> StiffnessObs:
         """The rows whose ``architecture`` column names the model's (all rows without that column)."""
@@ -222,69 +257,19 @@ class StiffnessKind:
         raise VjmError("--suggest needs deflection data (x,y,z,Fx..Mz,dx..rz): stiffness observations "
                        "have no loads to design")
 
+    def subset(self, data, keep: np.ndarray) -> StiffnessObs:
+        """The rows ``keep`` (bool), file row numbers and text columns kept."""
+        rows = None if data.rows is None else np.asarray(data.rows)[keep]
+        return StiffnessObs(data.P[keep], data.quantity[keep], data.value[keep],
+                            None if data.sigma_rel is None else data.sigma_rel[keep], rows, data.source,
+                            {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.extra.items()})
 
-class AbsolutePoseKind:
-    """Absolute poses: per joint configuration of a serial or tree robot, points on it measured by an instrument
-    in its own frame (:class:`vjm.calibration.poses.AbsolutePoses`, read as it is through a column map).
-
-    The stages of the two kinds above (a calibrated baseline, each candidate alone on top of it, groups that
-    cannot be told apart) do not fit these data: the instrument frame and the markers are a nuisance fitted
-    with everything, the geometry is identified by the rank of its Jacobian, the effects act through the
-    robot's self-weight and are tried in turn.  The calibration engine of :mod:`vjm.robot` does that (one
-    home): this kind reads the data and hands them to :func:`vjm.calibration.diagnosis.diagnose_poses`."""
-
-    name = "absolute"
-
-    def check(self, effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
-        """The effects tried, the options that have no meaning on absolute poses refused."""
-        from ...calibration.diagnosis import check_options
-
-        return check_options(effects, suggest, forces_only, noise)
-
-    def read(self, path, model, columns=None):
-        """The data set of ``path`` (through the column map file ``columns``), the model's joints required."""
-        from ...calibration.poses import read_column_map, read_poses
-
-        return read_poses(path, read_column_map(columns) if columns is not None else None, model.q_names)
-
-    def run(self, model, data, **kw):
-        """The diagnosis (a :class:`~vjm.calibration.diagnosis.PoseDiagnosis`)."""
-        from ...calibration.diagnosis import diagnose_poses
-
-        return diagnose_poses(model, data, **kw)
-
-    def design_scales(self, data, w, s2) -> tuple:
-        raise VjmError("--suggest needs deflection data (x,y,z,Fx..Mz,dx..rz): absolute poses have no loads "
-                       "to design")
-
-
-class PlatformPoseKind:
-    """Absolute poses of a parallel machine: the platform's point measured at commanded actuator values.  The
-    sibling of :class:`AbsolutePoseKind`: the same engine on the platform's measurement model
-    (:mod:`vjm.calibration.parallel`), handed over to
-    :func:`vjm.calibration.parallel_diagnosis.diagnose_platform_poses`."""
-
-    name = "platform_absolute"
-
-    def check(self, effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
-        from ...calibration.parallel_diagnosis import check_options
-
-        return check_options(effects, suggest, forces_only, noise)
-
-    def read(self, path, model, columns=None):
-        from ...calibration.parallel_diagnosis import read
-
-        return read(path, model, columns)
-
-    def run(self, model, data, validate=(), **kw):
-        """The diagnosis (a :class:`~vjm.calibration.diagnosis.PoseDiagnosis`)."""
-        from ...calibration.parallel_diagnosis import diagnose_platform_poses
-
-        return diagnose_platform_poses(model, data, validate_files=validate, **kw)
-
-    def design_scales(self, data, w, s2) -> tuple:
-        raise VjmError("--suggest needs deflection data (x,y,z,Fx..Mz,dx..rz): absolute poses have no loads "
-                       "to design")
+    def whitened(self, full, pred, final) -> tuple:
+        """(ln(predicted / observed) / sigma_rel of every observation under ``final``, its row, its quantity)."""
+        data, w = full.data, full.weights
+        k = pred.kvalues(final.names, final.theta)[full.ctx.idx, data.quantity]
+        r = (np.log(np.maximum(k, 1e-300)) - np.log(data.value)) / w.sig_rel
+        return r, np.arange(data.n), [QUANTITIES[q] for q in data.quantity]
 
 
 #: the strategy of a data kind that goes through the stages
@@ -292,23 +277,6 @@ DataKind = DeflectionKind | StiffnessKind
 
 
 def kind_of(data) -> DataKind:
-    """The strategy of a data set read by :func:`~vjm.discrepancy.data.read_csv` (absolute poses go to
-    :class:`AbsolutePoseKind` by their model, :func:`kind_for`)."""
-    from ...calibration.poses import AbsolutePoses
-
-    if isinstance(data, AbsolutePoses):
-        raise VjmError(f"{data.source}: absolute poses are diagnosed by their own kinds (AbsolutePoseKind, "
-                       f"PlatformPoseKind: kind_for), not the stages")
+    """The strategy of a data set read by :func:`~vjm.discrepancy.data.read_csv` (in memory: the data kinds of
+    :mod:`vjm.discrepancy.kinds` give theirs)."""
     return StiffnessKind() if isinstance(data, StiffnessObs) else DeflectionKind()
-
-
-def kind_for(model, data=None, columns=None) -> AbsolutePoseKind | PlatformPoseKind | None:
-    """The kind of absolute poses: a serial or tree robot's always; a parallel machine's when ``data`` holds
-    them (:func:`vjm.calibration.parallel_diagnosis.is_pose_file`); else None: the file says its kind
-    (deflections or stiffness observations)."""
-    from ...calibration.diagnosis import is_robot
-    from ...calibration.parallel_diagnosis import is_pose_file
-
-    if is_robot(model):
-        return AbsolutePoseKind()
-    return PlatformPoseKind() if is_pose_file(data, columns) else None

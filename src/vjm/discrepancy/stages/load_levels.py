@@ -23,6 +23,7 @@ lack of fit, and may be calibrated away.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -67,18 +68,20 @@ def _final_jacobian(prob, final) -> np.ndarray:
 
 def level_check(s: Setup, chosen: Selected, fit: Goodness) -> LevelTest | None:
     """The load-level lack-of-fit test of the final model, or None (no levels, or stiffness data)."""
-    if not isinstance(s.kind, DeflectionKind) or not isinstance(s.data, Deflections):
+    if not s.kind.loaded:
         return None
-    lv = load_levels(s.data.W)
+    # a loaded kind's data are deflections under wrenches, weighted by the deflections' strategy
+    data, kind = cast(Deflections, s.data), cast(DeflectionKind, s.kind)
+    lv = load_levels(data.W)
     if lv is None:
         return None
-    prob, final, mask = s.prob, chosen.sel.final, s.data.mask
-    sig = s.kind.sigmas(s.weights, 1.0)[mask]
+    prob, final, mask = s.prob, chosen.sel.final, data.mask
+    sig = kind.sigmas(s.weights, 1.0)[mask]
     r = prob.residuals(final.names, final.theta)
     pred = s.pred.twists(final.names, final.theta)[mask] / sig
     lev = np.broadcast_to(lv.index[:, None], mask.shape)[mask]
     # at each level: the final model's compliance x a factor, and a compliance at the tool along the force
-    tool = np.where(np.arange(6) < 3, np.pad(s.data.W[:, :3], ((0, 0), (0, 3))), 0.0)[mask] / sig
+    tool = np.where(np.arange(6) < 3, np.pad(data.W[:, :3], ((0, 0), (0, 3))), 0.0)[mask] / sig
     X = np.stack([np.where(lev == j, c, 0.0) for j in range(lv.count) for c in (pred, tool)], axis=1)
     # the null: the final model's parameters and the same two compliances at every level
     same = X.reshape(len(r), lv.count, 2).sum(axis=1)

@@ -30,10 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from linkfea.mechanics.compliance import TWIST
-
 from ... import effects as fx
-from ..data import QUANTITIES, Deflections, StiffnessObs
 from ..predict import CALIBRATION, Predictor, apply_calibration
 from .norms import robust_scale
 
@@ -99,21 +96,6 @@ def file_rows(data) -> np.ndarray:
     return np.asarray(data.rows) if data.rows is not None else np.arange(2, data.n + 2)
 
 
-def subset(data, keep: np.ndarray):
-    """The rows ``keep`` (bool) of a data set, file row numbers and text columns kept."""
-    rows = None if data.rows is None else np.asarray(data.rows)[keep]
-    if isinstance(data, StiffnessObs):
-        return StiffnessObs(data.P[keep], data.quantity[keep], data.value[keep],
-                            None if data.sigma_rel is None else data.sigma_rel[keep], rows, data.source,
-                            {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.extra.items()})
-    assert isinstance(data, Deflections)
-    return Deflections(data.P[keep], data.W[keep], data.T[keep],
-                       None if data.sigma_t is None else data.sigma_t[keep],
-                       None if data.sigma_r is None else data.sigma_r[keep], rows, data.source,
-                       {k: [x for x, kk in zip(v, keep) if kk] for k, v in data.meta.items()},
-                       None if data.sigma is None else data.sigma[keep])
-
-
 def _predictor(full, cur, names) -> Predictor | None:
     """A predictor of every row of ``full``'s data with the terms of ``cur`` (both problem Setups;
     None if one of ``names`` does not apply to the full data)."""
@@ -131,19 +113,7 @@ def whitened(full, cur, final):
     pred = _predictor(full, cur, final.names)
     if pred is None:
         return None
-    data, w = full.data, full.weights
-    if isinstance(data, StiffnessObs):
-        k = pred.kvalues(final.names, final.theta)[full.ctx.idx, data.quantity]
-        r = (np.log(np.maximum(k, 1e-300)) - np.log(data.value)) / w.sig_rel
-        return r, np.arange(data.n), [QUANTITIES[q] for q in data.quantity]
-    mask = data.mask
-    # the file's own sigmas where it states them: the noise check may have widened the weights, and a
-    # share of gross values would then hide among them; the robust scale (flag) takes a misstated level
-    stated = data.stated_sigmas()
-    sig = np.where(np.isfinite(stated), stated, w.sig) if w.sigma_known else w.sig
-    r = ((data.T - pred.twists(final.names, final.theta)) / sig)[mask]
-    pos, comp = np.nonzero(mask)
-    return r, pos, [TWIST[c] for c in comp]
+    return full.kind.whitened(full, pred, final)
 
 
 def flag(full, cur, final, sigma_known: bool):
@@ -185,11 +155,11 @@ def again(got, aside: tuple, seen: set, passes: int) -> bool:
     return got is not None and got[0] != aside and got[0] not in seen and passes < MAX_PASSES
 
 
-def kept_rows(data, aside: tuple):
-    """The rows of ``data`` without the positions ``aside``."""
-    keep = np.ones(data.n, bool)
+def kept_rows(full, aside: tuple):
+    """The rows of ``full``'s data without the positions ``aside``."""
+    keep = np.ones(full.data.n, bool)
     keep[list(aside)] = False
-    return subset(data, keep)
+    return full.kind.subset(full.data, keep)
 
 
 def decide(full, got, aside: tuple, passes: int, verdict: str) -> Outliers:

@@ -14,6 +14,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
+from typing import Any, cast
 
 import numpy as np
 
@@ -39,9 +40,41 @@ CHI2_DEFINITION = ("reduced chi-square: sum of squared normalized residuals / (n
                    "'before' = nominal parameters recalibrated, no effect")
 
 
+class FrozenReport(Mapping):
+    """A report as a typed, frozen value (a frozen dataclass subclasses this): one field per top-level key
+    of report.json, in the file's order; :meth:`to_dict` gives the dictionary that is written, and it reads
+    like that dictionary (``rep["verdict"]``, ``rep.get(...)``, ``dict(rep)``: fresh copies).  The fields
+    named in ``OPTIONAL`` are left out of the file when None."""
+
+    OPTIONAL: tuple = ()
+
+    def __post_init__(self):
+        for f in dataclasses.fields(cast(Any, self)):  # frozen all the way down: the report is assembled once
+            object.__setattr__(self, f.name, frozen(getattr(self, f.name)))
+
+    def _keys(self) -> list:
+        """report.json's keys, in the file's order."""
+        return [f.name for f in dataclasses.fields(cast(Any, self)) if not (f.name in self.OPTIONAL and getattr(self, f.name) is None)]
+
+    def to_dict(self) -> dict:
+        """The report.json dictionary (keys in the file's order): a fresh, mutable copy."""
+        return {k: thawed(getattr(self, k)) for k in self._keys()}
+
+    def __getitem__(self, key):
+        if key not in self._keys():
+            raise KeyError(key)
+        return thawed(getattr(self, key))  # a copy, as to_dict's
+
+    def __iter__(self):
+        return iter(self._keys())
+
+    def __len__(self) -> int:
+        return len(self._keys())
+
+
 @dataclass(frozen=True)
-class Report(Mapping):
-    """What report.json holds (units: the data's; see ``rms_units``); mappings and sequences frozen
+class Report(FrozenReport):
+    """What report.json holds of the stages' diagnosis (units: the data's; see ``rms_units``); mappings and sequences frozen
     (read-only mappings, tuples), numbers and strings as they are."""
 
     model: str
@@ -86,28 +119,7 @@ class Report(Mapping):
     #: the noise: stated sigmas checked against the final residuals (stages/noise.py), or the estimated ones
     noise: Mapping = dataclasses.field(default_factory=dict)
 
-    def __post_init__(self):
-        for f in dataclasses.fields(self):  # frozen all the way down: the report is assembled once
-            object.__setattr__(self, f.name, frozen(getattr(self, f.name)))
-
-    def _keys(self) -> list:
-        """report.json's keys, in the file's order (``suggest`` only when measurements were suggested)."""
-        return [f.name for f in dataclasses.fields(self) if not (f.name == "suggest" and self.suggest is None)]
-
-    def to_dict(self) -> dict:
-        """The report.json dictionary (keys in the file's order): a fresh, mutable copy."""
-        return {k: thawed(getattr(self, k)) for k in self._keys()}
-
-    def __getitem__(self, key):
-        if key not in self._keys():
-            raise KeyError(key)
-        return thawed(getattr(self, key))  # a copy, as to_dict's
-
-    def __iter__(self):
-        return iter(self._keys())
-
-    def __len__(self) -> int:
-        return len(self._keys())
+    OPTIONAL = ("suggest",)
 
 
 def frozen(x):
