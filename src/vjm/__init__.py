@@ -24,13 +24,14 @@ from .modelio.write import save_model
 from .stiffness.linear import StiffnessResult
 
 __all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "LinkSpring", "Joints", "StiffnessResult",
-           "StiffnessMap", "JointMap", "CartesianMap", "Diagnosis", "PathResult",
+           "StiffnessMap", "JointMap", "CartesianMap", "Diagnosis", "PathResult", "Compensation",
            "load_model", "save_model", "with_links", "diagnose", "path"]
 
 #: what the verbs return, imported on first use (matplotlib, scipy): name -> (module, attribute)
 _LAZY = {"path": ("toolpath.dispatch", "path"), "PathResult": ("toolpath.result", "PathResult"),
          "StiffnessMap": ("maps.compute", "StiffnessMap"), "JointMap": ("maps.robot_joint", "JointMap"),
-         "CartesianMap": ("maps.robot_cartesian", "CartesianMap"), "Diagnosis": ("discrepancy.diagnosis", "Diagnosis")}
+         "CartesianMap": ("maps.robot_cartesian", "CartesianMap"), "Diagnosis": ("discrepancy.diagnosis", "Diagnosis"),
+         "Compensation": ("compensation", "Compensation")}
 
 
 def __dir__():
