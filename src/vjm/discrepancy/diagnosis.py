@@ -5,6 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..calibration.result import Calibration
 from . import covariance
 from .data import write_design
 from .report import plot_before_after, plot_residuals, write_report_dir
@@ -23,7 +24,7 @@ class Diagnosis:
     rms_pose_before: np.ndarray  # normalized RMS per posture, calibrated baseline
     rms_pose_after: np.ndarray
     next_measurements: np.ndarray | None = None  # (N, 9) x, y, z, Fx..Mz
-    covariance: dict | None = None  # final fit's parameters and covariance: model_updated.yaml's calibration:
+    covariance: Calibration | None = None  # what the final fit calibrated: model_updated.yaml's calibration:
 
     @property
     def verdict(self) -> str:
