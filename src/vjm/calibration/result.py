@@ -35,6 +35,7 @@ class Calibration:
     [(name, why)] and the ``stages``.  For the deflection diagnosis, ``terms``: the full parameter values
     of every named term ({term: {param: value}}, the ones held at their start too)."""
 
+    # every field has a default: a fit with no registration (the deflection diagnosis') names only its parameters
     model: Any = None
     frame: str = ""
     values: dict = field(default_factory=dict)
