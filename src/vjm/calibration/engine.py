@@ -38,8 +38,7 @@ are unweighted (mm), the model's errors exceeding the instruments' stated sigmas
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-from typing import Any
+from dataclasses import replace
 
 import numpy as np
 
@@ -48,6 +47,7 @@ from ..stats.fit import cross_validated, interleaved_folds
 from ..stats.staged import Best, Nested, least_squares_fit, select_stages
 from .flex import TEMPERATURE, flex_loads
 from .parallel import points as platform_points
+from .result import Calibration
 from .serial import (
     Layout,
     Points,
@@ -66,45 +66,6 @@ STAGES = ("registration", "geometry", "compliance", "coupling", "lateral", "bend
 FLEX = ("lateral", "bending", "varying", "thermal")
 
 
-@dataclass(frozen=True, eq=False)
-class Calibration:
-    """A fitted measurement model: ``values`` and ``std`` of the fitted parameters (names of
-    :mod:`vjm.calibration.serial`), the groups' base registration ``frames`` {group: (R0, t0)}, the marker's
-    base offset ``p0``, the parameters ``removed`` [(name, why)], and the ``stages``."""
-
-    model: Any
-    frame: str
-    values: dict
-    std: dict
-    frames: dict
-    p0: np.ndarray
-    removed: tuple = ()
-    stages: tuple = ()
-    #: rows of the data set aside as outliers (indices), not fitted (:mod:`vjm.calibration.robust`)
-    set_aside: tuple = ()
-    #: the other measured frames and their markers' base offsets ((frame, p0), ...): several points per row
-    extra: tuple = ()
-    #: {parameter: (effect, unit)} where the names do not say them (a parallel machine's, vjm.calibration.parallel)
-    kinds: dict = field(default_factory=dict)
-
-    @property
-    def measured(self) -> tuple:
-        """((frame, base marker offset), ...) of every measured point, the first ``frame``'s."""
-        return ((self.frame, self.p0), *self.extra)
-
-    def robot_values(self) -> dict:
-        """The robot's fitted parameters (geometry and compliance), without the nuisance."""
-        markers = tuple(f"{f}.p{c}" for f, _ in self.measured for c in "xyz")
-        return {k: v for k, v in self.values.items() if not k.startswith("reg[") and k not in markers}
-
-    @property
-    def marker(self) -> np.ndarray:
-        return self.p0 + np.array([self.values.get(f"{self.frame}.p{k}", 0.0) for k in "xyz"])
-
-    @property
-    def markers(self) -> dict:
-        """{measured frame: its marker's fitted offset (3,) mm}, the first ``frame``'s first."""
-        return {f: p + np.array([self.values.get(f"{f}.p{k}", 0.0) for k in "xyz"]) for f, p in self.measured}
 
 
 def unit_torques(model, q: np.ndarray, frame: str, p) -> np.ndarray:

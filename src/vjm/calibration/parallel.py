@@ -178,7 +178,7 @@ def problem(model, asm: fk.Assembly, data, frames: dict, p0, nominal: fk.State |
 
 def points(cal, data) -> np.ndarray:
     """A parallel machine's calibrated points (n, 3) mm in the instrument frames of ``data``'s (registered)
-    groups (a :class:`vjm.calibration.engine.Calibration` ``cal`` of this module's parameters)."""
+    groups (a :class:`vjm.calibration.result.Calibration` ``cal`` of this module's parameters)."""
     prob = problem(cal.model, fk.assembly(cal.model), data, cal.frames, cal.p0)
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
     return prob.predict(lay, np.array(list(cal.values.values())))

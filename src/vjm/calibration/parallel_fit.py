@@ -24,8 +24,9 @@ import numpy as np
 
 from ..errors import VjmError
 from ..kinematics import forward as fk
-from .engine import Calibration, fit, registration_from_frames, run_stages
+from .engine import fit, registration_from_frames, run_stages
 from .parallel import EFFECTS, FRAME, full_layout, nominal_state, problem
+from .result import Calibration
 from .serial import Layout
 
 #: why a 3-dof platform's marker offset is no parameter

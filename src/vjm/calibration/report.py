@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import VjmError
-from .engine import STAGES, Calibration, calibrate, error_stats, instrument_frame, position_errors, register
+from .engine import STAGES, calibrate, error_stats, instrument_frame, position_errors, register
+from .result import Calibration
 from .robust import calibrate_robust
 
 FILES = ("report.json", "summary.txt", "calibrated.urdf", "calibrated.yaml")

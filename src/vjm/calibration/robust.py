@@ -15,7 +15,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from .engine import Calibration, calibrate, position_errors
+from .engine import calibrate, position_errors
+from .result import Calibration
 
 
 def outlying(errors: np.ndarray, kept: np.ndarray, ratio: float) -> np.ndarray:

@@ -16,6 +16,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..calibration.result import Calibration
 from . import covariance
 from .data import write_design
 from .report import plot_before_after, plot_residuals, write_report_dir
@@ -38,8 +39,8 @@ class Diagnosis:
     rms_pose_before: np.ndarray | None = None  # normalized RMS per posture, calibrated baseline
     rms_pose_after: np.ndarray | None = None
     next_measurements: np.ndarray | None = None  # (N, 9) x, y, z, Fx..Mz
-    covariance: dict | None = None  # final fit's parameters and covariance: model_updated.yaml's calibration:
-    calibration: Any = None  # absolute poses: the fitted measurement model (vjm.calibration.engine.Calibration)
+    covariance: Calibration | None = None  # what the final fit calibrated: model_updated.yaml's calibration:
+    calibration: Any = None  # absolute poses: the fitted measurement model (vjm.calibration.result.Calibration)
     commands: str | None = None  # absolute poses with targets: the text of commands.csv
 
     @property

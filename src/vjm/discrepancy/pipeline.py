@@ -120,9 +120,9 @@ def diagnose_stages(model, data, kind, alpha: float, effects=None, folds: int = 
         progress(f"outliers: {len(found.positions)} rows beyond the threshold after {found.passes} diagnoses; "
                  f"{'set aside' if found.accepted else 'kept (part of the gap)'}")
     if untrusted:
-        upd, cov = untrusted_model(s, chosen.sel.baseline), covariance.record(s.prob, s.pred, chosen.sel.baseline)
+        upd, cov = untrusted_model(s, chosen.sel.baseline), covariance.calibration(s.prob, s.pred, chosen.sel.baseline)
     else:
-        upd, cov = updated_model(s, chosen), covariance.record(s.prob, s.pred, chosen.sel.final)
+        upd, cov = updated_model(s, chosen), covariance.calibration(s.prob, s.pred, chosen.sel.final)
     sg = (next_measurements(s, p.obs, chosen, p.fit, p.table, p.conf, untrusted, suggest, forces_only)
           if suggest else None)
     rep = assemble(p, found, sg, model_name=model_name or "<model>", alpha=alpha, folds=folds)

@@ -2,7 +2,8 @@
 
 ``vjm diagnose`` writes, into model_updated.yaml, a ``calibration:`` block with
 the fitted parameters (``term.param`` names, values) and their covariance
-``s^2 (J^T J)^-1`` at the optimum.  The deflection's sensitivity to each
+``s^2 (J^T J)^-1`` at the optimum, read back here as a
+:class:`~vjm.calibration.result.Calibration`.  The deflection's sensitivity to each
 parameter is taken by central differences on the updated model (a step of a
 tenth of the parameter's standard error), and the band is first-order:
 ``var(d_i) = g_i^T Sigma g_i``.  The band is reported on the deflection's
@@ -22,45 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..calibration.result import Calibration, from_mapping
 from ..errors import VjmError
 
 Z95 = 1.959963984540054
-
-
-@dataclass(frozen=True)
-class Calibration:
-    """Fitted parameters (``term.param`` names), their values and covariance; ``terms`` the full
-    parameter values of every named term (``{term: {param: value}}``)."""
-
-    names: tuple
-    values: np.ndarray
-    cov: np.ndarray
-    terms: dict
-
-    @property
-    def se(self) -> np.ndarray:
-        return np.sqrt(np.maximum(np.diag(self.cov), 0.0))
-
-
-def from_mapping(d, source: str = "model file") -> Calibration:
-    """A :class:`Calibration` from the ``calibration:`` block of a model file."""
-    try:
-        names = tuple(str(x) for x in d["parameters"])
-        values = np.asarray(d["values"], dtype=float)
-        cov = np.asarray(d["covariance"], dtype=float)
-        terms = {str(k): {str(a): float(b) for a, b in v.items()} for k, v in (d.get("terms") or {}).items()}
-    except (KeyError, TypeError, ValueError, AttributeError):
-        raise VjmError(f"{source}: calibration must give parameters, values and covariance") from None
-    k = len(names)
-    if values.shape != (k,) or cov.shape != (k, k) or not np.all(np.isfinite(cov)):
-        raise VjmError(f"{source}: calibration.covariance must be a finite {k}x{k} matrix and values {k} numbers")
-    if not np.allclose(cov, cov.T, rtol=1e-9, atol=0.0) or np.any(np.linalg.eigvalsh(0.5 * (cov + cov.T)) <
-                                                                  -1e-9 * max(np.abs(cov).max(), 1e-300)):
-        raise VjmError(f"{source}: calibration.covariance must be symmetric positive semi-definite")
-    for nm in names:
-        if "." not in nm:
-            raise VjmError(f"{source}: calibration parameter {nm!r} must be named term.param")
-    return Calibration(names, values, cov, terms)
 
 
 def read(model) -> Calibration | None:
@@ -83,7 +49,7 @@ def perturbed(model, cal: Calibration, i: int, h: float):
     from ..effects.library import LinkMode
 
     term, param = cal.names[i].split(".", 1)
-    v = float(cal.values[i])
+    v = float(cal.values[cal.names[i]])
     if term == "calibration":
         if v <= 0:
             raise VjmError(f"calibration.{param} must be > 0, got {v}")
@@ -102,7 +68,7 @@ def perturbed(model, cal: Calibration, i: int, h: float):
         return model.replace(effects=e)
     specs = eff.param_specs(model)
     full = cal.terms.get(term, {})
-    theta = np.array([float(full.get(p.name, cal.values[i] if p.name == param else p.start)) for p in specs])
+    theta = np.array([float(full.get(p.name, v if p.name == param else p.start)) for p in specs])
     j = [p.name for p in specs].index(param)
     if isinstance(eff, LinkMode):  # a factor on what the model holds
         theta = np.ones(len(specs))
@@ -115,9 +81,9 @@ def perturbed(model, cal: Calibration, i: int, h: float):
 def sensitivities(model, cal: Calibration, deflection) -> np.ndarray:
     """(n, 6, k) derivatives of ``deflection(model) -> (n, 6)`` with respect to the k parameters."""
     cols = []
-    for i in range(len(cal.names)):
-        se = float(cal.se[i])
-        h = 0.1 * se if np.isfinite(se) and se > 0 else 1e-3 * max(abs(float(cal.values[i])), 1e-12)
+    for i, name in enumerate(cal.names):
+        se = float(cal.std[name])
+        h = 0.1 * se if np.isfinite(se) and se > 0 else 1e-3 * max(abs(float(cal.values[name])), 1e-12)
         up = deflection(perturbed(model, cal, i, h))
         dn = deflection(perturbed(model, cal, i, -h))
         cols.append((up - dn) / (2 * h))

@@ -1,7 +1,7 @@
 """The stages of the discrepancy workflow, each a function returning a frozen value, in run order.
 
 1. ``problem``: the rows, postures and candidates, the weighted residual problem (``Setup``).
-2. ``calibrate``: the calibration factors this data can separate, the calibrated baseline (``Calibration``).
+2. ``calibrate``: the calibration factors this data can separate, the calibrated baseline (``Baseline``).
 3. ``observability``: the candidates (and parameters) this data can see; the others are never fitted
    (``Observability``).
 4. ``select``: the candidates to name: forward selection, each named effect against its ``rivals``,

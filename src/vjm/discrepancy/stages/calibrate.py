@@ -1,4 +1,4 @@
-"""Calibration: the calibration this data can separate, and the calibrated baseline.
+"""The calibrated baseline: the calibration this data can separate, fitted alone (:class:`Baseline`).
 
 A calibration factor whose column is (nearly) a combination of the ones
 before it (e.g. link_scale next to actuator_scale on postures near Q0, where
@@ -18,16 +18,17 @@ from .problem import Setup
 
 
 @dataclass(frozen=True)
-class Calibration:
-    """The calibrated baseline and the span of its sensitivities."""
+class Baseline:
+    """The calibrated baseline (the model's calibration factors fitted, no effect named) and the span of its
+    sensitivities: what every candidate is tested against."""
 
     held: dict  # factor -> value it is held at (not separable on this data)
-    base: FitResult  # the calibration alone, fitted
+    fit: FitResult  # the calibration alone, fitted
     cols: np.ndarray  # (n_obs, k) whitened sensitivity columns of the calibration at ``base``
     Q: np.ndarray  # orthonormal basis of their span
 
 
-def calibrate(s: Setup, progress=None) -> Calibration:
+def calibrate(s: Setup, progress=None) -> Baseline:
     """Hold the inseparable calibration factors (in ``s.pred`` and ``s.terms``) and fit the rest."""
     cal_specs = s.terms[CALIBRATION].params
     th_cal = np.array([p.start for p in cal_specs])
@@ -40,4 +41,4 @@ def calibrate(s: Setup, progress=None) -> Calibration:
             progress("calibration held at nominal (not separable on this data): " + ", ".join(held))
     base = fit_terms(s.prob, (CALIBRATION,))
     cols = observe.calibration_columns(s.prob, base.theta, CALIBRATION)
-    return Calibration(held, base, cols, observe._orth(cols))
+    return Baseline(held, base, cols, observe._orth(cols))

@@ -13,7 +13,7 @@ import numpy as np
 from ...stats.terms import Term
 from .. import observe
 from ..predict import CALIBRATION
-from .calibrate import Calibration
+from .calibrate import Baseline
 from .problem import Setup
 
 
@@ -24,16 +24,16 @@ class Observability:
     full_terms: dict  # name -> Term with all its parameters (before any is held)
     tested: list  # candidates that are fitted
 
-    def residual_signature(self, name: str, cal: Calibration) -> np.ndarray:
+    def residual_signature(self, name: str, baseline: Baseline) -> np.ndarray:
         """The candidate's whitened sensitivity columns with the calibration's span projected out."""
-        return observe.project_out(self.sens[name].Jfree, cal.Q)
+        return observe.project_out(self.sens[name].Jfree, baseline.Q)
 
 
-def observability(s: Setup, cal: Calibration, progress=None) -> Observability:
+def observability(s: Setup, baseline: Baseline, progress=None) -> Observability:
     """Sensitivities; unseen candidates set aside, unseen parameters held (in ``s.pred``, ``s.terms``)."""
     sens, unobservable, full_terms = {}, {}, {}
     for nm in s.candidates:
-        ts = observe.term_sensitivity(s.prob, cal.base.theta, CALIBRATION, nm)
+        ts = observe.term_sensitivity(s.prob, baseline.fit.theta, CALIBRATION, nm)
         sens[nm] = ts
         full_terms[nm] = s.terms[nm]
         if not ts.observable:
@@ -42,7 +42,7 @@ def observability(s: Setup, cal: Calibration, progress=None) -> Observability:
                                 f"chi-square change); never fitted")
             continue
         # what is left of its signature once the calibration has done what it can
-        part = observe.project_out(ts.Jfree, cal.Q)
+        part = observe.project_out(ts.Jfree, baseline.Q)
         left = float(np.max(np.linalg.norm(part, axis=0), initial=0.0))
         if left < observe.NOISE_NORM:
             unobservable[nm] = (f"not separable from the calibration on this data: what the calibration cannot "

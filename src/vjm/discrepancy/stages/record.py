@@ -21,7 +21,7 @@ import numpy as np
 from ...stats.selection import OCCAM_WINDOW
 from ..predict import CALIBRATION
 from ..summary import summary
-from .calibrate import Calibration
+from .calibrate import Baseline
 from .candidates import Candidates
 from .confounding import Confounding
 from .design import Suggested
@@ -156,7 +156,7 @@ class Pass:
     """The values of the stages of one run on one set of rows, in run order."""
 
     s: Setup
-    cal: Calibration
+    baseline: Baseline
     obs: Observability
     chosen: Selected
     fit: Goodness
@@ -199,7 +199,7 @@ def assemble(p: Pass, found: Outliers | None, suggested: Suggested | None, *, mo
             "likelihood-ratio test, variances of translations and rotations profiled" if prob.n_components > 1
             else "F test"),
         alpha=alpha, cv_baseline=sel.cv_baseline, cv_folds=folds,
-        calibration=final_vals[CALIBRATION], calibration_held=p.cal.held,
+        calibration=final_vals[CALIBRATION], calibration_held=p.baseline.held,
         final_params=sel.baseline.values(prob) if untrusted else final_vals,
         localization=p.loc.before, localization_after=p.loc.after, candidates=candidate_entries(p.table, conf),
         verdict="untrusted_data" if untrusted else v.verdict,

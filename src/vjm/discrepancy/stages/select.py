@@ -17,7 +17,7 @@ import numpy as np
 
 from ...stats.selection import Selection, backward_eliminate, forward_select, screen_pairs, swap_alternatives
 from .. import observe
-from .calibrate import Calibration
+from .calibrate import Baseline
 from .observability import Observability
 from .problem import Setup
 from .rivals import rival_check
@@ -35,26 +35,26 @@ class Selected:
         return self.sel.rounds[0] if self.sel.rounds else {}
 
 
-def pair_screen(prob, sel: Selection, obs: Observability, cal: Calibration) -> list:
+def pair_screen(prob, sel: Selection, obs: Observability, baseline: Baseline) -> list:
     """The pairs of candidates worth fitting together: the first PAIR_SCREEN of a linearised screen of
     the calibrated baseline's residuals (candidates that fitted, unclipped, in round 1)."""
     if not sel.selected:
         return []
     first = sel.rounds[0]
-    r0 = observe.project_out(prob.residuals(sel.baseline.names, sel.baseline.theta)[:, None], cal.Q)[:, 0]
-    cols = {c: obs.residual_signature(c, cal) for c in obs.tested
+    r0 = observe.project_out(prob.residuals(sel.baseline.names, sel.baseline.theta)[:, None], baseline.Q)[:, 0]
+    cols = {c: obs.residual_signature(c, baseline) for c in obs.tested
             if c in first and first[c]["converged"] and not first[c]["clipped"]}
     return screen_pairs(r0, cols, PAIR_SCREEN)
 
 
-def select(s: Setup, cal: Calibration, obs: Observability, alpha, max_effects, folds, progress=None) -> Selected:
+def select(s: Setup, baseline: Baseline, obs: Observability, alpha, max_effects, folds, progress=None) -> Selected:
     """Forward selection, rival swaps, backward elimination, pair screen and swaps."""
     prob = s.prob
     sel = forward_select(prob, obs.tested, alpha=alpha, max_effects=max_effects, folds=folds, progress=progress, extra_tests=1)
-    sel, rivals = rival_check(prob, sel, obs.tested, obs.sens, cal.cols, alpha)
+    sel, rivals = rival_check(prob, sel, obs.tested, obs.sens, baseline.cols, alpha)
     # a named effect that another one (added or swapped in later) made redundant is dropped
     sel = backward_eliminate(prob, sel)
     swaps = {a: [b for b, d, _ in rivals.get(a, []) if np.isfinite(d)] for a in sel.selected}
-    explanations = swap_alternatives(prob, sel, swaps, tries=pair_screen(prob, sel, obs, cal))
+    explanations = swap_alternatives(prob, sel, swaps, tries=pair_screen(prob, sel, obs, baseline))
     sel = explanations[0]
     return Selected(sel, {a: v for a, v in rivals.items() if a in sel.selected}, explanations)

@@ -7,7 +7,7 @@ from ...stats.fit import Z95, clipped
 from .. import observe
 from ..plausible import workspace_flags
 from ..predict import CALIBRATION
-from .calibrate import Calibration
+from .calibrate import Baseline
 from .goodness import Goodness
 from .load_levels import LevelTest
 from .problem import Setup
@@ -43,14 +43,14 @@ def fit_flags(prob, sel, final) -> list:
     return flags
 
 
-def calibration_flags(prob, cal: Calibration) -> list:
+def calibration_flags(prob, baseline: Baseline) -> list:
     """Warnings: calibration factors held at nominal, and pairs of factors the data cannot tell apart."""
     free = [p.name for p in prob.terms[CALIBRATION].params]
     flags = [f"calibration {k} held at {v:g}: on this data it cannot be told apart from {', '.join(free)}"
-             for k, v in cal.held.items()]
+             for k, v in baseline.held.items()]
     for i in range(len(free)):
         for j in range(i + 1, len(free)):
-            c = observe.canonical_correlation(cal.cols[:, [i]], cal.cols[:, [j]])
+            c = observe.canonical_correlation(baseline.cols[:, [i]], baseline.cols[:, [j]])
             if c >= COLLINEAR:
                 flags.append(f"calibration {free[i]} and {free[j]} cannot be told apart on this data "
                              f"(correlation {c:.3f}): their values are not to be trusted separately")
@@ -68,13 +68,13 @@ def level_flags(levels: LevelTest | None) -> list:
             "effect of the library is"]
 
 
-def verdict(s: Setup, cal: Calibration, chosen: Selected, fit: Goodness, levels: LevelTest | None = None,
+def verdict(s: Setup, baseline: Baseline, chosen: Selected, fit: Goodness, levels: LevelTest | None = None,
             weak: list | None = None) -> Verdict:
     """"unexplained" when the final model still lacks fit (overall, or across load levels),
     else "insufficient_data" if something is named on a design too weak to name it (``weak``: the
     reasons, :func:`.strength.weak_design`), else "explained" if something is named."""
     sel = chosen.sel
-    flags = fit_flags(s.prob, sel, sel.final) + workspace_flags(s.model, s.data) + calibration_flags(s.prob, cal)
+    flags = fit_flags(s.prob, sel, sel.final) + workspace_flags(s.model, s.data) + calibration_flags(s.prob, baseline)
     flags += level_flags(levels)
     if fit.lack_of_fit["significant"] or (levels is not None and levels.significant):
         v = "unexplained"
