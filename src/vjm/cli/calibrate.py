@@ -43,7 +43,7 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
         from . import compensate as cc
 
         asked = tuple(e.strip() for e in effects.split(",") if e.strip()) if effects is not None else None
-        opt = cr.Options(tuple(frame or ()), asked or cr.DEFAULT_EFFECTS, alpha,
+        opt = cr.Options(tuple(frame or ()), asked or cr.default_effects(), alpha,
                          (0 if validate else 5) if folds is None else folds, register_on)
         cr.check_options(opt)
         files = cr.FILES + (("commands.csv",) if targets is not None else ())
