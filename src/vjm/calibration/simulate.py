@@ -46,18 +46,19 @@ class Hidden:
 
 
 def _hint(model, at) -> str:
-    spell = []
+    spell, named = [], []
     for e in absolute.POSES.values():
         keys = e.hidden_params(model, at) if "serial" in e.model_kinds else {}
         if not keys:
             continue
-        if e.aliases:
+        if e.aliases:   # the short spellings first, the effect's own name after every other
             spell += [f"{a}:<joint>=<value>,..." for a in e.aliases]
+            named.append(f"{e.name}:<parameter>=<value>,...")
         elif set(keys) <= set(model.q_names):
             spell.append(f"{e.name}:<joint>={'<factor>' if all(keys.values()) else '<value>'},...")
         else:
             spell.append(f"{e.name}:<parameter>=<value>,...")
-    return " or ".join(spell)
+    return " or ".join(spell + named)
 
 
 def parse_hidden(model, specs, frame: str) -> Hidden:
