@@ -193,6 +193,13 @@ ROBOT = "urdf: r.urdf\njoints: {j1: {stiffness: 1.0e+8}, j2: {stiffness: 5.0e+7}
 
 POSES = "j1,j2,l2.x,l2.y,l2.z\n" + "".join(f"{0.1 * k:.2f},{-0.05 * k:.3f},{k},{2 * k},{600 + k}\n" for k in range(40))
 CAL_FILES = {"r.yaml": ROBOT, "r.urdf": ARM, "p.csv": POSES}
+#: a commands.csv of vjm compensate with a row added since (its sha256 no longer the one its first line records)
+EDITED_COMMANDS = ("# commands by vjm compensate from ur10.yaml; targets t.csv; sha256 " + "0" * 64 + "\ntarget,status\n"
+                   "1,ok\n2,ok\n")
+#: a calibration's output folder whose calibrated.yaml (in its manifest) is the model of the next run into it
+READ_FROM_OUT = {"o/calibrated.yaml": ROBOT, "o/r.urdf": ARM, "p.csv": POSES, "o/.linkfea-outputs.json": json.dumps(
+    {"schema": "linkfea.outputs/1", "sets": {"vjm calibrate": {"files": {
+        "calibrated.yaml": hashlib.sha256(ROBOT.encode()).hexdigest()}, "run": "0"}}})}
 #: two measured points per row, l1 and l2 (27.2)
 TWO_POINTS = "j1,j2,l1.x,l1.y,l1.z,l2.x,l2.y,l2.z\n" + "".join(
     f"{0.1 * k:.2f},{-0.05 * k:.3f},{k},{-k},{300 + k},{k},{2 * k},{600 + k}\n" for k in range(40))
@@ -595,6 +602,24 @@ CASES = [
          {"m.yaml": _linear("count: 3", "count: 1000000000")}, "linear_delta.yaml with copies: {count: 1000000000}"),
     Case("26", "vjm sweep {ur10} --leg leg.json --out s", "ur10.yaml: a serial robot; vjm sweep is for parallel machines",
          note="a robot given to the link-design sweep"),
+    # 40.1: the user's files; 40.2: inputs that hang, exhaust or crash
+    Case("40.1", "vjm compensate {ur10} t.csv --out c.csv", "c.csv was changed since linkfea or vjm wrote it",
+         {"t.csv": "x,y,z\n884,164,436\n", "c.csv": EDITED_COMMANDS}, "c.csv: a commands.csv whose first line "
+         "says vjm wrote it, a row added since"),
+    Case("40.1", "vjm calibrate o/calibrated.yaml p.csv --out o --force", "writing calibrated.yaml would replace "
+         "o/calibrated.yaml, which this command reads", READ_FROM_OUT, "o/: a calibration's set; its calibrated.yaml "
+         "the model read"),
+    Case("40.2", "vjm calibrate r.yaml z.csv --out o", "cannot read absolute-pose file z.csv: it is not a regular "
+         "file", CAL_FILES, "z.csv: a link to /dev/zero", links={"z.csv": "/dev/zero"}),
+    Case("40.2", "vjm calibrate r.yaml p.csv --validate z.csv --out o", "cannot read absolute-pose file z.csv",
+         CAL_FILES, "z.csv: a link to /dev/zero", links={"z.csv": "/dev/zero"}),
+    Case("40.2", "vjm calibrate r.yaml p.csv --columns z.yaml --out o", "cannot read column map z.yaml: it is not "
+         "a regular file", CAL_FILES, "z.yaml: a link to /dev/zero", links={"z.yaml": "/dev/zero"}),
+    Case("40.2", "vjm stiffness d.yaml --q 0", "a chain of more than 1,000 joints (down to link 'l1001')",
+         {"d.yaml": "urdf: d.urdf\n", "d.urdf": _urdf("".join(f'<joint name="j{i}" type="fixed"><parent link="l{i}"/>'
+                                                               f'<child link="l{i + 1}"/></joint>' for i in range(5000)),
+                                                       [f"l{i}" for i in range(5001)], inertial="")},
+         "a URDF of 5,000 chained fixed joints (0.5 MB)"),
 ]
 
 

@@ -169,7 +169,7 @@ def test_rerun_replaces_its_own_report_and_nothing_else(tmp_path, diagnosis):
         write_diagnosis(diagnosis, rep)
     write_diagnosis(diagnosis, rep, force=True)
     first = json.loads((rep / "report.json").read_text())
-    stale = rep / f".linkfea-tmp.{2**31 - 2}.x.report.json"  # a dead process's temporary
+    stale = rep / f".linkfea-tmp.{2**31 - 2}.x1y2z3w4.report.json"  # a dead process's temporary
     stale.write_text("{")
     write_diagnosis(diagnosis, rep, force=True)
     assert json.loads((rep / "report.json").read_text()) == first
@@ -259,7 +259,9 @@ def test_results_written_outside_a_manifest_are_recognised_as_the_tools_own(tmp_
     (tmp_path / "foot.png").write_text("picture")
     files = {k: {"name": f"foot.{k}", "sha256": sha256(tmp_path / f"foot.{k}")} for k in ("vtu", "png")}
     (tmp_path / "foot.json").write_text(json.dumps({"schema": "linkfea.result/1", "files": files}))
-    (tmp_path / "m.csv").write_text("# simulated by vjm simulate from puu.yaml\nx,y,z\n")
+    from linkfea.files.atomic import write_text
+
+    write_text(tmp_path / "m.csv", "# simulated by vjm simulate from puu.yaml\nx,y,z\n")  # sealed by its writer
     check_folder(tmp_path, ["report.json"])
     (tmp_path / "foot.png").write_text("my own picture")
     with pytest.raises(LinkFeaError, match="foot.png"):
@@ -375,7 +377,7 @@ def test_a_full_disk_while_writing_a_set_is_one_line_naming_the_device_and_leave
     line = str(err.value)
     assert "\n" not in line and "no space left on" in line and "mounted at /" in line
     assert line.startswith(f"cannot write {tmp_path / 'out' / 'r.vtu'}:"), line
-    assert os.listdir(tmp_path / "out") == []
+    assert not (tmp_path / "out").exists()  # nothing was written: not even the folder the set made
 
 
 def test_the_vtu_writer_reports_a_full_disk_instead_of_crashing(tmp_path):

@@ -5,8 +5,8 @@ import tracemalloc
 
 import numpy as np
 
+from vjm.compensation import Compensation
 from vjm.toolpath import points
-from vjm.toolpath.compensate import Compensation
 from vjm.toolpath.result import PathResult
 
 
@@ -55,7 +55,7 @@ def test_the_table_and_the_compensated_csv_are_written_in_pieces(tmp_path, monke
         tp = points.read(f)
         cmd = tp.poses + 1e-3
         res = PathResult(tp, tp.wrench, np.full((n, 6), 1e-3), "nonlinear",
-                         compensation=Compensation(cmd, np.zeros(n), 1),
+                         compensation=Compensation(cmd, np.zeros(n), equilibria=1),
                          compensated=lambda fh, tp=tp, cmd=cmd: points.write_csv(fh, tp, cmd))
 
         def write(res=res, n=n):

@@ -51,7 +51,7 @@ def test_commands_land_on_target_points_in_the_truths_equilibrium(ur10):
     c = ur10.compensate(pts, home, tol=TOL)
     assert np.all(c.converged) and np.all(c.reached) and not np.any(c.singular)
     assert np.all(c.residual <= TOL) and np.all((c.iterations >= 1) & (c.iterations <= 10))
-    landed = _truth_points(ur10, c.q)
+    landed = _truth_points(ur10, c.commanded)
     assert np.max(np.linalg.norm(landed - pts, axis=1)) < TOL + AGREE
     # the plain (rigid IK) commands miss by the sag, as the truth sees it: the test can fail
     missed = np.linalg.norm(_truth_points(ur10, c.plain) - pts, axis=1)
@@ -68,10 +68,10 @@ def test_a_payload_is_compensated_too(ur10):
     c = ur10.compensate(pts[:2], home, payload=Payload("tool0", 5.0), tol=TOL)
     assert np.all(c.converged)
     hidden = truth.Hidden(compliance=COMPLIANCE, payload=5.0)
-    landed = truth.measure(URDF, "tool0", ur10.q_names, c.q, hidden)
+    landed = truth.measure(URDF, "tool0", ur10.q_names, c.commanded, hidden)
     assert np.max(np.linalg.norm(landed - pts[:2], axis=1)) < TOL + AGREE
     bare = ur10.compensate(pts[:2], home, tol=TOL)
-    short = np.linalg.norm(truth.measure(URDF, "tool0", ur10.q_names, bare.q, hidden) - pts[:2], axis=1)
+    short = np.linalg.norm(truth.measure(URDF, "tool0", ur10.q_names, bare.commanded, hidden) - pts[:2], axis=1)
     assert np.all(short > 0.1)
 
 
@@ -86,7 +86,7 @@ def test_commands_reach_target_poses_orientation_included(ur10):
     assert np.all(c.converged) and not c.positions_only
     for marker in ([0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, 100.0, 0.0]):
         want = T[:, :3, :3] @ np.array(marker) + T[:, :3, 3]
-        assert np.max(np.linalg.norm(_truth_points(ur10, c.q, marker) - want, axis=1)) < TOL + AGREE
+        assert np.max(np.linalg.norm(_truth_points(ur10, c.commanded, marker) - want, axis=1)) < TOL + AGREE
     # the rigid IK's tool frame turns by the sag too: the plain commands miss the 100 mm point by more
     plain_x = _truth_points(ur10, c.plain, [100.0, 0.0, 0.0])
     assert np.all(np.linalg.norm(plain_x - (T[:, :3, :3] @ np.array([100.0, 0, 0]) + T[:, :3, 3]), axis=1) > 0.3)
@@ -101,7 +101,7 @@ def test_planar_2r_command_in_closed_form():
     target = np.array([[900.0, 500.0, 0.0], [600.0, -300.0, 0.0], [1100.0, 200.0, 0.0]])
     c = m.compensate(target, [0.2, 0.8], tol=1e-8)
     assert np.all(c.converged)
-    for t, q in zip(target, c.q):
+    for t, q in zip(target, c.commanded):
         c2 = (t[0] ** 2 + t[1] ** 2 - L1**2 - L2**2) / (2 * L1 * L2)
         p2 = np.arccos(c2)   # elbow positive: the seed's branch
         p1 = np.arctan2(t[1], t[0]) - np.arctan2(L2 * np.sin(p2), L1 + L2 * np.cos(p2))

@@ -102,3 +102,33 @@ def test_cartesian_map_default_box_is_the_tools_reach():
     assert np.all(box.hi[:2] >= 1100.0) and np.all(box.lo[:2] <= -1100.0)
     again = reach_box(m)
     assert np.array_equal(box.lo, again.lo) and np.array_equal(box.hi, again.hi)
+
+
+def test_a_map_result_saves_the_set_the_cli_writes(tmp_path, capsys):
+    """``JointMap.save`` and ``CartesianMap.save`` write the files ``vjm map`` writes (the same arrays, rows and
+    summary); ``summary()`` is the line the command prints; ``_repr_html_`` shows the ranges."""
+    from vjm.maps.grid import Workspace
+    from vjm.maps.robot_cartesian import cartesian_grid_map
+
+    m = vjm.load_model(UR10)
+    spec, q0 = "shoulder_lift_joint=-2.4:-0.6:4,elbow_joint=0.5:2.4:3", [0.3, -1.0, 1.2, -1.7, -1.5, 0.2]
+    assert main(["map", UR10, "--joints", spec, "--q", ",".join(map(str, q0)), "--out", str(tmp_path / "cli")]) == 0
+    line = capsys.readouterr().out
+    jm = m.joint_map(q0, ("shoulder_lift_joint", "elbow_joint"), ((-2.4, -0.6), (0.5, 2.4)), (4, 3))
+    assert jm.save(tmp_path / "api") == tmp_path / "api"
+    assert line.startswith(jm.summary() + "; wrote")
+    box = "400:900,-300:300,300:500"
+    assert main(["map", UR10, "--grid", "3", "--box", box, "--self-weight", "--out", str(tmp_path / "ccli")]) == 0
+    line = capsys.readouterr().out
+    grid = Workspace(np.array([400.0, -300.0, 300.0]), np.array([900.0, 300.0, 500.0])).grid(3)
+    cm = cartesian_grid_map(m, grid, m.home, self_weight=True, n=3, box_from="--box")
+    assert cm.save(tmp_path / "capi") == tmp_path / "capi"
+    assert line.startswith(cm.summary() + "; wrote")
+    for cli, api, names in (("cli", "api", ("map.csv",)), ("ccli", "capi", ("map.csv", "sag.png"))):
+        for name in names + ("summary.json",):
+            assert (tmp_path / cli / name).read_bytes() == (tmp_path / api / name).read_bytes(), name
+        a, b = np.load(tmp_path / cli / "map.npz"), np.load(tmp_path / api / "map.npz")
+        assert list(a.keys()) == list(b.keys())
+        assert all(np.array_equal(a[k], b[k], equal_nan=a[k].dtype.kind == "f") for k in a.keys())
+    assert "k_tran_max" in jm._repr_html_() and "unreachable" in cm._repr_html_()
+    assert cm.summary_dict()["evaluated"] == int(cm.ok.sum()) > 0

@@ -14,6 +14,7 @@ from __future__ import annotations
 import errno
 import hashlib
 import os
+import re
 import stat
 import tempfile
 from contextlib import contextmanager
@@ -25,6 +26,13 @@ from ..runtime.errors import LinkFeaError
 
 #: prefix of every temporary file the tools write beside a target
 TMP_PREFIX = ".linkfea-tmp."
+#: the whole name of such a temporary: prefix, the writing process's pid, mkstemp's random part, the target
+_TMP_NAME = re.compile(r"^\.linkfea-tmp\.(?P<pid>[0-9]{1,10})\.[a-z0-9_]{8}\.(?P<target>.+)$")
+#: first lines of the single-file outputs written outside a manifest (see :func:`seal`)
+SIMULATED_CSV_MARK = "# simulated by vjm simulate"
+COMMANDS_CSV_MARK = "# commands by vjm compensate"
+SINGLE_FILE_MARKS = (SIMULATED_CSV_MARK, COMMANDS_CSV_MARK)
+_SEAL = re.compile(r"; sha256 (?P<h>[0-9a-f]{64})$")
 
 
 def umask() -> int:
@@ -61,14 +69,46 @@ def _alive(pid: int) -> bool:
     return True
 
 
+def is_temporary(name: str) -> bool:
+    """Is ``name`` shaped as the tools' temporaries are (:func:`temp_beside`: prefix, pid, mkstemp's random
+    part, the target's name)?  A user's ``.linkfea-tmp.notes.txt`` is not."""
+    return _TMP_NAME.match(name) is not None
+
+
+def temporary_target(name: str) -> str | None:
+    """The output a temporary stands for (``.linkfea-tmp.<pid>.<random>.r.vtu`` -> ``r.vtu``), None for another name."""
+    m = _TMP_NAME.match(name)
+    return m["target"] if m else None
+
+
 def stale_temporary(name: str) -> bool:
-    """Is ``name`` a temporary of this tool whose process is gone (killed before it could clean up)?"""
-    if not name.startswith(TMP_PREFIX):
+    """Is ``name`` a temporary of this tool whose process is gone (killed before it could clean up)?
+    Only a name of the tools' pattern with the pid of a process that no longer runs: a file the user
+    named with the prefix is theirs and never removed."""
+    m = _TMP_NAME.match(name)
+    return m is not None and int(m["pid"]) != os.getpid() and not _alive(int(m["pid"]))
+
+
+def seal(text: str) -> str:
+    """``text`` with the sha256 of its content appended to its first line, if that line is the mark of a
+    single-file output (:data:`SINGLE_FILE_MARKS`): such a file is the tool's own only while its bytes are
+    those it wrote (:func:`sealed`); one the user edited is theirs."""
+    if not text.startswith(SINGLE_FILE_MARKS):
+        return text
+    first, nl, rest = text.partition("\n")
+    digest = hashlib.sha256((first + nl + rest).encode("utf-8")).hexdigest()
+    return f"{first}; sha256 {digest}{nl}{rest}"
+
+
+def sealed(data: bytes, mark: str) -> bool:
+    """Are ``data`` a file that starts with ``mark`` and whose bytes are still those :func:`seal` recorded?"""
+    if not data.startswith(mark.encode()):
         return False
-    pid = name[len(TMP_PREFIX):].split(".", 1)[0]
-    if not pid.isdigit():
-        return True
-    return int(pid) != os.getpid() and not _alive(int(pid))
+    first, nl, rest = data.partition(b"\n")
+    m = _SEAL.search(first.decode("utf-8", "replace"))
+    if m is None:
+        return False
+    return hashlib.sha256(first[:m.start()] + nl + rest).hexdigest() == m["h"]
 
 
 def fsync_file(path) -> None:
@@ -210,9 +250,10 @@ def file_sha256(path) -> str:
 
 
 def write_text(path, text: str) -> None:
-    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    """Write ``text`` (UTF-8) to ``path`` atomically; a single-file output (its first line a mark of
+    :data:`SINGLE_FILE_MARKS`) sealed with its sha256 (:func:`seal`)."""
     with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
-        fh.write(text)
+        fh.write(seal(text))
 
 
 def write_bytes(path, data: bytes) -> None:

@@ -10,9 +10,11 @@ other origin: it is never overwritten and never deleted.  A single result file
 in the user's own folder (``linkfea compute --out r.json``, ``vjm simulate
 --out d.csv``) gets no manifest; there the tool recognises its own files by
 their content (a ``linkfea.result.linkresult`` JSON, and the ``.vtu``/``.png`` beside it
-whose sha256 the JSON records; a CSV whose first line says vjm simulate wrote
-it).  A symbolic link is never the tool's own: an output path that is one is
-refused.
+whose sha256 the JSON records; a CSV whose first line says vjm simulate or vjm
+compensate wrote it and records the sha256 of its content, :func:`~linkfea.files.atomic.seal`).
+A symbolic link is never the tool's own: an output path that is one is
+refused; nor is an input of the command (:func:`refuse_inputs`).  A set that rewrites
+a file of another set in the folder replaces that set whole (:func:`_superseded`).
 
 **Complete sets.**  Members are written to temporaries beside their targets
 (:func:`linkfea.files.atomic.temp_beside`) and flushed to disk; then a journal
@@ -38,7 +40,20 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from ..runtime.errors import LinkFeaError
-from .atomic import TMP_PREFIX, fsync_dir, fsync_file, refuse_link, stale_temporary, temp_beside, write_error
+from .atomic import (
+    COMMANDS_CSV_MARK,
+    SIMULATED_CSV_MARK,
+    SINGLE_FILE_MARKS,
+    fsync_dir,
+    fsync_file,
+    is_temporary,
+    refuse_link,
+    sealed,
+    stale_temporary,
+    temp_beside,
+    temporary_target,
+    write_error,
+)
 from .atomic import file_sha256 as sha256
 
 MANIFEST = ".linkfea-outputs.json"
@@ -52,8 +67,6 @@ FAULT_POINTS = ("members-written", "journal-written", "renamed-one", "renamed-al
 _hits: dict[str, int] = {}
 #: what marks the files written outside a manifest (see :func:`recognised`)
 RESULT_SCHEMA_PREFIX = "linkfea.result/"
-SIMULATED_CSV_MARK = "# simulated by vjm simulate"
-COMMANDS_CSV_MARK = "# commands by vjm compensate"
 RECOGNISE_MAX_BYTES = 50_000_000
 
 
@@ -72,7 +85,7 @@ def fault(point: str) -> None:
 
 def _internal(name: str) -> bool:
     """Names of the machinery itself (manifest, journals, temporaries): never a user's file."""
-    return name == MANIFEST or name.startswith(JOURNAL_PREFIX) or name.startswith(TMP_PREFIX)
+    return name == MANIFEST or name.startswith(JOURNAL_PREFIX) or is_temporary(name)
 
 
 # --------------------------------------------------------------------------- manifest
@@ -167,18 +180,35 @@ def is_result_json(path) -> bool:
 
 
 def is_simulated_csv(path, mark: str = SIMULATED_CSV_MARK) -> bool:
-    """Was ``path`` written by vjm simulate (its first line says so; or by the command whose ``mark`` it is)?"""
+    """Was ``path`` written by vjm simulate (or by the command whose ``mark`` it is), and are its bytes still
+    those written?  Its first line says so and records the sha256 of the content (:func:`~linkfea.files.atomic.seal`):
+    a file the user edited, or wrote with that first line, is theirs."""
     try:
         if not _regular(path):
             return False
         with open(path, "rb") as fh:
-            return fh.read(len(mark)) == mark.encode()
+            if fh.read(len(mark)) != mark.encode():
+                return False
+            fh.seek(0)
+            return sealed(fh.read(), mark)
     except OSError:
         return False
 
 
+def _marked(path) -> bool:
+    """Does ``path`` start as a single-file output of the tools does (whatever its bytes after)?"""
+    try:
+        if not _regular(path):  # never open a pipe
+            return False
+        with open(path, "rb") as fh:
+            head = fh.read(max(map(len, SINGLE_FILE_MARKS)))
+    except OSError:
+        return False
+    return head.startswith(tuple(m.encode() for m in SINGLE_FILE_MARKS))
+
+
 def is_commands_csv(path) -> bool:
-    """Was ``path`` written by vjm compensate (its first line says so)?"""
+    """Was ``path`` written by vjm compensate, unedited since (see :func:`is_simulated_csv`)?"""
     return is_simulated_csv(path, COMMANDS_CSV_MARK)
 
 
@@ -209,7 +239,7 @@ def _roll_forward(folder: Path, journal: Path) -> None:
         return
     # names in the folder itself, temporaries of the tool: a planted journal cannot reach elsewhere
     plain = [n for _, n in renames] + remove
-    if any(not _plain_name(n) for n in plain) or any(not t.startswith(TMP_PREFIX) or not _plain_name(t)
+    if any(not _plain_name(n) for n in plain) or any(not is_temporary(t) or not _plain_name(t)
                                                       for t, _ in renames):
         journal.unlink(missing_ok=True)
         return
@@ -225,11 +255,8 @@ def _roll_forward(folder: Path, journal: Path) -> None:
 
 def _target(path: Path) -> Path:
     """The output a temporary stands for (``.linkfea-tmp.<pid>.<random>.r.vtu`` -> ``r.vtu``)."""
-    if path.name.startswith(TMP_PREFIX):
-        parts = path.name[len(TMP_PREFIX):].split(".", 2)
-        if len(parts) == 3:
-            return path.with_name(parts[2])
-    return path
+    target = temporary_target(path.name)
+    return path if target is None else path.with_name(target)
 
 
 def _plain_name(name: str) -> bool:
@@ -297,15 +324,38 @@ def check_writable(folder, option: str = "--out") -> None:
         raise LinkFeaError(f"{option} {p}: cannot write in {a}: {exc.strerror or exc}") from None
 
 
-def check_folder(out, names: Iterable[str], force: bool = False, option: str = "--out") -> Path:
+def refuse_inputs(out, names: Iterable[str] | None, inputs: Iterable, option: str = "--out") -> None:
+    """Refuse an output that would replace a file the command reads: a member ``out/name`` of ``names``
+    (None: every file the manifest of folder ``out`` records, which a new set may replace or remove), or
+    ``out`` itself when ``names`` is empty (a single file), that is one of ``inputs`` (None entries skipped),
+    also under another name (a link, a second path).  Called before any work."""
+    out = Path(out)
+    if names is None:
+        names = list(_recorded(out)) if out.is_dir() else []
+    targets = [out / n for n in names] or [out]
+    for src in (Path(i) for i in inputs if i is not None):
+        for t in targets:
+            try:
+                same = t.exists() and src.exists() and os.path.samefile(t, src)
+            except OSError:
+                same = False
+            if same:
+                raise LinkFeaError(f"{option} {out}: writing {t.name} would replace {src}, which this command reads: "
+                                   f"choose another {'folder' if t != out else 'name'} or copy the input elsewhere")
+
+
+def check_folder(out, names: Iterable[str], force: bool = False, option: str = "--out", inputs: Iterable = ()) -> Path:
     """Check an output folder before any work; raise LinkFeaError (one line) if it will not do.
 
     Refused: a file where the folder should be; a place that cannot be written; a folder
     holding files the tools did not write (unless ``force``); and, even with ``force``,
     a folder where one of ``names`` (the files the command will write) is such a file.
-    A killed earlier run's journal is rolled forward and its temporaries removed first.
+    A killed earlier run's journal is rolled forward and its temporaries removed first.  ``inputs``:
+    the files the command reads, none of which the set may replace (:func:`refuse_inputs`).
     """
     out = Path(out)
+    names = list(names)
+    refuse_inputs(out, names, inputs, option)
     if out.is_symlink() and not out.exists():
         refuse_link(out, option)
     if out.exists() and not out.is_dir():
@@ -331,15 +381,17 @@ def check_folder(out, names: Iterable[str], force: bool = False, option: str = "
 
 
 def check_file(path, owner: Callable[[Path], bool], what: str, companions: Iterable = (),
-               option: str = "--out", own_companions: Callable[[Path], set[str]] | None = None) -> Path:
+               option: str = "--out", own_companions: Callable[[Path], set[str]] | None = None,
+               inputs: Iterable = ()) -> Path:
     """Check an output file (and its companions, written with it) before any work.
 
     Refused: a symbolic link (dangling or not); a folder where the file should be; a place that
     cannot be written; an existing file that ``owner`` does not recognise as the tool's own
     ``what``; an existing companion that is not among ``own_companions(path)`` (the names whose
-    bytes the file records), or beside a file that is not the tool's.
+    bytes the file records), or beside a file that is not the tool's; a file the command reads (``inputs``).
     """
     path = Path(path)
+    refuse_inputs(path, (), inputs, option)
     for p in (path, *map(Path, companions)):
         refuse_link(p, option)
         if p.is_dir():
@@ -347,6 +399,10 @@ def check_file(path, owner: Callable[[Path], bool], what: str, companions: Itera
     check_writable(path.parent, option)
     recover(path.parent)
     ours = path.is_file() and owner(path)
+    if path.exists() and not ours and _marked(path):
+        raise LinkFeaError(f"{option} {path} was changed since linkfea or vjm wrote it (its sha256 is not the one its "
+                           f"first line records), so it is yours now and never overwritten: choose another name or "
+                           f"move it")
     if path.exists() and not ours:
         raise LinkFeaError(f"{option} {path} exists and is not {what}; it is never overwritten: "
                            f"choose another name or move it")
@@ -379,6 +435,7 @@ class OutputSet:
         self.remove = list(remove)
         self.run = uuid.uuid4().hex
         self.tmps: dict[str, Path] = {}
+        self.made: list[Path] = []  # folders this set created, removed again if the write fails and they stay empty
 
     def __enter__(self) -> "OutputSet":
         return self
@@ -395,6 +452,8 @@ class OutputSet:
     def path(self, name: str) -> str:
         """A temporary path for member ``name`` (same suffix, so matplotlib and VTK pick the format)."""
         try:
+            if not self.made and not self.folder.exists():
+                self.made = [p for p in (self.folder, *self.folder.parents) if not p.exists()]
             self.folder.mkdir(parents=True, exist_ok=True)
             tmp = temp_beside(self.folder / name)
         except OSError as exc:
@@ -403,9 +462,17 @@ class OutputSet:
         return str(tmp)
 
     def abort(self) -> None:
+        """Remove this run's temporaries, and the folders it created if they are empty again (a full disk:
+        "nothing was written" leaves nothing, not even an empty folder)."""
         for tmp in self.tmps.values():
             tmp.unlink(missing_ok=True)
         self.tmps.clear()
+        for d in self.made:  # innermost first
+            try:
+                d.rmdir()
+            except OSError:
+                break
+        self.made = []
 
     def digests(self) -> dict[str, str]:
         """sha256 of each member written so far (to record in a member that names its companions)."""
@@ -431,6 +498,7 @@ class OutputSet:
             if self.manifest:
                 man = read_manifest(self.folder)
                 before = (man["sets"].get(self.name) or {}).get("files") or {}
+                remove += _superseded(self.folder, man, self.name, set(self.tmps))
                 others = {n for k, s in man["sets"].items() if k != self.name for n in (s.get("files") or {})}
                 # only files whose bytes are still those recorded: one the user edited is theirs now
                 remove += sorted(n for n in set(before) - set(self.tmps) - others
@@ -465,8 +533,21 @@ class OutputSet:
         journal.unlink(missing_ok=True)  # gone if a concurrent run finished the renames
         fsync_dir(self.folder)
         done = [self.folder / n for n in self.tmps]
-        self.tmps = {}
+        self.tmps, self.made = {}, []
         return done
+
+
+def _superseded(folder: Path, man: dict, name: str, members: set) -> list[str]:
+    """The files to remove of the other sets in manifest ``man`` that set ``name`` (writing ``members``)
+    replaces: a set that rewrites one file of another set (``vjm calibrate`` into a ``vjm diagnose``
+    folder: report.json) replaces that set whole, so that no file of the old run (its report.html) is
+    left beside the new set as if it were of it.  Those sets leave ``man``; of their files only the ones
+    still as recorded go (an edited one is the user's) and none that a remaining set also records."""
+    gone = [k for k, s in man["sets"].items() if k != name and members & set(s.get("files") or {})]
+    old = {n: d for k in gone for n, d in (man["sets"].pop(k).get("files") or {}).items()}
+    keep = members | {n for s in man["sets"].values() for n in (s.get("files") or {})}
+    return sorted(n for n, d in old.items() if n not in keep and _plain_name(n) and isinstance(d, str)
+                  and unchanged(folder / n, d))
 
 
 def claim(folder, names: Iterable[str], set_name: str) -> None:

@@ -29,10 +29,11 @@ the measurement model of :mod:`vjm.calibration.serial` is fitted by Levenberg-Ma
 6. **payload**: an unknown mass at the marker (a probe, a tool), weighed through the compliances kept: its
    gravity torque ``-J_p^T g`` per kg adds to the robot's own.
 
-A stage is kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the
-registration only) and, with ``folds``, when its cross-validated error drops too.  Once all are tried, each
-stage kept is tested again beside the others (:func:`_backward`): one that the stages after it explain is
-dropped.  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
+The selection is that of :mod:`vjm.stats.staged` (this module gives it the measurement model): a stage is
+kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the registration
+only) and, with ``folds``, when its cross-validated error drops too.  Once all are tried, each stage kept
+is tested again beside the others (:func:`vjm.stats.staged.backward_stages`): one that the stages after it
+explain is dropped.  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
 are unweighted (mm), the model's errors exceeding the instruments' stated sigmas on real data.
 """
 from __future__ import annotations
@@ -41,11 +42,11 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.stats import f as f_dist
 
 from ..effects import absolute
 from ..errors import VjmError
+from ..stats.fit import cross_validated, interleaved_folds
+from ..stats.staged import Best, Nested, least_squares_fit, select_stages
 from .flex import TEMPERATURE, flex_loads
 from .parallel import points as platform_points
 from .serial import (
@@ -64,25 +65,6 @@ from .serial import (
 def effect_names() -> tuple:
     """A robot's effects, in the order their stages are tried (:data:`vjm.effects.absolute.POSES`)."""
     return absolute.names("serial")
-
-
-@dataclass(frozen=True)
-class Stage:
-    """One stage of the fit: its name, whether it was kept, its parameter count, residual sum of squares
-    (mm^2), RMS position error (mm), the F test's p-value against the stage before (nan for the first)
-    and the cross-validated RMS (mm; nan without ``folds``)."""
-
-    name: str
-    kept: bool
-    n_params: int
-    rss: float
-    rms: float
-    p_value: float
-    cv_rms: float = float("nan")
-    #: mean, std, max and p95 (mm) of the fitted rows' position errors after the stage (:func:`error_stats`)
-    stats: dict = field(default_factory=dict)
-    #: why a stage that passed when tried is not named in the end (:func:`_backward`), else ""
-    note: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -259,60 +241,9 @@ def _residual_fn(prob, layout: Layout, meas: np.ndarray, fixed: dict):
 
 
 def fit(prob, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: dict | None = None):
-    """Levenberg-Marquardt fit of ``layout``'s parameters: (x, std, rss)."""
-    fixed = fixed or {}
-    fun, jac = _residual_fn(prob, layout, meas, fixed)
-    if layout.size == 0:
-        r = fun(x0)
-        return x0, x0, float(r @ r)
-    sol = least_squares(fun, x0, jac=jac, method="lm", x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10)
-    r = sol.fun
-    rss = float(r @ r)
-    dof = max(len(r) - layout.size, 1)
-    J = jac(sol.x)
-    # columns scaled to unit norm first: the parameters' units (mm, rad, rad/(N mm)) span 1e12
-    s = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
-    cov = np.linalg.pinv((J / s).T @ (J / s)) / np.outer(s, s) * (rss / dof)
-    return sol.x, np.sqrt(np.maximum(np.diag(cov), 0.0)), rss
-
-
-def _combination(Jn: np.ndarray, col: np.ndarray, names: list) -> str:
-    # the normal equations of the (independent, unit-norm) columns kept: only the largest coefficients are
-    # named, and a lstsq of the tall matrix costs 0.25 s per parameter on 12k rows
-    coef = np.linalg.lstsq(Jn.T @ Jn, Jn.T @ col, rcond=None)[0]
-    top = np.argsort(-np.abs(coef))[:3]
-    return ", ".join(names[i] for i in top if abs(coef[i]) > 1e-3) or "nothing"
-
-
-def select(J: np.ndarray, layout: Layout, base: list, candidates: list, tol: float) -> tuple[list, list]:
-    """Which ``candidates`` (column indices of J, in order) add a direction beyond ``tol`` to the span of
-    ``base`` and of the candidates kept before them: (kept, [(index, why)] removed)."""
-    Js = J / np.maximum(np.linalg.norm(J, axis=0), 1e-300)
-    Q = np.linalg.qr(Js[:, base])[0] if base else np.zeros((len(J), 0))
-    kept, removed = [], []
-    for i in candidates:
-        v = Js[:, i].copy()
-        if not np.any(v):
-            removed.append((i, "no effect on the measured points"))
-            continue
-        for _ in range(2):
-            v -= Q @ (Q.T @ v)
-        nv = float(np.linalg.norm(v))
-        if nv > tol:
-            Q = np.column_stack([Q, v / nv])
-            kept.append(i)
-        else:
-            span = base + kept
-            removed.append((i, "not identifiable: a combination of "
-                            + _combination(Js[:, span], Js[:, i], [layout.names[k] for k in span])))
-    return kept, removed
-
-
-def _f_test(rss0: float, p0: int, rss1: float, p1: int, m: int) -> float:
-    if p1 <= p0 or rss1 <= 0:
-        return 1.0
-    F = ((rss0 - rss1) / (p1 - p0)) / (rss1 / (m - p1))
-    return float(f_dist.sf(F, p1 - p0, m - p1))
+    """Levenberg-Marquardt fit of ``layout``'s parameters (:func:`vjm.stats.staged.least_squares_fit`): (x, std, rss)."""
+    fun, jac = _residual_fn(prob, layout, meas, fixed or {})
+    return least_squares_fit(fun, jac, x0)
 
 
 def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float, how: str = "torque") -> tuple[list, list]:
@@ -370,26 +301,32 @@ def _rows(prob, mask: np.ndarray):
                    flex=None if prob.flex is None else prob.flex.rows(mask))
 
 
-def cross_validated_rms(prob, layout: Layout, meas: np.ndarray, x0: np.ndarray, folds: int) -> float:
-    """RMS position error (mm) of ``layout``'s fit over ``folds`` interleaved folds, each predicted by the
-    fit on the others (started from ``x0``)."""
+def _held_out(prob, full: Layout, meas: np.ndarray, folds: int):
+    """The cross-validated RMS position error (mm) of a stage's parameters (indices of ``full``) over ``folds``
+    interleaved folds of the rows (:func:`vjm.stats.fit.interleaved_folds`), each predicted by the fit on the
+    others started from the fit on all rows."""
     n = len(prob.q)
-    fold = np.arange(n) % folds
     k = len(meas) // n   # measured points per row, stacked frame after frame
-    rss = 0.0
-    for f in range(folds):
-        tr = fold != f
-        x, _, _ = fit(_rows(prob, tr), layout, meas[np.tile(tr, k)], x0)
-        r = _predict(_rows(prob, ~tr), layout, x) - meas[np.tile(~tr, k)]
-        rss += float(np.sum(r * r))
-    return float(np.sqrt(rss / len(meas)))
+    masks = interleaved_folds(n, folds)
+
+    def cv(idx: list, x0: np.ndarray) -> float:
+        lay = full.pick(idx)
+
+        def held_out(test, x):
+            r = _predict(_rows(prob, test), lay, x) - meas[np.tile(test, k)]
+            return float(np.sum(r * r)), len(r)   # the RMS of the points' position errors
+
+        return cross_validated(lambda train: fit(_rows(prob, train), lay, meas[np.tile(train, k)], x0)[0],
+                               held_out, masks)
+
+    return cv
 
 
 def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry", "compliance"), alpha: float = 1e-3,
               tol: float = 1e-3, flat: float = 0.05, p0=None, folds: int = 0) -> Calibration:
     """Fit registration, then the ``effects`` stages (see the module docstring) on ``data``.
 
-    ``folds`` > 1: a stage is kept only if its cross-validated RMS (:func:`cross_validated_rms`) is also
+    ``folds`` > 1: a stage is kept only if its cross-validated RMS (:func:`_held_out`) is also
     below the stage before's -- an effect that improves the fitted rows but not the held-out ones is
     not kept."""
     if folds == 1 or folds < 0:
@@ -414,95 +351,31 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
     full = _layout(model, measured, prob.groups, effects)
     stages, best, removed = run_stages(prob, full, meas, [s for s in known if s in effects], alpha, tol, flat,
                                        folds)
-    lay = full.pick(best[0])
-    return Calibration(model, fr[0], dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, ps[0],
+    lay = full.pick(best.idx)
+    return Calibration(model, fr[0], dict(zip(lay.names, best.x)), dict(zip(lay.names, best.std)), frames, ps[0],
                        tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:])
 
 
 def run_stages(prob, full: Layout, meas: np.ndarray, order, alpha: float, tol: float, flat: float, folds: int,
-               removed: list | None = None) -> tuple[list, tuple, list]:
-    """The engine of :func:`calibrate` on any measurement model ``prob`` (see :func:`_predict`) and its
-    parameters ``full`` (kinds ``reg`` and ``marker`` the nuisance, fitted first; then one kind per stage of
-    ``order``): (the stages, the best fit (indices, x, std, rss, cv), the parameters removed [(index, why)])."""
-    active = [i for i, k in enumerate(full.kinds) if k in ("reg", "marker")]
-    x, sd, rss = fit(prob, full.pick(active), meas, np.zeros(len(active)))
-    m = meas.size
-    cv = cross_validated_rms(prob, full.pick(active), meas, x, folds) if folds else float("nan")
-    stages = [Stage("registration", True, len(active), rss, float(np.sqrt(rss / len(meas))), float("nan"), cv,
-                    _stats(prob, full.pick(active), x, meas))]
-    best = (active, x, sd, rss, cv)
-    removed = list(removed or [])
-    for name in order:
-        x_all = np.zeros(full.size)
-        x_all[best[0]] = best[1]
-        J = _jacobian(prob, full, x_all)   # at the stage's start: the payload acts through the compliances
-        cands = [i for i, k in enumerate(full.kinds) if k == name]
-        how = absolute.screen(name)
+               removed: list | None = None) -> tuple[list, Best, list]:
+    """The staged selection of :mod:`vjm.stats.staged` on any measurement model ``prob`` (see :func:`_predict`)
+    and its parameters ``full`` (kinds ``reg`` and ``marker`` the nuisance, fitted first; then one kind per
+    stage of ``order``): (the stages, the best fit (indices, x, std, rss, cv), the parameters removed
+    [(index, why)])."""
+
+    def screen(name: str, cands: list) -> tuple[list, list]:
+        how = absolute.screen(name)   # the effect's declared screening (vjm.effects.absolute)
         if how is not None:
-            cands, flat_out = (_one_sign if how == "sign" else _flat_joints)(prob, full, cands, flat, how)
-            removed += flat_out
-        kept, rem = select(J, full, best[0], cands, tol)
-        removed += rem
-        trial = best[0] + kept
-        x0 = np.zeros(len(trial))
-        x0[:len(best[0])] = best[1]
-        xt, sdt, rsst = fit(prob, full.pick(trial), meas, x0)
-        pv = _f_test(best[3], len(best[0]), rsst, len(trial), m)
-        ok = bool(kept) and pv < alpha
-        cvt = cross_validated_rms(prob, full.pick(trial), meas, xt, folds) if folds and ok else float("nan")
-        ok = ok and not (folds and cvt >= best[4])
-        stages.append(Stage(name, ok, len(trial), rsst, float(np.sqrt(rsst / len(meas))), pv, cvt,
-                            _stats(prob, full.pick(trial), xt, meas)))
-        if ok:
-            best = (trial, xt, sdt, rsst, cvt)
-    stages, best = _backward(prob, full, meas, stages, best, alpha, folds)
-    return stages, best, removed
+            return (_one_sign if how == "sign" else _flat_joints)(prob, full, cands, flat, how)
+        return cands, []
 
+    nf = Nested(full.names, full.kinds, lambda idx, x0: fit(prob, full.pick(idx), meas, x0),
+                lambda x: _jacobian(prob, full, x), lambda idx, x: _stats(prob, full.pick(idx), x, meas),
+                meas.size, len(meas), "registration", ("reg", "marker"),
+                cv=_held_out(prob, full, meas, folds) if folds else None, screen=screen,
+                through={n: absolute.carried(n) for n in order})
+    return select_stages(nf, order, alpha, tol, removed or ())
 
-def _backward(prob, full: Layout, meas: np.ndarray, stages: list, best: tuple, alpha: float, folds: int):
-    """Each effect named checked again beside all the others: one that the effects named after it explain (its
-    F test against the final set fails) is no longer named -- a joint offset fitted first passes for part of
-    a sag the compliance, tried after it, explains -- the least needed first, until every one left is needed;
-    then the stages left after the first dropped are refitted in turn (with their cross-validated error), so
-    that their records (error before and after each) are those of the effects named."""
-    stages, m, first = list(stages), meas.size, None
-    while True:
-        worst = None
-        named = [s.name for s in stages[1:] if s.kept]
-        for name in named:
-            if first is None and name == named[-1]:
-                continue   # without the last one is the set before it: its own F test passed
-            gone = {name, *absolute.carried(name)}   # effects acting through its parameters
-            idx = [i for i in best[0] if full.kinds[i] not in gone]
-            x, sd, rss = fit(prob, full.pick(idx), meas, np.array([best[1][best[0].index(i)] for i in idx]))
-            pv = _f_test(rss, len(idx), best[3], len(best[0]), m)
-            if pv >= alpha and (worst is None or pv > worst[1]):
-                worst = (name, pv, (idx, x, sd, rss, float("nan")), gone)
-        if worst is None:
-            break
-        best = worst[2]
-        for k, s in enumerate(stages):
-            if s.name in worst[3] and s.kept:
-                first = k if first is None else min(first, k)
-                stages[k] = replace(s, kept=False, note=f"explained by the effects named after it (p = {worst[1]:.2g} "
-                                                        f"beside them)")
-    if first is None:
-        return stages, best
-    prev = [s for s in stages[:first] if s.kept][-1]
-    for k in range(first, len(stages)):
-        s = stages[k]
-        if not s.kept:
-            continue
-        upto = {t.name for t in stages[1:k + 1] if t.kept}
-        idx = [i for i in best[0] if full.kinds[i] in ("reg", "marker") or full.kinds[i] in upto]
-        x, sd, rss = fit(prob, full.pick(idx), meas, np.array([best[1][best[0].index(i)] for i in idx]))
-        cv = cross_validated_rms(prob, full.pick(idx), meas, x, folds) if folds else float("nan")
-        stages[k] = prev = replace(s, n_params=len(idx), rss=rss, rms=float(np.sqrt(rss / len(meas))),
-                                   p_value=_f_test(prev.rss, prev.n_params, rss, len(idx), m), cv_rms=cv,
-                                   stats=_stats(prob, full.pick(idx), x, meas))
-        if len(idx) == len(best[0]):
-            best = (idx, x, sd, rss, cv)
-    return stages, best
 
 
 def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:

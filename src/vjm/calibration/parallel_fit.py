@@ -1,7 +1,8 @@
 """Absolute-pose calibration of a parallel machine: the engine of :mod:`vjm.calibration.engine` on the
 measurement model of :mod:`vjm.calibration.parallel`.
 
-The stages are those of a robot's calibration (:func:`vjm.calibration.engine.run_stages`, one engine):
+The stages are those of a robot's calibration (:func:`vjm.calibration.engine.run_stages`, the staged selection of
+:mod:`vjm.stats.staged`, one engine):
 
 1. **registration** (nuisance, always fitted, reported apart): the instrument frame of each group and the
    marker's offset on a 6-dof platform, started from a Kabsch fit on the nominal forward kinematics
@@ -75,11 +76,11 @@ def calibrate_platform(model, data, effects=None, alpha: float = 1e-3, tol: floa
     frames, p0 = registration_from_frames(nominal.X, meas, data.groups, None if asm.dof == 6 else np.zeros(3))
     prob = problem(model, asm, data, frames, p0, nominal)
     stages, best, removed = run_stages(prob, full, meas, [e for e in known if e in effects], alpha, tol, 0.0, folds)
-    lay = full.pick(best[0])
+    lay = full.pick(best.idx)
     gone = [(full.names[i], why) for i, why in removed]
     if asm.dof == 3:
         gone = [(f"{FRAME}.p{c}", FIXED_MARKER) for c in "xyz"] + gone
-    return Calibration(model, FRAME, dict(zip(lay.names, best[1])), dict(zip(lay.names, best[2])), frames, p0,
+    return Calibration(model, FRAME, dict(zip(lay.names, best.x)), dict(zip(lay.names, best.std)), frames, p0,
                        tuple(gone), tuple(stages), kinds={n: (k, u) for n, k, u in zip(full.names, full.kinds,
                                                                                          full.units)})
 

@@ -28,6 +28,7 @@ A file read without a map must already use vjm's names (``,`` separated, mm and 
 from __future__ import annotations
 
 import csv
+import io
 import re
 from dataclasses import dataclass, field, replace
 
@@ -144,8 +145,11 @@ def column_map_from_dict(d, where: str = "column map") -> ColumnMap:
 
 def read_column_map(path) -> ColumnMap:
     """Read a column map YAML file."""
+    from linkfea.files.atomic import read_user_file
+
     from ..modelio.yamldata import read_yaml
 
+    read_user_file(path, "column map", error=VjmError)  # a regular file of bounded size only (not a pipe)
     return column_map_from_dict(read_yaml(path, "column map"), str(path))
 
 
@@ -168,9 +172,12 @@ def _numbers_or_text(text: np.ndarray, dec: str, factor: float) -> np.ndarray:
 
 
 def _table(path, sep: str) -> tuple[list, list]:
+    from linkfea.files.atomic import read_user_file
+
+    raw = read_user_file(path, "absolute-pose file", error=VjmError)  # a regular file of bounded size only
     try:
-        with open(path, newline="", encoding="utf-8-sig") as f:
-            rows = [r for r in csv.reader(f, delimiter=sep) if any(c.strip() for c in r)]
+        f = io.StringIO(raw.decode("utf-8-sig"), newline="")
+        rows = [r for r in csv.reader(f, delimiter=sep) if any(c.strip() for c in r)]
         while rows and rows[0][0].startswith("#"):  # comment lines above the header (vjm simulate's mark)
             rows.pop(0)
     except OSError as e:

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import VjmError
 from ..kinematics.transforms import elementary
+from ..robot.model import RobotModel
 from ..robot.tree import _rigid_inverse, origin_transform
 from .serial import GEOMETRY, _delta
 
@@ -79,19 +80,25 @@ def calibrated_urdf(cal, urdf_path) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
-def robot_file(cal, urdf_name: str) -> str:
-    """The robot file (YAML text) naming the calibrated URDF, with the fitted joint stiffnesses."""
-    import yaml
-
+def _robot_dict(cal, urdf_name: str) -> dict:
+    """The mapping of the calibrated robot file: name, URDF, the markers as tools, gravity, fitted stiffnesses."""
     joints = {}
     for name in cal.model.q_names:
         c = cal.values.get(f"{name}.compliance")
         if c is not None and c > 0:
             joints[name] = {"stiffness": float(1.0 / c)}
     d: dict = {"name": f"{cal.model.name or 'robot'} (calibrated)", "urdf": urdf_name,
-         "tools": [f"{f}_marker" for f in cal.markers], "gravity": [float(g) for g in cal.model.gravity]}
+               "tools": [f"{f}_marker" for f in cal.markers], "gravity": [float(g) for g in cal.model.gravity]}
     if joints:
         d["joints"] = joints
+    return d
+
+
+def robot_file(cal, urdf_name: str) -> str:
+    """The robot file (YAML text) naming the calibrated URDF, with the fitted joint stiffnesses."""
+    import yaml
+
+    d = _robot_dict(cal, urdf_name)
     head = ("# Calibrated by vjm.calibration.engine: joint stiffnesses (N mm/rad) fitted under self-weight;\n"
             "# the joints without one were rigid in the fit (not observable, or not fitted).\n")
     flex = {k: v for k, v in cal.values.items()
@@ -100,6 +107,43 @@ def robot_file(cal, urdf_name: str) -> str:
         head += ("# Fitted effects this file and the URDF do not carry (vjm.calibration.flex, vjm.calibration.serial units):\n"
                  + "".join(f"#   {k} = {v:.6g}\n" for k, v in flex.items()))
     return head + yaml.safe_dump(d, sort_keys=False)
+
+
+def calibrated_model(cal) -> RobotModel:
+    """The calibrated robot in memory: the :class:`~vjm.robot.model.RobotModel` that calibrated.urdf and
+    calibrated.yaml describe (:func:`calibrated_urdf`, :func:`robot_file`), built without writing them.
+
+    Each corrected joint's placement times its correction (:func:`corrections`: the URDF origin times the
+    correction, as the written URDF has it), a marker frame ``<frame>_marker`` (and its fixed joint's frame) on
+    each measured frame, the markers as the tools, the fitted joint stiffnesses, the source's gravity.  As the
+    written robot file, it carries no added masses, link springs, payload or ``home:`` of the source model
+    (their place is the source's file).  ``tree.source`` stays the source URDF: the corrections are in the
+    tree, not in that file.  ``path`` and ``raw`` are None: no file holds it (:meth:`save` says so; write
+    the files with :func:`write_calibrated`)."""
+    from dataclasses import replace
+
+    from ..robot.model import JointSpring
+    from ..robot.tree import Frame, Tree
+
+    src = cal.model
+    tree = src.tree
+    if (src.raw or {}).get("masses") and os.path.isfile(tree.source):
+        from ..modelio.urdf import read_urdf  # the URDF's own bodies, without the robot file's added masses
+
+        tree = read_urdf(tree.source, tree.tools)
+    bodies = tree.bodies
+    fix = corrections(cal)
+    joints = tuple(replace(j, placement=j.placement @ fix[j.name]) if j.name in fix else j for j in tree.joints)
+    frames = list(tree.frames)
+    for frame, p in cal.markers.items():
+        f = tree.frame(frame)
+        P = f.placement.copy()
+        P[:3, 3] += P[:3, :3] @ np.asarray(p, dtype=float)
+        frames += [Frame(f"{frame}_marker_joint", f.joint, P), Frame(f"{frame}_marker", f.joint, P.copy())]
+    d = _robot_dict(cal, "calibrated.urdf")
+    new = Tree(tree.name, joints, tuple(frames), bodies, tuple(d["tools"]), tree.source, tree.declared)
+    springs = {n: JointSpring(stiffness=v["stiffness"]) for n, v in d.get("joints", {}).items()}
+    return RobotModel(new, springs, gravity=tuple(np.asarray(d["gravity"], dtype=float)), name=d["name"])
 
 
 def write_calibrated(cal, urdf_path, out_urdf, out_yaml) -> None:
@@ -115,3 +159,14 @@ def write_calibrated(cal, urdf_path, out_urdf, out_yaml) -> None:
         with atomic_path(p) as tmp:
             with open(tmp, "w") as f:
                 f.write(text)
+
+
+def calibrated_commands(cal, targets, seed) -> str:
+    """commands.csv of a calibration (``--targets`` of ``vjm calibrate`` and ``vjm diagnose``): the compensation
+    of the ``targets`` file (:func:`vjm.robot.compensate.compensate_file`) on the calibrated model
+    (:func:`calibrated_model`), its first tool (the first measured point's marker) as the tool; its first line
+    names calibrated.yaml, the file of that model in the same output set."""
+    from ..robot.compensate import TOL, compensate_file
+
+    m = calibrated_model(cal)
+    return compensate_file(m, targets, seed, m.tools[0], None, TOL, model_file="calibrated.yaml")[1]

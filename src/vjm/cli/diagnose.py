@@ -25,17 +25,20 @@ NOTHING_NAMED = ("insufficient_data", "untrusted_data")
 def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw):
     """Check the arguments and the output folder, load, diagnose and write: the body of ``vjm diagnose``;
     returns the Diagnosis.  ``targets`` (a robot's): also commands.csv, the compensation of these points on
-    the calibrated model (:func:`vjm.cli.compensate.calibrated_commands`)."""
+    the calibrated model (:func:`vjm.calibration.write.calibrated_commands`)."""
     import dataclasses
     import os
 
+    from linkfea.files.outputs import refuse_inputs
+
     from ..calibration import diagnosis as absolute
     from ..calibration.parallel_diagnosis import is_pose_file
+    from ..calibration.write import calibrated_commands
     from ..discrepancy.report import check_report_dir
     from ..discrepancy.workflow import check_arguments, diagnose
     from ..errors import VjmError
     from ..modelio.read import is_robot_file, load_model
-    from . import compensate as compcmd
+    from ..robot.compensate import check_targets
 
     check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "folds", "max_effects", "suggest")
                        and v is not None})
@@ -49,13 +52,14 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, **kw)
         absolute.check_folder(out_dir, force, robot=False)
     else:
         check_report_dir(out_dir, force)   # the output checked before the model is loaded (before any work)
+    refuse_inputs(out_dir, None, (model_path, data_path, kw.get("columns"), *(kw.get("validate") or ()), targets))
     model = load_model(model_path)
     if absolute.is_robot(model) != robot:
         raise VjmError(f"{model_path}: read as a {'robot' if robot else 'parallel machine'} file, loaded otherwise")
-    seed = compcmd.check_targets(model, targets) if targets is not None else None
+    seed = check_targets(model, targets) if targets is not None else None
     dg = diagnose(model, data_path, model_name=os.path.basename(os.fspath(model_path)), **kw)
     if targets is not None:
-        dg = dataclasses.replace(dg, commands=compcmd.calibrated_commands(dg.calibration, targets, seed))
+        dg = dataclasses.replace(dg, commands=calibrated_commands(dg.calibration, targets, seed))
     dg.save(out_dir, force=force)
     return dg
 

@@ -43,7 +43,7 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
     robot_only = {"--joints": joints, "--q": q, "--box": box, "--tool": tool, "--self-weight": self_weight or None}
     try:
         grid = integer(grid, "grid", GRID, ArgumentError)
-        check_folder(out, MAP_FILES, force=force)  # before any work (a robot's set, a superset, checked again)
+        check_folder(out, MAP_FILES, force=force, inputs=(model, foot, leg))  # before any work (a robot's set, a superset, checked again)
         m = _load(model, foot, leg)
         if m.kind == "serial":
             if spread:

@@ -89,6 +89,8 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
              force: bool = typer.Option(False, "--force", help="write into a folder that also holds other files "
                                                                "(they are never overwritten or deleted)")):
     """Deflection of the tool along TOOLPATH under the process wrench, and the compensated toolpath."""
+    from linkfea.files.outputs import refuse_inputs
+
     from ..toolpath.dispatch import path
     from ..toolpath.output import check_out, write_outputs
 
@@ -100,6 +102,7 @@ def path_cmd(model: Path = typer.Argument(..., help="model YAML (e.g. model_upda
         if not passed.isalpha() and passed != "":
             raise VjmError(f"--pass-through expects word letters, e.g. MST, got {passed!r}")
         check_out(out, toolpath, force=force)
+        refuse_inputs(out, None, (model, toolpath, foot, leg))
         src = _wrench_source(wrench, kc, fz, depth, width, diameter)
         res = path(model, toolpath, wrench=src, tool=_numbers(tool, "--tool", 3), method=method,
                    compensate=not no_compensate, tolerance=tolerance, linearize_arcs=linearize_arcs,

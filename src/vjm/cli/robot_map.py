@@ -8,27 +8,21 @@ the IK in the configuration of ``--q`` with the tool held at ``--orientation`` (
 orientation at ``--q``) (:func:`vjm.maps.robot_cartesian.cartesian_grid_map`); unreachable and singular
 points are masked and counted.  ``--self-weight`` adds the sag under the robot's own weight.
 
-Files (one set, :class:`linkfea.files.outputs.OutputSet`): ``map.npz`` (every array), ``map.csv`` (one row a
-point), ``k_tran.png``, ``k_rot.png``, ``sag.png`` (with ``--self-weight``) and ``summary.json``.
+Files: the map's ``save`` (:mod:`vjm.maps.robot_output`, one set): ``map.npz`` (every array), ``map.csv`` (one
+row a point), ``k_tran.png``, ``k_rot.png``, ``sag.png`` (with ``--self-weight``) and ``summary.json``.
 """
 from __future__ import annotations
 
-import csv
-import json
 from dataclasses import dataclass
 
 import numpy as np
 
-from linkfea.files.atomic import file_sha256, plain
-from linkfea.files.outputs import OutputSet, check_folder
+from linkfea.files.outputs import check_folder
 
 from ..errors import ArgumentError, VjmError
+from ..maps import robot_output
 from ..maps.grid import Workspace, grid_plan, plan
 
-#: the output set's name in the folder's manifest, and summary.json's writer
-WRITER = "vjm map"
-FILES = ("map.npz", "map.csv", "k_tran.png", "k_rot.png", "summary.json")
-SAG_FILE = "sag.png"
 #: bytes a robot map holds per point (q, K, the IK's arrays, the CSV row) and seconds per Cartesian point
 BYTES = 1200
 IK_SECONDS = 0.02
@@ -49,7 +43,7 @@ class Request:
 
 
 def files(req: Request) -> tuple[str, ...]:
-    return FILES + ((SAG_FILE,) if req.self_weight else ())
+    return robot_output.files(req.self_weight)
 
 
 def numbers(text: str, option: str, sep: str = ",") -> np.ndarray:
@@ -167,7 +161,7 @@ def check(model, req: Request):
 
 
 def run(model, req: Request, out, force: bool = False) -> str:
-    """``vjm map robot.yaml``: check, compute, write the set; the one-line summary."""
+    """``vjm map robot.yaml``: check, compute, write the set (the map's ``save``); the one-line summary."""
     from ..maps.robot_cartesian import cartesian_grid_map, reach_box
 
     kind, tool, seed, spec = check(model, req)
@@ -175,96 +169,10 @@ def run(model, req: Request, out, force: bool = False) -> str:
     if kind == "joint":
         names, ranges, ns = spec
         res = model.joint_map(seed, names, ranges, ns, tool, req.self_weight)
-        doc = {"kind": "joint space", "joints": list(names), "ranges": [list(r) for r in ranges], "n": list(ns),
-               "q_fixed": seed.tolist()}
     else:
         grid, rot = spec
-        box = reach_box(model, tool) if grid is None else None
-        grid = grid if grid is not None else box.grid(req.grid, req.slice)
-        res = cartesian_grid_map(model, grid, seed, rot, tool, req.self_weight)
-        doc = {"kind": "cartesian", "grid": req.grid, "slice": req.slice,
-               "box_mm": [list(map(float, grid.axes[k][[0, -1]])) for k in range(3)],
-               "box_from": "the tool's reach" if req.box is None else "--box", "seed": seed.tolist(),
-               "tool_rotation": res.rotation.tolist(), **res.counts()}
-    summary = _summary(model, tool, res, doc)
-    write_set(out, res, summary, force)
-    return _line(summary)
-
-
-def _summary(model, tool, res, doc) -> dict:
-    kt, kr = res.k_tran, res.k_rot
-    out = {"written_by": WRITER, "model": model.name, "tool": tool, "joint_names": list(model.q_names),
-           "units": "k_tran mm/N, k_rot rad/(N mm) (largest eigenvalues of the compliance blocks); K world axes "
-                    "at the tool point; sag mm and rad; joints rad (mm prismatic); NaN: not evaluated", **doc,
-           "k_tran_min": float(np.nanmin(kt)) if np.isfinite(kt).any() else None,
-           "k_tran_max": float(np.nanmax(kt)) if np.isfinite(kt).any() else None,
-           "k_rot_min": float(np.nanmin(kr)) if np.isfinite(kr).any() else None,
-           "k_rot_max": float(np.nanmax(kr)) if np.isfinite(kr).any() else None}
-    if res.sag is not None:
-        s = np.linalg.norm(res.sag[..., :3], axis=-1)
-        out["sag_max_mm"] = float(np.nanmax(s)) if np.isfinite(s).any() else None
-    if model.path:
-        out["model_file"] = {"path": str(model.path), "sha256": file_sha256(model.path)}
-    return plain(out)
-
-
-def _line(s: dict) -> str:
-    where = (f"{s['joints'][0]} x {s['joints'][1]} ({s['n'][0]} x {s['n'][1]} configurations)"
-             if s["kind"] == "joint space" else
-             f"{s['evaluated']} of {s['points']} grid points evaluated ({s['unreachable']} unreachable, "
-             f"{s['singular']} singular)")
-    if s["k_tran_min"] is None:
-        return f"{where}; no stiffness"
-    text = (f"{where}; k_tran {s['k_tran_min']:.3g}..{s['k_tran_max']:.3g} mm/N, "
-            f"k_rot {s['k_rot_min']:.3g}..{s['k_rot_max']:.3g} rad/(N mm)")
-    return text + (f"; sag up to {s['sag_max_mm']:.3g} mm" if s.get("sag_max_mm") is not None else "")
-
-
-def _table(res, names) -> tuple[list, list]:
-    """The CSV's header and rows: one per point (a joint map: per configuration)."""
-    sag_cols = ["sag_dx_mm", "sag_dy_mm", "sag_dz_mm", "sag_rx_rad", "sag_ry_rad", "sag_rz_rad"]
-    head = list(names) + ["k_tran_mm_per_N", "k_rot_rad_per_Nmm"] + (sag_cols if res.sag is not None else [])
-    if hasattr(res, "grid"):
-        head = ["x_mm", "y_mm", "z_mm", "status"] + head
-        status = np.where(~res.reached, "unreachable", np.where(res.singular, "singular", "ok"))
-        q = np.where(res.reached[:, None], res.q, np.nan)  # an unreachable point's last IK iterate is no answer
-        cols = [res.points, status[:, None], q, res.k_tran[:, None], res.k_rot[:, None]]
-    else:
-        cols = [res.q.reshape(-1, res.q.shape[-1]), res.k_tran.reshape(-1, 1), res.k_rot.reshape(-1, 1)]
-    if res.sag is not None:
-        cols.append(res.sag.reshape(-1, 6))
-    rows = [[*(c[i] for c in cols)] for i in range(len(cols[0]))]
-    return head, [[v if isinstance(v, str) else f"{float(v):.10g}" for r in row for v in np.atleast_1d(r)]
-                  for row in rows]
-
-
-def write_set(out, res, summary: dict, force: bool = False) -> None:
-    """map.npz, map.csv, the pictures and summary.json as one set (all new, or the old ones)."""
-    from ..maps.views import pyplot
-
-    plt = pyplot()
-    names = FILES + ((SAG_FILE,) if res.sag is not None else ())
-    check_folder(out, names, force=force)
-    with OutputSet(out, WRITER) as s:
-        tmp = {n: s.path(n) for n in names}
-        arrays: dict = {k: v for k, v in vars(res).items() if isinstance(v, np.ndarray)}
-        if hasattr(res, "grid"):
-            arrays.update(shape=np.array(res.grid.shape), ok=res.ok)
-        else:
-            arrays.update(axes=np.array(res.axes))
-        arrays["note"] = np.array(summary["units"])
-        np.savez_compressed(tmp["map.npz"], **arrays)
-        head, rows = _table(res, summary["joint_names"])
-        with open(tmp["map.csv"], "w", encoding="utf-8", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(head)
-            w.writerows(rows)
-        with open(tmp["summary.json"], "w", encoding="utf-8") as fh:
-            json.dump(summary, fh, indent=1)
-        for name in ("k_tran", "k_rot", "sag"):
-            if f"{name}.png" in tmp:
-                fig, ax = plt.subplots(figsize=(5.5, 4.5))
-                res.plot(name, ax=ax)
-                fig.tight_layout()
-                fig.savefig(tmp[f"{name}.png"], dpi=110)
-                plt.close(fig)
+        box_from = "the tool's reach" if grid is None else "--box"
+        grid = grid if grid is not None else reach_box(model, tool).grid(req.grid, req.slice)
+        res = cartesian_grid_map(model, grid, seed, rot, tool, req.self_weight, req.grid, req.slice, box_from)
+    res.save(out, force)
+    return res.summary()

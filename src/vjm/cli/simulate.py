@@ -29,8 +29,11 @@ def simulate_cmd(
     from ..discrepancy.simulate import run
 
     try:
+        from linkfea.files.outputs import refuse_inputs
+
         from ..calibration.simulate import simulate_robot
 
+        refuse_inputs(out, (), (model, poses, loads))
         n = simulate_robot(model, effect or [], poses, loads, noise_t, noise_r, seed, out, tilt)
         if n is not None:
             typer.echo(f"wrote {n} absolute poses to {out}")

@@ -144,20 +144,86 @@ class Plan:
         return f"{self.what}: {self.n:,} points, about {_gb(self.memory)} of memory and {human_duration(self.seconds)}"
 
 
+#: where the cgroup file systems are mounted, and the file naming this process's cgroups
+CGROUP_ROOT = "/sys/fs/cgroup"
+CGROUP_OF_PROCESS = "/proc/self/cgroup"
+
+
+def _read_number(path: str) -> Optional[float]:
+    try:
+        with open(path, encoding="ascii") as fh:
+            text = fh.read().strip()
+        return None if text in ("", "max") else float(text)
+    except (OSError, ValueError):
+        return None
+
+
+def _cgroup_room() -> Optional[float]:
+    """Bytes this process's memory cgroup (v2 ``memory.max``, v1 ``memory.limit_in_bytes``) still allows:
+    its limit less its usage, the smallest over the places the cgroup may be seen (its own path, the
+    container's root); None without a limit."""
+    try:
+        with open(CGROUP_OF_PROCESS, encoding="utf-8") as fh:
+            lines = [ln.strip().split(":", 2) for ln in fh if ln.count(":") >= 2]
+    except OSError:
+        lines = []
+    places = []
+    for _, ctrl, rel in lines:
+        rel = rel.lstrip("/")
+        if ctrl == "":
+            places += [(f"{CGROUP_ROOT}/{rel}".rstrip("/"), "memory.max", "memory.current")]
+        elif "memory" in ctrl.split(","):
+            places += [(f"{CGROUP_ROOT}/memory/{rel}".rstrip("/"), "memory.limit_in_bytes", "memory.usage_in_bytes")]
+    places += [(CGROUP_ROOT, "memory.max", "memory.current"),
+               (f"{CGROUP_ROOT}/memory", "memory.limit_in_bytes", "memory.usage_in_bytes")]
+    room = None
+    for d, limit_file, usage_file in places:
+        lim = _read_number(f"{d}/{limit_file}")
+        if lim is None or lim >= 2 ** 62:  # v1's "no limit" is a huge number
+            continue
+        left = lim - (_read_number(f"{d}/{usage_file}") or 0.0)
+        room = left if room is None else min(room, left)
+    return room
+
+
+def memory_limit() -> float:
+    """Bytes a new allocation of this process can get: the machine's available memory, bounded by the
+    process's address-space limit (``RLIMIT_AS``, less what it maps already) and by its cgroup's memory
+    limit (:func:`_cgroup_room`): a run in a container or under ``ulimit -v`` must be refused by the
+    estimate, not end in a MemoryError."""
+    lim = float(available_memory())
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if soft != resource.RLIM_INFINITY:
+            vm = 0.0
+            with open("/proc/self/status", encoding="ascii") as fh:
+                vm = next((float(ln.split()[1]) * 1024 for ln in fh if ln.startswith("VmSize:")), 0.0)
+            lim = min(lim, soft - vm)
+    except (ImportError, OSError, ValueError):
+        pass
+    room = _cgroup_room()
+    return max(0.0, lim if room is None else min(lim, room))
+
+
 def plan(what: str, n: float, bytes_per_item: float, seconds_per_item: float = SECONDS_PER_POINT,
          limit: Optional[float] = None, unit: str = "points",
-         hint: str = "use fewer points (a coarser grid or a slice)") -> Plan:
+         hint: str = "use fewer points (a coarser grid or a slice)", progress: Optional[Progress] = None) -> Plan:
     """The memory and time of a run over ``n`` items (``unit``), or VjmError if it cannot fit in memory.
 
-    ``limit`` defaults to :data:`MEMORY_FRACTION` of the memory available now; the error names
-    the estimate, the limit and what to do (``hint``).
+    ``limit`` defaults to :data:`MEMORY_FRACTION` of the memory this process can get now
+    (:func:`memory_limit`); the error names the estimate, the limit and what to do (``hint``).
+    ``progress``: told the estimate before the work if the run is long (:attr:`Plan.long`).
     """
     memory = float(n) * bytes_per_item
-    lim = MEMORY_FRACTION * available_memory() if limit is None else float(limit)
+    lim = MEMORY_FRACTION * memory_limit() if limit is None else float(limit)
     if memory > lim:  # before int(n): a count may be astronomically large (or inf)
         raise VjmError(f"{what} would need about {_gb(memory)} of memory for {float(n):.3g} {unit}, more than "
                        f"the {_gb(lim)} this machine can give it; {hint}")
     p = Plan(what, int(n), memory, float(n) * seconds_per_item)
+    if progress is not None and p.long:
+        progress(f"{p.describe()}; this will take a while")
     return p
 
 

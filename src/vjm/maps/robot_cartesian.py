@@ -11,15 +11,19 @@ tolerance (out of reach, or the joint limits in the way) and *singular* when the
 
 The default box is the tool's reach: the bounding box of the tool points over random
 configurations within the joint limits (a fixed random seed: the same box every run).
+A :class:`CartesianMap` is a map result like :class:`vjm.maps.compute.StiffnessMap`: ``save(dir)`` (the set
+``vjm map`` writes for a robot, :mod:`vjm.maps.robot_output`), ``plot``, ``summary`` and ``_repr_html_``.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import VjmError
 from ..robot.ik import IKResult, pose_targets, solve
+from . import robot_output
 from .grid import Grid, Workspace
 
 #: configurations sampled for the default box (the tool's reach)
@@ -67,7 +71,9 @@ class CartesianMap:
 
     ``points`` (n, 3) mm in the order of ``np.meshgrid(*grid.axes, indexing="ij")``; per point ``q``
     (n, nq), ``reached``, ``singular``; ``ok = reached & ~singular`` is where the maps have values
-    (NaN elsewhere); ``rotation`` (3, 3) the tool's orientation over the grid; ``seed`` (nq,)."""
+    (NaN elsewhere); ``rotation`` (3, 3) the tool's orientation over the grid; ``seed`` (nq,).
+    ``n``, ``slice``: the grid as asked (points per axis, ``"z=400"`` or None), ``box_from`` where its box came
+    from; ``model_name``, ``model_path``, ``tool``, ``q_names`` say whose map it is."""
 
     name: str
     grid: Grid
@@ -81,6 +87,13 @@ class CartesianMap:
     k_tran: np.ndarray
     k_rot: np.ndarray
     sag: np.ndarray | None = None
+    tool: str | None = None
+    q_names: tuple = ()
+    model_name: str = ""
+    model_path: str | None = None
+    n: int | None = None
+    slice: str | None = None
+    box_from: str = "the grid given"
 
     @property
     def ok(self) -> np.ndarray:
@@ -89,6 +102,41 @@ class CartesianMap:
     def counts(self) -> dict:
         return {"points": int(len(self.points)), "evaluated": int(self.ok.sum()),
                 "unreachable": int((~self.reached).sum()), "singular": int((self.reached & self.singular).sum())}
+
+    def summary_dict(self) -> dict:
+        """What summary.json holds: the model, the tool, the grid and its box, the seed, the tool's rotation,
+        the points evaluated, unreachable and singular, the ranges of k_tran, k_rot (and the largest sag)."""
+        fixed = self.grid.fixed
+        doc = {"kind": "cartesian", "grid": self.n if self.n is not None else max(self.grid.shape),
+               "slice": self.slice if self.slice is not None or fixed is None else f"{'xyz'[fixed[0]]}={fixed[1]:g}",
+               "box_mm": [list(map(float, self.grid.axes[k][[0, -1]])) for k in range(3)],
+               "box_from": self.box_from, "seed": self.seed.tolist(), "tool_rotation": self.rotation.tolist(),
+               **self.counts()}
+        return robot_output.summary_dict(self, doc)
+
+    def summary(self) -> str:
+        """One line: the points evaluated (unreachable, singular), the ranges of k_tran and k_rot (and the sag)."""
+        return robot_output.line(self.summary_dict())
+
+    def _repr_html_(self) -> str:
+        return robot_output.html(f"{self.name}: Cartesian map", self.summary_dict())
+
+    def csv_columns(self) -> tuple[list, list]:
+        """map.csv's leading header and its arrays: a row per point (point, status, joint values, k_tran,
+        k_rot); an unreachable point's last IK iterate is no answer (NaN)."""
+        status = np.where(~self.reached, "unreachable", np.where(self.singular, "singular", "ok"))
+        q = np.where(self.reached[:, None], self.q, np.nan)
+        return (["x_mm", "y_mm", "z_mm", "status"],
+                [self.points, status[:, None], q, self.k_tran[:, None], self.k_rot[:, None]])
+
+    def save(self, out, force: bool = False) -> Path:
+        """Write ``out/``: map.npz, map.csv, k_tran.png, k_rot.png, summary.json (and sag.png) as one set
+        (:mod:`vjm.maps.robot_output`: all new, or the old ones; ``force`` writes beside files of other
+        origin); returns the folder."""
+        keys = ("points", "rotation", "seed", "q", "reached", "singular", "K", "k_tran", "k_rot", "sag")
+        arrays = {k: getattr(self, k) for k in keys if isinstance(getattr(self, k), np.ndarray)}
+        arrays.update(shape=np.array(self.grid.shape), ok=self.ok)
+        return robot_output.write_set(out, self, arrays, self.summary_dict(), force)
 
     def stiffness_map(self):
         """k_tran and k_rot as a :class:`vjm.maps.compute.StiffnessMap` (its pictures: log scale, contours)."""
@@ -123,9 +171,11 @@ class CartesianMap:
 
 
 def cartesian_grid_map(model, grid: Grid, seed, rotation=None, tool: str | None = None,
-                       self_weight: bool = False) -> CartesianMap:
+                       self_weight: bool = False, n: int | None = None, slice: str | None = None,
+                       box_from: str = "the grid given") -> CartesianMap:
     """The stiffness (and the sag) of ``model`` at the points of ``grid``, the tool held at ``rotation``
-    ((3, 3); default: the tool's orientation at the seed), through the IK carried from ``seed``."""
+    ((3, 3); default: the tool's orientation at the seed), through the IK carried from ``seed``; ``n``,
+    ``slice`` and ``box_from`` say how the grid was asked for (its summary)."""
     seed = model.check_q(seed)[0][0]
     if rotation is None:
         rotation = model.forward(seed, tool)[:3, :3]
@@ -144,4 +194,5 @@ def cartesian_grid_map(model, grid: Grid, seed, rotation=None, tool: str | None 
         if sag is not None:
             sag[ok] = model.self_weight(q[ok], tool)
     return CartesianMap(model.name or "robot", grid, P, np.asarray(rotation, dtype=float), seed, q, reached,
-                        singular, K, kt, kr, sag)
+                        singular, K, kt, kr, sag, model._tool(tool), tuple(model.q_names), model.name, model.path,
+                        n, slice, box_from)

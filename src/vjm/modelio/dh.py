@@ -29,6 +29,19 @@ from ..robot.tree import Body, Frame, Tree, TreeJoint, origin_transform
 from .description import evaluate
 
 ROW_KEYS = ("name", "type", "a", "alpha", "d", "theta", "beta", "limits", "mass", "com")
+#: the model file's key this format reads (:mod:`vjm.modelio.robotformats`), and how a message names it
+KEYS = ("dh",)
+DESCRIBES = "dh: (a table)"
+
+
+def recognises(mapping) -> bool:
+    """A model file holding a DH table (``dh:``)."""
+    return isinstance(mapping, dict) and "dh" in mapping
+
+
+def read(mapping: dict, base_dir: str) -> Tree:
+    """The tree of a model file's ``dh:`` table, named after the file's ``name:``."""
+    return tree_from_dh(mapping["dh"], str(mapping.get("name", "")))
 
 
 def _val(v, where: str) -> float:

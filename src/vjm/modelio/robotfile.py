@@ -1,4 +1,5 @@
-"""Robot model files: the YAML beside a URDF (``urdf: robot.urdf``) or with a DH table (``dh:``).
+"""Robot model files: the YAML beside a URDF (``urdf: robot.urdf``) or with a DH table (``dh:``), or in another
+format of the registry :mod:`vjm.modelio.robotformats`, whose reader gives the kinematic tree.
 
 Units N, mm, kg, rad (the URDF's metres are converted where it is read)::
 
@@ -35,8 +36,15 @@ import numpy as np
 from ..errors import VjmError
 from ..robot.model import GRAVITY, JointSpring, Payload, PlacedSpring, RobotModel
 from ..robot.tree import Body, Tree, origin_transform
+from . import robotformats
 
-ROBOT_KEYS = ("name", "urdf", "dh", "tools", "gravity", "strict_limits", "home", "joints", "links", "masses", "payload")
+#: the keys of a robot file besides its format's (``urdf:``, ``dh:`` ...: :mod:`vjm.modelio.robotformats`)
+COMMON_KEYS = ("tools", "gravity", "strict_limits", "home", "joints", "links", "masses", "payload")
+
+
+def robot_keys() -> tuple[str, ...]:
+    """The top-level keys a robot model file may have."""
+    return ("name",) + robotformats.format_keys() + COMMON_KEYS
 
 
 def _num(v, where: str) -> float:
@@ -166,26 +174,19 @@ def _payload(d, tree: Tree) -> Payload:
 def robot_from_dict(d: dict, base_dir: str, path: str | None, parse_link) -> RobotModel:
     """A validated :class:`RobotModel` from the mapping of a robot model file (read through
     :func:`vjm.modelio.read.model_from_dict`, which passes its ``<link>`` reader ``parse_link``)."""
-    extra = set(d) - set(ROBOT_KEYS)
+    known = robot_keys()
+    extra = set(d) - set(known)
     if extra:
-        raise VjmError(f"unknown top-level keys {sorted(extra)} for a robot; known: {list(ROBOT_KEYS)}")
-    if ("urdf" in d) == ("dh" in d):
-        raise VjmError("a robot model file has exactly one of urdf: (a file) and dh: (a table)")
+        raise VjmError(f"unknown top-level keys {sorted(extra)} for a robot; known: {list(known)}")
+    formats = robotformats.recognised(d)
+    if len(formats) != 1:
+        raise VjmError(f"a robot model file has exactly one of {robotformats.one_of()}")
     tools = d.get("tools")
     if tools is not None and (not isinstance(tools, list) or not all(isinstance(t, str) for t in tools) or not tools):
         raise VjmError("tools must be a list of frame names")
-    if "urdf" in d:
-        from .urdf import read_urdf
-
-        if not isinstance(d["urdf"], str):
-            raise VjmError("urdf must be a file path")
-        tree = read_urdf(os.path.normpath(os.path.join(base_dir, d["urdf"])), tools)
-    else:
-        from .dh import tree_from_dh
-
-        tree = tree_from_dh(d["dh"], str(d.get("name", "")))
-        if tools:
-            tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies, tuple(tools), tree.source, tree.declared)
+    tree = robotformats.READERS[formats[0]].read(d, base_dir)
+    if tools and tree.tools != tuple(tools):
+        tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies, tuple(tools), tree.source, tree.declared)
     springs, six = _joints(d.get("joints") or {}, base_dir, tree, parse_link)
     links = _links(d.get("links") or {}, base_dir, tree, parse_link)
     if d.get("masses"):
@@ -207,5 +208,6 @@ def robot_from_dict(d: dict, base_dir: str, path: str | None, parse_link) -> Rob
 
 
 def is_robot(d) -> bool:
-    """Whether a model file's mapping describes a serial or tree robot (it names a URDF or a DH table)."""
-    return isinstance(d, dict) and ("urdf" in d or "dh" in d)
+    """Whether a model file's mapping describes a serial or tree robot (a format of
+    :mod:`vjm.modelio.robotformats` recognises it: it names a URDF, holds a DH table ...)."""
+    return bool(robotformats.recognised(d))

@@ -16,6 +16,13 @@ from ..robot.tree import Body, Frame, Tree, TreeJoint, axis_alignment
 
 #: metres to millimetres (URDF to vjm)
 MM = 1000.0
+#: the model file's key this format reads (:mod:`vjm.modelio.robotformats`), and how a message names it
+KEYS = ("urdf",)
+DESCRIBES = "urdf: (a file)"
+#: a URDF's size and its deepest chain of joints, checked before the parser gets it: the parser recurses
+#: once per joint and overflows its stack (SIGSEGV) near 5,000; a real robot has tens
+URDF_MAX_BYTES = 20_000_000
+URDF_MAX_DEPTH = 1000
 
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
@@ -60,6 +67,18 @@ def _build(pin, path: str, mimic: bool):
     except (ValueError, RuntimeError, IndexError) as exc:
         msg = " ".join(str(exc).split()) or "unreadable"
         raise VjmError(f"{path}: not a valid URDF: {msg}") from None
+
+
+def recognises(mapping) -> bool:
+    """A model file naming a URDF (``urdf: robot.urdf``)."""
+    return isinstance(mapping, dict) and "urdf" in mapping
+
+
+def read(mapping: dict, base_dir: str) -> Tree:
+    """The tree of a model file's ``urdf:`` (relative to ``base_dir``), its ``tools:`` the tool frames."""
+    if not isinstance(mapping["urdf"], str):
+        raise VjmError("urdf must be a file path")
+    return read_urdf(os.path.normpath(os.path.join(base_dir, mapping["urdf"])), mapping.get("tools"))
 
 
 def read_urdf(path, tools=None) -> Tree:
@@ -128,9 +147,12 @@ def _check_xml(path: str) -> set:
     origin or a negative one.  Returns the names of the links that declare an inertial."""
     import xml.etree.ElementTree as ET
 
+    from linkfea.files.atomic import read_user_file
+
+    raw = read_user_file(path, "URDF", limit=URDF_MAX_BYTES, error=VjmError)
     try:
-        root = ET.parse(path).getroot()
-    except (ET.ParseError, OSError) as exc:
+        root = ET.fromstring(raw)
+    except ET.ParseError as exc:
         raise VjmError(f"{path}: not a valid URDF: {exc}") from None
     links = {e.get("name") for e in root.findall("link")}
     child_of: dict = {}
@@ -149,6 +171,7 @@ def _check_xml(path: str) -> set:
             raise VjmError(f"{path}: link {c!r} is the child of two joints ({child_of[c]!r} and {name!r}): a "
                            f"kinematic loop, which a URDF tree cannot describe")
         child_of[c] = name
+    _check_depth(path, {j.find("child").get("link"): j.find("parent").get("link") for j in root.findall("joint")})
     declared = set()
     for link in root.findall("link"):
         inert = link.find("inertial")
@@ -167,3 +190,20 @@ def _check_xml(path: str) -> set:
             raise VjmError(f"{path}: link {link.get('name')!r}: a mass of {mass:g} kg without a centre of mass "
                            f"(<origin xyz=...> in <inertial>)")
     return declared
+
+
+def _check_depth(path: str, parent: dict) -> None:
+    """Refuse a chain of more than :data:`URDF_MAX_DEPTH` joints (``parent``: {child link: parent link})."""
+    depth: dict = {}
+    for link in parent:
+        chain = []
+        while link in parent and link not in depth and len(chain) <= len(parent):
+            chain.append(link)
+            link = parent[link]
+        d = depth.get(link, 0)
+        for k in reversed(chain):
+            d += 1
+            depth[k] = d
+            if d > URDF_MAX_DEPTH:
+                raise VjmError(f"{path}: a chain of more than {URDF_MAX_DEPTH:,} joints (down to link {k!r}); a "
+                               f"robot has tens, and the URDF parser cannot take such a depth")

@@ -405,7 +405,7 @@ class RobotModel(Model):
                    tol: float = 1e-6, orientation=None):
         """The joint values to command so that the tool, deflected under self-weight (and a payload), reaches
         target poses (n, 4, 4) or points (n, 3) mm (orientation free, or ``orientation``) within ``tol`` mm, in
-        the configuration of ``seed``: a :class:`~vjm.robot.compensate.Compensation` (:mod:`vjm.robot.compensate`)."""
+        the configuration of ``seed``: a :class:`~vjm.compensation.Compensation` (:mod:`vjm.robot.compensate`)."""
         from .compensate import compensate
 
         return compensate(self, targets, seed, tool, gravity, payload, tol, orientation)

@@ -5,7 +5,8 @@ It knows nothing of machines or of the diagnosis (the effect library declares it
 effects and the model files can use it without importing :mod:`vjm.discrepancy`.
 
 ``terms`` (:class:`~vjm.stats.terms.Param`, :class:`~vjm.stats.terms.Term`, :class:`~vjm.stats.terms.Problem`),
-``fit`` (fits, likelihood-ratio / F tests, BIC, grouped cross-validation, lack of fit), ``selection``
+``fit`` (fits, likelihood-ratio / F tests, BIC, grouped or interleaved cross-validation, lack of fit), ``selection``
 (forward selection, backward elimination, pair screen, swaps within Occam's window), ``components``
-(variance components fitted apart).
+(variance components fitted apart), ``staged`` (staged selection over nested least-squares fits: identifiable
+columns, F tests and cross-validated error stage by stage, the backward re-test; the absolute-pose calibration's).
 """

@@ -239,12 +239,33 @@ def compare(problem: Problem, small: FitResult, big: FitResult) -> tuple[float, 
         # likelihood ratio with each component's variance profiled out
         p = stats.chi2.sf(max(small.log_rss - big.log_rss, 0.0), q)
     else:
-        d2 = big.dof
-        if d2 <= 0 or big.chi2 <= 0:
-            return float(dbic), 1.0
-        F = max(small.chi2 - big.chi2, 0.0) / q / (big.chi2 / d2)
-        p = stats.f.sf(F, q, d2)
+        p = f_test(small.chi2, small.k, big.chi2, big.k, big.n)
     return float(dbic), float(p)
+
+
+def f_test(rss0: float, k0: int, rss1: float, k1: int, n: int) -> float:
+    """p-value of the F test of a least-squares fit of ``k1`` parameters against the nested fit of ``k0``, from
+    their residual sums of squares ``rss0``, ``rss1`` over ``n`` residuals of one unknown variance:
+    ``F = ((RSS_0 - RSS_1)/q) / (RSS_1/(n - k_1)) ~ F(q, n - k_1)``, ``q = k1 - k0``; 1 where no test can be
+    made (nothing added, no residual degree of freedom, a perfect fit)."""
+    q, d2 = k1 - k0, n - k1
+    if q <= 0 or d2 <= 0 or rss1 <= 0:
+        return 1.0
+    F = max(rss0 - rss1, 0.0) / q / (rss1 / d2)
+    return float(stats.f.sf(F, q, d2))
+
+
+def f_ratio(extra: float, q: int, rest: float, d2: int) -> tuple[float, float]:
+    """(F, p-value) of ``q`` added degrees of freedom that remove the sum of squares ``extra`` against the
+    residual sum ``rest`` on ``d2`` degrees of freedom: ``F = (extra/q) / (rest/d2) ~ F(q, d2)`` (the callers
+    checked that both counts are positive; a residual sum below 1e-300 per degree is taken as 1e-300)."""
+    F = extra / q / max(rest / d2, 1e-300)
+    return float(F), float(stats.f.sf(F, q, d2))
+
+
+def chi2_p(stat: float, dof: int) -> float:
+    """p-value of a chi-square statistic ``stat`` on ``dof`` degrees of freedom (known sigmas)."""
+    return float(stats.chi2.sf(stat, dof))
 
 
 def grouped_folds(groups, k: int = 5, seed: int = 0) -> list:
@@ -260,17 +281,38 @@ def grouped_folds(groups, k: int = 5, seed: int = 0) -> list:
     return [f == i for i in range(k)]
 
 
-def cv_error(problem: Problem, names, folds, warm: FitResult | None = None) -> float:
-    """Root mean square held-out whitened residual over grouped folds (NaN if no folds)."""
+def interleaved_folds(n: int, k: int) -> list:
+    """Boolean test masks of a k-fold split of ``n`` rows in their order, row ``i`` in fold ``i mod k``.
+
+    Absolute poses are split so, not by :func:`grouped_folds`: their groups are the instrument's set-ups, and
+    a set-up held out whole leaves its frame with no row to be registered on."""
+    fold = np.arange(n) % k
+    return [fold == f for f in range(k)]
+
+
+def cross_validated(fit, held_out, folds) -> float:
+    """Root mean square held-out error over ``folds`` (boolean test masks; NaN if none): ``fit(train)`` the
+    parameters fitted on the rows of the mask ``train``, ``held_out(test, parameters)`` the (sum of squares,
+    count) of the errors of the rows of ``test`` -- counted as the caller means its RMS (residuals, points)."""
     if not folds:
         return float("nan")
     sq, cnt = 0.0, 0
     for test in folds:
-        fr = fit_terms(problem, names, mask=~test, warm=warm)
-        r = problem.residuals(tuple(names), fr.theta)[test]
-        sq += float(r @ r)
-        cnt += r.size
+        s, c = held_out(test, fit(~test))
+        sq += s
+        cnt += c
     return float(np.sqrt(sq / max(cnt, 1)))
+
+
+def cv_error(problem: Problem, names, folds, warm: FitResult | None = None) -> float:
+    """Root mean square held-out whitened residual over grouped folds (NaN if no folds)."""
+    names = tuple(names)
+
+    def held_out(test, theta):
+        r = problem.residuals(names, theta)[test]
+        return float(r @ r), r.size
+
+    return cross_validated(lambda train: fit_terms(problem, names, mask=train, warm=warm).theta, held_out, folds)
 
 
 def clipped(problem: Problem, fr: FitResult, name: str) -> list:

@@ -13,15 +13,14 @@ per point in all (the uncompensated one and the check).  All points iterate
 together (batched) with a per-point convergence mask; each starts from its
 own uncompensated deflection, which the deflection pass has computed (a
 better start than the previous point's solution, and one that needs no
-sequential loop).  On a 3-dof translational platform only the position can
+sequential loop).  The result is a :class:`vjm.compensation.Compensation`.  On a 3-dof translational platform only the position can
 be compensated; the rotation is reported.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from ..compensation import Compensation
 from ..errors import EquilibriumError, VjmError
 from ..kinematics.poses import rotation_matrix
 from ..kinematics.transforms import rotation_vector
@@ -37,20 +36,6 @@ MAX_ITER = 10
 #: what is left, the step times the local model's contraction (the stiffness' change over a deflection,
 #: ~1e-3), is some 1e-4 of the target, and the next nonlinear equilibrium checks the point anyway
 LOCAL_TOL = 0.1
-
-
-@dataclass(frozen=True)
-class Compensation:
-    """Commanded TCP poses (n, 3) or (n, 6), the residual (n,) of the loaded TCP from the programmed one
-    (mm, by the last equilibrium at those very commands), and the nonlinear equilibria used."""
-
-    commanded: np.ndarray
-    residual: np.ndarray
-    iterations: int
-    #: (n, 3) loaded TCP minus programmed point at the commands, mm
-    residual_vector: np.ndarray | None = None
-    #: check equilibria that could not start from the deflection's (solved by the reference solver)
-    cold: int = 0
 
 
 def compose(poses, rot) -> np.ndarray:
@@ -136,7 +121,7 @@ def compensate(model, programmed, W, tool, d0, workers: int = 1, where=None, sta
         i = int(active[0])
         raise EquilibriumError(f"{where(i) if where else f'point {i}'}: compensation did not converge in "
                                f"{MAX_ITER} equilibria (residual {res[i]:.3g} mm)")
-    return Compensation(cmd, res, evals, resvec, cold)
+    return Compensation(cmd, res, residual_vector=resvec, equilibria=evals, cold=cold)
 
 
 def _rot_error(cmd, programmed, t):

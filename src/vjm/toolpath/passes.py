@@ -44,7 +44,7 @@ def one_pass(m, tp, W, t, a: int, b: int, workers: int, compensate: bool) -> tup
     if not compensate:
         return s.twist, s.cold, None, None, None, 0, 0
     c = _compensate(m, tp.poses[sl], W[sl], t, s.twist, workers, lambda i: tp.where(i + a), s.state)
-    return s.twist, s.cold, c.commanded, c.residual, c.residual_vector, c.iterations, c.cold
+    return s.twist, s.cold, c.commanded, c.residual, c.residual_vector, c.equilibria, c.cold
 
 
 def _worker_pass(ab: tuple) -> tuple:

@@ -176,13 +176,18 @@ were shared between points), and about 320 MB in the forked worker process."""
 PATH_SECONDS = 1e-4
 """Seconds per toolpath point of ``vjm path`` on one core (nonlinear deflection and compensation of the
 3-PUU with FEA links, the compiled equilibria: ~80 us CPU per point, docs/benchmarks.md)."""
+ROBOT_PATH_SECONDS = 1.2e-3
+"""Seconds per toolpath point of ``vjm path`` on a serial robot (IK, equilibrium under the weight and the
+process wrench, compensation: 1.2 ms a point measured on the UR10, 388,000 points)."""
 
 
-def path_plan(n: float):
-    """The :class:`vjm.maps.grid.Plan` of ``vjm path`` over ``n`` points; VjmError if they cannot fit in memory."""
+def path_plan(n: float, seconds_per_point: float | None = None):
+    """The :class:`vjm.maps.grid.Plan` of ``vjm path`` over ``n`` points (``seconds_per_point``: default
+    :data:`PATH_SECONDS`, a robot's is :data:`ROBOT_PATH_SECONDS`); VjmError if they cannot fit in memory."""
     from ..maps.grid import plan
 
-    return plan("vjm path", n, PATH_BYTES, PATH_SECONDS, unit="toolpath points",
+    return plan("vjm path", n, PATH_BYTES, PATH_SECONDS if seconds_per_point is None else seconds_per_point,
+                unit="toolpath points",
                 hint="use a larger --step (straight moves) or --chord-tol (arcs)")
 
 

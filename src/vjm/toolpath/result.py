@@ -14,7 +14,7 @@ from typing import IO
 
 import numpy as np
 
-from .compensate import Compensation
+from ..compensation import Compensation
 from .points import Toolpath, format_rows
 from .uncertainty import Band
 
@@ -106,7 +106,7 @@ class PathResult:
         if self.compensation is not None:
             c = self.compensation
             lines.append(f"compensated: residual max {c.residual.max():.3g} mm at the written points "
-                         f"({c.iterations + 1} nonlinear equilibria per point)")
+                         f"({c.equilibria + 1} nonlinear equilibria per point)")
             if self.after is not None:
                 lines.append(f"compensated program along the cutting moves: max {np.nanmax(_norm(self.after)):.3g} "
                              f"mm from the programmed path")

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compensation import Compensation
 from ..errors import EquilibriumError, VjmError
 from ..kinematics.poses import rotation_matrix
 from ..kinematics.transforms import rotation_vector
@@ -40,8 +41,8 @@ from ..robot import ik
 from ..robot.model import SAG_TOL, RobotModel
 from . import gcode as gc
 from . import passes, run
-from .compensate import ABS_TOL, MAX_ITER, REL_TOL, Compensation
-from .points import Toolpath, path_plan
+from .compensate import ABS_TOL, MAX_ITER, REL_TOL
+from .points import ROBOT_PATH_SECONDS, Toolpath, path_plan
 from .points import read as read_toolpath
 from .result import PathResult
 from .wrench import PerPoint, at_platform
@@ -232,7 +233,7 @@ def compensate_commands(rt: RobotTool, T_p, six: bool, W, q0, d0, where) -> tupl
         raise EquilibriumError(f"{where(i)}: compensation did not converge in {MAX_ITER} equilibria "
                                f"(residual {res[i]:.3g} mm)")
     cmd = T_c[:, :3, 3] if not six else np.hstack([T_c[:, :3, 3], rotation_vector(T_c[:, :3, :3])])
-    return Compensation(cmd, res, evals, resvec, 0), q
+    return Compensation(cmd, res, residual_vector=resvec, equilibria=evals), q
 
 
 def robot_path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear", compensate: bool = True,
@@ -255,7 +256,7 @@ def robot_path(model, toolpath, wrench=None, tool=None, method: str = "nonlinear
     tp = toolpath if isinstance(toolpath, Toolpath) else read_toolpath(toolpath, chord_tol, step, passed)
     W = (wrench or PerPoint()).wrenches(tp)
     check_load(rt, tp, W)
-    plan = path_plan(tp.n)  # a CSV's points, or a program's samples (checked before sampling)
+    plan = path_plan(tp.n, ROBOT_PATH_SECONDS)  # a CSV's points, or a program's samples (checked before sampling)
     progress = or_quiet(progress)
     if plan.long:  # a run of more than a minute says so before it starts
         progress(f"{plan.describe()}; progress follows")
@@ -311,9 +312,9 @@ def _passes(rt: RobotTool, tp: Toolpath, W, compensate: bool, progress):
         d[sl] = deflect(rt, q, W[sl], where)
         if compensate:
             c, _ = compensate_commands(rt, T_p[sl], tp.has_orientation, W[sl], q, d[sl], where)
-            cmd[sl], res[sl], resvec[sl], iters = c.commanded, c.residual, c.residual_vector, max(iters, c.iterations)
+            cmd[sl], res[sl], resvec[sl], iters = c.commanded, c.residual, c.residual_vector, max(iters, c.equilibria)
         passes._eta(progress, sl.stop, n, t0)
-    return d, (Compensation(cmd, res, iters, resvec, 0) if compensate else None)
+    return d, (Compensation(cmd, res, residual_vector=resvec, equilibria=iters) if compensate else None)
 
 
 def _notes(rt: RobotTool, tp: Toolpath, after, d, split_moves: bool) -> tuple:

@@ -15,10 +15,10 @@ import numpy as np
 
 from linkfea.runtime.progress import or_quiet
 
+from ..compensation import Compensation
 from ..errors import VjmError
 from . import gcode as gc
 from . import uncertainty as unc
-from .compensate import Compensation
 from .deflect import check_effects, platform_poses, tcp_deflection
 from .equilibrium import RTOL
 from .passes import deflect_and_compensate
@@ -263,7 +263,7 @@ def _deflect_and_compensate(m, tp: Toolpath, W, t, method: str, workers: int, co
     if c is None:
         return d, d_nl, None, cold
     cmd, res, resvec, iters, cold_c = c
-    return d, d_nl, Compensation(cmd, res, iters, resvec, cold_c), cold + cold_c
+    return d, d_nl, Compensation(cmd, res, residual_vector=resvec, equilibria=iters, cold=cold_c), cold + cold_c
 
 
 def _all_vertices(tp: Toolpath, linearize_arcs: bool, split: bool) -> Toolpath:

@@ -25,8 +25,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
+from ...stats.fit import chi2_p, f_ratio
 from .. import observe
 from ..data import Deflections
 from ..loads import load_levels
@@ -94,12 +94,11 @@ def level_check(s: Setup, chosen: Selected, fit: Goodness) -> LevelTest | None:
         return LevelTest(mags, alpha, None, 0, None, False, "none")
     drop = float(np.sum((U[:, keep].T @ r) ** 2))
     if s.weights.sigma_known:
-        p = float(stats.chi2.sf(drop, dof))
+        p = chi2_p(drop, dof)
         test = "chi2 test of a compliance that differs between load levels (known sigmas)"
         stat = drop
     else:
         rest = max(final.dof - dof, 1)
-        stat = (drop / dof) / max((final.chi2 - drop) / rest, 1e-300)
-        p = float(stats.f.sf(stat, dof, rest))
+        stat, p = f_ratio(drop, dof, final.chi2 - drop, rest)
         test = "F test of a compliance that differs between load levels (sigma estimated)"
     return LevelTest(mags, alpha, stat, dof, p, bool(p < alpha), test)

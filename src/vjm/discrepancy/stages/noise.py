@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from ...stats.fit import FitResult
+from ...stats.fit import FitResult, f_ratio
 from ..data import Deflections
 from .kinds import DeflectionKind
 from .problem import Setup
@@ -112,8 +112,8 @@ def _local_f(s: Setup, E: np.ndarray, cols: slice, X_all: np.ndarray) -> dict:
             dof += e.size - rank
     if dof < MIN_LOCAL_DOF or rss_loc <= 0:
         return {"F": None, "dof": [int(p), int(dof)], "p_value": None}
-    F = (rss_all - rss_loc) / p / (rss_loc / dof)
-    return {"F": float(F), "dof": [int(p), int(dof)], "p_value": float(stats.f.sf(F, p, dof))}
+    F, pv = f_ratio(rss_all - rss_loc, p, rss_loc, dof)
+    return {"F": F, "dof": [int(p), int(dof)], "p_value": pv}
 
 
 def structure_test(s: Setup, E: np.ndarray, cols: slice) -> dict:
