@@ -137,7 +137,7 @@ def test_one_pass_jacobian_matches_central_differences(model):
                       group=np.array(["A"] * 20 + ["B"] * 20, dtype=object))
     frames = {"A": (rotation_matrix([0.1, 0.2, 0.3]), np.ones(3)), "B": (np.eye(3), np.zeros(3))}
     prob = cm._problem(model, d, "tool0", frames, MARKER, tilt=True)
-    lay = full_layout(model, "tool0", prob.groups, tilt=True, coupling=True)
+    lay = full_layout(model, "tool0", prob.groups, ("tilt", "coupling"))
     assert {"backlash", "tilt", "coupling"} <= set(lay.kinds)
     x = rng.normal(size=lay.size) * 1e-2
     x[[i for i, u in enumerate(lay.units) if u == "c"]] = 1e-8   # rad/(N mm): 1e-3 rad at 100 N m

@@ -71,7 +71,7 @@ def test_flex_jacobian_matches_central_differences(model):
     rng = np.random.default_rng(5)
     d = _data(model, truth.Hidden(**BASE), 30, 3)
     prob = _problem(model, d, "tool0", {"A": (np.eye(3), np.zeros(3))}, BASE["marker"], flex=True, thermal=True)
-    lay = full_layout(model, "tool0", prob.groups, flex=True, thermal=True)
+    lay = full_layout(model, "tool0", prob.groups, ("lateral", "bending", "varying", "thermal"))
     x = rng.normal(size=lay.size) * 1e-2
     for i, kind in enumerate(lay.kinds):   # each flex effect deflecting by about 1e-3; no torsion nor backlash
         x[i] = 0.0 if kind in ("compliance", "backlash") else x[i]

@@ -5,8 +5,7 @@ the package's own simulator check files, arguments and progress, never an effect
 import ast
 import os
 
-from vjm.calibration.engine import STAGES
-from vjm.calibration.parallel import EFFECTS
+from vjm.effects.absolute import names
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -42,8 +41,8 @@ def _uses_truth(tree) -> bool:
 
 
 def test_every_effect_has_a_truth_test():
-    assert set(ROBOT) == set(STAGES[1:]), set(STAGES[1:]) ^ set(ROBOT)
-    assert set(PARALLEL) == set(EFFECTS), set(EFFECTS) ^ set(PARALLEL)
+    assert set(ROBOT) == set(names("serial")), set(names("serial")) ^ set(ROBOT)
+    assert set(PARALLEL) == set(names("parallel")), set(names("parallel")) ^ set(PARALLEL)
     for effect, (file, test) in {**ROBOT, **PARALLEL}.items():
         tree = _module(file)
         assert _uses_truth(tree), f"{file}: no independent truth module"

@@ -42,7 +42,7 @@ from ..errors import VjmError
 from ..maps.grid import plan
 from ..stats.fit import chi2_p
 from . import report as cr
-from .engine import STAGES, predict_points
+from .engine import effect_names, predict_points
 
 #: the files of an absolute-pose diagnosis, one output set
 POSE_FILES = cr.FILES + ("report.html",)
@@ -92,8 +92,8 @@ class PoseReport(FrozenReport):
 
 def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=None, known=None, default=None,
                   what: str = "absolute poses") -> tuple:
-    """The effects tried (``effects`` names of ``known``, default :data:`vjm.calibration.engine.STAGES`; None:
-    ``default``, the default ones), and a refusal of the options that have no meaning on absolute poses
+    """The effects tried (``effects`` names of ``known``, default a robot's effects,
+    :func:`vjm.calibration.engine.effect_names`; None: ``default``, the default ones), and a refusal of the options that have no meaning on absolute poses
     (``what`` they are in the error line)."""
     if suggest:
         raise VjmError("--suggest designs (posture, load) rows of deflection data; absolute poses have no loads "
@@ -102,8 +102,8 @@ def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=No
         raise VjmError("--forces-only goes with --suggest, for deflection data")
     if noise is not None:
         raise VjmError("--tracker: absolute poses state their sigmas in <frame>.sigma columns (or the column map)")
-    known = tuple(STAGES[1:] if known is None else known)
-    eff = tuple(effects) if effects else tuple(cr.DEFAULT_EFFECTS if default is None else default)
+    known = tuple(effect_names() if known is None else known)
+    eff = tuple(effects) if effects else tuple(cr.default_effects() if default is None else default)
     bad = sorted(set(eff) - set(known))
     if bad:
         raise VjmError(f"--effect {bad[0]}: not an effect of {what}; effects: {', '.join(known)}")

@@ -42,6 +42,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..effects import absolute
 from ..errors import VjmError
 from ..stats.fit import cross_validated, interleaved_folds
 from ..stats.staged import Best, Nested, least_squares_fit, select_stages
@@ -60,10 +61,10 @@ from .serial import (
     rotation_matrix,
 )
 
-STAGES = ("registration", "geometry", "compliance", "coupling", "lateral", "bending", "varying", "thermal", "tilt",
-          "backlash", "payload")
-#: the stages acting through the loads of vjm.calibration.flex
-FLEX = ("lateral", "bending", "varying", "thermal")
+
+def effect_names() -> tuple:
+    """A robot's effects, in the order their stages are tried (:data:`vjm.effects.absolute.POSES`)."""
+    return absolute.names("serial")
 
 
 
@@ -98,9 +99,10 @@ def _problems(model, data, measured, frames: dict, **opts):
     return parts[0] if len(parts) == 1 else Points(parts)
 
 
-def _layout(model, measured, groups, **kw) -> Layout:
+def _layout(model, measured, groups, effects=()) -> Layout:
     frames = [f for f, _ in measured]
-    return full_layout(model, frames[0], groups, **kw) if len(frames) == 1 else merged_layout(model, frames, groups, **kw)
+    return full_layout(model, frames[0], groups, effects) if len(frames) == 1 else \
+        merged_layout(model, frames, groups, effects)
 
 
 def _measurements(data, measured) -> np.ndarray:
@@ -132,16 +134,13 @@ def _temperature(data) -> np.ndarray:
 
 
 def _options(effects) -> dict:
-    """The problem options the effects tried need."""
-    return {"payload": "payload" in effects, "tilt": "tilt" in effects,
-            "flex": any(e in effects for e in ("lateral", "bending", "varying")), "thermal": "thermal" in effects}
+    """The problem options the effects tried need (each effect's :attr:`~vjm.effects.absolute.PoseEffect.options`)."""
+    return absolute.options(effects)
 
 
 def _uses(values: dict) -> dict:
-    """The problem options a calibration's parameters need: payload, tilt, flex, thermal."""
-    return {"payload": "payload.mass" in values, "tilt": "base.tilt_rx" in values,
-            "flex": any(k.rsplit(".", 1)[-1] in ("lateral", "bending", "varying") for k in values),
-            "thermal": "thermal.alpha" in values}
+    """The problem options a calibration's parameters need: those of the effects that form them."""
+    return absolute.options({e.name for k in values if (e := absolute.owner_of(k, "serial")) is not None})
 
 
 def initial_registration(model, data, frame: str, p0=None, rounds: int = 8) -> tuple[dict, np.ndarray]:
@@ -208,20 +207,20 @@ def fit(prob, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: dict | No
     return least_squares_fit(fun, jac, x0)
 
 
-def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[list, list]:
+def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float, how: str = "torque") -> tuple[list, list]:
     """The candidates whose load hardly varies (its spread below ``flat`` of the largest joint's) set apart as
     not observable: the gravity torque for a compliance (and a varying one), the moment normal to the axis
-    for a lateral compliance, the temperature for the thermal scale (spread below 0.1 K)."""
+    for a lateral compliance, the temperature for the thermal scale (spread below 0.1 K): ``how``, the effect's
+    :attr:`~vjm.effects.absolute.PoseEffect.screen`."""
     tree = prob.model.tree
     keep, out = [], []
     if not cands:
         return keep, out
-    kind = layout.kinds[cands[0]]
-    if kind == "thermal":
+    if how == "temperature":
         sd = float(np.std(prob.flex.dT))
         return ([], [(cands[0], f"not observable: the temperature hardly varies (spread {sd:.3g} K)")]) if sd < 0.1 \
             else (list(cands), [])
-    if kind == "lateral":
+    if how == "lateral":
         spread = np.array([np.sum(np.std(prob.flex.lateral[:, tree.joint_index(n)], axis=0)) for n in tree.q_names])
         what, unit = "moment normal to its axis", "N m"
     else:
@@ -238,7 +237,7 @@ def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float) -> tup
     return keep, out
 
 
-def _one_sign(prob: Problem, layout: Layout, cands: list, flat: float) -> tuple[list, list]:
+def _one_sign(prob: Problem, layout: Layout, cands: list, flat: float, how: str = "sign") -> tuple[list, list]:
     qn = list(prob.model.tree.q_names)
     keep, out = [], []
     for i in cands:
@@ -294,21 +293,24 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
     if folds == 1 or folds < 0:
         raise VjmError(f"folds must be 0 (no cross-validation) or at least 2, got {folds}")
     fr = (frame or _only_frame(data),) if isinstance(frame, str) or frame is None else tuple(frame)
-    bad = set(effects) - set(STAGES[1:])
+    known = effect_names()
+    bad = set(effects) - set(known)
     if bad:
-        raise VjmError(f"unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
-    if len(fr) > 1 and "payload" in effects:
-        raise VjmError("a payload is weighed at the marker: with several measured points, leave it out of the effects")
+        raise VjmError(f"unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(known)}")
+    one = [e for e in known if e in effects and absolute.POSES[e].single_marker]
+    if len(fr) > 1 and one:
+        raise VjmError(f"a {one[0]} is weighed at the marker: with several measured points, leave it out of the "
+                       f"effects")
     _enough_rows(model, data, fr, effects, folds)
-    if "thermal" in effects:
+    use = _options(effects)
+    if use["thermal"]:
         _temperature(data)   # before any fitting
     frames, ps = _initial(model, data, fr, p0)
-    use = _options(effects)
     measured = tuple(zip(fr, ps))
     prob = _problems(model, data, measured, frames, **use)
     meas = _measurements(data, measured)
-    full = _layout(model, measured, prob.groups, coupling="coupling" in effects, **use)
-    stages, best, removed = run_stages(prob, full, meas, [s for s in STAGES[1:] if s in effects], alpha, tol, flat,
+    full = _layout(model, measured, prob.groups, effects)
+    stages, best, removed = run_stages(prob, full, meas, [s for s in known if s in effects], alpha, tol, flat,
                                        folds)
     lay = full.pick(best.idx)
     return Calibration(model, fr[0], dict(zip(lay.names, best.x)), dict(zip(lay.names, best.std)), frames, ps[0],
@@ -323,20 +325,18 @@ def run_stages(prob, full: Layout, meas: np.ndarray, order, alpha: float, tol: f
     [(index, why)])."""
 
     def screen(name: str, cands: list) -> tuple[list, list]:
-        if name in ("compliance", "backlash", "lateral", "varying", "thermal"):
-            return (_one_sign if name == "backlash" else _flat_joints)(prob, full, cands, flat)
+        how = absolute.screen(name)   # the effect's declared screening (vjm.effects.absolute)
+        if how is not None:
+            return (_one_sign if how == "sign" else _flat_joints)(prob, full, cands, flat, how)
         return cands, []
 
     nf = Nested(full.names, full.kinds, lambda idx, x0: fit(prob, full.pick(idx), meas, x0),
                 lambda x: _jacobian(prob, full, x), lambda idx, x: _stats(prob, full.pick(idx), x, meas),
                 meas.size, len(meas), "registration", ("reg", "marker"),
-                cv=_held_out(prob, full, meas, folds) if folds else None, screen=screen, through=_THROUGH)
+                cv=_held_out(prob, full, meas, folds) if folds else None, screen=screen,
+                through={n: absolute.carried(n) for n in order})
     return select_stages(nf, order, alpha, tol, removed or ())
 
-
-#: effects acting through another's parameters: the tilt's and the payload's torques through the compliances,
-#: the compliance's variation with the joint's value (``c + c' q``) on the compliance
-_THROUGH = {"compliance": ("tilt", "payload", "varying")}
 
 
 def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:
@@ -348,8 +348,7 @@ def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:
         raise VjmError(f"{data.source}: group {few[0] or '(none)'} has fewer than 3 rows: its instrument frame "
                        f"cannot be registered")
     size = sum(k in ("reg", "marker", *effects) for k in _layout(model, [(f, None) for f in fr], tuple(sorted(groups)),
-                                                                  coupling="coupling" in effects,
-                                                                  **_options(effects)).kinds)
+                                                                  effects).kinds)
     n = data.n * (folds - 1) // folds if folds else data.n
     if 3 * n * len(fr) <= size:
         raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from ..effects import absolute
 from ..errors import VjmError
 from ..kinematics import forward as fk
 from ..kinematics.transforms import ROTATION
@@ -35,8 +36,11 @@ from .serial import Layout, instrument_jacobian, registration_parameters, rotati
 
 #: the measured frame of a parallel machine
 FRAME = "platform"
-#: the geometric effects, in the order they are tried
-EFFECTS = ("offset", "attachment")
+
+
+def effect_names() -> tuple:
+    """A parallel machine's effects, in the order they are tried (:data:`vjm.effects.absolute.POSES`)."""
+    return absolute.names("parallel")
 
 
 def actuator_units(asm: fk.Assembly) -> tuple:
@@ -48,24 +52,31 @@ def actuator_units(asm: fk.Assembly) -> tuple:
     return tuple(out)
 
 
+def site(model, asm: fk.Assembly) -> absolute.Site:
+    """What a parallel machine's effects repeat over (:class:`vjm.effects.absolute.Site`): the actuators (each
+    with its unit, mm or rad), the chains."""
+    acts = fk.actuator_names(model)
+    return absolute.Site("parallel", {"actuator": tuple({"actuator": a} for a in acts),
+                                      "chain": tuple({"chain": ch.name} for ch in asm.chains), "once": ({},)},
+                         dict(zip(acts, actuator_units(asm))))
+
+
 def full_layout(model, asm: fk.Assembly, groups) -> Layout:
-    """Every parameter: each group's registration, the marker (6-dof platforms), the actuator offsets,
-    the chains' base translations."""
+    """Every parameter: each group's registration, the marker (6-dof platforms), then each effect's
+    (:mod:`vjm.effects.absolute`, in the order of their rank): the actuator offsets, the chains' base
+    translations."""
     names, kinds, units = registration_parameters(groups)
     if asm.dof == 6:
         for c in "xyz":
             names.append(f"{FRAME}.p{c}")
             kinds.append("marker")
             units.append("mm")
-    for name, u in zip(fk.actuator_names(model), actuator_units(asm)):
-        names.append(f"{name}.offset")
-        kinds.append("offset")
-        units.append(u)
-    for ch in asm.chains:
-        for c in "xyz":
-            names.append(f"{ch.name}.base.d{c}")
-            kinds.append("attachment")
-            units.append("mm")
+    at = site(model, asm)
+    for e in absolute.of_kind("parallel"):
+        for n, _, step in e.parameters(at):
+            names.append(n)
+            kinds.append(e.name)
+            units.append(step)
     return Layout(tuple(names), tuple(kinds), tuple(units))
 
 

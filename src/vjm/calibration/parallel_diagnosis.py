@@ -22,21 +22,23 @@ from pathlib import Path
 from typing import Any
 
 from ..discrepancy.diagnosis import Diagnosis
+from ..effects import absolute as absolute_effects
 from ..errors import VjmError
 from ..kinematics.forward import actuator_names
 from . import diagnosis as absolute
 from . import report as cr
 from .diagnosis import DEFAULT_ALPHA, calibrated, pose_report, progress_lines, write
 from .engine import error_stats, position_errors
-from .parallel import EFFECTS, FRAME
+from .parallel import FRAME, effect_names
 from .parallel_fit import calibrate_platform, register_platform
 from .robust import calibrate_robust
 
 
 def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=None) -> tuple:
-    """The effects tried (names of :data:`vjm.calibration.parallel.EFFECTS`; None: all), and a refusal of the
-    options that have no meaning on a parallel machine's absolute poses."""
-    return absolute.check_options(effects, suggest, forces_only, noise, known=EFFECTS, default=EFFECTS,
+    """The effects tried (names of :func:`vjm.calibration.parallel.effect_names`; None: the default ones), and a
+    refusal of the options that have no meaning on a parallel machine's absolute poses."""
+    return absolute.check_options(effects, suggest, forces_only, noise, known=effect_names(),
+                                  default=absolute_effects.defaults("parallel"),
                                   what="a parallel machine's absolute poses")
 
 

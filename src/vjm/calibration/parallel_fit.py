@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import VjmError
 from ..kinematics import forward as fk
 from .engine import fit, registration_from_frames, run_stages
-from .parallel import EFFECTS, FRAME, full_layout, nominal_state, problem
+from .parallel import FRAME, effect_names, full_layout, nominal_state, problem
 from .result import Calibration
 from .serial import Layout
 
@@ -55,16 +55,18 @@ def _enough_rows(data, full: Layout, effects, folds: int) -> None:
                        f"{size} parameters: measure more poses")
 
 
-def calibrate_platform(model, data, effects=EFFECTS, alpha: float = 1e-3, tol: float = 1e-3,
+def calibrate_platform(model, data, effects=None, alpha: float = 1e-3, tol: float = 1e-3,
                        folds: int = 0) -> Calibration:
     """Fit the registration, then the ``effects`` stages (the module docstring) of a parallel machine on
     absolute poses ``data`` (columns: its actuators, :func:`vjm.kinematics.forward.actuator_names`, and the
-    platform's point)."""
+    platform's point); ``effects`` None: all of a parallel machine's."""
     if folds == 1 or folds < 0:
         raise VjmError(f"folds must be 0 (no cross-validation) or at least 2, got {folds}")
-    bad = sorted(set(effects) - set(EFFECTS))
+    known = effect_names()
+    effects = known if effects is None else effects
+    bad = sorted(set(effects) - set(known))
     if bad:
-        raise VjmError(f"unknown effect(s) {', '.join(bad)}; a parallel machine's effects: {', '.join(EFFECTS)}")
+        raise VjmError(f"unknown effect(s) {', '.join(bad)}; a parallel machine's effects: {', '.join(known)}")
     check_frame(data)
     asm = fk.assembly(model)
     groups = tuple(sorted({str(g) for g in data.groups}))
@@ -74,7 +76,7 @@ def calibrate_platform(model, data, effects=EFFECTS, alpha: float = 1e-3, tol: f
     meas = data.points[FRAME]
     frames, p0 = registration_from_frames(nominal.X, meas, data.groups, None if asm.dof == 6 else np.zeros(3))
     prob = problem(model, asm, data, frames, p0, nominal)
-    stages, best, removed = run_stages(prob, full, meas, [e for e in EFFECTS if e in effects], alpha, tol, 0.0, folds)
+    stages, best, removed = run_stages(prob, full, meas, [e for e in known if e in effects], alpha, tol, 0.0, folds)
     lay = full.pick(best.idx)
     gone = [(full.names[i], why) for i, why in removed]
     if asm.dof == 3:

@@ -19,20 +19,27 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..effects import absolute
 from ..errors import VjmError
-from .engine import STAGES, calibrate, error_stats, instrument_frame, position_errors, register
+from .engine import calibrate, effect_names, error_stats, instrument_frame, position_errors, register
 from .result import Calibration
 from .robust import calibrate_robust
 
 FILES = ("report.json", "summary.txt", "calibrated.urdf", "calibrated.yaml")
-#: the effects tried when none are asked for, in this order
-DEFAULT_EFFECTS = ("geometry", "compliance", "payload")
+
+
+def default_effects() -> tuple:
+    """The effects tried when none are asked for, in this order: a robot's effects declared ``default``
+    (:mod:`vjm.effects.absolute`)."""
+    return absolute.defaults("serial")
+
+
 SET_NAME = "vjm calibrate"
 SCHEMA = "vjm.calibration/1"
 
@@ -45,7 +52,7 @@ class Options:
     ``register_on`` that register each validation file."""
 
     frame: str | tuple | None = None
-    effects: tuple = STAGES[1:]
+    effects: tuple = field(default_factory=effect_names)
     alpha: float = 1e-3
     folds: int = 0
     register_on: int = 30
@@ -53,9 +60,10 @@ class Options:
 
 def check_options(opt: Options) -> None:
     """Refuse bad options before any work."""
-    bad = set(opt.effects) - set(STAGES[1:])
+    known = effect_names()
+    bad = set(opt.effects) - set(known)
     if bad:
-        raise VjmError(f"--effects: unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(STAGES[1:])}")
+        raise VjmError(f"--effects: unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(known)}")
     if opt.folds == 1 or opt.folds < 0:
         raise VjmError(f"--folds must be 0 (no cross-validation) or at least 2, got {opt.folds}")
     if opt.register_on < 3:
@@ -96,11 +104,12 @@ def check_frame(model, data, frame=None, option: str = "--frame") -> tuple:
 def effects_for(effects: tuple, frames: tuple, asked: bool) -> tuple:
     """The effects tried on ``frames``: a payload is weighed at one marker, so with several measured points it
     leaves the default effects (``asked`` False) and is refused when asked for."""
-    if len(frames) > 1 and "payload" in effects:
+    one = [e for e in effects if e in absolute.POSES and absolute.POSES[e].single_marker]
+    if len(frames) > 1 and one:
         if asked:
-            raise VjmError(f"--effects payload: a payload is weighed at one marker; the data measure "
+            raise VjmError(f"--effects {one[0]}: a {one[0]} is weighed at one marker; the data measure "
                            f"{len(frames)} points ({', '.join(frames)}): leave it out or name one --frame")
-        return tuple(e for e in effects if e != "payload")
+        return tuple(e for e in effects if e not in one)
     return effects
 
 
@@ -127,14 +136,8 @@ def validate(cal: Calibration, data, k: int) -> dict:
 
 
 def _unit(name: str) -> str:
-    last = name.split(".")[-1]
-    if last == "compliance":
-        return "rad/(N mm)"
-    if last == "mass":
-        return "kg"
-    if last.startswith("tilt") or ".coupling[" in name:
-        return "rad" if last.startswith("tilt") else "rad/rad"
-    return "mm" if last[0] in "dtp" else "rad"
+    """The unit of a robot's parameter, as its effect declares it (:mod:`vjm.effects.absolute`)."""
+    return absolute.owner(name, "serial")[1]
 
 
 def _stage(s) -> dict:
@@ -153,18 +156,15 @@ def effects_named(cal: Calibration) -> list:
             out.append({"effect": s.name, "buys_mm": before["mean"] - s.stats["mean"], "before_mm": before,
                         "after_mm": s.stats, "p_value": s.p_value,
                         "cv_rms_mm": None if np.isnan(s.cv_rms) else s.cv_rms,
-                        "parameters": [k for k in cal.robot_values() if cal.kinds.get(k, (_kind(k),))[0] == s.name]})
+                        "parameters": [k for k in cal.robot_values()
+                                       if (cal.kinds[k][0] if k in cal.kinds else _kind(k)) == s.name]})
             before = s.stats
     return sorted(out, key=lambda e: -e["buys_mm"])
 
 
 def _kind(name: str) -> str:
-    last = name.split(".")[-1]
-    if name.startswith("base.tilt"):
-        return "tilt"
-    if ".coupling[" in name:
-        return "coupling"
-    return {"compliance": "compliance", "backlash": "backlash", "mass": "payload"}.get(last, "geometry")
+    """The effect forming a robot's parameter (:mod:`vjm.effects.absolute`)."""
+    return absolute.owner(name, "serial")[0].name
 
 
 def registration(cal: Calibration) -> dict:

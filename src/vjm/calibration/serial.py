@@ -24,11 +24,12 @@ from typing import Any
 
 import numpy as np
 
+from ..effects import absolute
+from ..effects.absolute import GEOMETRY
 from ..kinematics.transforms import elementary
 from ..robot.tree import _rigid_inverse
 from .flex import beam_axes, beam_name, transforms
 
-GEOMETRY = ("offset", "dx", "dy", "dz", "ex", "ey", "ez")
 _REG = ("tx", "ty", "tz", "rx", "ry", "rz")
 _STEP = {"mm": 1e-4, "rad": 1e-7, "kg": 1e-3}
 
@@ -94,75 +95,39 @@ def registration_parameters(groups) -> tuple[list, list, list]:
     return names, kinds, units
 
 
-def full_layout(model, frame: str, groups, payload: bool = False, tilt: bool = False,
-                coupling: bool = False, flex: bool = False, thermal: bool = False) -> Layout:
-    """Every parameter of the measurement model of a point on ``frame`` (registration of each group
-    first, the marker offset, then per joint of the path its offset and origin error, then the compliances,
-    the backlashes, with ``coupling`` each joint's value coupled to each other's (``a.coupling[b]``: a
-    turns by that times b's value, a gear train's or a misread joint's), the base tilt and the payload)."""
+def site(model, frame: str) -> absolute.Site:
+    """What a robot's effects repeat over on the path to ``frame`` (:class:`vjm.effects.absolute.Site`): every
+    joint, the free ones (not mimics), their ordered pairs, the links bending as beams, once."""
+    path = [model.tree.joints[i] for i in model.tree.path(model.tree.frame(frame).joint)]
+    free = [j.name for j in path if j.mimic is None]
+    return absolute.Site("serial", {
+        "joint": tuple({"joint": j.name} for j in path),
+        "free": tuple({"joint": n} for n in free),
+        "pair": tuple({"joint": a, "other": b} for a in free for b in free if a != b),
+        "beam": tuple({"link": beam_name(model, a)[:-len(".bending")]} for a, *_ in beam_axes(model, frame)),
+        "once": ({},)})
+
+
+def full_layout(model, frame: str, groups, effects=()) -> Layout:
+    """Every parameter of the measurement model of a point on ``frame``: the registration of each group
+    first, the marker offset, then the parameters of each effect (:mod:`vjm.effects.absolute`) in the
+    order of their rank -- those listed always (offsets and origin errors per joint of the path, the
+    compliances, the backlashes) and those of the ``effects`` tried (with coupling each joint's value
+    coupled to each other's, ``a.coupling[b]``: a turns by that times b's value, ...)."""
     names, kinds, units = registration_parameters(groups)
     for k in ("px", "py", "pz"):
         names.append(f"{frame}.{k}")
         kinds.append("marker")
         units.append("mm")
-    path = [model.tree.joints[i] for i in model.tree.path(model.tree.frame(frame).joint)]
-    for j in path:
-        for k in GEOMETRY:
-            names.append(f"{j.name}.{k}")
-            kinds.append("geometry")
-            units.append("mm" if k[0] == "d" else "rad")
-    for j in path:
-        if j.mimic is None:
-            names.append(f"{j.name}.compliance")
-            kinds.append("compliance")
-            units.append("c")
-    for j in path:
-        if j.mimic is None:
-            names.append(f"{j.name}.backlash")
-            kinds.append("backlash")
-            units.append("rad")
-    if coupling:
-        free = [j.name for j in path if j.mimic is None]
-        for a in free:
-            for b in free:
-                if a != b:
-                    names.append(f"{a}.coupling[{b}]")
-                    kinds.append("coupling")
-                    units.append("rad")
-    if flex:
-        _flex_layout(model, path, frame, names, kinds, units)
-    if thermal:
-        names.append("thermal.alpha")
-        kinds.append("thermal")
-        units.append("K")
-    if tilt:
-        for k in ("rx", "ry"):
-            names.append(f"base.tilt_{k}")
-            kinds.append("tilt")
-            units.append("rad")
-    if payload:
-        names.append("payload.mass")
-        kinds.append("payload")
-        units.append("kg")
+    at = site(model, frame)
+    for e in absolute.of_kind("serial"):
+        if e.on_demand and e.name not in effects:
+            continue
+        for n, _, step in e.parameters(at):
+            names.append(n)
+            kinds.append(e.name)
+            units.append(step)
     return Layout(tuple(names), tuple(kinds), tuple(units))
-
-
-def _flex_layout(model, path, frame: str, names: list, kinds: list, units: list) -> None:
-    """The flex effects' parameters (:mod:`vjm.calibration.flex`): lateral compliances, beams, varying compliances."""
-    for j in path:
-        if j.mimic is None:
-            names.append(f"{j.name}.lateral")
-            kinds.append("lateral")
-            units.append("lat")
-    for a, *_ in beam_axes(model, frame):
-        names.append(beam_name(model, a))
-        kinds.append("bending")
-        units.append("bend")
-    for j in path:
-        if j.mimic is None:
-            names.append(f"{j.name}.varying")
-            kinds.append("varying")
-            units.append("var")
 
 
 @dataclass(frozen=True, eq=False)
@@ -202,19 +167,15 @@ class Points:
         return getattr(self.parts[0], name)
 
 
-_KIND_ORDER = ("reg", "marker", "geometry", "compliance", "backlash", "coupling", "lateral", "bending", "varying",
-               "thermal", "tilt", "payload")
-
-
-def merged_layout(model, frames, groups, **kw) -> Layout:
+def merged_layout(model, frames, groups, effects=()) -> Layout:
     """The parameters of several measured frames: each frame's :func:`full_layout`, a parameter shared by
     their paths (the registration, a common joint's) once, ordered by kind."""
     seen: dict = {}
     for f in frames:
-        lay = full_layout(model, f, groups, **kw)
+        lay = full_layout(model, f, groups, effects)
         for n, k, u in zip(lay.names, lay.kinds, lay.units):
             seen.setdefault(n, (k, u))
-    names = sorted(seen, key=lambda n: _KIND_ORDER.index(seen[n][0]))   # stable: each kind keeps its order
+    names = sorted(seen, key=lambda n: absolute.rank(seen[n][0]))   # stable: each kind keeps its order
     return Layout(tuple(names), tuple(seen[n][0] for n in names), tuple(seen[n][1] for n in names))
 
 
@@ -310,7 +271,16 @@ def deflections(prob: Problem, vals: dict) -> np.ndarray:
         if k and ".coupling[" in key:
             a, b = key[:-1].split(".coupling[")
             dq[:, qn.index(a)] += k * prob.q[:, qn.index(b)]
+    for e in _generic():
+        more = e.joint_motion(prob.model, prob.q, vals)
+        if more is not None:
+            dq = dq + more
     return dq
+
+
+def _generic() -> list:
+    """The robot's effects whose predictions this model does not write itself (:attr:`PoseEffect.joint_motion`)."""
+    return [e for e in absolute.POSES.values() if "serial" in e.model_kinds and not e.hand_written]
 
 
 def load_scale(prob: Problem, name: str, unit: str) -> float:
@@ -480,7 +450,16 @@ def jacobian_fast(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | No
     vals = dict(fixed or {})
     vals.update(zip(layout.names, x))
     pb, cols = _base_columns(prob, vals)
-    return instrument_jacobian(pb, cols, layout, vals, prob.groups, prob.gidx, prob.R0)
+    J = instrument_jacobian(pb, cols, layout, vals, prob.groups, prob.gidx, prob.R0)
+    own = {e.name for e in _generic()}
+    other = [i for i, k in enumerate(layout.kinds) if k in own]
+    if other:   # an effect without columns of its own: central differences of the prediction
+        h = steps(prob, layout)
+        for i in other:
+            e = np.zeros(layout.size)
+            e[i] = h[i]
+            J[:, i] = (predict(prob, layout, x + e, fixed) - predict(prob, layout, x - e, fixed)).ravel() / (2 * h[i])
+    return J
 
 
 def instrument_jacobian(pb: np.ndarray, cols: dict, layout: Layout, vals: dict, groups, gidx, R0) -> np.ndarray:

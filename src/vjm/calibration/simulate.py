@@ -7,10 +7,14 @@ equilibrium of :meth:`vjm.robot.model.RobotModel.self_weight`) -- plus Gaussian 
 robot's base frame (vjm calibrate registers the instrument frame anyway).  So ``vjm calibrate``
 can be tried, and its recovery of known effects checked, without a tracker.
 
-Hidden effects (``--effect``, repeatable):
+Hidden effects (``--effect``, repeatable), ``NAME:param=value,...`` as a parallel machine's, ``NAME`` a robot's
+effect of :mod:`vjm.effects.absolute` that can be hidden (:meth:`~vjm.effects.absolute.PoseEffect.hidden_params`):
 
-- ``offset:<joint>=<value>,...``: the joint's true value is the reported one plus ``value`` (rad, mm);
-- ``compliance:<joint>=<factor>,...``: the joint's compliance is ``factor`` times the model file's.
+- ``geometry:<joint>.offset=<value>,...`` (or ``offset:<joint>=<value>,...``): the joint's true value is the
+  reported one plus ``value`` (rad, mm);
+- ``compliance:<joint>=<factor>,...``: the joint's compliance is ``factor`` times the model file's;
+- an effect giving the joints' motion (``joint_motion``): ``NAME:<parameter>=<value>,...`` with its
+  parameters' names, the joints turned by that motion.
 
 Poses (``--poses``): ``random:N`` (N configurations uniform within the joint limits, a continuous
 joint over one turn) or a CSV whose header names the model's joints (rad, mm).
@@ -18,76 +22,81 @@ joint over one turn) or a CSV whose header names the model's joints (rad, mm).
 from __future__ import annotations
 
 import csv
-import dataclasses
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from ..effects import absolute
 from ..errors import ArgumentError, VjmError
+from .serial import site
 
-#: the kinds of hidden effect a robot's simulation takes
-KINDS = ("offset", "compliance")
 #: rows at most (a calibration set has tens to thousands)
 MAX_ROWS = 100_000
 
 
 @dataclass(frozen=True)
 class Hidden:
-    """Hidden truth: joint ``offsets`` (nq,) and compliance ``factors`` {joint: factor}."""
+    """Hidden truth: ((effect, {parameter: value}), ...) in the order of the effects' registration."""
 
-    offsets: np.ndarray
-    factors: dict = field(default_factory=dict)
+    effects: tuple = ()
 
-    def describe(self, names) -> str:
-        parts = [f"offset {n}={v:g}" for n, v in zip(names, self.offsets) if v != 0.0]
-        parts += [f"compliance {n}x{f:g}" for n, f in self.factors.items()]
-        return ", ".join(parts) or "none"
+    def describe(self, model) -> str:
+        return ", ".join(e.describe(model, v) for e, v in self.effects) or "none"
 
 
-def parse_hidden(model, specs) -> Hidden:
-    """``["offset:elbow_joint=0.002", "compliance:elbow_joint=2"]`` -> :class:`Hidden`."""
-    off = np.zeros(model.nq)
-    factors: dict = {}
+def _hint(model, at) -> str:
+    spell, named = [], []
+    for e in absolute.POSES.values():
+        keys = e.hidden_params(model, at) if "serial" in e.model_kinds else {}
+        if not keys:
+            continue
+        if e.aliases:   # the short spellings first, the effect's own name after every other
+            spell += [f"{a}:<joint>=<value>,..." for a in e.aliases]
+            named.append(f"{e.name}:<parameter>=<value>,...")
+        elif set(keys) <= set(model.q_names):
+            spell.append(f"{e.name}:<joint>={'<factor>' if all(keys.values()) else '<value>'},...")
+        else:
+            spell.append(f"{e.name}:<parameter>=<value>,...")
+    return " or ".join(spell + named)
+
+
+def parse_hidden(model, specs, frame: str) -> Hidden:
+    """``["offset:elbow_joint=0.002", "compliance:elbow_joint=2"]`` -> :class:`Hidden` (on the path to ``frame``)."""
+    at = site(model, frame)
+    given: dict = {}
     for spec in specs:
         kind, _, body = str(spec).partition(":")
-        if kind not in KINDS or not body:
-            raise ArgumentError("effect", f"a robot takes offset:<joint>=<value>,... or compliance:<joint>=<factor>,"
-                                          f"...; got {spec!r}")
+        eff = next((e for e in absolute.POSES.values() if "serial" in e.model_kinds
+                    and (e.name == kind or kind in e.aliases)), None)
+        keys = eff.hidden_params(model, at) if eff is not None else {}
+        if not keys or not body:
+            other = f"; {kind} is not simulated" if eff is not None else ""
+            raise ArgumentError("effect", f"a robot takes {_hint(model, at)}{other}; got {spec!r}")
+        alias = eff.aliases.get(kind)
+        joints = alias is not None or set(keys) <= set(model.q_names)
+        vals = given.setdefault(eff.name, {})
         for item in body.split(","):
             name, _, val = item.partition("=")
             name = name.strip()
-            if name not in model.q_names:
-                raise ArgumentError("effect", f"{kind}: no joint {name!r}; joints: {', '.join(model.q_names)}")
+            key = alias.format(joint=name) if alias is not None else name
+            if key not in keys or (alias is not None and name not in model.q_names):
+                listing = model.q_names if joints else list(keys)
+                raise ArgumentError("effect", f"{kind}: no {'joint' if joints else 'parameter'} {name!r}; "
+                                              f"{'joints' if joints else 'parameters'}: {', '.join(listing)}")
             try:
                 v = float(val)
             except ValueError:
                 v = float("nan")
-            if not np.isfinite(v) or (kind == "compliance" and not v > 0):
-                raise ArgumentError("effect", f"{kind}:{name} needs a finite number{' > 0' if kind == 'compliance' else ''}"
+            if not np.isfinite(v) or (keys[key] and not v > 0):
+                raise ArgumentError("effect", f"{kind}:{name} needs a finite number{' > 0' if keys[key] else ''}"
                                               f", got {val!r}")
-            if kind == "offset":
-                off[model.q_names.index(name)] = v
-            else:
-                if name not in model.joint_springs:
-                    raise ArgumentError("effect", f"compliance:{name}: the joint is rigid in the model file (no "
-                                                  f"stiffness to scale)")
-                factors[name] = v
-    return Hidden(off, factors)
-
-
-def hidden_model(model, hidden: Hidden):
-    """``model`` with each named joint's compliance times its factor (a constant, table or expression)."""
-    springs = dict(model.joint_springs)
-    for name, f in hidden.factors.items():
-        s = springs[name]
-        if s.stiffness is not None:
-            springs[name] = dataclasses.replace(s, stiffness=float(s.stiffness) / f)
-        elif s.table is not None:
-            springs[name] = dataclasses.replace(s, table=(s.table[0], tuple(np.asarray(s.table[1]) / f)))
-        else:
-            springs[name] = dataclasses.replace(s, expression=f"({s.expression}) / {f!r}")
-    return dataclasses.replace(model, joint_springs=springs)
+            try:
+                eff.check_hidden(model, key, v)
+            except VjmError as exc:
+                raise ArgumentError("effect", str(exc)) from None
+            vals[key] = v
+    return Hidden(tuple((e, given[n]) for n, e in absolute.POSES.items() if n in given))
 
 
 def design(model, poses: str, rng) -> np.ndarray:
@@ -130,9 +139,15 @@ def _read_q(model, path: str) -> np.ndarray:
 
 
 def measure(model, Q: np.ndarray, hidden: Hidden, frame: str, noise_t: float, rng) -> np.ndarray:
-    """Points (n, 3) mm of ``frame`` where the robot really is at reported joint values ``Q``."""
-    truth = hidden_model(model, hidden)
-    Qt = Q + hidden.offsets
+    """Points (n, 3) mm of ``frame`` where the robot really is at reported joint values ``Q``: the robot each
+    hidden effect makes (:meth:`~vjm.effects.absolute.PoseEffect.true_model`), at the joint values they turn
+    it to (:meth:`~vjm.effects.absolute.PoseEffect.true_joints`), sagging under its own weight."""
+    truth = model
+    for e, v in hidden.effects:
+        truth = e.true_model(truth, v)
+    Qt = Q
+    for e, v in hidden.effects:
+        Qt = e.true_joints(model, Qt, v)
     P = truth.forward(Qt, frame)[:, :3, 3] + truth.self_weight(Qt, frame)[:, :3]
     return P + noise_t * rng.standard_normal(P.shape)
 
@@ -145,13 +160,13 @@ def run(model, model_path, effects, poses: str, noise_t: float, seed: int, out, 
     if not (np.isfinite(noise_t) and noise_t >= 0):
         raise ArgumentError("noise-t", f"must be a number >= 0 (mm), got {noise_t!r}")
     check_file(out, is_simulated_csv, "a CSV written by vjm simulate")
-    hidden = parse_hidden(model, effects)
     frame = model._tool(frame)
+    hidden = parse_hidden(model, effects, frame)
     Q = design(model, poses, np.random.default_rng([seed, 2]))
     P = measure(model, Q, hidden, frame, noise_t, np.random.default_rng([seed, 3]))
     head = list(model.q_names) + [f"{frame}.{c}" for c in "xyz"] + ([f"{frame}.sigma"] if noise_t > 0 else [])
     lines = [f"{SIMULATED_CSV_MARK} from {os.path.basename(str(model_path))}; poses {poses}; noise_t {noise_t} mm; "
-             f"seed {seed}; the robot's base frame; hidden effects: {hidden.describe(model.q_names)}",
+             f"seed {seed}; the robot's base frame; hidden effects: {hidden.describe(model)}",
              ",".join(head)]
     for q, p in zip(Q, P):
         lines.append(",".join([repr(float(v)) for v in (*q, *p)] + ([repr(float(noise_t))] if noise_t > 0 else [])))

@@ -22,9 +22,18 @@ Adding an effect (docs/discrepancy.md)::
 
 It is then a candidate of ``vjm diagnose``, usable in ``vjm simulate --effect my_effect:a=0.002``, and
 ``vjm path`` applies the ``model_updated.yaml`` carrying it.
+
+The effects of absolute-pose calibration (a robot's geometry, compliance ...; a parallel machine's offsets
+and attachments) are :class:`~vjm.effects.absolute.PoseEffect` classes of :mod:`~vjm.effects.absolute`,
+registered with :func:`~vjm.effects.absolute.register_pose` in their own registry (``absolute.POSES``):
+fitted by the calibration engine with the instrument frames, they are no candidates of the deflection
+diagnosis.
 """
+from . import absolute as _absolute  # noqa: F401  (registers the absolute-pose effects)
 from . import library as _library  # noqa: F401  (registers the built-in effects)
+from .absolute import PoseEffect, register_pose
 from .base import REGISTRY, Effect, Nonlinear, Param, check_values, get, register
 from .context import Context
 
-__all__ = ["REGISTRY", "Effect", "Nonlinear", "Param", "Context", "check_values", "get", "register"]
+__all__ = ["REGISTRY", "Effect", "Nonlinear", "Param", "Context", "PoseEffect", "check_values", "get", "register",
+           "register_pose"]
