@@ -193,6 +193,8 @@ ROBOT = "urdf: r.urdf\njoints: {j1: {stiffness: 1.0e+8}, j2: {stiffness: 5.0e+7}
 
 POSES = "j1,j2,l2.x,l2.y,l2.z\n" + "".join(f"{0.1 * k:.2f},{-0.05 * k:.3f},{k},{2 * k},{600 + k}\n" for k in range(40))
 CAL_FILES = {"r.yaml": ROBOT, "r.urdf": ARM, "p.csv": POSES}
+#: the poses in two registration groups, a and b (38.5)
+GROUPED = "j1,j2,l2.x,l2.y,l2.z,group\n" + "".join(f"{r},{'ab'[k % 2]}\n" for k, r in enumerate(POSES.splitlines()[1:]))
 #: a commands.csv of vjm compensate with a row added since (its sha256 no longer the one its first line records)
 EDITED_COMMANDS = ("# commands by vjm compensate from ur10.yaml; targets t.csv; sha256 " + "0" * 64 + "\ntarget,status\n"
                    "1,ok\n2,ok\n")
@@ -620,6 +622,21 @@ CASES = [
                                                                f'<child link="l{i + 1}"/></joint>' for i in range(5000)),
                                                        [f"l{i}" for i in range(5001)], inertial="")},
          "a URDF of 5,000 chained fixed joints (0.5 MB)"),
+    # 38.2: an effect excluded from the candidates; 38.5: held-out files in the fitted set-up
+    Case("38.2", "vjm calibrate r.yaml p.csv --out o --effect -creep", "--effect -creep: not an effect of absolute "
+         "poses to exclude; effects: geometry, compliance", CAL_FILES, "an effect the library does not have, excluded"),
+    Case("38.2", "vjm diagnose r.yaml p.csv --out o --effect geometry --effect -geometry", "--effect: every candidate "
+         "excluded (-geometry)", CAL_FILES, "the one effect asked for, excluded"),
+    Case("38.5", "vjm calibrate r.yaml p.csv --out o --same-setup", "--same-setup says the --validate files were "
+         "measured in the fitted data's set-up; give --validate", CAL_FILES, "--same-setup without a held-out file"),
+    Case("38.5", "vjm diagnose r.yaml g.csv --out o --validate v.csv --same-setup", "--same-setup: the fitted data "
+         "hold 2 set-ups (groups a, b); give v.csv a group column naming its set-up",
+         {**CAL_FILES, "g.csv": GROUPED, "v.csv": "\n".join(POSES.splitlines()[:6]) + "\n"},
+         "--same-setup, the fitted data in two set-ups"),
+    Case("38.5", "vjm calibrate r.yaml g.csv --out o --validate v.csv", "v.csv: rows of the fitted set-up(s) a and "
+         "of other groups (c); hold out one set-up per file",
+         {**CAL_FILES, "g.csv": GROUPED, "v.csv": GROUPED.replace(",b\n", ",c\n")},
+         "a held-out file mixing a fitted set-up and another"),
 ]
 
 

@@ -5,7 +5,7 @@ The data (:class:`vjm.calibration.poses.AbsolutePoses`, read as it is through a 
 joint values and the points an instrument measured in its own frame.  The diagnosis fits the
 registration (each instrument set-up's frame and the markers' offsets: a nuisance, reported apart with its
 standard deviations), then tries the effects in order (default: geometry, joint compliance under
-self-weight, a payload): an effect is named when its F test passes at ``alpha`` and, without
+self-weight, a payload; ``--effect -name`` excludes one): an effect is named when its F test passes at ``alpha`` and, without
 ``--validate`` files, its k-fold cross-validated error drops (an effect that improves the fitted rows but
 not the held-out ones is not named).  Parameters the identification Jacobian cannot tell apart are removed
 and listed; joints whose load hardly varies are reported not observable.
@@ -13,7 +13,7 @@ and listed; joints whose load hardly varies are reported not observable.
 The verdict: ``no_discrepancy`` (nothing named beyond the registration), ``explained`` (effects named) or
 ``unexplained`` (the file states the instrument's sigmas and the final fit's residuals exceed them: a
 chi-square test at ``alpha``; a gap no effect of the library closes).  Without sigma columns the lack of fit
-is not judged.
+is not judged, and the summary says so beside the verdict.
 
 The outcome is a :class:`vjm.discrepancy.diagnosis.Diagnosis` (one result type for every data kind) whose
 report is a :class:`PoseReport`.  Written as one output set: ``report.json``, ``report.html``, ``summary.txt``,
@@ -92,9 +92,11 @@ class PoseReport(FrozenReport):
 
 def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=None, known=None, default=None,
                   what: str = "absolute poses") -> tuple:
-    """The effects tried (``effects`` names of ``known``, default a robot's effects,
-    :func:`vjm.calibration.engine.effect_names`; None: ``default``, the default ones), and a refusal of the options that have no meaning on absolute poses
-    (``what`` they are in the error line)."""
+    """The effects tried, and a refusal of the options that have no meaning on absolute poses (``what`` they
+    are in the error line).  ``effects``: names of ``known`` (default a robot's effects,
+    :func:`vjm.calibration.engine.effect_names`), each positive name a candidate (in this order) and each
+    ``-name`` one excluded; without a positive name the candidates are ``default`` (None: a robot's default
+    ones) less those excluded."""
     if suggest:
         raise VjmError("--suggest designs (posture, load) rows of deflection data; absolute poses have no loads "
                        "to design (measure more configurations)")
@@ -103,11 +105,24 @@ def check_options(effects, suggest: int = 0, forces_only: bool = False, noise=No
     if noise is not None:
         raise VjmError("--tracker: absolute poses state their sigmas in <frame>.sigma columns (or the column map)")
     known = tuple(effect_names() if known is None else known)
-    eff = tuple(effects) if effects else tuple(cr.default_effects() if default is None else default)
+    asked = asked_effects(effects)
+    out = [n[1:] for n in effects or () if n.startswith("-")]
+    bad = [n for n in out if n not in known]
+    if bad:
+        raise VjmError(f"--effect -{bad[0]}: not an effect of {what} to exclude; effects: {', '.join(known)}")
+    eff = asked or tuple(cr.default_effects() if default is None else default)
     bad = sorted(set(eff) - set(known))
     if bad:
         raise VjmError(f"--effect {bad[0]}: not an effect of {what}; effects: {', '.join(known)}")
+    eff = tuple(e for e in eff if e not in out)
+    if not eff:
+        raise VjmError(f"--effect: every candidate excluded (-{', -'.join(out)}); effects: {', '.join(known)}")
     return eff
+
+
+def asked_effects(effects) -> tuple:
+    """The effects asked for by name in ``effects`` (its ``-name`` exclusions left out)."""
+    return tuple(n for n in effects or () if not n.startswith("-"))
 
 
 def lack_of_fit(cal, data, alpha: float) -> dict:
@@ -165,16 +180,18 @@ def read(path, model, columns=None):
 
 def diagnose_poses(model, data, model_name: str | None = None, alpha: float | None = None, effects=None,
                    folds: int = 5, columns=None, validate=(), register: int = 30, outliers: bool = True,
-                   progress=None, frame=None) -> Diagnosis:
+                   progress=None, frame=None, same_setup: bool = False) -> Diagnosis:
     """Diagnose absolute poses (see the module docstring): ``model`` and ``data`` loaded or their files,
-    ``columns`` a column map file, ``validate`` held-out files (each a new set-up, registered on ``register``
-    of its poses, the robot frozen; then no k-fold), ``outliers`` rows no effect explains set aside,
-    ``frame`` the measured points fitted (a name or several; None: every point of the data)."""
+    ``columns`` a column map file, ``validate`` held-out files (then no k-fold; the robot frozen, each on the
+    fitted registration when its rows are in the fitted set-up: a ``group`` column of fitted groups, or none
+    and ``same_setup``; else a new set-up registered on ``register`` of its poses), ``outliers`` rows no effect
+    explains set aside, ``frame`` the measured points fitted (a name or several; None: every point of the
+    data)."""
     eff = check_options(effects)
     opt = cr.Options(frame or None, eff, DEFAULT_ALPHA if alpha is None else alpha, 0 if validate else folds,
-                     register)
+                     register, same_setup)
     cr.check_options(opt)
-    m, d, vals, opt = cr.inputs(model, data, columns, list(validate), opt, bool(effects),
+    m, d, vals, opt = cr.inputs(model, data, columns, list(validate), opt, bool(asked_effects(effects)),
                                 "--frame" if frame else "measured point")
     # before the work: a long run says so, one too large for the memory is refused
     plan("vjm calibrate", d.n, *ROW_COST, unit="rows", hint="calibrate on a subset of the rows (postures spread "

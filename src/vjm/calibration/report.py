@@ -1,9 +1,10 @@
 """``vjm calibrate``: a robot calibrated on absolute poses, held out, reported and written back as one set.
 
 The run (:func:`run`) reads the robot model, the calibration file through its column map and the
-``--validate`` files, fits :func:`vjm.calibration.engine.calibrate`, registers every validation file on a
-few of its own poses (the robot frozen: a validation file is a new instrument set-up) and measures the
-error on its other poses.  :func:`report` gathers what a user judges a calibration on:
+``--validate`` files, fits :func:`vjm.calibration.engine.calibrate` and holds out every validation file, the
+robot frozen: a file measured in the fitted set-up (:func:`held_setup`: its ``group`` column names fitted
+groups, or ``--same-setup``) on the fitted registration, every row held out; any other file, a new
+instrument set-up, registered on a few of its own poses, the error measured on its other poses.  :func:`report` gathers what a user judges a calibration on:
 
 - the effects named, in order of what each buys (the drop of the mean position error of its stage), each
   with the error before and after it (mean, std, max, 95th percentile, mm, on the fitted rows);
@@ -49,13 +50,15 @@ class Options:
     """What the command line asks: the measured ``frame`` (a name or several; None: every point the data
     measure), the ``effects``
     tried, the F test's ``alpha``, ``folds`` of cross-validation (0: none), and the number of poses
-    ``register_on`` that register each validation file."""
+    ``register_on`` that register each validation file in a new set-up; ``same_setup``: validation files
+    without a ``group`` column are in the fitted data's one set-up."""
 
     frame: str | tuple | None = None
     effects: tuple = field(default_factory=effect_names)
     alpha: float = 1e-3
     folds: int = 0
     register_on: int = 30
+    same_setup: bool = False
 
 
 def check_options(opt: Options) -> None:
@@ -114,9 +117,41 @@ def effects_for(effects: tuple, frames: tuple, asked: bool) -> tuple:
 
 
 def check_validation(data, k: int) -> None:
-    """A validation file needs more rows than the ``k`` that register it."""
+    """A validation file registered on its own poses needs more rows than the ``k`` that register it."""
     if data.n <= k:
-        raise VjmError(f"{data.source}: {data.n} rows; a validation file needs more than --register ({k}) rows")
+        raise VjmError(f"{data.source}: {data.n} rows; a validation file needs more than --register ({k}) rows "
+                       f"(or its rows in the fitted set-up: a group column of the fitted data's groups, or "
+                       f"--same-setup)")
+
+
+def held_setup(data, fitted: tuple, same_setup: bool = False):
+    """A validation file's rows as held out: in the fitted set-up (its ``group`` column names only groups of the
+    ``fitted`` data, or it has none and ``same_setup`` says it was measured in the fitted data's one set-up),
+    they keep that group and its fitted registration; otherwise they are one new set-up
+    (``validate:<file>``), registered on a few of its poses.  A file's ``group`` column decides for it, with or
+    without ``same_setup``.  A file mixing fitted and other groups, and ``same_setup`` with several fitted
+    set-ups, are refused."""
+    name = os.path.basename(data.source) or "data"
+    if data.group is None:
+        if not same_setup:
+            return data.with_group(f"validate:{name}")
+        if len(fitted) != 1:
+            raise VjmError(f"--same-setup: the fitted data hold {len(fitted)} set-ups (groups {', '.join(fitted)}); "
+                           f"give {name} a group column naming its set-up")
+        return data.with_group(fitted[0])
+    groups = sorted(set(map(str, data.group)))
+    other = [g for g in groups if g not in fitted]
+    if not other:
+        return data
+    if len(other) < len(groups):
+        raise VjmError(f"{name}: rows of the fitted set-up(s) {', '.join(g for g in groups if g in fitted)} and of "
+                       f"other groups ({', '.join(other)}); hold out one set-up per file")
+    return data.with_group(f"validate:{name}")
+
+
+def in_fitted_setup(cal: Calibration, data) -> bool:
+    """Whether every row of ``data`` is in a set-up the calibration registered."""
+    return set(map(str, data.groups)) <= set(map(str, cal.frames))
 
 
 def split(data, k: int):
@@ -127,12 +162,21 @@ def split(data, k: int):
     return data.subset(mask), data.subset(~mask)
 
 
-def validate(cal: Calibration, data, k: int) -> dict:
-    """A validation file's held-out errors: its set-up registered on ``k`` of its poses, the robot frozen."""
+def held_out(cal: Calibration, data, k: int, reg=register) -> dict:
+    """A validation file's held-out errors, the robot or machine frozen: every row on the fitted registration
+    when it is in the fitted set-up (:func:`held_setup`), else its set-up registered by ``reg`` on ``k`` of its
+    poses and the error on the others (``registered_on``: 0 and ``k``)."""
+    if in_fitted_setup(cal, data):
+        return {"file": data.source, "registered_on": 0, "registered": "on the fitted set-up", "rows": int(data.n),
+                "errors_mm": error_stats(position_errors(cal, data))}
     few, rest = split(data, k)
-    reg = register(cal, few)
-    return {"file": data.source, "registered_on": k, "rows": int(rest.n),
-            "errors_mm": error_stats(position_errors(reg, rest))}
+    return {"file": data.source, "registered_on": k, "registered": f"on {k} of its poses", "rows": int(rest.n),
+            "errors_mm": error_stats(position_errors(reg(cal, few), rest))}
+
+
+def validate(cal: Calibration, data, k: int) -> dict:
+    """A robot's validation file held out (:func:`held_out`)."""
+    return held_out(cal, data, k)
 
 
 def _unit(name: str) -> str:
@@ -220,10 +264,12 @@ def inputs(model, data, columns, validate_paths, opt: Options, asked: bool, opti
         d = data if data.group is not None else data.with_group(os.path.basename(data.source) or "data")
     frames = check_frame(m, d, opt.frame, option)
     opt = replace(opt, frame=frames, effects=effects_for(opt.effects, frames, asked))
-    vals = [read_poses(v, cmap, m.q_names, group=f"validate:{Path(v).name}") for v in validate_paths]
+    fitted = tuple(dict.fromkeys(map(str, d.group)))
+    vals = [held_setup(read_poses(v, cmap, m.q_names), fitted, opt.same_setup) for v in validate_paths]
     for v in vals:
         check_frame(m, v, frames, option)
-        check_validation(v, opt.register_on)
+        if v.group[0] not in fitted:
+            check_validation(v, opt.register_on)
     return m, d, vals, opt
 
 

@@ -24,12 +24,16 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
                                                                 "instrument set-up; repeatable)"),
                   register_on: int = typer.Option(30, "--register", help="poses of each --validate file that "
                                                   "register its instrument frame (the robot frozen)"),
+                  same_setup: bool = typer.Option(False, "--same-setup", help="the --validate files without a group "
+                                                  "column were measured in the fitted data's set-up: every row "
+                                                  "held out on its registration"),
                   folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation in the choice "
                                                       "of effects (0: none; default 5, or 0 with --validate)"),
                   effect: Optional[list[str]] = typer.Option(None, "--effect", help="an effect tried (repeatable, "
                                                              "in this order; default geometry, compliance, payload; "
                                                              "also: coupling, lateral, bending, varying, thermal, "
-                                                             "tilt, backlash)"),
+                                                             "tilt, backlash; -name: the default ones but that "
+                                                             "one)"),
                   effects: Optional[str] = typer.Option(None, "--effects", help="the same as --effect, "
                                                         "comma-separated: a,b"),
                   frame: Optional[list[str]] = typer.Option(None, "--frame", help="a measured point (repeatable; "
@@ -55,7 +59,8 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
         dg = run(model, data, out, force=force, targets=targets, kind="absolute", set_name="vjm calibrate",
                  model_name=str(model), alpha=alpha, effects=effect_names(effect, effects), folds=folds,
                  frame=frame or None, columns=columns, validate=validate or (), register=register_on,
-                 outliers=outliers, progress=(lambda s: typer.echo(s, err=True)) if verbose else None)
+                 same_setup=same_setup, outliers=outliers,
+                 progress=(lambda s: typer.echo(s, err=True)) if verbose else None)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(dg.summary().brief(), nl=False)

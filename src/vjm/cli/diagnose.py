@@ -41,6 +41,9 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, kind=
     from ..robot.compensate import check_targets
 
     check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "max_effects", "suggest") and v is not None})
+    if kw.get("same_setup") and not kw.get("validate"):
+        raise VjmError("--same-setup says the --validate files were measured in the fitted data's set-up; give "
+                       "--validate")
     # the kind from the model file, not the model: the output folder is checked before any work
     k = kinds.get(kind) if kind is not None else kinds.find(data_path, model_path, kw.get("columns"))
     if targets is not None and not k.commands:
@@ -60,7 +63,8 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, kind=
 
 def effect_names(effect, effects) -> list | None:
     """The effects of ``--effect`` (repeated) and ``--effects a,b`` (kept for the commands written with it), in
-    order; None when neither is given."""
+    order, ``-name`` an effect excluded (absolute poses: :func:`vjm.calibration.diagnosis.check_options`); None
+    when neither is given."""
     names = list(effect or []) + [e.strip() for e in (effects or "").split(",") if e.strip()]
     return names or None
 
@@ -85,7 +89,9 @@ def diagnose_cmd(
                                                                 "round (default 0.01; a robot's: F test level of an "
                                                                 "effect, default 0.001)"),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="restrict the candidates (repeatable); a "
-                                                                      "robot's: the effects tried, in this order"),
+                                                                      "robot's: the effects tried, in this order; "
+                                                                      "-name: the default ones but that one "
+                                                                      "(absolute poses)"),
     effects: Optional[str] = typer.Option(None, "--effects", help="the same as --effect, comma-separated: a,b"),
     folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation (default 5; absolute poses: "
                                                               "0 none, and 0 with --validate)"),
@@ -98,6 +104,9 @@ def diagnose_cmd(
                                                                            "instrument set-up; repeatable)"),
     register_on: int = typer.Option(30, "--register", help="poses of each --validate file that register its "
                                                            "instrument frame (the robot or machine frozen)"),
+    same_setup: bool = typer.Option(False, "--same-setup", help="absolute poses: the --validate files without a "
+                                                                "group column were measured in the fitted data's "
+                                                                "set-up: every row held out on its registration"),
     targets: Optional[Path] = typer.Option(None, "--targets", help="a robot's: also commands.csv, the joint values "
                                                                   "reaching these points x,y,z[,rx,ry,rz] (mm, rad, "
                                                                   "base frame) under self-weight, calibrated model"),
@@ -123,7 +132,8 @@ def diagnose_cmd(
         dg = run(model, data, out, alpha=alpha, effects=effect_names(effect, effects), folds=folds, frame=frame or None,
                  progress=(lambda s: typer.echo(s, err=True)) if verbose else None,
                  suggest=suggest, forces_only=forces_only, force=force, outliers=outliers, noise=noise,
-                 columns=columns, validate=validate or (), register=register_on, targets=targets)
+                 columns=columns, validate=validate or (), register=register_on, targets=targets,
+                 same_setup=same_setup)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(dg.summary().brief().rstrip("\n"))

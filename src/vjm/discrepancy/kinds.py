@@ -35,7 +35,7 @@ from .stages.kinds import DeflectionKind, StiffnessKind
 from .stages.thresholds import DEFAULT_ALPHA
 
 #: the options only absolute poses read
-POSE_OPTIONS = ("columns", "validate", "frame")
+POSE_OPTIONS = ("columns", "validate", "frame", "same_setup")
 #: the options only the stages' kinds read
 STAGE_OPTIONS = ("suggest", "forces_only", "noise", "max_effects")
 

@@ -16,7 +16,7 @@ import numpy as np
 from linkfea.files.atomic import plain
 from linkfea.files.outputs import OutputSet, check_folder
 
-from .summary import Summary, alternative_lines, is_pose_report, verdict_line
+from .summary import Summary, alternative_lines, held_words, is_pose_report, verdict_line
 
 #: the files a report folder may hold (next_measurements.csv with --suggest)
 REPORT_FILES = ("report.json", "report.html", "before_after.png", "residuals_per_posture.png",
@@ -227,7 +227,8 @@ def _pose_html(rep: Mapping) -> str:
     held-out errors, the registration apart, the parameters, what was removed."""
     eff = [[e["effect"], f"{e['buys_mm']:.4f}", *_stats(e["before_mm"]), *_stats(e["after_mm"]),
             _pv(e["p_value"])] for e in rep["effects"]]
-    held = [[v["file"], v["registered_on"], v["rows"], *_stats(v["errors_mm"])] for v in rep["held_out"]["validate"]]
+    held = [[v["file"], held_words(v)[len("registered "):], v["rows"], *_stats(v["errors_mm"])]
+            for v in rep["held_out"]["validate"]]
     cv = [[s["name"], "named" if s["kept"] else "not named", f"{s['rms_mm']:.4f}",
            "-" if s["cv_rms_mm"] is None else f"{s['cv_rms_mm']:.4f}", _pv(s["p_value"]),
            s.get("note", "")] for s in rep["stages"]]
@@ -250,8 +251,8 @@ rows; points {html.escape(', '.join(rep['frames']))}); effects tried: {html.esca
 <h2>Effects named, in order of what each buys (position error of the fitted rows, mm)</h2>
 {_table(eff, ["effect", "buys (mean)"] + [f"before {k}" for k in st] + [f"after {k}" for k in st] + ["p"])}
 <h2>Stages</h2>{_table(cv, ["stage", "state", "RMS mm", "cross-validated RMS mm", "F test p", "note"])}
-<h2>Held out (each file registered on a few of its poses, the {'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen)</h2>
-{_table(held, ["file", "registered on", "rows held out"] + [f"{k} mm" for k in st]) if held else
+<h2>Held out (the {'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen; each file on the fitted registration, or a new set-up registered on a few of its poses)</h2>
+{_table(held, ["file", "registered", "rows held out"] + [f"{k} mm" for k in st]) if held else
  f"<p>{rep['held_out']['folds']}-fold cross-validation (stages above).</p>"}
 <h2>Registration (a nuisance, not an effect)</h2>
 {_table(frames, ["set-up", "t (mm)", "standard deviations"])}{_table(marks, ["marker on", "offset (mm)", "std (mm)"])}

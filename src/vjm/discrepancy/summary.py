@@ -214,14 +214,24 @@ def summary(rep) -> str:
 
 def _pose_verdict_line(rep) -> str:
     v = rep["verdict"]
-    if v == "no_discrepancy":
-        return "Verdict: no_discrepancy (nothing named beyond the registration)."
-    line = f"Verdict: {v}; named: {', '.join(rep['named_effects']) or 'nothing'}."
     lof = rep["lack_of_fit"]
+    # without sigmas nothing says the residuals are the instrument's noise: the verdict says so beside it
+    unjudged = "; lack of fit not judged: no sigmas" if lof.get("judged") is False else ""
+    if v == "no_discrepancy":
+        return f"Verdict: no_discrepancy (nothing named beyond the registration){unjudged}."
+    line = f"Verdict: {v}; named: {', '.join(rep['named_effects']) or 'nothing'}{unjudged}."
     if v == "unexplained":
         line += (f" The residuals stay {lof['rms_over_sigma']:.3g}x the stated sigmas (chi-square p = "
                  f"{lof['p_value']:.2g}): a gap no effect tried closes.")
     return line
+
+
+def held_words(v) -> str:
+    """How a validation file was registered: on the fitted set-up (every row held out), or on a few of its
+    poses (the others held out)."""
+    if v.get("registered_on", 0):
+        return f"registered on {v['registered_on']} of its poses"
+    return "registered on the fitted set-up"
 
 
 def _stats(st) -> str:
@@ -255,9 +265,10 @@ def pose_text(rep) -> str:
         cv = [f"{s['name']} {s['cv_rms_mm']:.3f}" for s in rep["stages"] if s["cv_rms_mm"] is not None]
         lines.append(f"Held out, {rep['held_out']['folds']}-fold cross-validated RMS (mm): " + ", ".join(cv))
     for v in rep["held_out"]["validate"]:
-        lines.append(f"Held out, {v['file']} (registered on {v['registered_on']} of its poses, "
+        rest = f"{v['rows']} others" if v.get("registered_on", 0) else f"all {v['rows']} rows"
+        lines.append(f"Held out, {v['file']} ({held_words(v)}, "
                      f"{'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen; "
-                     f"{v['rows']} others): {_stats(v['errors_mm'])}")
+                     f"{rest}): {_stats(v['errors_mm'])}")
     lines.append(f"Not identifiable (removed): {len(rep['not_identifiable'])}; not observable: "
                  + (", ".join(r["parameter"] for r in rep["not_observable"]) or "none"))
     if rep["set_aside"]:

@@ -38,7 +38,7 @@ def check_arguments(alpha=None, folds=None, max_effects=3, suggest=0):
 def diagnose(model, data, alpha: float | None = None, effects=None, folds: int | None = None, max_effects: int = 3,
              model_name: str | None = None, progress=None, suggest: int = 0, forces_only: bool = False,
              outliers: bool = True, noise: TrackerNoise | None = None, columns=None, validate=(),
-             register: int = 30, frame=None, kind: str | None = None) -> Diagnosis:
+             register: int = 30, frame=None, kind: str | None = None, same_setup: bool = False) -> Diagnosis:
     """Diagnose a model (loaded, or a model file) on a data set (read, or a file) of any registered kind.
 
     Parameters
@@ -54,8 +54,10 @@ def diagnose(model, data, alpha: float | None = None, effects=None, folds: int |
         (:mod:`~vjm.discrepancy.stages.outliers`); False: every row is used as it is.
     noise : the translations' sigmas of a laser tracker (:class:`~vjm.discrepancy.tracker.TrackerNoise`:
         growing with the distance from it, per axis) for deflection data whose file states none.
-    columns, validate, register, frame : absolute poses: a column map file, held-out files (each registered
-        on ``register`` of its poses), the measured points fitted.
+    columns, validate, register, frame, same_setup : absolute poses: a column map file, held-out files (each
+        on the fitted registration when its rows are in the fitted set-up -- a ``group`` column of fitted
+        groups, or none and ``same_setup`` -- else registered on ``register`` of its poses), the measured
+        points fitted.
     kind : the name of the data kind (:mod:`vjm.discrepancy.kinds`); None: the registry recognises the data.
     progress : called with a line per selection round.
     """
@@ -66,7 +68,7 @@ def diagnose(model, data, alpha: float | None = None, effects=None, folds: int |
     k = kinds.get(kind) if kind is not None else kinds.find(data, model, columns)
     options = dict(alpha=alpha, effects=effects, folds=folds, max_effects=max_effects, model_name=model_name,
                    progress=progress, suggest=suggest, forces_only=forces_only, outliers=outliers, noise=noise,
-                   columns=columns, validate=validate, register=register, frame=frame)
+                   columns=columns, validate=validate, register=register, frame=frame, same_setup=same_setup)
     k.check(options)
     if isinstance(data, (str, os.PathLike)):
         data = k.read(data, model, columns)
