@@ -1,6 +1,7 @@
 """The calibrated robot in memory (vjm.calibration.write.calibrated_model) is the robot that the written
 calibrated.urdf and calibrated.yaml describe, loaded back: the same tools, forward kinematics, Jacobians,
-stiffness and self-weight sag at several configurations, to round-off."""
+stiffness and self-weight sag at several configurations, to round-off (the fitted stiffnesses are the file's,
+rounded at their standard deviations, in both)."""
 import os
 import warnings
 
@@ -21,6 +22,8 @@ VALUES = {"shoulder_lift_joint.offset": 2e-3, "elbow_joint.offset": -1.5e-3, "el
           "elbow_joint.dz": -0.3, "elbow_joint.ex": 5e-4, "wrist_1_joint.ey": -3e-4, "wrist_2_joint.dy": 0.2,
           "shoulder_lift_joint.compliance": 4e-6, "elbow_joint.compliance": 8e-6, "wrist_1_joint.compliance": 0.0,
           "tool0.px": 1.5, "reg[A].tx": 3.0}
+#: their standard deviations where the file rounds them
+STD = {"shoulder_lift_joint.compliance": 3e-8, "elbow_joint.compliance": 1.2e-7}
 
 
 def _source(tmp_path, masses: bool):
@@ -37,7 +40,7 @@ def test_the_model_in_memory_is_the_model_written_back(tmp_path, masses):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         src = vjm.load_model(_source(tmp_path, masses))
-    cal = Calibration(src, "tool0", dict(VALUES), {}, {}, np.array([10.0, -20.0, 110.0]),
+    cal = Calibration(src, "tool0", dict(VALUES), dict(STD), {}, np.array([10.0, -20.0, 110.0]),
                       extra=(("wrist_2_link", np.array([0.0, 40.0, 60.0])),))
     mem = calibrated_model(cal)
     urdf, yml = tmp_path / "calibrated.urdf", tmp_path / "calibrated.yaml"
@@ -46,16 +49,20 @@ def test_the_model_in_memory_is_the_model_written_back(tmp_path, masses):
         warnings.simplefilter("ignore")
         back = vjm.load_model(str(yml))
     assert mem.kind == "serial" and isinstance(mem, vjm.Model)
-    assert mem.tools == back.tools == ("tool0_marker", "wrist_2_link_marker")
+    assert mem.tools == back.tools == ("tool0_marker", "wrist_2_link_marker", "tool0")   # the markers first
     assert mem.q_names == back.q_names and mem.name == back.name
-    assert mem.gravity == pytest.approx(back.gravity, abs=0)
-    assert set(mem.joint_springs) == set(back.joint_springs) == {"shoulder_lift_joint", "elbow_joint"}
+    assert mem.gravity == pytest.approx(back.gravity, abs=0) and mem.home == back.home == src.home
+    # every joint the source names: the fitted ones changed, the others (wrist_1's compliance 0) the source's
+    assert set(mem.joint_springs) == set(back.joint_springs) == set(src.joint_springs)
     assert all(mem.joint_springs[j].stiffness == back.joint_springs[j].stiffness for j in mem.joint_springs)
-    # the written robot file carries no added masses: neither does the model in memory
+    assert mem.joint_springs["wrist_1_joint"].stiffness == src.joint_springs["wrist_1_joint"].stiffness
+    assert mem.joint_springs["elbow_joint"].stiffness != src.joint_springs["elbow_joint"].stiffness
+    assert not mem.links and not back.links   # the fit takes the links as rigid: their springs are left out
+    # the written robot file carries the added masses: so does the model in memory
     assert sorted(b.name for b in mem.tree.bodies) == sorted(b.name for b in back.tree.bodies)
     mass = sum(b.mass for b in mem.tree.bodies)
     assert mass == pytest.approx(sum(b.mass for b in back.tree.bodies), rel=1e-12)
-    assert sum(b.mass for b in src.tree.bodies) == pytest.approx(mass + (2.5 if masses else 0.0), rel=1e-12)
+    assert sum(b.mass for b in src.tree.bodies) == pytest.approx(mass, rel=1e-12)
     for tool in mem.tools:
         Tm, Tb = mem.forward(Q, tool), back.forward(Q, tool)
         np.testing.assert_allclose(Tm[:, :3, 3], Tb[:, :3, 3], rtol=0, atol=1e-9)      # mm

@@ -163,4 +163,4 @@ def test_vjm_calibrate_measures_both_points(torso):
     assert [m["frame"] for m in rep["registration"]["markers"]] == list(HANDS)
     urdf = (out / "calibrated.urdf").read_text()
     assert all(f'<link name="{h}_marker"' in urdf for h in HANDS)
-    assert yaml.safe_load((out / "calibrated.yaml").read_text())["tools"] == [f"{h}_marker" for h in HANDS]
+    assert yaml.safe_load((out / "calibrated.yaml").read_text())["tools"] == [f"{h}_marker" for h in HANDS] + list(HANDS)

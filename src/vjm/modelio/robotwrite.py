@@ -9,7 +9,7 @@ import os
 from ..errors import VjmError
 
 
-def _absolute(doc: dict, base: str) -> dict:
+def absolute_paths(doc: dict, base: str) -> dict:
     """``doc`` with the file paths it names (the URDF, linkfea results of link springs, 6x6 joint springs and
     masses) made absolute from ``base``, the folder of the file it was read from."""
     def fix(entry):
@@ -41,4 +41,4 @@ def save_robot(model, path) -> None:
     path = os.path.abspath(os.fspath(path))
     check_model_out(path)
     base = os.path.dirname(model.path) if model.path else os.path.dirname(model.tree.source)
-    write_text(path, model_file_text(_absolute(model.raw, base), ROBOT_HEADER))
+    write_text(path, model_file_text(absolute_paths(model.raw, base), ROBOT_HEADER))
