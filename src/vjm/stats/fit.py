@@ -268,6 +268,22 @@ def chi2_p(stat: float, dof: int) -> float:
     return float(stats.chi2.sf(stat, dof))
 
 
+def chi2_range(alpha: float, dof: float) -> tuple[float, float]:
+    """The two-sided acceptance range, at level ``alpha``, of a reduced chi-square (chi2 / dof) on ``dof``
+    degrees of freedom: the residuals' variance in units of the stated one is consistent inside it."""
+    return float(stats.chi2.ppf(alpha / 2, dof) / dof), float(stats.chi2.ppf(1 - alpha / 2, dof) / dof)
+
+
+def chi2_margin(alpha: float, dof: int = 1) -> float:
+    """The upper ``alpha`` quantile of chi-square on ``dof`` degrees of freedom (a likelihood-ratio margin)."""
+    return float(stats.chi2.ppf(1.0 - alpha, dof))
+
+
+def normal_upper(p: float) -> float:
+    """The standard normal deviate with upper-tail probability ``p`` (a z threshold)."""
+    return float(stats.norm.isf(p))
+
+
 def grouped_folds(groups, k: int = 5, seed: int = 0) -> list:
     """Boolean test masks of a k-fold split that keeps each group (posture) whole."""
     g = np.asarray(groups)

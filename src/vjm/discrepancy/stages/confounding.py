@@ -30,9 +30,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
-from ...stats.fit import clipped
+from ...stats.fit import chi2_margin, clipped
 from ...stats.selection import Selection
 from .. import observe
 from ..predict import CALIBRATION
@@ -253,7 +252,7 @@ def confounding(prob, sel: Selection, sens, cal_cols, cand_rep, alpha, rivals=No
     rivals = rivals or {}
     Q = observe._orth(cal_cols)
     sig = signatures(sens, Q, cand_rep)
-    margin = float(stats.chi2.ppf(1.0 - alpha, 1))
+    margin = chi2_margin(alpha, 1)
     separated, unfit = separated_pairs(sel, rivals, margin)
     groups, d1 = collinear_groups(sig, separated)
     groups, d2 = near_rivals(sel, rivals, sig, margin, groups)

@@ -40,9 +40,8 @@ from dataclasses import dataclass, field
 from typing import cast
 
 import numpy as np
-from scipy import stats
 
-from ...stats.fit import FitResult, f_ratio
+from ...stats.fit import FitResult, chi2_range, f_ratio, normal_upper
 from ..data import Deflections
 from .kinds import DeflectionKind
 from .problem import Setup
@@ -138,13 +137,13 @@ def _group_numbers(s: Setup, E: np.ndarray, k: int, n: int, cols, alpha) -> dict
         return None
     dof = max(e.size - k * e.size / n, 1.0)
     ratio2 = float(e @ e) / dof
-    lo, hi = stats.chi2.ppf(alpha / 2, dof) / dof, stats.chi2.ppf(1 - alpha / 2, dof) / dof
+    lo, hi = chi2_range(alpha, dof)
     state = "too_small" if ratio2 > hi else "too_large" if ratio2 < lo else "consistent"
     # the same ratio from the bulk of the residuals (1.4826 x their median absolute value) and its upper
     # limit (the MAD scale's standard error is about 1.166 / sqrt(n) relative): a few gross values inflate
     # the RMS ratio but not this one, so they are left to the outlier stage instead of taken as noise
     robust = float(1.4826 * np.median(np.abs(e)))
-    robust_hi = 1.0 + stats.norm.isf(alpha / 2) * 1.166 / np.sqrt(e.size)
+    robust_hi = 1.0 + normal_upper(alpha / 2) * 1.166 / np.sqrt(e.size)
     return {"ratio": float(np.sqrt(ratio2)), "range": [float(np.sqrt(lo)), float(np.sqrt(hi))], "stated": state,
             "dof": float(dof), "robust_ratio": robust, "robust_hi": float(robust_hi)}
 

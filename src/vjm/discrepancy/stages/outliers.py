@@ -28,9 +28,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 from ... import effects as fx
+from ...stats.fit import normal_upper
 from ..predict import CALIBRATION, Predictor, apply_calibration
 from .norms import robust_scale
 
@@ -88,7 +88,7 @@ class Outliers:
 
 def threshold(n: int) -> float:
     """|z| beyond which one of ``n`` standard normal observations is an outlier."""
-    return max(Z_MIN, float(stats.norm.isf(FALSE_FLAG / (2 * max(n, 1)))))
+    return max(Z_MIN, normal_upper(FALSE_FLAG / (2 * max(n, 1))))
 
 
 def file_rows(data) -> np.ndarray:
