@@ -83,3 +83,16 @@ def test_unregistering_restores_the_registry(toy_kind):
     kinds.register(toy_kind)   # the fixture removes it again
     with pytest.raises(VjmError):
         kinds.register(ScalarStiffness())
+
+
+def test_a_bundled_data_name_is_recognised_from_another_folder(tmp_path, monkeypatch):
+    """``vjm diagnose puu seed_table1.csv`` run elsewhere: the bundled file's header decides its kind (stiffness
+    observations: k_tran/k_rot columns and no wrench), as its reader resolves the name, not the fallback of deflections."""
+    import vjm
+    from vjm.discrepancy import kinds
+    from vjm.resources import seed_table
+
+    monkeypatch.chdir(tmp_path)
+    head = next(x for x in seed_table().read_text().splitlines() if not x.startswith("#")).split(",")
+    assert any(h.startswith("k_tran") for h in head) and "Fx" not in head   # wide stiffness columns, no wrench
+    assert kinds.find("seed_table1.csv", vjm.load_model("puu")).name == "stiffness"

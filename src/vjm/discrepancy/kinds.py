@@ -19,6 +19,7 @@ from __future__ import annotations
 import csv
 import os
 import re
+import warnings
 
 from linkfea.mechanics.compliance import WRENCH
 from linkfea.runtime.checks import Bounds, integer
@@ -28,6 +29,7 @@ from ..calibration import parallel_diagnosis as platform
 from ..calibration.poses import AbsolutePoses, read_column_map
 from ..errors import ArgumentError, VjmError
 from ..modelio.read import file_kind
+from ..resources import data_file
 from .data import QUANTITIES, StiffnessObs, read_csv
 from .pipeline import diagnose_stages
 from .report import REPORT_FILES
@@ -182,9 +184,18 @@ def model_kind(model) -> str:
 
 
 def header(data) -> set:
-    """The column names of a CSV file's header (the first row not a comment, at most 64 kB read); empty when
-    ``data`` is no readable file (its reader then says why; a device such as /dev/zero is never read)."""
-    if not isinstance(data, (str, os.PathLike)) or not os.path.isfile(data):
+    """The column names of a CSV file's header (the first row not a comment, at most 64 kB read; a bundled
+    name resolved as the readers resolve it, :func:`vjm.resources.data_file`); empty when ``data`` is no
+    readable file (its reader then says why; a device such as /dev/zero is never read)."""
+    if not isinstance(data, (str, os.PathLike)):
+        return set()
+    with warnings.catch_warnings():   # the reader warns once, when it reads
+        warnings.simplefilter("ignore")
+        try:
+            data = data_file(data)   # a bundled name ("seed_table1.csv") as the reader resolves it
+        except VjmError:
+            return set()
+    if not os.path.isfile(data):
         return set()
     try:
         with open(data, newline="", encoding="utf-8-sig") as f:
