@@ -32,7 +32,7 @@ from ..effects import absolute
 from ..errors import VjmError
 from ..kinematics import forward as fk
 from ..kinematics.transforms import ROTATION
-from .serial import Layout, instrument_jacobian, registration_parameters, rotation_matrix
+from .serial import Layout, instrument_jacobian, layout_of, rotation_matrix
 
 #: the measured frame of a parallel machine
 FRAME = "platform"
@@ -65,19 +65,8 @@ def full_layout(model, asm: fk.Assembly, groups) -> Layout:
     """Every parameter: each group's registration, the marker (6-dof platforms), then each effect's
     (:mod:`vjm.effects.absolute`, in the order of their rank): the actuator offsets, the chains' base
     translations."""
-    names, kinds, units = registration_parameters(groups)
-    if asm.dof == 6:
-        for c in "xyz":
-            names.append(f"{FRAME}.p{c}")
-            kinds.append("marker")
-            units.append("mm")
-    at = site(model, asm)
-    for e in absolute.of_kind("parallel"):
-        for n, _, step in e.parameters(at):
-            names.append(n)
-            kinds.append(e.name)
-            units.append(step)
-    return Layout(tuple(names), tuple(kinds), tuple(units))
+    markers = [f"{FRAME}.p{c}" for c in "xyz"] if asm.dof == 6 else []
+    return layout_of(groups, markers, site(model, asm), absolute.of_kind("parallel"))
 
 
 @dataclass(frozen=True, eq=False)

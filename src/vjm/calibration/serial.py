@@ -114,15 +114,18 @@ def full_layout(model, frame: str, groups, effects=()) -> Layout:
     order of their rank -- those listed always (offsets and origin errors per joint of the path, the
     compliances, the backlashes) and those of the ``effects`` tried (with coupling each joint's value
     coupled to each other's, ``a.coupling[b]``: a turns by that times b's value, ...)."""
+    tried = [e for e in absolute.of_kind("serial") if not e.on_demand or e.name in effects]
+    return layout_of(groups, [f"{frame}.{k}" for k in ("px", "py", "pz")], site(model, frame), tried)
+
+
+def layout_of(groups, markers, at: absolute.Site, effects) -> Layout:
+    """The parameters of a measurement model, in their order: each group's registration, the ``markers``'
+    offsets (mm), then each of ``effects``' parameters over the site ``at`` (a robot's or a machine's)."""
     names, kinds, units = registration_parameters(groups)
-    for k in ("px", "py", "pz"):
-        names.append(f"{frame}.{k}")
-        kinds.append("marker")
-        units.append("mm")
-    at = site(model, frame)
-    for e in absolute.of_kind("serial"):
-        if e.on_demand and e.name not in effects:
-            continue
+    names += list(markers)
+    kinds += ["marker"] * len(markers)
+    units += ["mm"] * len(markers)
+    for e in effects:
         for n, _, step in e.parameters(at):
             names.append(n)
             kinds.append(e.name)
