@@ -3,7 +3,6 @@ an arm on a vertical column whose carriage tilts under the moment it carries, th
 extension (two passive revolute joints at the carriage, deflected by ``c(q) g`` in the equilibrium).  The
 calibration names the guide, recovers its compliance at both ends of the travel, and the held-out error drops
 to the noise; a telescope whose stages are one drive (mimic joints) is one candidate."""
-import os
 import warnings
 
 import numpy as np

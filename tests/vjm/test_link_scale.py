@@ -37,19 +37,24 @@ def model():
         return vjm.load_model(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
 
 
-@pytest.fixture(scope="module")
-def flexible(model, tmp_path_factory):
-    """The truth's URDF (the springs' passive joints) and its hidden effects."""
+def _springs(model, folder, scale):
+    """The truth's URDF (the springs' passive joints) and its hidden effects, each spring ``scale`` times the
+    model file's."""
     with open(URDF, encoding="utf-8") as f:
         text = f.read()
     passive = {}
     for name, (link, child, xyz, rpy) in SPRINGS.items():
         text = truth.with_link_spring(text, link, child, xyz, rpy, name)
-        C = truth.si_compliance(model.links[name].spring.compliance) * SCALE[name]
+        C = truth.si_compliance(model.links[name].spring.compliance) * scale[name]
         passive[tuple(f"{name}_{a}" for a in ("tx", "ty", "tz", "rx", "ry", "rz"))] = lambda row, C=C: C
-    path = tmp_path_factory.mktemp("links") / "ur10_springs.urdf"
+    path = folder / "ur10_springs.urdf"
     path.write_text(text)
     return str(path), truth.Hidden(**BASE, passive=passive)
+
+
+@pytest.fixture(scope="module")
+def flexible(model, tmp_path_factory):
+    return _springs(model, tmp_path_factory.mktemp("links"), SCALE)
 
 
 def _data(model, urdf, hidden, n, seed):
@@ -82,15 +87,8 @@ def test_a_link_more_compliant_than_its_cad_is_scaled(model, flexible):
 
 
 def test_the_links_as_stated_recover_scale_one_and_the_line_reads_so(model, tmp_path):
-    with open(URDF, encoding="utf-8") as f:
-        text = f.read()
-    passive = {}
-    for name, (link, child, xyz, rpy) in SPRINGS.items():
-        text = truth.with_link_spring(text, link, child, xyz, rpy, name)
-        C = truth.si_compliance(model.links[name].spring.compliance)
-        passive[tuple(f"{name}_{a}" for a in ("tx", "ty", "tz", "rx", "ry", "rz"))] = lambda row, C=C: C
-    (tmp_path / "u.urdf").write_text(text)
-    data = _data(model, str(tmp_path / "u.urdf"), truth.Hidden(**BASE, passive=passive), 200, 3)
+    urdf, hidden = _springs(model, tmp_path, {"upper_arm": 1.0, "forearm": 1.0})
+    data = _data(model, urdf, hidden, 200, 3)
     cal = calibrate(model, data, "tool0", effects=("geometry", "compliance", "link_scale"))
     key = "upper_arm.link_scale"
     assert abs(_total(cal, key) - 1.0) < 4 * cal.std[key] and cal.std[key] < 0.06
