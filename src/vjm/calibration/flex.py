@@ -270,7 +270,7 @@ def flex_loads(model, q: np.ndarray, frame: str, temperature=None) -> Flex:
     qn = list(model.tree.q_names)
     guides = tuple(Guide(name, js, (q[:, qn.index(name)] - lo) / (hi - lo)) for name, (lo, hi), js in
                    guide_axes(model, frame))
-    links = tuple(_link_load(model, *spring, W) for spring in link_springs(model, frame))
+    links = tuple(_link_load(model, name, ji, S, C, W) for name, ji, S, C in link_springs(model, frame))
     return Flex(lateral, beams, dT, guides, links)
 
 
