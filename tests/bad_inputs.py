@@ -637,6 +637,13 @@ CASES = [
          "of other groups (c); hold out one set-up per file",
          {**CAL_FILES, "g.csv": GROUPED, "v.csv": GROUPED.replace(",b\n", ",c\n")},
          "a held-out file mixing a fitted set-up and another"),
+    # 38.3: an effect asked for that the robot cannot have
+    Case("38.3", "vjm calibrate r.yaml p.csv --out o --effect guide_tilt", "guide_tilt: no prismatic joint with a "
+         "finite travel (a linear axis, a track, a column) on the path to l2: the effect has nothing to fit", CAL_FILES,
+         "a two-joint revolute arm"),
+    Case("38.3", "vjm diagnose r.yaml p.csv --out o --effect link_scale", "link_scale: the model states no link "
+         "spring (links: a beam, a linkfea result) on the path to l2: the effect has nothing to fit", CAL_FILES,
+         "r.yaml: joint springs, no links:"),
 ]
 
 

@@ -19,6 +19,10 @@ A serial arm read by pinocchio from its URDF carries hidden effects:
 - a base tilt: the gravity turned about the base's x and y axes;
 - joint couplings: a joint turning by k times another's commanded value (what the data call a joint is a
   combination of two);
+- passive joints (a guide's carriage tilting, a link spring's six deflections): joints of the URDF that no
+  command drives, deflected in the same fixed point by ``theta_p = -C(q) g_p(theta)``, ``g_p`` their
+  generalized gravity and ``C`` a compliance (k, k) in SI units that may depend on the commanded row;
+- prismatic joints commanded in mm (converted to pinocchio's m);
 - an unknown instrument frame (R, t) and a marker offset on the measured frame;
 - noise (iid, mm).
 It returns what a laser tracker would log: the commanded q (rad) and the marker's position in the
@@ -54,6 +58,9 @@ class Hidden:
     lateral: dict = field(default_factory=dict)    # {joint: rad/(N m)}: its bearing's tilt under the normal moment
     bending: dict = field(default_factory=dict)    # {joint carrying the link: 1/EI in 1/(N m^2)}
     alpha: float = 0.0                             # 1/K: length scale with the rows' temperature
+    #: {passive joint names (tuple): function of the commanded row {joint: value (rad, mm)} -> compliance (k, k)
+    #: in m/N, rad/(N m) (and their cross terms)}: what no command drives, deflected under its gravity
+    passive: dict = field(default_factory=dict)
 
 
 def _rotation(w) -> np.ndarray:
@@ -118,15 +125,21 @@ def _measure(urdf: str, frame: str, names, q: np.ndarray, hidden: Hidden, temper
     for nm, v in hidden.varying.items():
         cv[m.idx_qs[m.getJointId(nm)]] = v
     out = np.empty((len(q), 3))
+    unit = np.array([1e-3 if m.joints[m.getJointId(nm)].shortname().startswith("JointModelP") else 1.0
+                     for nm in names])   # a prismatic joint commanded in mm
+    pidx = {g: [m.idx_qs[m.getJointId(nm)] for nm in g] for g in hidden.passive}
     for k, row in enumerate(q):
         qc = np.zeros(m.nq)
-        qc[idx] = row
+        qc[idx] = row * unit
+        Cp = {g: np.asarray(f(dict(zip(names, row))), dtype=float) for g, f in hidden.passive.items()}
         for (a, bb), kc in hidden.coupling.items():
             qc[m.idx_qs[m.getJointId(a)]] += kc * row[list(names).index(bb)]
         theta = qc + off
         for _ in range(100):
             g = pin.computeGeneralizedGravity(m, d, theta)
             new = qc + off - (c + cv * qc) * g - b * np.sign(g)
+            for grp, C in Cp.items():
+                new[pidx[grp]] = -C @ g[pidx[grp]]
             done = np.max(np.abs(new - theta)) < 1e-14
             theta = new
             if done:
@@ -226,3 +239,90 @@ def urdf_joint(name, parent, child, xyz, axis):
     return (f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
             f'<origin xyz="{xyz}" rpy="0 0 0"/><axis xyz="{axis}"/>'
             f'<limit lower="-3.2" upper="3.2" effort="100" velocity="1"/></joint>')
+
+
+def urdf_prismatic(name, parent, child, xyz, axis, lower, upper, rpy="0 0 0"):
+    """A prismatic URDF joint at ``xyz`` (m) along ``axis``, travel [lower, upper] m."""
+    return (f'<joint name="{name}" type="prismatic"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{xyz}" rpy="{rpy}"/><axis xyz="{axis}"/>'
+            f'<limit lower="{lower}" upper="{upper}" effort="1000" velocity="1"/></joint>')
+
+
+def urdf_passive(name, parent, child, xyz="0 0 0", axis="1 0 0", kind="revolute", rpy="0 0 0"):
+    """A passive URDF joint (a spring's deflection): wide limits, no command drives it."""
+    return (f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{xyz}" rpy="{rpy}"/><axis xyz="{axis}"/>'
+            f'<limit lower="-1" upper="1" effort="1000" velocity="1"/></joint>')
+
+
+def guide_robot_urdf(tilt: bool = False, stages: int = 1) -> str:
+    """A four-joint arm on a vertical prismatic column (travel 0 to 0.8 m; with ``stages`` 2 a telescope whose
+    second stage is a mimic of the first), the measured frame ``tool``.  ``tilt``: two passive revolute joints
+    (about the carriage's x and y, ``tilt_x``/``tilt_y``, and per further stage ``tilt2_x``/``tilt2_y``) at the
+    top of each stage, between it and what it carries: the truth of a guide tilting under its moment."""
+    parts = ['<robot name="guide_robot">', '<link name="base_link"/>']
+    parent = "base_link"
+    for k in range(stages):
+        tag = "" if k == 0 else str(k + 1)
+        stage = f"stage{tag}"
+        parts.append(urdf_link(stage, 0.001, "0 0 0"))
+        joint = urdf_prismatic(f"column{tag}", parent, stage, "0 0 0.5" if k == 0 else "0 0 0.1", "0 0 1", 0.0, 0.8)
+        if k > 0:
+            joint = joint.replace("</joint>", '<mimic joint="column" multiplier="1" offset="0"/></joint>')
+        parts.append(joint)
+        parent = stage
+        if tilt:
+            parts += [urdf_link(f"{stage}_tx", 0.0, "0 0 0"), urdf_link(f"{stage}_ty", 0.0, "0 0 0"),
+                      urdf_passive(f"tilt{tag}_x", parent, f"{stage}_tx", axis="1 0 0"),
+                      urdf_passive(f"tilt{tag}_y", f"{stage}_tx", f"{stage}_ty", axis="0 1 0")]
+            parent = f"{stage}_ty"
+    parts += [urdf_link("carriage", 10.0, "0 0 0.1"), _fixed("carriage_fix", parent, "carriage"),
+              urdf_link("turret", 8.0, "0 0 0.1"), urdf_joint("j1", "carriage", "turret", "0 0 0.3", "0 0 1"),
+              urdf_link("upper", 6.0, "0.3 0 0"), urdf_joint("j2", "turret", "upper", "0 0 0.2", "0 1 0"),
+              urdf_link("fore", 4.0, "0.25 0 0"), urdf_joint("j3", "upper", "fore", "0.6 0 0", "0 1 0"),
+              urdf_link("hand", 1.0, "0 0 -0.05"), urdf_joint("j4", "fore", "hand", "0.5 0 0", "0 0 1"),
+              '<link name="tool"/>', _fixed("tool_fix", "hand", "tool", "0 0 -0.1"), "</robot>"]
+    return "\n".join(parts)
+
+
+def _fixed(name, parent, child, xyz="0 0 0", rpy="0 0 0"):
+    return (f'<joint name="{name}" type="fixed"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{xyz}" rpy="{rpy}"/></joint>')
+
+
+def with_link_spring(urdf_text: str, link: str, child_joint: str, xyz, rpy, prefix: str) -> str:
+    """The URDF with six passive joints (``prefix``_tx, _ty, _tz, _rx, _ry, _rz: translations then rotations
+    about the spring frame's axes) inserted on ``link`` at the spring frame (``xyz`` m, ``rpy``) before the
+    joint ``child_joint``, whose origin is moved into the spring's deflected frame: the truth of a link spring
+    (its deflections, at zero, the spring frame's local twist)."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(urdf_text)
+    S = pin.SE3(pin.rpy.rpyToMatrix(*[float(a) for a in rpy]), np.array(xyz, dtype=float))
+    cj = next(j for j in root.findall("joint") if j.get("name") == child_joint)
+    o = cj.find("origin")
+    O = pin.SE3(pin.rpy.rpyToMatrix(*[float(a) for a in o.get("rpy", "0 0 0").split()]),
+                np.array([float(a) for a in o.get("xyz", "0 0 0").split()]))
+    N = S.inverse() * O
+    o.set("xyz", " ".join(repr(float(v)) for v in N.translation))
+    o.set("rpy", " ".join(repr(float(v)) for v in pin.rpy.matrixToRpy(N.rotation)))
+    parent = link
+    for k, (kind, axis) in enumerate((("prismatic", "1 0 0"), ("prismatic", "0 1 0"), ("prismatic", "0 0 1"),
+                                      ("revolute", "1 0 0"), ("revolute", "0 1 0"), ("revolute", "0 0 1"))):
+        name = f"{prefix}_{'t' if k < 3 else 'r'}{'xyz'[k % 3]}"
+        child = f"{prefix}_l{k}"
+        root.append(ET.fromstring(f'<link name="{child}"/>'))
+        root.append(ET.fromstring(urdf_passive(name, parent, child, " ".join(map(str, xyz)) if k == 0 else "0 0 0",
+                                               axis, kind, " ".join(map(str, rpy)) if k == 0 else "0 0 0")))
+        parent = child
+    cj.find("parent").set("link", parent)
+    return ET.tostring(root, encoding="unicode")
+
+
+def si_compliance(C: np.ndarray) -> np.ndarray:
+    """A 6x6 compliance in mm/N, rad/(N mm) by block (order Fx..Mz) in SI: m/N, rad/(N m)."""
+    C = np.asarray(C, dtype=float)
+    out = C.copy()
+    out[:3, :3] = C[:3, :3] / 1000.0
+    out[3:, 3:] = C[3:, 3:] * 1000.0
+    return out

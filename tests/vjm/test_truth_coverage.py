@@ -21,6 +21,8 @@ ROBOT = {
     "tilt": ("test_robot_truth_cases.py", "test_a_base_tilt_is_named_through_the_compliances"),
     "backlash": ("test_robot_truth_cases.py", "test_backlash_flipping_with_the_gravity_torque_is_named"),
     "payload": ("test_robot_calibration.py", "test_a_payload_at_the_marker_is_weighed_through_the_compliances"),
+    "guide_tilt": ("test_guide_tilt.py", "test_a_tilting_guide_is_named_and_its_compliance_recovered"),
+    "link_scale": ("test_link_scale.py", "test_a_link_more_compliant_than_its_cad_is_scaled"),
 }
 PARALLEL = {
     "offset": ("test_parallel_poses_truth.py", "test_hidden_strut_offsets_are_named_and_recovered"),

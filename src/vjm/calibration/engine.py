@@ -305,6 +305,10 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
     use = _options(effects)
     if use["thermal"]:
         _temperature(data)   # before any fitting
+    for e in effects:   # an effect asked for with nothing to fit on this robot (its own reason)
+        why = getattr(absolute.POSES[e], "usable", lambda m, d: None)(model, data)
+        if why:
+            raise VjmError(f"{e}: {why}: the effect has nothing to fit")
     frames, ps = _initial(model, data, fr, p0)
     measured = tuple(zip(fr, ps))
     prob = _problems(model, data, measured, frames, **use)

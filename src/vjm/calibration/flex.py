@@ -19,7 +19,23 @@ driven by the nominal model's self-weight (or the temperature) and scaled by one
   torsional compliance ``c + c' q`` (first order of any dependence), the deflection ``-c' q g(q)`` added;
 - **length scale with temperature** ``thermal.alpha`` (1/K): every joint placement's translation and the
   measured frame's scaled by ``1 + alpha (T - 20 C)`` with the row's temperature ``T`` (a ``meta_temperature``
-  column).
+  column);
+- **a prismatic guide's tilt** ``<joint>.guide_tilt_lower`` and ``<joint>.guide_tilt_upper`` (rad per N mm):
+  the carriage of a prismatic joint (a linear axis, a gantry, a track, a telescopic column) tilts under the
+  moment it carries, the rotation ``-c(q) M_perp`` after the joint's motion as for a lateral compliance (an
+  isotropic guide: one compliance about both axes normal to the guide).  The compliance grows as the guide
+  extends and its overlaps shrink: ``c(q) = c_lower (1 - s) + c_upper s`` with ``s = (q - lower) / (upper -
+  lower)`` the fraction of the joint's travel (its limits), that is ``a + b q`` written by its values at the
+  travel's ends -- the first order of any dependence (``a + b / overlap`` needs the overlap at full
+  retraction, which no model file states), linear in its parameters, and physical over the whole travel
+  exactly when both ends are >= 0.  A mimic joint (one drive moving several segments) shares its master's
+  two compliances, each segment tilting under its own moment;
+- **a link spring's scale** ``<link>.link_scale`` (1): the model's link spring (a beam, a linkfea result:
+  its 6x6 compliance ``C`` in the spring frame) deflects by ``C w`` under the wrench ``w`` it carries (the
+  weight of everything beyond it, about the spring's origin, in its frame); the parameter multiplies that
+  nominal deflection, which moves what follows the spring rigidly.  With the nominal deflection in the
+  baseline (scale 1) the fitted parameter is the correction ``s - 1`` on top of it and the link is
+  ``s = nominal + correction`` times as compliant as its CAD predicts (:func:`link_scale_text`).
 
 The loads are the nominal model's (its masses under its gravity) at the commanded configurations: the
 effects are small, their products with the calibration's corrections second order.
@@ -51,20 +67,54 @@ class Beam:
 
 
 @dataclass(frozen=True, eq=False)
+class Guide:
+    """A prismatic guide: the parameters' prefix ``name`` (the driving joint), the tree joints it moves
+    (``joints``: the driving one and its mimics on the path) and the rows' fraction of its travel ``s`` (n,)."""
+
+    name: str
+    joints: tuple
+    s: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class LinkLoad:
+    """A link spring's nominal deflection: its ``name``, the tree joint carrying it, its frame ``S`` (4, 4) in
+    that joint's frame (after the joint's motion), and per row the translation ``t`` (n, 3) mm and rotation
+    ``r`` (n, 3) rad of ``C w`` in the spring frame."""
+
+    name: str
+    joint: int
+    S: np.ndarray
+    t: np.ndarray
+    r: np.ndarray
+
+    @property
+    def S_inv(self) -> np.ndarray:
+        """The spring frame's inverse (a rigid motion)."""
+        Si = np.eye(4)
+        Si[:3, :3] = self.S[:3, :3].T
+        Si[:3, 3] = -self.S[:3, :3].T @ self.S[:3, 3]
+        return Si
+
+
+@dataclass(frozen=True, eq=False)
 class Flex:
     """The loads of the flex effects at the rows' configurations: per tree joint the lateral deflection per
     unit compliance ``lateral`` (n, nj, 3) rad per (rad/(N mm)) in the joint's frame (``-M_perp``), the
-    ``beams``, and the rows' temperature offsets ``dT`` (n,) K from :data:`T_REF` (None without a
-    temperature column)."""
+    ``beams``, the rows' temperature offsets ``dT`` (n,) K from :data:`T_REF` (None without a
+    temperature column), the prismatic ``guides`` and the link springs' nominal deflections ``links``."""
 
     lateral: np.ndarray
     beams: tuple
     dT: np.ndarray | None = None
+    guides: tuple = ()
+    links: tuple = ()
 
     def rows(self, mask: np.ndarray) -> Flex:
         """The loads of the rows ``mask`` selects."""
         return Flex(self.lateral[mask], tuple(replace(b, theta=b.theta[mask], u=b.u[mask]) for b in self.beams),
-                    None if self.dT is None else self.dT[mask])
+                    None if self.dT is None else self.dT[mask], tuple(replace(g, s=g.s[mask]) for g in self.guides),
+                    tuple(replace(k, t=k.t[mask], r=k.r[mask]) for k in self.links))
 
 
 def rotations(w: np.ndarray) -> np.ndarray:
@@ -156,6 +206,56 @@ def _beam(model, a: int, b: int, k: int, L: float, W, F, M) -> Beam:
     return Beam(beam_name(model, a), a, b, tip, theta, u)
 
 
+def guide_axes(model, frame: str) -> list:
+    """The prismatic guides of the path to ``frame``: (driving joint's name, its travel (lower, upper), the
+    tree joints it moves on the path), one per driving joint (a mimic segment is its master's), those with a
+    finite travel only (the compliance is stated at its ends)."""
+    tree = model.tree
+    out: dict = {}
+    for i in tree.path(tree.frame(frame).joint):
+        j = tree.joints[i]
+        if j.kind[0] != "t":
+            continue
+        master = j.name if j.mimic is None else j.mimic[0]
+        m = tree.joints[tree.joint_index(master)]
+        if m.kind[0] == "t" and np.isfinite(m.lower) and np.isfinite(m.upper) and m.upper > m.lower:
+            out.setdefault(master, ((float(m.lower), float(m.upper)), []))[1].append(i)
+    return [(k, lim, tuple(js)) for k, (lim, js) in out.items()]
+
+
+def link_springs(model, frame: str) -> list:
+    """The model's link springs on the path to ``frame`` that deflect: (name, tree joint carrying it, its
+    frame (4, 4) in that joint's frame, its 6x6 compliance)."""
+    tree = model.tree
+    path = set(tree.path(tree.frame(frame).joint))
+    out = []
+    for name, ps in model.links.items():
+        C = ps.spring.compliance
+        f = tree.frame(ps.at)
+        if C is not None and f.joint in path:
+            out.append((name, f.joint, f.placement @ ps.offset, np.asarray(C, dtype=float)))
+    return out
+
+
+def _link_load(model, name: str, ji: int, S: np.ndarray, C: np.ndarray, W: np.ndarray) -> LinkLoad:
+    """The spring's deflection ``C w`` under the weight ``w`` of what it carries: the bodies beyond its joint
+    (its own link's body sits before it, as in :func:`vjm.robot.tree.path_chain`), about its origin."""
+    tree = model.tree
+    g = np.asarray(model.gravity, dtype=float)
+    Sw = W[:, ji] @ S
+    F = np.zeros((len(W), 3))
+    M = np.zeros_like(F)
+    for b in tree.bodies:
+        if b.joint < 0 or b.mass == 0 or b.joint == ji or ji not in tree.path(b.joint):
+            continue
+        c = np.einsum("nij,j->ni", W[:, b.joint, :3, :3], np.asarray(b.com, dtype=float)) + W[:, b.joint, :3, 3]
+        F += b.mass * g
+        M += np.cross(c - Sw[:, :3, 3], b.mass * g)
+    w = np.concatenate([np.einsum("nji,nj->ni", Sw[:, :3, :3], F), np.einsum("nji,nj->ni", Sw[:, :3, :3], M)], axis=1)
+    d = w @ C.T
+    return LinkLoad(name, ji, S, d[:, :3], d[:, 3:])
+
+
 def flex_loads(model, q: np.ndarray, frame: str, temperature=None) -> Flex:
     """The :class:`Flex` loads of the path to ``frame`` at q (n, nq); ``temperature`` (n,) C or None."""
     W = world_frames(model, q)
@@ -167,7 +267,34 @@ def flex_loads(model, q: np.ndarray, frame: str, temperature=None) -> Flex:
         lateral[:, i] = -(Ml[:, i] - np.outer(Ml[:, i] @ a, a))
     beams = tuple(_beam(model, a, b, k, L, W, F, M) for a, b, k, L in beam_axes(model, frame))
     dT = None if temperature is None else np.asarray(temperature, dtype=float) - T_REF
-    return Flex(lateral, beams, dT)
+    qn = list(model.tree.q_names)
+    guides = tuple(Guide(name, js, (q[:, qn.index(name)] - lo) / (hi - lo)) for name, (lo, hi), js in
+                   guide_axes(model, frame))
+    links = tuple(_link_load(model, name, ji, S, C, W) for name, ji, S, C in link_springs(model, frame))
+    return Flex(lateral, beams, dT, guides, links)
+
+
+def guide_compliance(g: Guide, vals: dict) -> np.ndarray:
+    """The guide's tilt compliance (n,) rad/(N mm) at the rows: its ends' values interpolated along the travel."""
+    lo, hi = vals.get(f"{g.name}.guide_tilt_lower", 0.0), vals.get(f"{g.name}.guide_tilt_upper", 0.0)
+    return lo * (1.0 - g.s) + hi * g.s
+
+
+def link_motion(k: LinkLoad, v: float) -> np.ndarray:
+    """The rigid motion (n, 4, 4) in the carrying joint's frame of the link spring ``k`` deflected ``v`` times its
+    nominal deflection: ``S D S^-1``, D the spring frame's small motion (translation, then rotation)."""
+    D = np.broadcast_to(np.eye(4), (len(k.t), 4, 4)).copy()
+    D[:, :3, :3] = rotations(v * k.r)
+    D[:, :3, 3] = v * k.t
+    return k.S @ D @ k.S_inv
+
+
+def link_scale_text(link: str, total: float, std: float) -> str:
+    """The report's line of a fitted link scale: how compliant the link is against its CAD (the model's link
+    spring), ``total`` the scale (nominal 1 plus the fitted correction) and ``std`` its standard deviation."""
+    digits = max(0, -int(np.floor(np.log10(std)))) if std > 0 and np.isfinite(std) else 2   # std's first digit
+    words = link.replace("_", " ")
+    return f"the {words} is {total:.{digits}f} +- {std:.{digits}f} times as compliant as its CAD predicts"
 
 
 def _axis(j) -> np.ndarray:
@@ -191,6 +318,17 @@ def transforms(flex: Flex | None, model, frame: str, vals: dict) -> tuple[dict, 
             T = np.broadcast_to(np.eye(4), (len(flex.lateral), 4, 4)).copy()
             T[:, :3, :3] = rotations(c * flex.lateral[:, i])
             post[i] = T
+    for g in flex.guides:
+        c = guide_compliance(g, vals)
+        if np.any(c):
+            for i in g.joints:
+                T = np.broadcast_to(np.eye(4), (len(c), 4, 4)).copy()
+                T[:, :3, :3] = rotations(c[:, None] * flex.lateral[:, i])
+                post[i] = post[i] @ T if i in post else T
+    for k in flex.links:   # after the joint's motion and its bearing's tilt, as the chain's link springs
+        v = vals.get(f"{k.name}.link_scale", 0.0)
+        if v:
+            post[k.joint] = post[k.joint] @ link_motion(k, v) if k.joint in post else link_motion(k, v)
     for bm in flex.beams:
         c = vals.get(bm.name, 0.0)
         if c:

@@ -28,7 +28,7 @@ from ..effects import absolute
 from ..effects.absolute import GEOMETRY
 from ..kinematics.transforms import elementary
 from ..robot.tree import _rigid_inverse
-from .flex import beam_axes, beam_name, transforms
+from .flex import beam_axes, beam_name, guide_axes, link_motion, link_springs, transforms
 
 _REG = ("tx", "ty", "tz", "rx", "ry", "rz")
 _STEP = {"mm": 1e-4, "rad": 1e-7, "kg": 1e-3}
@@ -97,14 +97,19 @@ def registration_parameters(groups) -> tuple[list, list, list]:
 
 def site(model, frame: str) -> absolute.Site:
     """What a robot's effects repeat over on the path to ``frame`` (:class:`vjm.effects.absolute.Site`): every
-    joint, the free ones (not mimics), their ordered pairs, the links bending as beams, once."""
+    joint, the free ones (not mimics), the free revolute ones (``bearing``), their ordered pairs, the links
+    bending as beams, the prismatic guides (``guide``, one per driving joint), the model's link springs
+    (``spring``), once."""
     path = [model.tree.joints[i] for i in model.tree.path(model.tree.frame(frame).joint)]
     free = [j.name for j in path if j.mimic is None]
     return absolute.Site("serial", {
         "joint": tuple({"joint": j.name} for j in path),
         "free": tuple({"joint": n} for n in free),
+        "bearing": tuple({"joint": j.name} for j in path if j.mimic is None and j.kind[0] == "r"),
         "pair": tuple({"joint": a, "other": b} for a in free for b in free if a != b),
         "beam": tuple({"link": beam_name(model, a)[:-len(".bending")]} for a, *_ in beam_axes(model, frame)),
+        "guide": tuple({"joint": name} for name, *_ in guide_axes(model, frame)),
+        "spring": tuple({"link": name} for name, *_ in link_springs(model, frame)),
         "once": ({},)})
 
 
@@ -299,6 +304,12 @@ def load_scale(prob: Problem, name: str, unit: str) -> float:
         v = np.linalg.norm(prob.flex.lateral[:, prob.model.tree.joint_index(joint)], axis=1)
     elif unit == "bend":
         v = np.linalg.norm(next(b.theta for b in prob.flex.beams if b.name == name), axis=1)
+    elif unit == "guide":
+        g = next(g for g in prob.flex.guides if g.name == joint)
+        v = np.concatenate([np.linalg.norm(prob.flex.lateral[:, i], axis=1) for i in g.joints])
+    elif unit == "scale":   # a link's nominal deflection: its rotation, or its translation over 1 m
+        k = next(k for k in prob.flex.links if k.name == joint)
+        v = np.linalg.norm(k.r, axis=1) + np.linalg.norm(k.t, axis=1) / 1000.0
     else:   # "K": a relative length change of 1e-7
         v = prob.flex.dT
     return float(np.max(np.abs(v), initial=0.0))
@@ -430,8 +441,11 @@ def _flex_columns(prob: Problem, vals: dict, cols: dict, at: tuple, pb: np.ndarr
     ``Tj`` (after its motion)."""
     ji, j, F, G, Tj = at
     flex = prob.flex
-    lat = np.einsum("nij,nj->ni", Tj[:, :3, :3], flex.lateral[:, ji])
-    cols[f"{j.name}.lateral"] = np.cross(lat, pb - Tj[:, :3, 3])
+    base = _before_links(prob, vals, ji, Tj)
+    lat = np.einsum("nij,nj->ni", base[:, :3, :3], flex.lateral[:, ji])
+    cols[f"{j.name}.lateral"] = np.cross(lat, pb - base[:, :3, 3])
+    if flex.guides or flex.links:
+        _guide_link_columns(prob, vals, cols, ji, base, pb)
     for bm in flex.beams:
         if bm.joint == ji:
             c = vals.get(bm.name, 0.0)
@@ -442,6 +456,48 @@ def _flex_columns(prob: Problem, vals: dict, cols: dict, at: tuple, pb: np.ndarr
         # the placement's translation, scaled, moves what follows rigidly: in the frame just before it
         Gr = G[:, :3, :3] @ j.placement[:3, :3].T
         cols["thermal.alpha"] = cols.get("thermal.alpha", 0.0) + flex.dT[:, None] * (Gr @ j.placement[:3, 3])
+
+
+def _before_links(prob: Problem, vals: dict, ji: int, Tj: np.ndarray) -> np.ndarray:
+    """Joint ``ji``'s frame after its motion and its bearing's or guide's tilt, before its link springs'
+    deflections (``Tj`` after all of them, :func:`vjm.calibration.flex.transforms`)."""
+    base = Tj
+    for k in reversed([k for k in prob.flex.links if k.joint == ji]):
+        v = vals.get(f"{k.name}.link_scale", 0.0)
+        if v:
+            base = base @ _inverse_batch(link_motion(k, v))
+    return base
+
+
+def _guide_link_columns(prob: Problem, vals: dict, cols: dict, ji: int, base: np.ndarray, pb: np.ndarray) -> None:
+    """The columns of a prismatic guide's tilt compliances at joint ``ji`` and of the link springs it carries,
+    from its frame before the link springs (``base``): each spring's ``S D S^-1`` follows in turn; each
+    column is exact (a rotation about a fixed axis differentiates to that axis times itself)."""
+    mine = [k for k in prob.flex.links if k.joint == ji]
+    for g in prob.flex.guides:
+        if ji in g.joints:
+            lat = np.cross(np.einsum("nij,nj->ni", base[:, :3, :3], prob.flex.lateral[:, ji]), pb - base[:, :3, 3])
+            for end, w in (("lower", 1.0 - g.s), ("upper", g.s)):
+                name = f"{g.name}.guide_tilt_{end}"
+                cols[name] = cols.get(name, 0.0) + lat * w[:, None]
+    for k in mine:
+        v = vals.get(f"{k.name}.link_scale", 0.0)
+        M = link_motion(k, v)
+        D = k.S_inv @ M @ k.S   # the spring frame's small motion
+        F = base @ k.S @ D      # the spring frame after its deflection
+        z = np.einsum("nji,nj->ni", F[:, :3, :3], pb - F[:, :3, 3])
+        loc = np.cross(k.r, z) + np.einsum("nji,nj->ni", D[:, :3, :3], k.t)   # r x z + R^T t
+        cols[f"{k.name}.link_scale"] = np.einsum("nij,nj->ni", F[:, :3, :3], loc)
+        base = base @ M
+
+
+def _inverse_batch(T: np.ndarray) -> np.ndarray:
+    """Inverses (n, 4, 4) of rigid motions (n, 4, 4)."""
+    out = np.broadcast_to(np.eye(4), T.shape).copy()
+    Rt = np.swapaxes(T[:, :3, :3], 1, 2)
+    out[:, :3, :3] = Rt
+    out[:, :3, 3] = -np.einsum("nij,nj->ni", Rt, T[:, :3, 3])
+    return out
 
 
 def jacobian_fast(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = None) -> np.ndarray:

@@ -89,7 +89,8 @@ UNITS = ("# Units: N, mm, kg, rad; gravity in m/s^2.  A joint's stiffness is in 
          "# joint), the inverse of its compliance in rad/(N mm) (mm/N).\n")
 
 #: fitted effects the robot file and the URDF have no place for (listed in the file's head, not carried)
-_NOT_CARRIED = ("lateral", "bending", "varying", "alpha", "backlash")
+_NOT_CARRIED = ("lateral", "bending", "varying", "alpha", "backlash", "guide_tilt_lower", "guide_tilt_upper",
+                "link_scale")
 
 
 class Rounded(float):

@@ -32,8 +32,8 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
                   effect: Optional[list[str]] = typer.Option(None, "--effect", help="an effect tried (repeatable, "
                                                              "in this order; default geometry, compliance, payload; "
                                                              "also: coupling, lateral, bending, varying, thermal, "
-                                                             "tilt, backlash; -name: the default ones but that "
-                                                             "one)"),
+                                                             "tilt, backlash, guide_tilt, link_scale; -name: the "
+                                                             "default ones but that one)"),
                   effects: Optional[str] = typer.Option(None, "--effects", help="the same as --effect, "
                                                         "comma-separated: a,b"),
                   frame: Optional[list[str]] = typer.Option(None, "--frame", help="a measured point (repeatable; "

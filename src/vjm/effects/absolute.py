@@ -326,7 +326,7 @@ class Lateral(PoseEffect):
 
     name = "lateral"
     description = "each joint's lateral (bearing) compliance under the moment normal to its axis"
-    over = "free"
+    over = "bearing"   # a revolute joint's; a prismatic joint's carriage tilts as a guide (guide_tilt)
     patterns = (Pattern("{joint}.lateral", _TORQUE_UNIT, "lat", lower=0.0),)
     rank = 50
     options = ("flex",)
@@ -444,3 +444,63 @@ class Attachment(PoseEffect):
     patterns = tuple(Pattern(f"{{chain}}.base.d{c}", "mm", "mm") for c in "xyz")
     rank = 20
     hand_written = True
+
+
+# ------------------------------------------------------------------------- a robot's, beyond its joints
+
+@register_pose
+class GuideTilt(PoseEffect):
+    """A prismatic guide's carriage (a linear axis, a gantry, a track, a telescopic column) tilting under the
+    moment it carries, its compliance growing as the guide extends: stated at the two ends of the joint's
+    travel (``over`` ``"guide"``: one per driving joint, its mimic segments sharing it), both >= 0 -- the
+    compliance is then >= 0 over the whole travel (:mod:`vjm.calibration.flex`)."""
+
+    name = "guide_tilt"
+    description = "a prismatic guide's carriage tilting under the moment it carries, more as it extends"
+    over = "guide"
+    patterns = (Pattern("{joint}.guide_tilt_lower", _TORQUE_UNIT, "guide", lower=0.0),
+                Pattern("{joint}.guide_tilt_upper", _TORQUE_UNIT, "guide", lower=0.0))
+    rank = 110
+    options = ("flex",)
+    screen = "lateral"
+    hand_written = True
+
+    def usable(self, model, data) -> str | None:
+        """Why the effect has nothing to fit on ``model`` measured at ``data``'s frames, or None."""
+        from ..calibration.flex import guide_axes
+
+        frames = list(getattr(data, "points", ()))
+        if any(guide_axes(model, f) for f in frames):
+            return None
+        return (f"no prismatic joint with a finite travel (a linear axis, a track, a column) on the path to "
+                f"{', '.join(frames)}")
+
+
+@register_pose
+class LinkScale(PoseEffect):
+    """The model's link springs (beams, linkfea results) scaled, one factor per link spring (``over``
+    ``"spring"``): the parameter multiplies the link's nominal deflection under what it carries
+    (:mod:`vjm.calibration.flex`).  The model's own value of the scale is 1 (:meth:`nominal`): with the nominal
+    deflection in the baseline the parameter is the correction on top of it; its domain is that of the
+    total, a scale > 0 (0: a rigid link)."""
+
+    name = "link_scale"
+    description = "each link spring of the model scaled: how compliant the link is against its CAD or FEA"
+    over = "spring"
+    patterns = (Pattern("{link}.link_scale", "1", "scale", lower=0.0),)
+    rank = 120
+    options = ("flex",)
+    hand_written = True
+
+    def usable(self, model, data) -> str | None:
+        """Why the effect has nothing to fit on ``model`` measured at ``data``'s frames, or None."""
+        from ..calibration.flex import link_springs
+
+        frames = list(getattr(data, "points", ()))
+        if any(link_springs(model, f) for f in frames):
+            return None
+        return f"the model states no link spring (links: a beam, a linkfea result) on the path to {', '.join(frames)}"
+
+    def nominal(self, model, site: Site) -> dict:
+        """The model file's value of each parameter's total: 1 (the link spring as stated)."""
+        return {n: 1.0 for n, _, _ in self.parameters(site)}
