@@ -4,8 +4,8 @@ Each series (data/realdata/ur10_ipa, A-D: its own tracker set-up) is calibrated 
 (the default effects, 5-fold cross-validation, outlying rows set aside), and for the shoulder-lift and
 elbow compliances every pair's ``|v_i - v_j| / sqrt(s_i^2 + s_j^2)`` is printed: with the formal standard
 deviations (``s^2 (J^T J)^-1``, before) and with those the calibration reports (:mod:`vjm.stats.uncertainty`).
-The compliances are the totals: the model's nominal compliance (1 / stiffness of ur10.yaml) added where the
-fit reports a correction to it.
+The compliances are the totals, those of the calibrated model (1 / its joints' stiffness, rounded as
+calibrated.yaml writes them), whether the fit starts from zero or from the model's nominal compliance.
 
 Usage: ``python benchmarks/error_bars_ur10.py``.
 """
@@ -18,6 +18,7 @@ import numpy as np
 
 from vjm.calibration import engine
 from vjm.calibration.robust import calibrate_robust
+from vjm.calibration.write import calibrated_model
 from vjm.stats.uncertainty import parameter_std
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -27,12 +28,10 @@ from error_bars import final_fit
 JOINTS = ("shoulder_lift_joint", "elbow_joint")
 
 
-def total(model, cal, joint: str) -> float:
-    """The joint's total compliance, rad/(N mm): the fitted one, plus the model's nominal one where the
-    calibration fits a correction to it (``nominal`` a field it then has)."""
-    v = cal.values[f"{joint}.compliance"]
-    nominal = getattr(cal, "nominal", None) or {}
-    return v + nominal.get(f"{joint}.compliance", 0.0)
+def total(cal, joint: str) -> float:
+    """The joint's total compliance, rad/(N mm), as the calibrated model has it (1 / its stiffness): the fitted
+    compliance whether the fit starts from zero or fits a correction to the model's nominal one."""
+    return 1.0 / float(calibrated_model(cal).joint_springs[joint].stiffness)
 
 
 def main() -> None:
@@ -46,7 +45,7 @@ def main() -> None:
         prob, lay, x, meas = final_fit(model, rows, cal)
         formal = parameter_std(engine._jacobian(prob, lay, x), (engine._predict(prob, lay, x) - meas).ravel(),
                                []).formal
-        res[s] = {j: (total(model, cal, j), formal[lay.names.index(f"{j}.compliance")],
+        res[s] = {j: (total(cal, j), formal[lay.names.index(f"{j}.compliance")],
                       cal.std[f"{j}.compliance"]) for j in JOINTS}
         print(f"{s}: {d.n} rows, {time.perf_counter() - t:.0f} s; {cal.std_method}", flush=True)
     for j in JOINTS:
