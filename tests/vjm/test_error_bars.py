@@ -44,7 +44,7 @@ def test_jackknife_covers_correlated_errors_where_the_formal_one_does_not():
         hit["formal"] += abs(beta[1] - 2.0) <= Z95 * u.formal[1]
         hit["std"] += abs(beta[1] - 2.0) <= Z95 * u.std[1]
     assert hit["formal"] < 0.6 * 300    # errors shared within a cluster: the formal interval far too narrow
-    assert hit["std"] >= 0.88 * 300     # 16 clusters: a little under 95 % with the normal quantile
+    assert hit["std"] >= 0.85 * 300     # 16 clusters: under 95 % with the normal quantile (90 % here)
 
 
 def test_stated_sigmas_scaled_by_the_lack_of_fit():
@@ -107,6 +107,13 @@ def test_calibration_reports_error_bars_that_cover_the_truth():
         v.append(cal.values["shoulder_lift_joint.compliance"] * 1000)
         s.append(cal.std["shoulder_lift_joint.compliance"] * 1000)
     assert "jackknife over" in cal.std_method and "neighbouring poses" in cal.std_method
+    from vjm.calibration import report as cr
+    from vjm.calibration.diagnosis import pose_report
+    from vjm.discrepancy.summary import pose_text
+
+    rep = pose_report(cr.report(cal, cr.Options("tool0", ("compliance",)), "ur10.urdf", data, [], 0.0), cal, data,
+                      1e-3)
+    assert f"Standard deviations: {cal.std_method}." in pose_text(rep) and rep["std_method"] == cal.std_method
     v, s = np.array(v), np.array(s)
     assert np.sum(np.abs(v - c) <= Z95 * s) >= 8
     # honest, not wide: the mean reported std within a factor 1.6 of the spread over the seeds (10 seeds: the
