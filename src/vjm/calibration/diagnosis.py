@@ -74,6 +74,8 @@ class PoseReport(FrozenReport):
     effects: tuple
     stages: tuple
     parameters: Mapping
+    #: how the parameters' standard deviations were computed (:mod:`vjm.stats.uncertainty`)
+    std_method: str = ""
     held_out: Mapping
     registration: Mapping
     not_identifiable: tuple

@@ -33,8 +33,10 @@ The selection is that of :mod:`vjm.stats.staged` (this module gives it the measu
 kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the registration
 only) and, with ``folds``, when its cross-validated error drops too.  Once all are tried, each stage kept
 is tested again beside the others (:func:`vjm.stats.staged.backward_stages`): one that the stages after it
-explain is dropped.  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
-are unweighted (mm), the model's errors exceeding the instruments' stated sigmas on real data.
+explain is dropped.  Residuals are unweighted (mm), the model's errors exceeding the instruments' stated sigmas
+on real data.  The final fit's standard deviations (:func:`final_uncertainty`, :mod:`vjm.stats.uncertainty`)
+account for what the model misses: the formal ones scaled by the lack of fit, or a delete-one-block
+jackknife over the registration groups or blocks of neighbouring poses, whichever is larger.
 """
 from __future__ import annotations
 
@@ -46,6 +48,7 @@ from ..effects import absolute
 from ..errors import VjmError
 from ..stats.fit import cross_validated, interleaved_folds
 from ..stats.staged import Best, Nested, least_squares_fit, select_stages
+from ..stats.uncertainty import Uncertainty, parameter_std, pose_blocks, residual_blocks
 from .flex import TEMPERATURE, flex_loads
 from .parallel import points as platform_points
 from .result import Calibration
@@ -317,8 +320,20 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
     stages, best, removed = run_stages(prob, full, meas, [s for s in known if s in effects], alpha, tol, flat,
                                        folds)
     lay = full.pick(best.idx)
-    return Calibration(model, fr[0], dict(zip(lay.names, best.x)), dict(zip(lay.names, best.std)), frames, ps[0],
-                       tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:])
+    unc = final_uncertainty(prob, lay, best.x, meas, data, fr)
+    return Calibration(model, fr[0], dict(zip(lay.names, best.x)), dict(zip(lay.names, unc.std)), frames, ps[0],
+                       tuple((full.names[i], why) for i, why in removed), tuple(stages), extra=measured[1:],
+                       std_method=unc.method)
+
+
+def final_uncertainty(prob, lay: Layout, x: np.ndarray, meas: np.ndarray, data, fr: tuple) -> Uncertainty:
+    """The final fit's standard deviations (:func:`vjm.stats.uncertainty.parameter_std`): scaled by the lack of
+    fit, and a jackknife over the registration groups or blocks of neighbouring poses (the rows' joint values)."""
+    r = (_predict(prob, lay, x) - meas).ravel()
+    parts = [(residual_blocks(rows, data.n, len(fr), meas.shape[1]), what) for rows, what in
+             pose_blocks(data.q, data.groups)]
+    sig = np.concatenate([data.sigmas[f] for f in fr]).ravel() if all(f in data.sigmas for f in fr) else None
+    return parameter_std(_jacobian(prob, lay, x), r, parts, sig)
 
 
 def run_stages(prob, full: Layout, meas: np.ndarray, order, alpha: float, tol: float, flat: float, folds: int,

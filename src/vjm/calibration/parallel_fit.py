@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import VjmError
 from ..kinematics import forward as fk
-from .engine import fit, registration_from_frames, run_stages
+from .engine import final_uncertainty, fit, registration_from_frames, run_stages
 from .parallel import FRAME, effect_names, full_layout, nominal_state, problem
 from .result import Calibration
 from .serial import Layout
@@ -81,9 +81,11 @@ def calibrate_platform(model, data, effects=None, alpha: float = 1e-3, tol: floa
     gone = [(full.names[i], why) for i, why in removed]
     if asm.dof == 3:
         gone = [(f"{FRAME}.p{c}", FIXED_MARKER) for c in "xyz"] + gone
-    return Calibration(model, FRAME, dict(zip(lay.names, best.x)), dict(zip(lay.names, best.std)), frames, p0,
+    unc = final_uncertainty(prob, lay, best.x, meas, data, (FRAME,))
+    return Calibration(model, FRAME, dict(zip(lay.names, best.x)), dict(zip(lay.names, unc.std)), frames, p0,
                        tuple(gone), tuple(stages), kinds={n: (k, u) for n, k, u in zip(full.names, full.kinds,
-                                                                                         full.units)})
+                                                                                         full.units)},
+                       std_method=unc.method)
 
 
 def register_platform(cal: Calibration, data) -> Calibration:

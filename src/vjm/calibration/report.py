@@ -237,6 +237,7 @@ def report(cal: Calibration, opt: Options, model_path, data, validations: list, 
         "stages": [_stage(s) for s in cal.stages],
         "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": cal.kinds[k][1] if k in cal.kinds else _unit(k)}
                        for k, v in cal.robot_values().items()},
+        "std_method": cal.std_method,
         "held_out": {"folds": opt.folds, "validate": validations},
         "registration": registration(cal),
         "not_identifiable": [r for r in removed if not r["why"].startswith("not observable")],

@@ -52,6 +52,8 @@ class Calibration:
     kinds: dict = field(default_factory=dict)
     cov: np.ndarray | None = None
     terms: dict = field(default_factory=dict)
+    #: how ``std`` was computed, in words ("" : the formal ``s^2 (J^T J)^-1``)
+    std_method: str = ""
 
     @property
     def names(self) -> tuple:

@@ -269,6 +269,8 @@ def pose_text(rep) -> str:
         lines.append(f"Held out, {v['file']} ({held_words(v)}, "
                      f"{'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen; "
                      f"{rest}): {_stats(v['errors_mm'])}")
+    if rep.get("std_method"):
+        lines.append(f"Standard deviations: {rep['std_method']}.")
     lines.append(f"Not identifiable (removed): {len(rep['not_identifiable'])}; not observable: "
                  + (", ".join(r["parameter"] for r in rep["not_observable"]) or "none"))
     if rep["set_aside"]:

@@ -8,5 +8,6 @@ effects and the model files can use it without importing :mod:`vjm.discrepancy`.
 ``fit`` (fits, likelihood-ratio / F tests, BIC, grouped or interleaved cross-validation, lack of fit), ``selection``
 (forward selection, backward elimination, pair screen, swaps within Occam's window), ``components``
 (variance components fitted apart), ``staged`` (staged selection over nested least-squares fits: identifiable
-columns, F tests and cross-validated error stage by stage, the backward re-test; the absolute-pose calibration's).
+columns, F tests and cross-validated error stage by stage, the backward re-test; the absolute-pose calibration's),
+``uncertainty`` (standard deviations scaled by the lack of fit and a block jackknife robust to correlated residuals).
 """
