@@ -637,6 +637,13 @@ CASES = [
          "of other groups (c); hold out one set-up per file",
          {**CAL_FILES, "g.csv": GROUPED, "v.csv": GROUPED.replace(",b\n", ",c\n")},
          "a held-out file mixing a fitted set-up and another"),
+    # 40.6: maps compared
+    Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare m", "--compare m is the --out folder: its map "
+         "would be replaced", note="a map compared with the folder it is written to"),
+    Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare o", "--compare o: holds no map.npz",
+         {"o/notes.txt": "mine\n"}, "o/: a folder without a map"),
+    Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare o", "--compare o/map.npz: not a readable "
+         "map.npz", {"o/map.npz": "not a map\n"}, "o/map.npz: a text file"),
 ]
 
 
