@@ -644,6 +644,13 @@ CASES = [
     Case("38.3", "vjm diagnose r.yaml p.csv --out o --effect link_scale", "link_scale: the model states no link "
          "spring (links: a beam, a linkfea result) on the path to l2: the effect has nothing to fit", CAL_FILES,
          "r.yaml: joint springs, no links:"),
+    # 40.6: maps compared
+    Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare m", "--compare m is the --out folder: its map "
+         "would be replaced", note="a map compared with the folder it is written to"),
+    Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare o", "--compare o: holds no map.npz",
+         {"o/notes.txt": "mine\n"}, "o/: a folder without a map"),
+    Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare o", "--compare o/map.npz: not a readable "
+         "map.npz", {"o/map.npz": "not a map\n"}, "o/map.npz: a text file"),
 ]
 
 

@@ -10,7 +10,8 @@ cache in the scratch folder.  Two kinds of block do not run here, each for a sta
 * a block right after the line ``<!-- norun: REASON -->``: a template that cannot run as it stands
   (a file of the package with relative imports, say).  The reason is required.
 
-The site itself is built with ``mkdocs build --strict`` by ``make test`` (links, anchors, the API pages).
+The site itself is built with ``mkdocs build --strict`` by ``make test`` (links, anchors, the API pages) and
+checked as a reader sees it by tests/test_docs_site.py.
 """
 from __future__ import annotations
 

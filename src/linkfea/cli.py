@@ -11,16 +11,17 @@ from rich.console import Console
 from rich.table import Table
 
 from .mechanics.compliance import TWIST, WRENCH
+from .runtime.clirun import HELP_SETTINGS, version_option
 from .runtime.errors import LinkFeaError, LinkFeaWarning, warnings_as_lines
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+app = typer.Typer(add_completion=False, no_args_is_help=True, **HELP_SETTINGS,
                   help="Link compliance by finite elements: CAD -> P2 tets -> 6x6 compliance at the link's frame.")
 #: Python arguments whose CLI flag is not their name with dashes (today none: ComputeOptions' names are the flags)
 FLAGS: dict[str, str] = {}
 
 
 @app.callback()
-def _root():
+def _root(version: bool = version_option("linkfea")):
     """linkfea: a link's CAD to its 6x6 compliance matrix."""
     warnings_as_lines(LinkFeaWarning)
 

@@ -12,7 +12,71 @@ import sys
 import threading
 
 import typer
+from typer.core import TyperGroup
 from typer.exceptions import TyperException
+
+#: a hyphen that text wrapping does not break at, swapped in while the help is wrapped
+_HYPHEN = "\u2011"
+
+
+#: the help formatter of the click that typer runs on (typer >= 0.22 carries its own copy of click)
+_Formatter: type = typer.Context.formatter_class
+
+
+class _WholeWords(_Formatter):
+    """click's help layout, wrapped at spaces only: ``--no-outliers`` and ``cross-validation`` stay whole."""
+
+    def write_text(self, text: str) -> None:
+        super().write_text(text.replace("-", _HYPHEN))
+
+    def write_dl(self, rows, col_max: int = 30, col_spacing: int = 2) -> None:
+        super().write_dl([(a, b.replace("-", _HYPHEN)) for a, b in rows], col_max, col_spacing)
+
+    def write(self, string: str) -> None:
+        super().write(string.replace(_HYPHEN, "-"))
+
+
+class _HelpContext(typer.Context):
+    formatter_class = _WholeWords
+
+
+class _HelpGroup(TyperGroup):
+    """The app's group: its commands' help is laid out by :class:`_WholeWords` too."""
+    context_class = _HelpContext
+
+    def get_command(self, ctx, cmd_name):
+        cmd = super().get_command(ctx, cmd_name)
+        if cmd is not None:
+            cmd.context_class = _HelpContext
+        return cmd
+
+
+#: ``typer.Typer`` settings of both commands' help: click's plain layout, wrapped at spaces (rich's option
+#: tables cut option help mid-word at 80 columns), as wide as the terminal up to 100 columns.
+HELP_SETTINGS: dict = {"rich_markup_mode": None, "cls": _HelpGroup,
+                       "context_settings": {"max_content_width": 100}}
+#: the distribution both packages ship in
+DISTRIBUTION = "linkfea-vjm"
+
+
+def package_version() -> str:
+    """The installed distribution's version (``unknown`` when the sources run uninstalled)."""
+    from importlib import metadata
+
+    try:
+        return metadata.version(DISTRIBUTION)
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def version_option(prog: str):
+    """A ``--version`` option for an app's callback: prints ``PROG VERSION``, exit status 0."""
+    def show(value: bool) -> None:
+        if value:
+            print(f"{prog} {package_version()}")
+            raise typer.Exit(0)
+
+    return typer.Option(False, "--version", help="print the version and exit", callback=show, is_eager=True)
 
 
 def run(app, argv=None, prog: str | None = None) -> int:

@@ -10,15 +10,18 @@ import sys
 
 import typer
 
+from linkfea.runtime.clirun import HELP_SETTINGS, version_option
+
 from . import calibrate, compensate, diagnose, map, path, simulate, stiffness, sweep, table1
 
-app = typer.Typer(add_completion=False,
-                  help="Virtual-joint-method stiffness of parallel machines and serial or tree robots.")
+app = typer.Typer(add_completion=False, **HELP_SETTINGS,
+                  help="Stiffness, deflection, diagnosis and calibration of robots by the virtual-joint method: "
+                       "serial and tree robots (URDF, DH) and parallel machines.")
 
 
 @app.callback()
-def _root():
-    """Virtual-joint-method stiffness of parallel machines and serial or tree robots."""
+def _root(version: bool = version_option("vjm")):
+    """Stiffness, deflection, diagnosis and calibration of serial, tree and parallel robots."""
     from linkfea.runtime.errors import LinkFeaWarning, warnings_as_lines
 
     from ..errors import VjmWarning

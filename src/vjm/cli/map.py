@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional
 
+import numpy as np
 import typer
 
 from ..errors import ArgumentError, VjmError, user_errors
@@ -32,22 +33,33 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
             tool: Optional[str] = typer.Option(None, "--tool", help="robots: the tool frame (default: the first)"),
             self_weight: bool = typer.Option(False, "--self-weight", help="robots: also the sag under the robot's "
                                                                           "own weight (sag.png)"),
+            compare: Optional[Path] = typer.Option(None, "--compare", help="the --out folder of another map on the "
+                                                   "same grid: also write this map's k_tran and k_rot over the "
+                                                   "other's (ratio.npz, k_tran_ratio.png, k_rot_ratio.png); the "
+                                                   "other folder is only read"),
             foot: Optional[Path] = FOOT, leg: Optional[Path] = LEG, force: bool = FORCE):
     """k_tran and k_rot over the workspace box: PNG maps and an .npz of K, k_tran, k_rot; robots: over two
     joints (--joints) or a Cartesian grid through the IK."""
     from linkfea.files.outputs import check_folder
     from linkfea.runtime.checks import integer
 
+    from ..maps import compare as cmp
     from ..maps.compute import GRID, MAP_FILES
 
     robot_only = {"--joints": joints, "--q": q, "--box": box, "--tool": tool, "--self-weight": self_weight or None}
     try:
         grid = integer(grid, "grid", GRID, ArgumentError)
-        check_folder(out, MAP_FILES, force=force, inputs=(model, foot, leg))  # before any work (a robot's set, a superset, checked again)
+        if compare is not None:
+            cmp.check_other(out, compare)
+        other = None if compare is None else cmp.read_map(compare)
+        check_folder(out, MAP_FILES + (cmp.RATIO_FILES if compare else ()), force=force,
+                     inputs=(model, foot, leg, *([compare / "map.npz"] if compare else [])))  # before any work (a robot's set, a superset, checked again)
         m = _load(model, foot, leg)
         if m.kind == "serial":
             if spread:
                 raise ArgumentError("spread", "is for parallel machines with FEA links; a robot map has none")
+            if compare is not None:
+                raise VjmError("--compare is for maps of parallel machines; compare a robot's map.csv files instead")
             from .robot_map import Request, run
 
             text = run(m, Request(grid, slice_, box, joints, q, orientation, tool, self_weight), out, force)
@@ -58,7 +70,16 @@ def map_cmd(model: Path = typer.Argument(..., help="model YAML"),
             raise VjmError(f"{given[0]} is for serial robots; {model} is a parallel machine")
         rot = _point(orientation or "0,0,0", "--orientation", (3,))
         smap = m.map(grid, slice_, orientation=rot, progress=_progress, spread=spread)
+        ratio = None if other is None else cmp.ratios(smap, other)  # a grid that differs: refused before writing
         smap.save(out, force=force)
+        if other is None:
+            cmp.drop_ratio(out)
+        else:
+            cmp.save_ratio(smap, other, out, ratio)
     except user_errors() as exc:
         _fail(exc)
-    typer.echo(f"{smap.summary()}; wrote {out}/k_tran.png, k_rot.png, map.npz")
+    wrote = "k_tran.png, k_rot.png, map.npz" + (", " + ", ".join(cmp.RATIO_FILES) if other else "")
+    typer.echo(f"{smap.summary()}; wrote {out}/{wrote}")
+    if ratio is not None:
+        typer.echo(f"this map over {compare}: k_tran x{np.nanmin(ratio[0]):.3g}..{np.nanmax(ratio[0]):.3g}, "
+                   f"k_rot x{np.nanmin(ratio[1]):.3g}..{np.nanmax(ratio[1]):.3g}")

@@ -18,6 +18,7 @@ True
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -91,6 +92,8 @@ class StiffnessMap:
     #: if the map was made without it
     k_tran_spread: Optional[np.ndarray] = None
     k_rot_spread: Optional[np.ndarray] = None
+    #: the model and the links the map was made with (:func:`map_label`), named in the pictures' titles
+    label: str = ""
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -129,6 +132,7 @@ class StiffnessMap:
             extra: dict = {} if self.k_tran_spread is None else dict(
                 k_tran_spread=self.k_tran_spread, k_rot_spread=self.k_rot_spread,
                 spread_note=np.array(f"k_tran_spread mm/N, k_rot_spread rad/(N mm), per point: {SPREAD_NOTE}"))
+            extra["label"] = np.array(self.label)  # names this map in the title of a map compared with it
             np.savez_compressed(npz, points=self.points, K=self.K, k_tran=self.k_tran, k_rot=self.k_rot,
                                 reachable=self.reachable, shape=np.array(self.shape),
                                 note=np.array("K world axes at the end-effector point; k_tran mm/N, "
@@ -157,22 +161,36 @@ class StiffnessMap:
         (isotropic Q0, Q1, Q2) are marked: filled when in the plane shown, hollow (with
         their distance to it) when projected.
         """
+        unit = dict(MAPS)[name]
+        k, here = self._shown_slice()
+        title = f"{name}, {'xyz'[k]} = {here:.4g} mm"
+        return self.plot_values(getattr(self, name), name, unit,
+                                f"{self.label}\n{title}" if self.label else f"{self.architecture}: {title}", ax)
+
+    def _shown_slice(self) -> tuple[int, float]:
+        """The axis fixed in the pictures and its value: the slice's, or the middle along z of a 3-D grid."""
+        if self.fixed is None:
+            return 2, float(np.asarray(self.axes[2])[self.shape[2] // 2])
+        return self.fixed[0], float(np.asarray(self.axes[self.fixed[0]])[0])
+
+    def plot_values(self, values, name: str, unit: str, title: str, ax=None):
+        """Draw ``values`` (one per point of the grid) as :meth:`plot` draws a map, with the colour bar
+        ``name [unit]`` and ``title``; returns the Axes."""
         from matplotlib.colors import LogNorm, Normalize
 
         from .views import pyplot
 
         plt = pyplot()
 
-        unit = dict(MAPS)[name]
         axes, shape = self.axes, self.shape
         if self.fixed is None:  # 3-D grid: show the middle slice along z
             k, idx = 2, shape[2] // 2
         else:
             k, idx = self.fixed[0], 0
         keep = [a for a in range(3) if a != k]
-        V = np.ma.masked_invalid(np.take(getattr(self, name).reshape(shape), idx, axis=k))
+        V = np.ma.masked_invalid(np.take(np.asarray(values, dtype=float).reshape(shape), idx, axis=k))
         if ax is None:
-            _, ax = plt.subplots(figsize=(5.5, 4.5))
+            _, ax = plt.subplots(figsize=(5.5, 4.8))
         u, v = (np.asarray(axes[a], dtype=float) for a in keep)
         lo, hi = (float(V.min()), float(V.max())) if V.count() else (np.nan, np.nan)
         log = bool(lo > 0 and hi / lo > LOG_SPAN)
@@ -205,7 +223,7 @@ class StiffnessMap:
         ax.set_ylim(v[0] - dv / 2, v[-1] + dv / 2)
         ax.set_xlabel(f"{'xyz'[keep[0]]} [mm]")
         ax.set_ylabel(f"{'xyz'[keep[1]]} [mm]")
-        ax.set_title(f"{self.architecture}: {name}, {'xyz'[k]} = {here:.4g} mm")
+        ax.set_title(title, fontsize=9)
         return ax
 
 
@@ -244,7 +262,32 @@ def compute_map(model, P, axes, fixed=None, where: str = "grid", progress: Optio
 
     in_chunks(len(idx), step, progress, "reachable points")
     return StiffnessMap(model.architecture, list(axes), fixed, P, ok, K, kt, kr, dict(model.arch.landmarks),
-                        st, sr)
+                        st, sr, map_label(model))
+
+
+def _link_source(link) -> str:
+    """How a link's spring was given, in a few words: a beam, rigid, a linkfea result (its file), a matrix."""
+    src = getattr(link, "source", None) or {}
+    if "linkfea" in src:
+        parts = os.path.normpath(str(src["linkfea"])).split(os.sep)
+        return "FEA " + "/".join(parts[-2:])
+    if src.get("rigid"):
+        return "rigid"
+    return next(iter(src), "matrix")
+
+
+def map_label(model) -> str:
+    """The model and the links a map is made with, as the map's titles name them.
+
+    >>> import vjm
+    >>> map_label(vjm.load_model("puu"))
+    'puu.yaml (orthoglide-3PUU); foot: beam, leg: beam'
+    """
+    path = getattr(model, "path", None)
+    name = f"{os.path.basename(path)} ({model.architecture})" if path else model.architecture
+    links = getattr(model, "links", None) or {}
+    used = ", ".join(f"{k}: {_link_source(v)}" for k, v in links.items())
+    return f"{name}; {used}" if used else name
 
 
 def grid_map(model, n: int, slice_: Optional[str] = None, orientation=None,

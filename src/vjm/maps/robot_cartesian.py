@@ -143,7 +143,7 @@ class CartesianMap:
         from .compute import StiffnessMap
 
         return StiffnessMap(self.name, list(self.grid.axes), self.grid.fixed, self.points, self.ok, self.K,
-                            self.k_tran, self.k_rot)
+                            self.k_tran, self.k_rot, label=robot_output.label(self))
 
     def plot(self, name: str = "k_tran", ax=None):
         """``k_tran`` or ``k_rot`` (:meth:`vjm.maps.compute.StiffnessMap.plot`), or ``sag``: the sag's length (mm)
@@ -166,7 +166,8 @@ class CartesianMap:
         ax.set_aspect("equal")
         ax.set_xlabel(f"{'xyz'[keep[0]]} [mm]")
         ax.set_ylabel(f"{'xyz'[keep[1]]} [mm]")
-        ax.set_title(f"{self.name}: sag, {'xyz'[k]} = {float(self.grid.axes[k][idx]):.4g} mm")
+        ax.set_title(f"{robot_output.label(self)}\nsag, {'xyz'[k]} = {float(self.grid.axes[k][idx]):.4g} mm",
+                     fontsize=9)
         return ax
 
 

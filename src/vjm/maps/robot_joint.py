@@ -84,6 +84,7 @@ class JointMap:
         ax.figure.colorbar(cs, ax=ax, label=f"{name} ({unit})")
         ax.set_xlabel(self.axes[1])
         ax.set_ylabel(self.axes[0])
+        ax.set_title(f"{robot_output.label(self)}\n{name} over {self.axes[0]} and {self.axes[1]}", fontsize=9)
         return ax
 
 

@@ -24,6 +24,14 @@ UNITS = ("k_tran mm/N, k_rot rad/(N mm) (largest eigenvalues of the compliance b
          "point; sag mm and rad; joints rad (mm prismatic); NaN: not evaluated")
 
 
+def label(res) -> str:
+    """The robot and the tool a map is of, as its pictures' titles name them."""
+    import os
+
+    name = os.path.basename(res.model_path) if res.model_path else (res.model_name or "robot")
+    return f"{name}; tool {res.tool}" if res.tool else name
+
+
 def files(self_weight: bool) -> tuple[str, ...]:
     """The files of a map's set (``sag.png`` with the self-weight sag)."""
     return FILES + ((SAG_FILE,) if self_weight else ())
