@@ -215,3 +215,14 @@ def test_the_report_renders_in_chromium_with_every_picture(page, tmp_path):
                    capture_output=True, timeout=180, check=True)
     img = np.asarray(Image.open(shot).convert("RGB"), dtype=float) / 255.0
     assert ((img.max(axis=2) - img.min(axis=2)) > 0.3).sum() > 5000, "no coloured figure rendered"
+
+
+def test_the_docs_state_a_joint_compliance_in_one_unit():
+    """A joint compliance is in rad/(N mm) (its stiffness in N mm/rad) wherever the docs state one; the
+    changelog keeps what earlier versions said."""
+    docs = [os.path.join(ROOT, "README.md")] + [os.path.join(ROOT, "docs", f) for f in os.listdir(os.path.join(ROOT, "docs"))
+                                                if f.endswith(".md") and f != "changelog.md"]
+    for path in docs:
+        text = open(path, encoding="utf-8").read().replace("·", " ")
+        for si in ("rad/(N m)", "rad/Nm", "N m/rad", "1/(N m^2)"):
+            assert si not in text, f"{os.path.basename(path)} states {si}"

@@ -105,18 +105,21 @@ def _bare(model, names) -> object:
     return model.replace(**changes) if changes else model
 
 
-def displacement(cal, data, names) -> np.ndarray:
+def displacement(cal, data, names, full: np.ndarray | None = None) -> np.ndarray:
     """|prediction with every parameter - prediction without ``names``| (n,) mm per row of ``data`` (with several
-    measured points, the row's largest)."""
+    measured points, the row's largest); ``full`` the first prediction where it is known."""
     names = set(names)
     without = replace(cal, model=_bare(cal.model, names), values={k: v for k, v in cal.values.items() if k not in names})
-    d = np.linalg.norm(predict_points(cal, data) - predict_points(without, data), axis=1)
+    full = predict_points(cal, data) if full is None else full
+    d = np.linalg.norm(full - predict_points(without, data), axis=1)
     return d.reshape(len(cal.measured), data.n).max(axis=0)
 
 
-def _size(cal, rows, home, name: str, names: tuple, stiffness: Stiffness | None = None) -> Size:
-    d = displacement(cal, rows, names)
-    h = None if home is None else float(displacement(cal, home, names)[0])
+def _size(cal, at: tuple, name: str, names: tuple, stiffness: Stiffness | None = None) -> Size:
+    """The :class:`Size` of ``names`` on ``at`` ((rows, their prediction), (home or None, its prediction))."""
+    (rows, full), (home, full_home) = at
+    d = displacement(cal, rows, names, full)
+    h = None if home is None else float(displacement(cal, home, names, full_home)[0])
     return Size(name, tuple(names), float(d.mean()), float(d.max()), h, stiffness)
 
 
@@ -155,6 +158,7 @@ def effect_sizes(cal, data, effects: dict) -> tuple:
     keep = np.setdiff1d(np.arange(data.n), np.asarray(cal.set_aside, dtype=int))
     rows = data.subset(keep)
     home = home_poses(cal, rows)
+    at = ((rows, predict_points(cal, rows)), (home, None if home is None else predict_points(cal, home)))
     serial = getattr(cal.model, "kind", None) == "serial"
     out = []
     for effect, names in effects.items():
@@ -163,9 +167,9 @@ def effect_sizes(cal, data, effects: dict) -> tuple:
         parts = []
         for item, own in _items(effect, tuple(names)).items():
             st = stiffness_of(cal, item) if serial and effect == "compliance" else None
-            parts.append(_size(cal, rows, home, item, tuple(own), st))
+            parts.append(_size(cal, at, item, tuple(own), st))
         parts.sort(key=lambda p: -p.mean_mm)
-        out.append(EffectSize(effect, _size(cal, rows, home, effect, tuple(names)), tuple(parts),
+        out.append(EffectSize(effect, _size(cal, at, effect, tuple(names)), tuple(parts),
                               (effect in CARRIED) if serial else None))
     return tuple(out)
 

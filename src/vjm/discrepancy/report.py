@@ -260,7 +260,7 @@ def _pose_sizes_html(rep: Mapping) -> str:
     rows = _size_rows(rep)
     if not rows:
         return ""
-    return (f"<h2>What each named effect does to the tool (mm)</h2><p>{html.escape(SIZE_HOW)}: at home (the model "
+    return (f"<h2>What each named effect does to the tool (mm)</h2><p>{html.escape(SIZE_HOW[0].upper() + SIZE_HOW[1:])}: at home (the model "
             "file's <code>home:</code>), mean and largest at the measured poses.</p>"
             + _raw_table(rows, ["effect / joint", "at home", "mean", "max", "stiffness (95 % interval), or what "
                                 "removes it"]))
