@@ -23,13 +23,21 @@ DPI = 100
 BEFORE, AFTER = "tab:red", "tab:blue"
 
 
-def _figure(w: float, h: float):
+def _figure(w: float, h: float, left: float = 0.8, bottom: float = 0.55, top: float = 0.35, hspace: float = 0.0):
+    """A figure of w x h inches on an Agg canvas, its margins in inches (set, not computed by a layout engine:
+    that would draw every text twice, a third of the time of a report's pictures)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(w, h), dpi=DPI, layout="constrained")
+    fig = Figure(figsize=(w, h), dpi=DPI)
     FigureCanvasAgg(fig)
+    fig.subplots_adjust(left=left / w, right=1.0 - 0.2 / w, bottom=bottom / h, top=1.0 - top / h, hspace=hspace)
     return fig
+
+
+def _text_inches(labels, size: float) -> float:
+    """About how long the longest of ``labels`` is (inches) at font ``size`` (points)."""
+    return 0.6 * size / 72.0 * max((len(str(x)) for x in labels), default=0)
 
 
 def per_pose(before: np.ndarray, after: np.ndarray):
@@ -44,7 +52,7 @@ def per_pose(before: np.ndarray, after: np.ndarray):
     ax.set_ylabel("position error [mm]")
     ax.set_title("error per pose, before and after")
     ax.set_ylim(bottom=0)
-    ax.legend(fontsize=8, markerscale=3)
+    ax.legend(fontsize=8, markerscale=3, loc="upper right")   # "best" would search among every point
     return fig
 
 
@@ -82,14 +90,16 @@ def contributions(rep: Mapping):
     bars = _bars(rep)
     if not bars:
         return None
-    fig = _figure(max(6.0, 0.55 * len(bars) + 2.5), 3.8)
+    labels = [b[0] for b in bars]
+    below = 0.5 * _text_inches(labels, 8) + 0.6   # the labels turned by 30 degrees, then the axis' name
+    fig = _figure(max(6.0, 0.55 * len(bars) + 2.5), 2.8 + below, left=0.8, bottom=below)
     ax = fig.add_subplot()
     x = np.arange(len(bars))
     w = 0.27
     for k, (what, colour) in enumerate((("mean at the measured poses", "tab:blue"),
                                         ("largest at the measured poses", "tab:orange"), ("at home", "tab:green"))):
         ax.bar(x + (k - 1) * w, [b[k + 1] for b in bars], w, color=colour, label=what)
-    ax.set_xticks(x, [b[0] for b in bars], rotation=30, ha="right", fontsize=8)
+    ax.set_xticks(x, labels, rotation=30, ha="right", rotation_mode="anchor", fontsize=8)
     ax.set_xlabel("effect (and its joints)")
     ax.set_ylabel("tool displacement [mm]")
     ax.set_title("what each named effect does to the tool")
@@ -107,7 +117,11 @@ def parameters(rep: Mapping):
     if not units:
         return None
     n = sum(len(v) for v in units.values())
-    fig = _figure(7.5, 1.0 * len(units) + 0.24 * n + 0.8)
+    left = _text_inches(pars, 7) + 0.65
+    h = 1.0 * len(units) + 0.24 * n + 0.8
+    k, gap = len(units), 0.65   # inches between panels: the upper one's ticks and axis name
+    axes_h = (h - 0.9 - (k - 1) * gap) / k
+    fig = _figure(max(7.5, left + 4.0), h, left=left, hspace=gap / axes_h)
     axs = fig.subplots(len(units), 1, squeeze=False, height_ratios=[len(v) + 2 for v in units.values()])[:, 0]
     for ax, (unit, rows) in zip(axs, units.items()):
         y = np.arange(len(rows))[::-1]
@@ -116,6 +130,7 @@ def parameters(rep: Mapping):
         ax.errorbar(v, y, xerr=Z95 * np.nan_to_num(s), fmt="o", ms=5, color="tab:blue", ecolor="tab:blue", elinewidth=2,
                     capsize=4)
         ax.axvline(0.0, color="k", lw=0.6)
+        ax.locator_params(axis="x", nbins=5)   # long tick labels (1e-4 rad) side by side
         ax.set_yticks(y, [r[0] for r in rows], fontsize=7)
         ax.set_xlabel(f"value [{unit}], 95 % interval")
         ax.set_ylabel("parameter")
