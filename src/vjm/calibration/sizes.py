@@ -21,7 +21,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from .engine import predict_points
+from .engine import measurement, predict_points
 from .flex import TEMPERATURE
 from .poses import AbsolutePoses
 
@@ -105,21 +105,36 @@ def _bare(model, names) -> object:
     return model.replace(**changes) if changes else model
 
 
-def displacement(cal, data, names, full: np.ndarray | None = None) -> np.ndarray:
-    """|prediction with every parameter - prediction without ``names``| (n,) mm per row of ``data`` (with several
-    measured points, the row's largest); ``full`` the first prediction where it is known."""
+class Rows:
+    """Rows to predict (``data``) and the calibrated model's points there: its measurement model built once and
+    kept for every prediction on the same model (an effect without a part in the model file changes only the
+    values)."""
+
+    def __init__(self, cal, data):
+        self.data = data
+        self.serial = cal.model.kind == "serial"
+        self.prob = measurement(cal, data) if self.serial else None
+        self.full = predict_points(cal, data, self.prob)
+
+    def points(self, cal, same_model: bool) -> np.ndarray:
+        return predict_points(cal, self.data, self.prob if same_model and self.serial else None)
+
+
+def displacement(cal, rows: Rows, names) -> np.ndarray:
+    """|prediction with every parameter - prediction without ``names``| (n,) mm per row of ``rows`` (with several
+    measured points, the row's largest)."""
     names = set(names)
-    without = replace(cal, model=_bare(cal.model, names), values={k: v for k, v in cal.values.items() if k not in names})
-    full = predict_points(cal, data) if full is None else full
-    d = np.linalg.norm(full - predict_points(without, data), axis=1)
-    return d.reshape(len(cal.measured), data.n).max(axis=0)
+    bare = _bare(cal.model, names)
+    without = replace(cal, model=bare, values={k: v for k, v in cal.values.items() if k not in names})
+    d = np.linalg.norm(rows.full - rows.points(without, bare is cal.model), axis=1)
+    return d.reshape(len(cal.measured), rows.data.n).max(axis=0)
 
 
 def _size(cal, at: tuple, name: str, names: tuple, stiffness: Stiffness | None = None) -> Size:
-    """The :class:`Size` of ``names`` on ``at`` ((rows, their prediction), (home or None, its prediction))."""
-    (rows, full), (home, full_home) = at
-    d = displacement(cal, rows, names, full)
-    h = None if home is None else float(displacement(cal, home, names, full_home)[0])
+    """The :class:`Size` of ``names`` on ``at`` (the measured :class:`Rows`, home's or None)."""
+    rows, home = at
+    d = displacement(cal, rows, names)
+    h = None if home is None else float(displacement(cal, home, names)[0])
     return Size(name, tuple(names), float(d.mean()), float(d.max()), h, stiffness)
 
 
@@ -158,7 +173,7 @@ def effect_sizes(cal, data, effects: dict) -> tuple:
     keep = np.setdiff1d(np.arange(data.n), np.asarray(cal.set_aside, dtype=int))
     rows = data.subset(keep)
     home = home_poses(cal, rows)
-    at = ((rows, predict_points(cal, rows)), (home, None if home is None else predict_points(cal, home)))
+    at = (Rows(cal, rows), None if home is None else Rows(cal, home))
     serial = getattr(cal.model, "kind", None) == "serial"
     out = []
     for effect, names in effects.items():
