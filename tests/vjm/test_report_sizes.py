@@ -20,6 +20,7 @@ import os
 import shutil
 import subprocess
 import warnings
+from dataclasses import asdict
 
 import numpy as np
 import pytest
@@ -34,9 +35,9 @@ from vjm.calibration.diagnosis import pose_report  # noqa: E402
 from vjm.calibration.engine import calibrate  # noqa: E402
 from vjm.calibration.poses import AbsolutePoses  # noqa: E402
 from vjm.calibration.serial import rotation_matrix  # noqa: E402
-from vjm.calibration.sizes import Z95, effect_sizes  # noqa: E402
+from vjm.calibration.sizes import Z95, EffectSize, Size, as_mapping, effect_sizes, stiffness_of  # noqa: E402
 from vjm.discrepancy.report import render_html  # noqa: E402
-from vjm.discrepancy.summary import pose_text  # noqa: E402
+from vjm.discrepancy.summary import pose_text, stiffness_words  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(__file__)))
 URDF = os.path.join(ROOT, "data", "robots", "ur10", "ur10.urdf")
@@ -107,6 +108,21 @@ def test_the_stiffness_is_the_model_file_unit_with_its_interval(fitted):
         true_k = 1.0 / (COMPLIANCE[p.name] * 1e-3)   # N mm/rad
         assert abs(1.0 / true_k - c) < 4 * s
     assert size.carried is True
+
+
+def test_a_compliance_not_above_zero_has_no_stiffness_and_a_wide_one_an_open_interval(fitted):
+    _, _, cal, _ = fitted
+    key = "elbow_joint.compliance"
+    neg = stiffness_of(dataclasses.replace(cal, values={**cal.values, key: -2e-9}), "elbow_joint")
+    assert neg.stiffness is None and neg.compliance == -2e-9 and neg.nominal == 8.0e7
+    assert "no constant stiffness fitted > 0 (fitted compliance -2e-09 rad/(N mm))" in stiffness_words(asdict(neg))
+    c = cal.values[key]
+    wide = stiffness_of(dataclasses.replace(cal, std={**cal.std, key: c}), "elbow_joint")   # c - 1.96 c < 0
+    assert wide.high == float("inf") and wide.low == pytest.approx(1.0 / (1.0 / wide.stiffness + Z95 * c), rel=1e-12)
+    size = as_mapping(EffectSize("compliance", Size("compliance", (key,), 0.1, 0.2, 0.3),
+                                 (Size("elbow_joint", (key,), 0.1, 0.2, 0.3, wide),), True))
+    assert size["parts"][0]["stiffness"]["high"] is None   # JSON has no inf
+    assert " .. inf;" in stiffness_words(size["parts"][0]["stiffness"])
 
 
 def test_without_home_the_size_has_none(fitted):

@@ -40,7 +40,8 @@ class Stiffness:
     ``compliance`` in ``compliance_unit``) and the 95 % interval [``low``, ``high``] of the compliance's
     (``compliance`` +- 1.96 ``std``) inverted: ``high`` is inf where that interval reaches 0.  ``nominal``:
     the source model file's stiffness (None: the joint is rigid there, or its stiffness is not a constant);
-    ``stiffness`` None: the fitted compliance is not > 0 (no stiffness; the file keeps the source's)."""
+    ``stiffness`` None: no constant stiffness fitted > 0 (the calibrated file keeps the source's entry), and
+    ``compliance`` is then the fitted value."""
 
     joint: str
     compliance: float
@@ -138,10 +139,17 @@ def _size(cal, at: tuple, name: str, names: tuple, stiffness: Stiffness | None =
     return Size(name, tuple(names), float(d.mean()), float(d.max()), h, stiffness)
 
 
-def stiffness_of(cal, joint: str, z: float = Z95) -> Stiffness:
-    """The calibrated model file's stiffness of ``joint`` (:func:`vjm.calibration.write.calibrated_mapping`: the
-    fitted compliance's inverse as the file rounds it) with the interval of the compliance's ``c +- z std``."""
-    from .write import Rounded, calibrated_mapping
+def file_joints(cal) -> dict:
+    """The calibrated robot file's ``joints:`` entries (:func:`vjm.calibration.write.calibrated_mapping`)."""
+    from .write import calibrated_mapping
+
+    return calibrated_mapping(cal, "calibrated.urdf")[0].get("joints") or {}
+
+
+def stiffness_of(cal, joint: str, z: float = Z95, joints: dict | None = None) -> Stiffness:
+    """The calibrated model file's stiffness of ``joint`` (its entry in ``joints``, default :func:`file_joints`:
+    the fitted compliance's inverse as the file rounds it) with the interval of the compliance's ``c +- z std``."""
+    from .write import Rounded
 
     prismatic = cal.model.tree.joints[cal.model.tree.joint_index(joint)].kind[0] == "t"
     unit, cunit = ("N/mm", "mm/N") if prismatic else ("N mm/rad", "rad/(N mm)")
@@ -149,8 +157,8 @@ def stiffness_of(cal, joint: str, z: float = Z95) -> Stiffness:
     nominal = None if spring is None or spring.stiffness is None else float(spring.stiffness)
     key = f"{joint}.compliance"
     s = cal.std.get(key)
-    k = (calibrated_mapping(cal, "calibrated.urdf")[0].get("joints") or {}).get(joint, {}).get("stiffness")
-    if not isinstance(k, Rounded):   # not fitted > 0: the file keeps the source's value
+    k = (file_joints(cal) if joints is None else joints).get(joint, {}).get("stiffness")
+    if not isinstance(k, Rounded):   # no constant fitted > 0: the file keeps the source's entry
         return Stiffness(joint, float(cal.values[key]), s, None, None, None, nominal, unit, cunit)
     c = 1.0 / float(k)
     lo_c, hi_c = (c, c) if s is None else (c - z * s, c + z * s)
@@ -175,13 +183,14 @@ def effect_sizes(cal, data, effects: dict) -> tuple:
     home = home_poses(cal, rows)
     at = (Rows(cal, rows), None if home is None else Rows(cal, home))
     serial = getattr(cal.model, "kind", None) == "serial"
+    joints = file_joints(cal) if serial and "compliance" in effects else {}
     out = []
     for effect, names in effects.items():
         if not names:
             continue
         parts = []
         for item, own in _items(effect, tuple(names)).items():
-            st = stiffness_of(cal, item) if serial and effect == "compliance" else None
+            st = stiffness_of(cal, item, joints=joints) if serial and effect == "compliance" else None
             parts.append(_size(cal, at, item, tuple(own), st))
         parts.sort(key=lambda p: -p.mean_mm)
         out.append(EffectSize(effect, _size(cal, at, effect, tuple(names)), tuple(parts),

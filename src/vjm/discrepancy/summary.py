@@ -258,8 +258,8 @@ def stiffness_words(st) -> str:
     if st is None:
         return ""
     if st["stiffness"] is None:
-        return (f"compliance {st['compliance']:.3g} {st['compliance_unit']} is not > 0: no stiffness (the calibrated "
-                f"file keeps the model's)")
+        return (f"no constant stiffness fitted > 0 (fitted compliance {st['compliance']:.3g} {st['compliance_unit']}): "
+                f"calibrated.yaml keeps the model file's entry")
     hi = "inf" if st["high"] is None else f"{st['high']:.3g}"
     nom = "" if st["nominal"] is None else f"; the model file says {st['nominal']:.3g}"
     return f"stiffness {st['stiffness']:.4g} {st['unit']} (95 % interval {st['low']:.3g} .. {hi}{nom})"
