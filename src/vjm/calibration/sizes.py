@@ -18,6 +18,7 @@ what the instrument frames would absorb: "compliance buys 0.018 mm" of residual 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -106,19 +107,21 @@ def _bare(model, names) -> object:
     return model.replace(**changes) if changes else model
 
 
+@dataclass(frozen=True, eq=False)
 class Rows:
-    """Rows to predict (``data``) and the calibrated model's points there: its measurement model built once and
-    kept for every prediction on the same model (an effect without a part in the model file changes only the
-    values)."""
+    """Rows to predict (``data``), a robot's measurement model of them (``prob``, built once: an effect without
+    a part in the model file changes only the values; None for a parallel machine) and the calibrated model's
+    points there (``full``)."""
 
-    def __init__(self, cal, data):
-        self.data = data
-        self.serial = cal.model.kind == "serial"
-        self.prob = measurement(cal, data) if self.serial else None
-        self.full = predict_points(cal, data, self.prob)
+    data: Any
+    prob: Any
+    full: np.ndarray
 
-    def points(self, cal, same_model: bool) -> np.ndarray:
-        return predict_points(cal, self.data, self.prob if same_model and self.serial else None)
+
+def rows_of(cal, data) -> Rows:
+    """The :class:`Rows` of ``data`` under the calibration ``cal``."""
+    prob = measurement(cal, data) if cal.model.kind == "serial" else None
+    return Rows(data, prob, predict_points(cal, data, prob))
 
 
 def displacement(cal, rows: Rows, names) -> np.ndarray:
@@ -127,7 +130,7 @@ def displacement(cal, rows: Rows, names) -> np.ndarray:
     names = set(names)
     bare = _bare(cal.model, names)
     without = replace(cal, model=bare, values={k: v for k, v in cal.values.items() if k not in names})
-    d = np.linalg.norm(rows.full - rows.points(without, bare is cal.model), axis=1)
+    d = np.linalg.norm(rows.full - predict_points(without, rows.data, rows.prob if bare is cal.model else None), axis=1)
     return d.reshape(len(cal.measured), rows.data.n).max(axis=0)
 
 
@@ -181,7 +184,7 @@ def effect_sizes(cal, data, effects: dict) -> tuple:
     keep = np.setdiff1d(np.arange(data.n), np.asarray(cal.set_aside, dtype=int))
     rows = data.subset(keep)
     home = home_poses(cal, rows)
-    at = (Rows(cal, rows), None if home is None else Rows(cal, home))
+    at = (rows_of(cal, rows), None if home is None else rows_of(cal, home))
     serial = getattr(cal.model, "kind", None) == "serial"
     joints = file_joints(cal) if serial and "compliance" in effects else {}
     out = []
