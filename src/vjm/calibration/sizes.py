@@ -3,8 +3,8 @@ and a joint compliance as the stiffness the model file states.
 
 An effect's size is the difference of two predictions of the calibrated measurement model
 (:func:`vjm.calibration.engine.predict_points`): with every fitted parameter, and without the effect's.  "Without"
-leaves its fitted parameters out and, for a robot, the model's own part of it too (a joint's spring, the
-payload), so that the size is the whole effect whether the fit's parameters are totals or corrections to the
+leaves its fitted parameters out and, for a robot, the model's own part of it too (a joint's spring, a link
+spring, the payload), so that the size is the whole effect whether the fit's parameters are totals or corrections to the
 model file's values.  The same registration is used on both sides, so the difference is the tool's motion, not
 what the instrument frames would absorb: "compliance buys 0.018 mm" of residual is compatible with a sag of
 0.7 mm, most of which the geometry and the registration take up on the fitted rows.
@@ -94,14 +94,17 @@ def home_poses(cal, data) -> AbsolutePoses | None:
 
 
 def _bare(model, names) -> object:
-    """The model without its own part of the parameters ``names``: the joint springs of the compliances and the
-    payload (a fit of corrections starts from them; a fit of totals does not read them)."""
+    """The model without its own part of the parameters ``names``: the joint springs of the compliances, the link
+    springs scaled and the payload (a fit of corrections starts from them; a fit of totals does not read them)."""
     if getattr(model, "kind", None) != "serial":
         return model
     joints = {n[:-len(".compliance")] for n in names if n.endswith(".compliance")}
+    links = {n[:-len(".link_scale")] for n in names if n.endswith(".link_scale")}
     changes: dict = {}
     if joints & set(model.joint_springs):
         changes["joint_springs"] = {k: v for k, v in model.joint_springs.items() if k not in joints}
+    if links & set(model.links):
+        changes["links"] = {k: v for k, v in model.links.items() if k not in links}
     if "payload.mass" in names and model.payload is not None:
         changes["payload"] = None
     return model.replace(**changes) if changes else model
