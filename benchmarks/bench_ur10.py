@@ -104,8 +104,9 @@ def table(rows, args) -> str:
 def details(cal) -> str:
     out = ["stages: " + "; ".join(f"{s.name} {'kept' if s.kept else 'not kept'} ({s.n_params} parameters, "
                                    f"RMS {s.rms:.3f} mm)" for s in cal.stages)]
-    units = {"compliance": ("rad/(N m)", 1e3), "lateral": ("rad/(N m)", 1e3), "varying": ("rad/(N m)/rad", 1e3),
-             "bending": ("1/(N m^2)", 1e6), "alpha": ("1/K", 1.0), "mass": ("kg", 1.0)}
+    # the units of the fit (vjm.effects.absolute) and of the model files: N, mm
+    units = {"compliance": ("rad/(N mm)", 1.0), "lateral": ("rad/(N mm)", 1.0), "varying": ("rad/(N mm)/rad", 1.0),
+             "bending": ("1/(N mm^2)", 1.0), "alpha": ("1/K", 1.0), "mass": ("kg", 1.0)}
     for k, v in cal.robot_values().items():
         last = k.split(".")[-1]
         unit, f = units.get(last, ("mm" if last.startswith("d") else "rad", 1.0))

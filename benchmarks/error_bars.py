@@ -35,6 +35,7 @@ import truth_serial as truth  # noqa: E402
 URDF = os.path.join(ROOT, "data", "robots", "ur10", "ur10.urdf")
 JOINTS = ("shoulder_lift_joint", "elbow_joint")
 COMPLIANCE = {"shoulder_lift_joint": 4e-6, "elbow_joint": 8e-6}   # rad/(N m)
+MM = 1e-3   # rad/(N m) -> rad/(N mm)
 Z95 = 1.959963984540054
 
 
@@ -132,16 +133,17 @@ def main(argv=None) -> None:
             cover = {w: np.mean(np.abs(v[:, k] - truth_c[k]) <= Z95 * np.array([o[w][k] for o in runs]))
                      for w in ("formal", "std")}
             spread = np.std(v[:, k], ddof=1)
-            print(f"  {j}: truth {truth_c[k]:.3g}, mean fitted {v[:, k].mean():.4g} rad/(N m); spread over seeds "
-                  f"{spread:.3g}; mean std formal {np.mean([o['formal'][k] for o in runs]):.3g}, reported "
-                  f"{np.mean([o['std'][k] for o in runs]):.3g} (ratio to the spread "
+            # printed in the model files' unit, rad/(N mm) (the truth's is pinocchio's rad/(N m))
+            print(f"  {j}: truth {truth_c[k] * MM:.3g}, mean fitted {v[:, k].mean() * MM:.4g} rad/(N mm); spread over "
+                  f"seeds {spread * MM:.3g}; mean std formal {np.mean([o['formal'][k] for o in runs]) * MM:.3g}, "
+                  f"reported {np.mean([o['std'][k] for o in runs]) * MM:.3g} (ratio to the spread "
                   f"{np.mean([o['std'][k] for o in runs]) / spread:.2f}); 95 % coverage formal "
                   f"{100 * cover['formal']:.0f} %, reported {100 * cover['std']:.0f} %")
     h = hidden(args.bending, args.sigma)
     for s in range(args.refits):
         o = one(model, h, args.rows, s, refit=True)
-        print(f"  seed {s}: jackknife std linearised / refitted: " + ", ".join(
-            f"{j} {a:.3g} / {b:.3g}" for j, a, b in zip(JOINTS, o["linear"], o["refit"])))
+        print(f"  seed {s}: jackknife std linearised / refitted, rad/(N mm): " + ", ".join(
+            f"{j} {a * MM:.3g} / {b * MM:.3g}" for j, a, b in zip(JOINTS, o["linear"], o["refit"])))
     print(f"\n{time.perf_counter() - t0:.0f} s")
 
 

@@ -203,7 +203,9 @@ def diagnose_poses(model, data, model_name: str | None = None, alpha: float | No
     rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)
     report = pose_report(rep, cal, d, opt.alpha)
     progress_lines(report, progress)
-    return Diagnosis(report, "absolute", write, calibrated, calibration=cal)
+    before, after = cr.row_errors(cal, d)
+    return Diagnosis(report, "absolute", write, calibrated, calibration=cal, rms_pose_before=before,
+                     rms_pose_after=after)
 
 
 def calibrated(dg: Diagnosis):
@@ -218,7 +220,8 @@ def write(dg: Diagnosis, out_dir, force: bool = False, set_name: str = "vjm diag
     """report.json, report.html, summary.txt, calibrated.urdf and calibrated.yaml (a parallel machine's: the
     first three, :data:`PLATFORM_FILES`), one set ``set_name``."""
     rep = plain(dg.report.to_dict())
-    extra = {"report.html": render_html(rep), "summary.txt": pose_text(rep)}
+    rows = None if dg.rms_pose_after is None else (dg.rms_pose_before, dg.rms_pose_after)
+    extra = {"report.html": render_html(rep, rows=rows), "summary.txt": pose_text(rep)}
     if dg.commands is not None:
         extra["commands.csv"] = dg.commands
     if dg.calibration.model.kind != "serial":

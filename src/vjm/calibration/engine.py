@@ -408,12 +408,19 @@ def register(cal: Calibration, data, marker: bool = False) -> Calibration:
                    extra=tuple(measured[1:]))
 
 
-def predict_points(cal: Calibration, data) -> np.ndarray:
+def measurement(cal: Calibration, data):
+    """The robot's measurement model of ``data``'s rows (what :func:`predict_points` evaluates; built once, it
+    predicts the same rows for any values of the calibration's parameters or a part of them)."""
+    return _problems(cal.model, data, cal.measured, cal.frames, **_uses(cal.values))
+
+
+def predict_points(cal: Calibration, data, prob=None) -> np.ndarray:
     """The calibrated model's points (n, 3) mm in the instrument frames of ``data``'s (registered) groups;
-    with several measured points (k n, 3), frame after frame (``cal.measured``)."""
+    with several measured points (k n, 3), frame after frame (``cal.measured``); ``prob`` the robot's
+    :func:`measurement` of those rows where it is built already."""
     if cal.model.kind == "parallel":
         return platform_points(cal, data)
-    prob = _problems(cal.model, data, cal.measured, cal.frames, **_uses(cal.values))
+    prob = measurement(cal, data) if prob is None else prob
     lay = Layout(tuple(cal.values), ("",) * len(cal.values), ("",) * len(cal.values))
     return predict(prob, lay, np.array(list(cal.values.values())))
 

@@ -99,4 +99,6 @@ def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: f
     rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)
     report = pose_report(rep, cal, d, opt.alpha, machine="parallel", actuators=list(d.joints))
     progress_lines(report, progress)
-    return Diagnosis(report, "platform_absolute", write, calibrated, calibration=cal)
+    before, after = cr.row_errors(cal, d)
+    return Diagnosis(report, "platform_absolute", write, calibrated, calibration=cal, rms_pose_before=before,
+                     rms_pose_after=after)

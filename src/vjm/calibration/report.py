@@ -7,7 +7,9 @@ groups, or ``--same-setup``) on the fitted registration, every row held out; any
 instrument set-up, registered on a few of its own poses, the error measured on its other poses.  :func:`report` gathers what a user judges a calibration on:
 
 - the effects named, in order of what each buys (the drop of the mean position error of its stage), each
-  with the error before and after it (mean, std, max, 95th percentile, mm, on the fitted rows);
+  with the error before and after it (mean, std, max, 95th percentile, mm, on the fitted rows), and its
+  ``size``: what it does to the tool at the measured poses and at ``home:`` (mm), a joint compliance's
+  stiffness with its interval (:mod:`vjm.calibration.sizes`);
 - the held-out error: k-fold cross-validated RMS of the stages (``folds``), and the validation files';
 - the registration (instrument frame of each group, marker offset) and its standard deviations, apart;
 - the parameters removed: combinations that cannot be identified, joints that are not observable;
@@ -31,6 +33,7 @@ from ..errors import VjmError
 from .engine import calibrate, effect_names, error_stats, instrument_frame, position_errors, register
 from .result import Calibration
 from .robust import calibrate_robust
+from .sizes import as_mapping, effect_sizes
 
 FILES = ("report.json", "summary.txt", "calibrated.urdf", "calibrated.yaml")
 
@@ -225,6 +228,30 @@ def registration(cal: Calibration) -> dict:
             "std_units": "t*: mm, r*: rad (a rotation vector after the Kabsch start)"}
 
 
+def sized(cal: Calibration, data, effects: list) -> list:
+    """The named ``effects`` (:func:`effects_named`), each with its ``size`` (:func:`vjm.calibration.sizes.effect_sizes`
+    on the fitted rows of ``data``)."""
+    sizes = {s.effect: s for s in effect_sizes(cal, data, {e["effect"]: e["parameters"] for e in effects})}
+    return [{**e, "size": as_mapping(sizes[e["effect"]]) if e["effect"] in sizes else None} for e in effects]
+
+
+def row_errors(cal: Calibration, data) -> tuple[np.ndarray, np.ndarray]:
+    """The fitted rows' position errors (n,) mm: with the registration only (the model as its file states it,
+    each set-up's instrument frame and the markers fitted again), and calibrated."""
+    keep = np.setdiff1d(np.arange(data.n), np.asarray(cal.set_aside, dtype=int))
+    rows = data.subset(keep)
+    robot = cal.robot_values()
+    bare = replace(cal, values={k: v for k, v in cal.values.items() if k not in robot},
+                   std={k: v for k, v in cal.std.items() if k not in robot})
+    if cal.model.kind == "parallel":
+        from .parallel_fit import register_platform
+
+        before = register_platform(bare, rows)
+    else:
+        before = register(bare, rows, marker=True)
+    return position_errors(before, rows), position_errors(cal, rows)
+
+
 def report(cal: Calibration, opt: Options, model_path, data, validations: list, seconds: float) -> dict:
     """The report's mapping (see the module docstring)."""
     removed = [{"parameter": n, "why": why} for n, why in cal.removed]
@@ -233,7 +260,7 @@ def report(cal: Calibration, opt: Options, model_path, data, validations: list, 
         "schema": SCHEMA, "model": str(model_path), "data": data.source, "rows": int(data.n), "frame": cal.frame,
         "frames": list(cal.markers),
         "effects_tried": list(opt.effects), "alpha": opt.alpha,
-        "effects": effects_named(cal),
+        "effects": sized(cal, data, effects_named(cal)),
         "stages": [_stage(s) for s in cal.stages],
         "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": cal.kinds[k][1] if k in cal.kinds else _unit(k)}
                        for k, v in cal.robot_values().items()},

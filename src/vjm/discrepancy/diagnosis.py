@@ -36,8 +36,10 @@ class Diagnosis:
     updater: Callable  # updater(diagnosis) -> the updated model in memory
     model: object = None  # the stages' updated model (model_updated.yaml)
     P: np.ndarray | None = None  # unique postures
-    rms_pose_before: np.ndarray | None = None  # normalized RMS per posture, calibrated baseline
-    rms_pose_after: np.ndarray | None = None
+    # normalized RMS per posture, calibrated baseline (absolute poses: each fitted row's position error, mm, with
+    # the registration only)
+    rms_pose_before: np.ndarray | None = None
+    rms_pose_after: np.ndarray | None = None  # the same after (absolute poses: calibrated)
     next_measurements: np.ndarray | None = None  # (N, 9) x, y, z, Fx..Mz
     covariance: Calibration | None = None  # what the final fit calibrated: model_updated.yaml's calibration:
     calibration: Any = None  # absolute poses: the fitted measurement model (vjm.calibration.result.Calibration)

@@ -16,7 +16,17 @@ import numpy as np
 from linkfea.files.atomic import plain
 from linkfea.files.outputs import OutputSet, check_folder
 
-from .summary import Summary, alternative_lines, held_words, is_pose_report, verdict_line
+from .summary import (
+    POSE_UNITS,
+    SIZE_HOW,
+    Summary,
+    alternative_lines,
+    held_words,
+    is_pose_report,
+    remedy_words,
+    stiffness_words,
+    verdict_line,
+)
 
 #: the files a report folder may hold (next_measurements.csv with --suggest)
 REPORT_FILES = ("report.json", "report.html", "before_after.png", "residuals_per_posture.png",
@@ -97,11 +107,12 @@ def _fmt(v, f="{:.4g}"):
         return str(v)
 
 
-def render_html(rep: Mapping, figures=()) -> str:
+def render_html(rep: Mapping, figures=(), rows=None) -> str:
     """report.html of a diagnosis of any kind: one-line verdict first, then the evidence (the stages' report:
-    the before/after picture, the candidates; absolute poses': the effects named, the held-out errors)."""
+    the before/after picture, the candidates; absolute poses': the effects named and their sizes, the held-out
+    errors, the pictures -- with ``rows`` (the fitted rows' errors before and after, mm) the errors per pose too)."""
     if is_pose_report(rep):
-        return _pose_html(rep)
+        return _pose_html(rep, rows)
     return _stages_html(rep, figures)
 
 
@@ -222,7 +233,50 @@ def _stats(st: Mapping) -> list:
     return [f"{st[k]:.4f}" for k in ("mean", "std", "max", "p95")]
 
 
-def _pose_html(rep: Mapping) -> str:
+def _size_rows(rep: Mapping) -> list:
+    """The sizes table's rows: each named effect, then each of its joints (mm, and a compliance's stiffness)."""
+    out = []
+    for e in rep["effects"]:
+        sz = e.get("size")
+        if not sz:
+            continue
+        rows = [(sz["total"], html.escape(e["effect"]), remedy_words(sz))]
+        rows += [(p, f"&nbsp;&nbsp;{html.escape(p['name'])}", stiffness_words(p.get("stiffness"))) for p in sz["parts"]]
+        for p, name, words in rows:
+            out.append([name, _fmt(p["home_mm"], "{:.3f}"), f"{p['mean_mm']:.3f}", f"{p['max_mm']:.3f}",
+                        html.escape(words)])
+    return out
+
+
+def _raw_table(rows, header) -> str:
+    """A table whose cells are HTML already (escaped where they hold text)."""
+    h = "".join(f"<th>{html.escape(str(c))}</th>" for c in header)
+    body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in r) + "</tr>" for r in rows)
+    return f"<table><tr>{h}</tr>{body}</table>"
+
+
+def _pose_sizes_html(rep: Mapping) -> str:
+    """The section saying what each named effect does to the tool, in mm (empty when none is named)."""
+    rows = _size_rows(rep)
+    if not rows:
+        return ""
+    return (f"<h2>What each named effect does to the tool (mm)</h2><p>{html.escape(SIZE_HOW[0].upper() + SIZE_HOW[1:])}: at home (the model "
+            "file's <code>home:</code>), mean and largest at the measured poses.</p>"
+            + _raw_table(rows, ["effect / joint", "at home", "mean", "max", "stiffness (95 % interval), or what "
+                                "removes it"]))
+
+
+def _pose_figures_html(rep: Mapping, rows) -> str:
+    """The report's pictures, embedded as base64 PNG (:mod:`vjm.calibration.figures`)."""
+    from ..calibration.figures import embedded
+
+    before, after = rows if rows is not None else (None, None)
+    return "".join(f'<figure><img src="data:image/png;base64,{b64}" alt="{html.escape(caption)}">'
+                   f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+                   for caption, b64 in embedded(rep, before, after))
+
+
+def _pose_html(rep: Mapping, rows=None) -> str:
     """Absolute poses' report.html: the verdict, the effects named with the gap before and after each, the
     held-out errors, the registration apart, the parameters, what was removed."""
     eff = [[e["effect"], f"{e['buys_mm']:.4f}", *_stats(e["before_mm"]), *_stats(e["after_mm"]),
@@ -243,13 +297,16 @@ def _pose_html(rep: Mapping) -> str:
     st = ["mean", "std", "max", "p95"]
     return f"""<!doctype html><html><head><meta charset="utf-8"><title>VJM diagnosis of absolute poses</title>
 <style>body{{font-family:sans-serif;max-width:1100px;margin:auto}}table{{border-collapse:collapse;margin:6px 0}}
-td,th{{border:1px solid #ccc;padding:3px 6px;font-size:90%}}</style></head><body>
+td,th{{border:1px solid #ccc;padding:3px 6px;font-size:90%}}img{{max-width:100%}}</style></head><body>
 <h1>Diagnosis of absolute poses</h1>
 <p style="font-size:120%"><b>{html.escape(verdict_line(rep))}</b></p>
 <p>Model: <code>{html.escape(str(rep['model']))}</code>; data: <code>{html.escape(rep['data'])}</code> ({rep['rows']}
 rows; points {html.escape(', '.join(rep['frames']))}); effects tried: {html.escape(', '.join(rep['effects_tried']))}.</p>
+<p>{html.escape(POSE_UNITS)}</p>
 <h2>Effects named, in order of what each buys (position error of the fitted rows, mm)</h2>
 {_table(eff, ["effect", "buys (mean)"] + [f"before {k}" for k in st] + [f"after {k}" for k in st] + ["p"])}
+{_pose_sizes_html(rep)}
+{_pose_figures_html(rep, rows)}
 <h2>Stages</h2>{_table(cv, ["stage", "state", "RMS mm", "cross-validated RMS mm", "F test p", "note"])}
 <h2>Held out (the {'machine' if rep.get('machine') == 'parallel' else 'robot'} frozen; each file on the fitted registration, or a new set-up registered on a few of its poses)</h2>
 {_table(held, ["file", "registered", "rows held out"] + [f"{k} mm" for k in st]) if held else

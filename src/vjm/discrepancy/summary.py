@@ -242,6 +242,59 @@ def _p(p: float) -> str:
     return f"p = {p:.2g}" if p > 0 else "p < 1e-300"
 
 
+#: the report's units, said once (a joint's compliance and stiffness as the model file states them)
+POSE_UNITS = ("Units: mm, rad, N, kg; a joint's compliance in rad/(N mm) (mm/N for a prismatic joint), its stiffness "
+              "in N mm/rad (N/mm), as the model file states it.")
+#: how each named effect's size is measured, said once beside the sizes
+SIZE_HOW = "the calibrated model with against without the effect's parameters, the same registration on both sides"
+
+
+def _mm(v) -> str:
+    return "-" if v is None else f"{v:.3f} mm"
+
+
+def stiffness_words(st) -> str:
+    """A fitted joint compliance as the model file's stiffness with its 95 % interval (and the source's)."""
+    if st is None:
+        return ""
+    if st["stiffness"] is None:
+        return (f"no constant stiffness fitted > 0 (fitted compliance {st['compliance']:.3g} {st['compliance_unit']}): "
+                f"calibrated.yaml keeps the model file's entry")
+    hi = "inf" if st["high"] is None else f"{st['high']:.3g}"
+    nom = "" if st["nominal"] is None else f"; the model file says {st['nominal']:.3g}"
+    return f"stiffness {st['stiffness']:.4g} {st['unit']} (95 % interval {st['low']:.3g} .. {hi}{nom})"
+
+
+def remedy_words(size) -> str:
+    """What removes an effect: ``vjm compensate`` on the calibrated robot file, when the file carries it."""
+    if size.get("carried") is None:
+        return ""
+    return ("vjm compensate calibrated.yaml removes it" if size["carried"] else
+            "calibrated.yaml does not carry it: vjm compensate does not remove it")
+
+
+def size_lines(rep) -> list:
+    """One line per named effect (and one per joint of it) saying its size in mm: at home, and mean and largest
+    at the measured poses (:mod:`vjm.calibration.sizes`)."""
+    lines = []
+    for e in rep["effects"]:
+        s = e.get("size")
+        if not s:
+            continue
+        t = s["total"]
+        verb = "sags" if e["effect"] in ("compliance", "payload") else "moves"
+        home = "" if t["home_mm"] is None else f"{_mm(t['home_mm'])} at home, "
+        fix = remedy_words(s)
+        lines.append(f"  {e['effect']} {verb} the tool {home}{_mm(t['mean_mm'])} on average and {_mm(t['max_mm'])} "
+                     f"at most at the measured poses" + (f"; {fix}" if fix else ""))
+        for p in s["parts"]:
+            home = "" if p["home_mm"] is None else f"{_mm(p['home_mm'])} at home, "
+            st = stiffness_words(p.get("stiffness"))
+            lines.append(f"    {p['name']}: {home}{_mm(p['mean_mm'])} mean, {_mm(p['max_mm'])} max"
+                         + (f"; {st}" if st else ""))
+    return lines
+
+
 def pose_text(rep) -> str:
     """The text of an absolute-pose diagnosis' summary.txt: the verdict, the position error before and after
     each effect named, the held-out errors, what was removed and set aside."""
@@ -261,6 +314,9 @@ def pose_text(rep) -> str:
             lines.append(f"  {s['name']}: not named ({s['note'] or _p(s['p_value'])}"
                          + (f", cross-validated RMS {s['cv_rms_mm']:.3f} mm" if s["cv_rms_mm"] is not None else "")
                          + ")")
+    sizes = size_lines(rep)
+    if sizes:
+        lines += [f"What each named effect does to the tool ({SIZE_HOW}):", *sizes]
     if rep["held_out"]["folds"]:
         cv = [f"{s['name']} {s['cv_rms_mm']:.3f}" for s in rep["stages"] if s["cv_rms_mm"] is not None]
         lines.append(f"Held out, {rep['held_out']['folds']}-fold cross-validated RMS (mm): " + ", ".join(cv))
@@ -277,5 +333,6 @@ def pose_text(rep) -> str:
         rows = [str(r["row"] + 1) for r in rep["set_aside"]]
         lines.append(f"Set aside as outliers (not fitted): {len(rows)} rows, data rows (1 = the first under the "
                      f"header) " + ", ".join(rows[:20]) + (" ..." if len(rows) > 20 else ""))
+    lines.append(POSE_UNITS)
     lines.append(f"Fitted in {rep['seconds']:.1f} s.")
     return "\n".join(lines) + "\n"
