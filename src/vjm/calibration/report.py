@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -29,8 +30,9 @@ from typing import Any
 import numpy as np
 
 from ..effects import absolute
-from ..errors import VjmError
+from ..errors import VjmError, VjmWarning
 from .engine import calibrate, effect_names, error_stats, instrument_frame, position_errors, register
+from .poses import warn_limits
 from .result import Calibration
 from .robust import calibrate_robust
 from .sizes import as_mapping, effect_sizes
@@ -45,6 +47,8 @@ def default_effects() -> tuple:
 
 
 SET_NAME = "vjm calibrate"
+#: --folds at most this: each fold refits the whole staged selection, and held-out folds of a row or two say nothing
+MAX_FOLDS = 50
 SCHEMA = "vjm.calibration/1"
 
 
@@ -70,8 +74,9 @@ def check_options(opt: Options) -> None:
     bad = set(opt.effects) - set(known)
     if bad:
         raise VjmError(f"--effects: unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(known)}")
-    if opt.folds == 1 or opt.folds < 0:
-        raise VjmError(f"--folds must be 0 (no cross-validation) or at least 2, got {opt.folds}")
+    if opt.folds == 1 or opt.folds < 0 or opt.folds > MAX_FOLDS:
+        raise VjmError(f"--folds must be 0 (no cross-validation) or at least 2 and at most {MAX_FOLDS}, got "
+                       f"{opt.folds}")
     if opt.register_on < 3:
         raise VjmError(f"--register must be at least 3 poses (an instrument frame has 6 parameters), got "
                        f"{opt.register_on}")
@@ -97,6 +102,9 @@ def check_frame(model, data, frame=None, option: str = "--frame") -> tuple:
     """The measured frames: ``frame`` (a name, or several), or every point the data measure; each must be
     measured by the data and be a frame of the model (errors name the ``option`` that chose them)."""
     frames = tuple(data.points) if not frame else ((frame,) if isinstance(frame, str) else tuple(frame))
+    twice = sorted({f for f in frames if frames.count(f) > 1})
+    if twice:
+        raise VjmError(f"{option} {twice[0]} is given twice: each measured point counts once")
     names = {f.name for f in model.tree.frames}
     for f in frames:
         if f not in data.points:
@@ -279,7 +287,7 @@ def inputs(model, data, columns, validate_paths, opt: Options, asked: bool, opti
     checked before any fitting; ``model`` and ``data`` a loaded model and data set, or their files (a data file
     without a ``group`` column is one instrument set-up, named by the file; each validation file a new one)."""
     from ..modelio.read import load_model
-    from .poses import read_column_map, read_poses
+    from .poses import check_against, check_distinct, read_column_map, read_poses
 
     m: Any = load_model(model) if isinstance(model, (str, os.PathLike)) else model
     robot_of(m)
@@ -298,6 +306,9 @@ def inputs(model, data, columns, validate_paths, opt: Options, asked: bool, opti
         check_frame(m, v, frames, option)
         if v.group[0] not in fitted:
             check_validation(v, opt.register_on)
+    check_distinct(d)
+    for x in [d, *vals]:
+        check_against(m, x, frames)
     return m, d, vals, opt
 
 
@@ -305,8 +316,13 @@ def run(model, data, validate_sets: list, opt: Options, robust: bool = True) -> 
     """Fit and hold out: (the calibration, the validation files' held-out errors); ``robust``: rows no effect
     explains set aside (:mod:`vjm.calibration.robust`)."""
     fit = calibrate_robust if robust else calibrate
-    cal = fit(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
-    return cal, [validate(cal, v, opt.register_on) for v in validate_sets]
+    with warnings.catch_warnings():  # the joint limits: one warning on the whole data, not one per fold
+        warnings.filterwarnings("ignore", r".* is outside its limits ", VjmWarning)
+        cal = fit(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
+        held = [validate(cal, v, opt.register_on) for v in validate_sets]
+    for d in [data, *validate_sets]:
+        warn_limits(model, d)
+    return cal, held
 
 
 def write_set(out, cal: Calibration, rep: dict, force: bool = False, set_name: str = SET_NAME,
