@@ -724,12 +724,14 @@ CASES = [
     Case("40.3", "vjm stiffness d.yaml --q 0,0,0", "dh.joints[0].alpha: 90 rad is beyond one turn: degrees? write it "
          "as 90*deg", {"d.yaml": DH_METRES.replace("0.6604", "660.4").replace("0.4318", "431.8").replace(
              "alpha: pi/2, d", "alpha: 90, d")}, "d.yaml: a DH row with alpha: 90"),
-    Case("40.3", "vjm stiffness r.yaml --q 0,0", "home: j1 = 90 is beyond 2 pi rad (one turn): degrees?",
+    Case("40.3", "vjm stiffness r.yaml --q 0,0", "home: j1 = 90 is beyond 2 pi rad (one turn): degrees where radians are meant?",
          _xrobot("home: [90, -45]\n"), "r.yaml: home: [90, -45] (degrees)"),
     Case("40.3", "vjm compensate {ur10} t.csv --out c.csv --seed 0,-69,86,-107,-90,0", "--seed: shoulder_lift_joint = "
          "69 is beyond 2 pi rad", {"t.csv": TARGET}, "the seed in degrees"),
     Case("40.3", "vjm compensate {ur10} t.csv --out c.csv", "a rotation vector of 180 rad (rx,ry,rz = 180, 0, 0), "
          "beyond one turn", {"t.csv": "x,y,z,rx,ry,rz\n884,164,436,180,0,0\n"}, "t.csv: a target with rx = 180"),
+    Case("40.3", "vjm compensate {ur10} t.csv --out c.csv", "t.csv: column 'x' appears twice in the header",
+         {"t.csv": "x,y,z,x\n884,164,436,0\n"}, "t.csv: two columns x"),
     Case("40.3", "vjm stiffness r.yaml --q 0,0", "tools: 'base' is fixed to the robot's base",
          _xrobot("tools: [base]\n"), "r.yaml: tools: [base], the URDF's root link"),
     # 40.4: tracebacks and the URDF parser's lines where one line is promised

@@ -5,7 +5,7 @@ Units N, mm, kg, rad (the URDF's metres are converted where it is read)::
 
     name: UR10
     urdf: ur10.urdf                 # relative to this file; or dh: {...} (vjm.modelio.dh)
-    tools: [tool0]                  # optional: the tool frames (default: the links without a child)
+    tools: [tool0]                  # optional: the tool frames (default: tool0, else the deepest childless link)
     gravity: [0, 0, -9.80665]       # optional, m/s^2 in the base frame (a wall or ceiling mount turns it)
     strict_limits: false            # optional: a q outside a joint's limits is an error, not a warning
     home: [0, -1.2, 1.5, -1.87, -1.57, 0]   # optional: the working configuration (rad, mm), vjm path's seed

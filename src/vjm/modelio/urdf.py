@@ -111,7 +111,7 @@ def read(mapping: dict, base_dir: str) -> Tree:
 
 def read_urdf(path, tools=None) -> Tree:
     """The tree of a URDF file (mm, kg).  ``tools``: names of the tool frames (links or fixed
-    joints); default: every link without a child."""
+    joints); default: the links without a child that a joint moves, ``tool0`` or the deepest first."""
     path = os.path.abspath(os.fspath(path))
     if not os.path.isfile(path):
         raise VjmError(f"urdf: file not found: {path}")

@@ -173,6 +173,10 @@ def read_targets(path) -> tuple[np.ndarray, np.ndarray | None]:
     if missing:
         raise VjmError(f"{path}: no column {', '.join(missing)}; a targets file has the columns x,y,z[,rx,ry,rz] "
                        f"(mm, rad in the robot's base frame), got {', '.join(head)}")
+    twice = [c for c in ("x", "y", "z", "rx", "ry", "rz") if head.count(c) > 1]
+    if twice:
+        raise VjmError(f"{path}: column {twice[0]!r} appears twice in the header; which one holds the target is not "
+                       f"said: rename or remove one")
     rot = [c for c in ("rx", "ry", "rz") if c in head]
     if rot and len(rot) != 3:
         raise VjmError(f"{path}: columns {', '.join(rot)} without the other rotation components; give rx,ry,rz "
