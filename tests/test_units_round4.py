@@ -144,6 +144,8 @@ def test_a_ros_industrial_urdf_without_tools_takes_tool0(tmp_path):
         m = load_model(tmp_path / "r.yaml")
     assert m.tools[0] == "tool0" and "base" not in m.tools
     assert m.stiffness([0, -1.2, 1.5, -1.87, -1.57, 0]).rank == 6
+    with pytest.raises(VjmError, match="'base' is fixed to the robot's base: no joint moves it"):
+        m.stiffness([0, -1.2, 1.5, -1.87, -1.57, 0], "base")
 
 
 def test_without_tool0_the_deepest_moving_leaf_is_the_tool(tmp_path):

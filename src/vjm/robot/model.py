@@ -381,7 +381,11 @@ class RobotModel(Model):
         Computed in blocks of ``BLOCK`` configurations with the configuration axis last (the
         chain's closed-form Jacobian, ``C = sum_s J_s C_s J_s^T`` and its inverse stay in cache)."""
         a, single = self.check_q(q)
-        ch, _ = self.chain(self._tool(tool))
+        name = self._tool(tool)
+        if self.tree.frame(name).joint < 0:
+            raise VjmError(f"{self._where}{name!r} is fixed to the robot's base: no joint moves it, so it has no "
+                           f"stiffness (K = 0); tools: {', '.join(self.tools)}")
+        ch, _ = self.chain(name)
         n = len(a)
         out = (np.empty((n, 3)), np.empty((n, 6, 6)), np.empty((n, 6, 6)), np.empty(n), np.empty(n),
                np.empty(n, dtype=int), np.empty(n, dtype=bool), np.empty((n, 3)))
