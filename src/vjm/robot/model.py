@@ -219,8 +219,8 @@ class RobotModel(Model):
         check_gravity(self.gravity)
         if self.home is not None:
             if len(self.home) != self.nq or not np.all(np.isfinite(np.asarray(self.home, dtype=float))):
-                raise VjmError(f"home must be {self.nq} finite joint values ({', '.join(self.q_names)}), got "
-                               f"{self.home!r}")
+                raise VjmError(f"home must be {self.nq} joint values ({', '.join(self.q_names)}; finite numbers), "
+                               f"got {self.home!r}")
             self.check_seed(self.home, "home")
 
     kind = "serial"
