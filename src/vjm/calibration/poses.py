@@ -27,6 +27,7 @@ A file read without a map must already use vjm's names (``,`` separated, mm and 
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import re
@@ -382,6 +383,19 @@ def check_against(model, data: AbsolutePoses, frames) -> None:
             _check_scale(data.points[fr], model.forward(q, fr)[:, :3, 3], fr, data.source, deg)
     if deg:
         warnings.warn(f"{data.source}: {deg}", VjmWarning, stacklevel=2)
+
+
+@contextlib.contextmanager
+def quiet_limits():
+    """The joint-limit warnings of a model's evaluations silenced (a fit evaluates the rows once per fold and
+    stage: :func:`warn_limits` says it once instead)."""
+    import warnings
+
+    from ..errors import VjmWarning
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", r".* is outside its limits ", VjmWarning)
+        yield
 
 
 def warn_limits(model, data: AbsolutePoses) -> None:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import json
 import os
-import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -30,9 +29,8 @@ from typing import Any
 import numpy as np
 
 from ..effects import absolute
-from ..errors import VjmError, VjmWarning
+from ..errors import VjmError
 from .engine import calibrate, effect_names, error_stats, instrument_frame, position_errors, register
-from .poses import warn_limits
 from .result import Calibration
 from .robust import calibrate_robust
 from .sizes import as_mapping, effect_sizes
@@ -316,13 +314,8 @@ def run(model, data, validate_sets: list, opt: Options, robust: bool = True) -> 
     """Fit and hold out: (the calibration, the validation files' held-out errors); ``robust``: rows no effect
     explains set aside (:mod:`vjm.calibration.robust`)."""
     fit = calibrate_robust if robust else calibrate
-    with warnings.catch_warnings():  # the joint limits: one warning on the whole data, not one per fold
-        warnings.filterwarnings("ignore", r".* is outside its limits ", VjmWarning)
-        cal = fit(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
-        held = [validate(cal, v, opt.register_on) for v in validate_sets]
-    for d in [data, *validate_sets]:
-        warn_limits(model, d)
-    return cal, held
+    cal = fit(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
+    return cal, [validate(cal, v, opt.register_on) for v in validate_sets]
 
 
 def write_set(out, cal: Calibration, rep: dict, force: bool = False, set_name: str = SET_NAME,

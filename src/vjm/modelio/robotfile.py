@@ -89,8 +89,7 @@ def _joint_spring(spec, where: str) -> JointSpring:
 
 def _at_least(k: float, where: str) -> None:
     if not k >= MIN_STIFFNESS:
-        raise VjmError(f"{where} must be at least {MIN_STIFFNESS:g} N mm/rad (N/mm for a prismatic joint), got {k:g}"
-                       f"{' (N m/rad? give N mm/rad)' if k > 0 else ''}")
+        raise VjmError(f"{where} must be at least {MIN_STIFFNESS:g} N mm/rad (N/mm for a prismatic joint), got {k:g}")
 
 
 def _mass(v, where: str) -> float:
