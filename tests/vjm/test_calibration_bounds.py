@@ -84,7 +84,7 @@ def test_a_significant_but_negligible_stage_is_not_named_and_its_gain_is_the_hel
 
 def test_the_held_out_error_of_one_gauss_newton_step_is_the_refit():
     """The engine's held-out folds: one step from the fit on all rows against a fit on each fold's others
-    (the UR10's series A, every 30th row)."""
+    (the UR10's series A, every 30th row); the folds blocks of neighbouring rows of each group."""
     from vjm.calibration import engine
     from vjm.calibration.poses import read_column_map, read_poses
     from vjm.modelio.read import load_model
@@ -109,8 +109,10 @@ def test_the_held_out_error_of_one_gauss_newton_step_is_the_refit():
         return float(np.sum(r * r)), len(r)
 
     refit = fold_errors(lambda tr: engine.fit(engine._rows(prob, tr), lay, meas[tr], x)[0], held,
-                        interleaved_folds(data.n, 5))
+                        engine.block_folds(np.zeros(data.n), 5))
     step = engine._held_out(prob, full, meas, 5)(idx, x)
+    masks = engine.block_folds(np.array([0, 0, 1, 0, 1, 1, 1]), 2)
+    assert [list(np.flatnonzero(m)) for m in masks] == [[0, 1, 2, 4], [3, 5, 6]]
     assert step[:, 1] == pytest.approx(refit[:, 1])
     # 4e-4 on 400 rows (the folds' fits differ more than on the 11,911): far below a named effect's gain, 1 %
     assert step[:, 0] == pytest.approx(refit[:, 0], rel=1e-3)

@@ -15,7 +15,7 @@ from vjm.calibration.serial import rotation_matrix  # noqa: E402
 from vjm.effects import absolute  # noqa: E402
 from vjm.modelio.read import load_model  # noqa: E402
 
-EFFECTS = ("geometry", "compliance", "lateral")
+EFFECTS = ("geometry", "lateral")
 #: the effects whose parameters are >= 0 (their declared domain's lower bound)
 NONNEGATIVE = ("compliance", "lateral", "backlash", "bending", "payload")
 
@@ -46,7 +46,7 @@ def test_the_column_pulls_a_named_parameter_negative_without_its_domain(column, 
     monkeypatch.setattr(absolute, "domain", lambda names, *a, **k: (np.full(len(names), -np.inf),
                                                                     np.full(len(names), np.inf),
                                                                     np.zeros(len(names), dtype=bool)))
-    cal = engine.calibrate(model, data, "tool", effects=("geometry", "lateral"), folds=5)
+    cal = engine.calibrate(model, data, "tool", effects=EFFECTS, folds=5)
     neg = _negative(cal)
     assert "lateral" in [s.name for s in cal.stages if s.kept]
     assert any(v < -2 * s for v, s in neg.values()), neg
@@ -57,6 +57,13 @@ def test_within_the_domain_nothing_named_is_negative_and_the_stand_in_is_listed(
     cal = engine.calibrate(model, data, "tool", effects=EFFECTS, folds=5)
     assert not _negative(cal)
     stands = [s for s in cal.stages if s.category == "stands_in"]
-    assert stands and not any(s.kept for s in stands)
-    for s in stands:
-        assert s.wanted and all(w["value"] < w["bound"] - 2 * w["std"] for w in s.wanted)
+    assert [s.name for s in stands] == ["lateral"] and not stands[0].kept
+    assert stands[0].wanted and all(w["value"] < w["bound"] - 2 * w["std"] for w in stands[0].wanted)
+    assert stands[0].note.startswith("stands in for something else")
+
+
+def test_with_the_joint_compliance_beside_it_none_named_is_negative(column):
+    """The issue's case: the default candidates' joint compliance beside a lateral one."""
+    model, data = column
+    cal = engine.calibrate(model, data, "tool", effects=("geometry", "compliance", "lateral", "backlash"), folds=5)
+    assert not _negative(cal)

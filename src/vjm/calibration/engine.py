@@ -44,7 +44,6 @@ import numpy as np
 
 from ..effects import absolute
 from ..errors import VjmError
-from ..stats.fit import interleaved_folds
 from ..stats.staged import Best, Nested, Practical, least_squares_fit, select_stages
 from .flex import TEMPERATURE, flex_loads
 from .parallel import points as platform_points
@@ -265,33 +264,52 @@ def _rows(prob, mask: np.ndarray):
 
 def _held_out(prob, full: Layout, meas: np.ndarray, folds: int):
     """The held-out (sum of squares, count) per fold (:func:`vjm.stats.staged.fold_errors`) of a stage's
-    parameters (indices of ``full``) over ``folds`` interleaved folds of the rows
-    (:func:`vjm.stats.fit.interleaved_folds`), each fold predicted by the fit on the others: one Gauss-Newton
+    parameters (indices of ``full``) over ``folds`` blocks of neighbouring rows (:func:`block_folds`), each
+    fold predicted by the fit on the others: one Gauss-Newton
     step from the fit on all rows ``x0`` (exact for a linear model; the corrections fitted here are small),
     held within ``bounds`` (lower, upper) if given -- one Jacobian for every fold, not a fit per fold."""
     n = len(prob.q)
     k = len(meas) // n   # measured points per row, stacked frame after frame
-    masks = interleaved_folds(n, folds)
+    masks = block_folds(getattr(prob, "gidx", np.zeros(n, dtype=int)), folds)
 
     def cv(idx: list, x0: np.ndarray, bounds=None) -> np.ndarray:
         fun, jac = _residual_fn(prob, full.pick(idx), meas, {})
         r = fun(x0)
         J = jac(x0)
         s = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
-        Js = J / s
+        # a parameter held on its bound stays there: the step is that of the others
+        free = np.ones(len(x0), dtype=bool) if bounds is None else \
+            ~np.isclose(x0, bounds[0], rtol=0, atol=1e-12 * np.maximum(1.0, np.abs(x0))) & \
+            ~np.isclose(x0, bounds[1], rtol=0, atol=1e-12 * np.maximum(1.0, np.abs(x0)))
+        Js = (J / s)[:, free]
         G, b = Js.T @ Js, Js.T @ r
         out = []
         for test in masks:
             te = np.repeat(np.tile(test, k), 3)
             Jt, rt = Js[te], r[te]
-            dx = -np.linalg.lstsq(G - Jt.T @ Jt, b - Jt.T @ rt, rcond=1e-13)[0]
+            dx = np.zeros(len(x0))
+            dx[free] = -np.linalg.lstsq(G - Jt.T @ Jt, b - Jt.T @ rt, rcond=1e-13)[0]
             if bounds is not None:
                 dx = (np.clip(x0 + dx / s, *bounds) - x0) * s
-            e = rt + Jt @ dx
+            e = rt + Jt @ dx[free]
             out.append((float(e @ e), int(te.sum()) // 3))   # the RMS of the points' position errors
         return np.array(out, dtype=float)
 
     return cv
+
+
+def block_folds(group: np.ndarray, k: int) -> list:
+    """Boolean test masks of ``k`` folds: fold ``f`` holds the ``f``-th of ``k`` contiguous blocks of each
+    group's rows in their order.  Neighbouring poses (a grid's, a path's) share their errors: an interleaved
+    split keeps a held-out row's neighbours in the fit and lets an effect that only follows them pass as
+    held out (on the UR10's series A, 30 joint couplings gain 0.007 mm over interleaved folds, 1 % of the error,
+    and 0.002 +- 0.002 mm over blocks); every group keeps rows to be registered on."""
+    group = np.asarray(group)
+    fold = np.zeros(len(group), dtype=int)
+    for g in np.unique(group):
+        rows = np.flatnonzero(group == g)
+        fold[rows] = (np.arange(len(rows)) * k) // len(rows)
+    return [fold == f for f in range(k)]
 
 
 def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry", "compliance"), alpha: float = 1e-3,

@@ -376,15 +376,7 @@ def backward_stages(nf: Nested, stages: list, best: Best, alpha: float) -> tuple
                     k = min(k, i)
             first = k if first is None else min(first, k)
             continue
-        for name in named:
-            if first is None and name == named[-1]:
-                continue   # without the last one is the set before it: its own F test passed
-            gone = {name, *nf.through.get(name, ())}
-            idx = [i for i in best.idx if nf.kinds[i] not in gone]
-            f = domain_fit(nf, idx, np.array([best.x[best.idx.index(i)] for i in idx]))
-            pv = f_test(f.rss, len(idx), best.rss, len(best.idx), nf.m)
-            if pv >= alpha and (worst is None or pv > worst[1]):
-                worst = (name, pv, Best(idx, f.x, f.std, f.rss, float("nan")), gone)
+        worst = _least_needed(nf, best, named, alpha, skip_last=first is None)
         if worst is None:
             break
         best = worst[2]
@@ -412,6 +404,38 @@ def backward_stages(nf: Nested, stages: list, best: Best, alpha: float) -> tuple
         if len(idx) == len(best.idx):
             best = Best(idx, f.x, f.std, f.rss, cv, folds)
     return stages, best
+
+
+def _least_needed(nf: Nested, best: Best, named: list, alpha: float, skip_last: bool):
+    """The named stage least needed beside the others (its F test against the fit of all fails, the largest
+    p-value), with the stages acting through it: (name, p-value, the fit without them, their names), or None.
+    The p-values are first those of the linearised fit at ``best`` (removing the block ``g`` raises the RSS by
+    ``x_g^T (C_gg)^-1 x_g``, ``C = (J^T J)^-1``: one Jacobian, no refit); the candidates are then refitted in
+    that order, the first whose refit's F test fails taken."""
+    named = named[:-1] if skip_last else named   # without the last one is the set before it: it passed
+    if not named:
+        return None
+    x_all = np.zeros(len(nf.names))
+    x_all[best.idx] = best.x
+    J = nf.jacobian(x_all, best.idx)
+    sc = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
+    C = np.linalg.pinv((J / sc).T @ (J / sc))
+    xs = best.x * sc
+    order = []
+    for name in named:
+        gone = {name, *nf.through.get(name, ())}
+        g = [k for k, i in enumerate(best.idx) if nf.kinds[i] in gone]
+        rise = float(xs[g] @ np.linalg.lstsq(C[np.ix_(g, g)], xs[g], rcond=None)[0])
+        order.append((f_test(best.rss + rise, len(best.idx) - len(g), best.rss, len(best.idx), nf.m), name, gone))
+    for pv_lin, name, gone in sorted(order, key=lambda t: -t[0]):
+        if pv_lin < alpha:
+            return None
+        idx = [i for i in best.idx if nf.kinds[i] not in gone]
+        f = domain_fit(nf, idx, np.array([best.x[best.idx.index(i)] for i in idx]))
+        pv = f_test(f.rss, len(idx), best.rss, len(best.idx), nf.m)
+        if pv >= alpha:
+            return name, pv, Best(idx, f.x, f.std, f.rss, float("nan")), gone
+    return None
 
 
 def _sits_on_bound(nf: Nested, stages: list, best: Best):
