@@ -200,11 +200,12 @@ def _residual_fn(prob, layout: Layout, meas: np.ndarray, fixed: dict):
     return fun, jac
 
 
-def fit(prob, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: dict | None = None, bounds=None):
+def fit(prob, layout: Layout, meas: np.ndarray, x0: np.ndarray, fixed: dict | None = None, bounds=None,
+        keep: dict | None = None):
     """Levenberg-Marquardt fit of ``layout``'s parameters (:func:`vjm.stats.staged.least_squares_fit`; within
-    ``bounds`` (lower, upper) if given): (x, std, rss)."""
+    ``bounds`` (lower, upper) if given): (x, std, rss); ``keep`` given the solution's residuals and Jacobian."""
     fun, jac = _residual_fn(prob, layout, meas, fixed or {})
-    return least_squares_fit(fun, jac, x0, bounds)
+    return least_squares_fit(fun, jac, x0, bounds, keep)
 
 
 def _flat_joints(prob: Problem, layout: Layout, cands: list, flat: float, how: str = "torque") -> tuple[list, list]:
@@ -262,20 +263,23 @@ def _rows(prob, mask: np.ndarray):
                    flex=None if prob.flex is None else prob.flex.rows(mask))
 
 
-def _held_out(prob, full: Layout, meas: np.ndarray, folds: int):
+def _held_out(prob, full: Layout, meas: np.ndarray, folds: int, last: dict | None = None):
     """The held-out (sum of squares, count) per fold (:func:`vjm.stats.staged.fold_errors`) of a stage's
     parameters (indices of ``full``) over ``folds`` blocks of neighbouring rows (:func:`block_folds`), each
     fold predicted by the fit on the others: one Gauss-Newton
     step from the fit on all rows ``x0`` (exact for a linear model; the corrections fitted here are small),
-    held within ``bounds`` (lower, upper) if given -- one Jacobian for every fold, not a fit per fold."""
+    held within ``bounds`` (lower, upper) if given -- one Jacobian for every fold, not a fit per fold: that of
+    the last fit (``last``: its parameters' indices ``idx``, ``x``, residuals and Jacobian) when it is at ``x0``."""
     n = len(prob.q)
     k = len(meas) // n   # measured points per row, stacked frame after frame
     masks = block_folds(getattr(prob, "gidx", np.zeros(n, dtype=int)), folds)
 
     def cv(idx: list, x0: np.ndarray, bounds=None) -> np.ndarray:
-        fun, jac = _residual_fn(prob, full.pick(idx), meas, {})
-        r = fun(x0)
-        J = jac(x0)
+        if last and "x" in last and last.get("idx") == list(idx) and np.array_equal(last["x"], x0):
+            r, J = last["fun"], last["jac"]
+        else:
+            fun, jac = _residual_fn(prob, full.pick(idx), meas, {})
+            r, J = fun(x0), jac(x0)
         s = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
         # a parameter held on its bound stays there: the step is that of the others
         free = np.ones(len(x0), dtype=bool) if bounds is None else \
@@ -367,11 +371,18 @@ def run_stages(prob, full: Layout, meas: np.ndarray, order, alpha: float, tol: f
         return cands, []
 
     bounded = bounds is not None and bool(np.any(np.isfinite(bounds[0])) or np.any(np.isfinite(bounds[1])))
-    nf = Nested(full.names, full.kinds, lambda idx, x0, b=None: fit(prob, full.pick(idx), meas, x0, bounds=b),
+    last: dict = {}   # the last fit's solution: the held-out folds step from its Jacobian
+
+    def fit_(idx: list, x0: np.ndarray, b=None):
+        last.clear()
+        last["idx"] = list(idx)
+        return fit(prob, full.pick(idx), meas, x0, bounds=b, keep=last)
+
+    nf = Nested(full.names, full.kinds, fit_,
                 lambda x, cols: _jacobian(prob, full.pick(cols), x[cols]),
                 lambda idx, x: _stats(prob, full.pick(idx), x, meas),
                 meas.size, len(meas), "registration", ("reg", "marker"),
-                cv=_held_out(prob, full, meas, folds) if folds else None, screen=screen,
+                cv=_held_out(prob, full, meas, folds, last) if folds else None, screen=screen,
                 through={n: absolute.carried(n) for n in order}, bounds=bounds if bounded else None,
                 practical=practical)
     return select_stages(nf, order, alpha, tol, removed or (), progress)

@@ -134,11 +134,12 @@ class Fitted(NamedTuple):
     free_rss: float
 
 
-def least_squares_fit(fun: Callable, jac: Callable, x0: np.ndarray,
-                      bounds: tuple | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+def least_squares_fit(fun: Callable, jac: Callable, x0: np.ndarray, bounds: tuple | None = None,
+                      keep: dict | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """Levenberg-Marquardt fit of the residuals ``fun(x)`` (Jacobian ``jac(x)``) from ``x0``: (x, std, rss), the
     standard deviations those of ``s^2 (J^T J)^-1`` with ``s^2 = RSS / (m - p)``.  ``bounds`` (lower, upper):
-    the trust-region reflective solver within them instead, ``x0`` moved into them first."""
+    the trust-region reflective solver within them instead, ``x0`` moved into them first.  ``keep``: given
+    the solution's ``x``, residuals ``fun`` and Jacobian ``jac`` (what the held-out folds step from)."""
     if len(x0) == 0:
         r = fun(x0)
         return x0, x0, float(r @ r)
@@ -151,7 +152,9 @@ def least_squares_fit(fun: Callable, jac: Callable, x0: np.ndarray,
     r = sol.fun
     rss = float(r @ r)
     dof = max(len(r) - len(x0), 1)
-    J = jac(sol.x)
+    J = sol.jac   # the solver's, at the solution
+    if keep is not None:
+        keep.update(x=sol.x.copy(), fun=r, jac=J)
     # columns scaled to unit norm first: the parameters' units (mm, rad, rad/(N mm)) span 1e12
     s = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
     cov = np.linalg.pinv((J / s).T @ (J / s)) / np.outer(s, s) * (rss / dof)
@@ -279,9 +282,12 @@ def _judge(nf: Nested, best: Best, name: str, trial: list, f: Fitted, pv: float,
         return {"ok": False, "out": (f, _rms(nf, best.rss), thr)}
     if not pv < alpha:
         return {"ok": False}
-    if nf.cv is None:
-        gain, se, folds = _rms(nf, best.rss) - _rms(nf, f.rss), float("nan"), None
-        ok = gain >= thr
+    fitted = _rms(nf, best.rss) - _rms(nf, f.rss)
+    if nf.cv is None or fitted < 0.5 * thr:
+        # without folds, or a gain on the fitted rows below half the threshold: the held-out gain, smaller, is
+        # not worth its folds
+        gain, se, folds = fitted, float("nan"), None
+        ok = nf.cv is None and gain >= thr
     else:
         folds = _cv(nf, trial, f.x, f.bounds)
         gain = best.cv - _pooled(folds)
@@ -290,7 +296,7 @@ def _judge(nf: Nested, best: Best, name: str, trial: list, f: Fitted, pv: float,
         ok = gain > se and gain >= thr
     rec = {"ok": ok, "gain": gain, "gain_se": se, "threshold": thr, "folds": folds}
     if not ok and gain > 0:
-        held = "held out" if nf.cv is not None else "on the fitted rows"
+        held = "held out" if folds is not None else "on the fitted rows"
         rec.update(category="negligible",
                    note=f"significant but negligible: buys {gain:.3g} mm {held}"
                         + (f" (+- {se:.2g} mm fold to fold)" if se == se else "") + f", threshold {thr:.3g} mm")
