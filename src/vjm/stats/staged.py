@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
-from typing import Callable, NamedTuple
+from typing import Any, Callable, NamedTuple
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -270,7 +270,7 @@ def _out_of_domain(nf: Nested, stage: Stage, f: Fitted, after: float, thr: float
 
 
 def _judge(nf: Nested, best: Best, name: str, trial: list, f: Fitted, pv: float, pv_free: float,
-           alpha: float) -> dict:
+           alpha: float) -> dict[str, Any]:
     """Whether the stage ``name`` whose trial fit is ``f`` is named (the module docstring): its domain (the F
     test of its unbounded fit ``pv_free`` passing with a parameter of its own beyond its bound by more than
     :data:`BEYOND` standard deviations: it stands in for something else; the parameters of the stages before
@@ -294,7 +294,7 @@ def _judge(nf: Nested, best: Best, name: str, trial: list, f: Fitted, pv: float,
         d = _per_fold(best.folds) - _per_fold(folds)
         se = float(np.std(d, ddof=1) / np.sqrt(len(d))) if len(d) > 1 else float("inf")
         ok = gain > se and gain >= thr
-    rec = {"ok": ok, "gain": gain, "gain_se": se, "threshold": thr, "folds": folds}
+    rec: dict[str, Any] = {"ok": ok, "gain": gain, "gain_se": se, "threshold": thr, "folds": folds}
     if not ok and gain > 0:
         held = "held out" if folds is not None else "on the fitted rows"
         rec.update(category="negligible",
@@ -338,7 +338,7 @@ def forward_stages(nf: Nested, order, alpha: float, tol: float, removed=(), prog
         # the F test of the fit within the domain; one that passes only out of it stands in for something else
         pv = f_test(best.rss, len(best.idx), f.rss, len(trial), nf.m)
         pv_free = f_test(best.rss, len(best.idx), f.free_rss, len(trial), nf.m)
-        j = _judge(nf, best, name, trial, f, pv, pv_free, alpha) if kept else {"ok": False}
+        j: dict[str, Any] = _judge(nf, best, name, trial, f, pv, pv_free, alpha) if kept else {"ok": False}
         ok = j["ok"]
         x_s = f.free_x if "out" in j else f.x
         st = Stage(name, ok, len(trial), f.rss, _rms(nf, f.rss), pv_free if "out" in j else pv,
