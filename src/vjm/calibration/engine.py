@@ -29,9 +29,13 @@ the measurement model of :mod:`vjm.calibration.serial` is fitted by Levenberg-Ma
 6. **payload**: an unknown mass at the marker (a probe, a tool), weighed through the compliances kept: its
    gravity torque ``-J_p^T g`` per kg adds to the robot's own.
 
-The selection is that of :mod:`vjm.stats.staged` (this module gives it the measurement model): a stage is
-kept when the F test of its residual drop has a p-value below ``alpha`` (clean data keep the registration
-only) and, with ``folds``, when its cross-validated error drops too.  Once all are tried, each stage kept
+The selection is that of :mod:`vjm.stats.staged` (this module gives it the measurement model): every
+parameter is fitted within its physical domain (:func:`vjm.effects.absolute.domain`, on the total: the
+model's ``nominal`` value plus the correction), and a stage is kept when no parameter of it has to leave
+the domain, the F test of its residual drop has a p-value below ``alpha`` (clean data keep the
+registration only) and what it buys -- with ``folds``, the drop of its error held out over blocks of
+neighbouring rows (:func:`block_folds`), beyond that drop's fold-to-fold standard error -- reaches
+``min_gain`` mm (default 1 % of the error it starts from).  Once all are tried, each stage kept
 is tested again beside the others (:func:`vjm.stats.staged.backward_stages`): one that the stages after it
 explain is dropped.  Uncertainties are ``s^2 (J^T J)^-1`` with the residual variance ``s^2``; residuals
 are unweighted (mm), the model's errors exceeding the instruments' stated sigmas on real data.
