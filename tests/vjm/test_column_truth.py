@@ -67,3 +67,22 @@ def test_with_the_joint_compliance_beside_it_none_named_is_negative(column):
     model, data = column
     cal = engine.calibrate(model, data, "tool", effects=("geometry", "compliance", "lateral", "backlash"), folds=5)
     assert not _negative(cal)
+
+
+def test_the_report_lists_the_stand_in_and_the_verdict_stays_unexplained(column, tmp_path):
+    """``vjm diagnose`` on the column's data: lateral stands in for the column's tilt, buying more than the
+    practical threshold beyond what is named (geometry only), so the verdict is unexplained."""
+    import json
+
+    from vjm.cli import main
+
+    model, data = column
+    folder = model.path.rsplit("/", 1)[0]
+    assert main(["diagnose", model.path, f"{folder}/poses.csv", "--effect", "geometry", "--effect", "lateral",
+                 "--out", str(tmp_path / "o")]) == 0
+    rep = json.loads((tmp_path / "o" / "report.json").read_text())
+    assert rep["named_effects"] == ["geometry"] and rep["verdict"] == "unexplained"
+    s, = rep["stands_in"]
+    assert s["effect"] == "lateral" and s["beyond_named_mm"] >= s["threshold_mm"] > 0
+    assert all(w["value"] < w["bound"] - 2 * w["std"] for w in s["wanted"])
+    assert "stands in for something else" in (tmp_path / "o" / "summary.txt").read_text()
