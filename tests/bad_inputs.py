@@ -687,6 +687,20 @@ CASES = [
          {"o/notes.txt": "mine\n"}, "o/: a folder without a map"),
     Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare o", "--compare o/map.npz: not a readable "
          "map.npz", {"o/map.npz": "not a map\n"}, "o/map.npz: a text file"),
+    # 38.1: the rated load of a robot file; 38.2: the practical threshold of an effect's gain
+    Case("38.1", "vjm calibrate r.yaml p.csv --out o", "payload_limit must be > 0 (kg, the rated load), got -5",
+         {**CAL_FILES, "r.yaml": ROBOT + "payload_limit: -5\n"}, "a negative rated load", number=320),
+    Case("38.1", "vjm diagnose r.yaml p.csv --out o", "payload_limit must be a finite number, got 'heavy'",
+         {**CAL_FILES, "r.yaml": ROBOT + "payload_limit: heavy\n"}, "a rated load that is no number"),
+    Case("38.1", "vjm calibrate r.yaml p.csv --out o", "payload.mass 8 kg exceeds payload_limit 5 kg",
+         {**CAL_FILES, "r.yaml": ROBOT + "payload: {frame: l2, mass: 8}\npayload_limit: 5\n"},
+         "a payload above the rated load"),
+    Case("38.2", "vjm diagnose r.yaml p.csv --out o --min-gain -0.01", "--min-gain must be a finite number of mm >= 0",
+         CAL_FILES, "a negative practical threshold"),
+    Case("38.2", "vjm calibrate r.yaml p.csv --out o --min-gain nan", "--min-gain must be a finite number of mm >= 0",
+         CAL_FILES, "a practical threshold that is no number"),
+    Case("38.2", D + " --min-gain 0.01", "--min-gain is the practical threshold of an effect on absolute poses",
+         {"m.csv": GOOD}, "the threshold of absolute poses given with deflection data"),
     # 40.3: silent wrong answers, units and ranges
     Case("40.3", "vjm calibrate r.yaml d.csv --out o", "joint j1 = 85.94 is beyond 2 pi rad (one turn): degrees where radians are meant?", {**X_FILES, "d.csv": _arm_poses(180 / 3.141592653589793)},
          "d.csv: the joints in degrees", number=400),

@@ -326,3 +326,72 @@ def si_compliance(C: np.ndarray) -> np.ndarray:
     out[:3, :3] = C[:3, :3] / 1000.0
     out[3:, 3:] = C[3:, 3:] * 1000.0
     return out
+
+
+#: the column robot's joints as its data name them: the column's lift (mm), then the arm (rad)
+COLUMN_JOINTS = ("lift", "yaw", "shoulder", "elbow", "wrist")
+#: the column's travel (m)
+COLUMN_TRAVEL = (0.0, 0.8)
+
+
+def column_robot_urdf(hidden_tilt: bool = False) -> str:
+    """A robot whose four-joint arm rides on a prismatic (telescopic) column: the lift along z (its travel
+    :data:`COLUMN_TRAVEL` above the fixed guide's 0.8 m), a yaw at the column's top, a shoulder, an elbow and
+    a wrist pitching about y.  ``hidden_tilt``: two revolute joints (about x, then y) at the fixed guide's top, where
+    the moving stage leaves it: the stage's tilt in the guide (the whole moving column and the arm turn about
+    it), set by :func:`column_robot_poses` (not joints of the robot's own model)."""
+    parts = ['<robot name="column">', urdf_link("base", 50.0, "0 0 0.2")]
+    if hidden_tilt:
+        parts += [urdf_joint("tilt_x", "base", "tilt_mid", "0 0 0.8", "1 0 0"), urdf_link("tilt_mid", 0.0, "0 0 0"),
+                  urdf_joint("tilt_y", "tilt_mid", "guide", "0 0 0", "0 1 0"), urdf_link("guide", 0.0, "0 0 0"),
+                  urdf_prismatic("lift", "guide", "carriage", "0 0 0", "0 0 1", *COLUMN_TRAVEL)]
+    else:
+        parts += [urdf_prismatic("lift", "base", "carriage", "0 0 0.8", "0 0 1", *COLUMN_TRAVEL)]
+    parts += [urdf_link("carriage", 6.0, "0 0 0.1"),
+              urdf_joint("yaw", "carriage", "turret", "0 0 0.2", "0 0 1"), urdf_link("turret", 4.0, "0 0 0.05"),
+              urdf_joint("shoulder", "turret", "upper", "0 0 0.1", "0 1 0"), urdf_link("upper", 9.0, "0.3 0 0.05"),
+              urdf_joint("elbow", "upper", "fore", "0.6 0 0.1", "0 1 0"), urdf_link("fore", 5.0, "0.25 0 0"),
+              urdf_joint("wrist", "fore", "hand", "0.5 0 0", "0 1 0"), urdf_link("hand", 2.0, "0.08 0 0"),
+              '<joint name="tool_joint" type="fixed"><parent link="hand"/><child link="tool"/>'
+              '<origin xyz="0.15 0 0" rpy="0 0 0"/></joint>', '<link name="tool"/>', "</robot>"]
+    return "\n".join(parts)
+
+
+def column_robot_poses(urdf_hidden: str, n: int, tilt=(2e-6, 2e-5), R=None, t=None, marker=(0.0, 0.0, 0.0),
+                       sigma: float = 0.01, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(q (n, 5): the lift in mm and the arm's joints in rad, the marker's positions (n, 3) mm in the instrument
+    frame) of the column robot (:func:`column_robot_urdf` with ``hidden_tilt``, written at ``urdf_hidden``)
+    whose column top tilts under the arm's weight: the tilt angles about x and y are ``-c(z) g`` with
+    ``g`` pinocchio's gravity torques at the two hidden joints and a compliance growing with the extension
+    ``z`` (m), ``c(z) = tilt[0] + tilt[1] z`` rad/(N m) (the overlaps of a telescopic column shrink as it
+    extends), solved as a fixed point; random postures over the travel, an instrument frame (R, t mm), a
+    marker offset on ``tool`` (mm) and iid noise ``sigma`` (mm)."""
+    m = pin.buildModelFromUrdf(urdf_hidden)
+    m.gravity.linear = np.array(GRAVITY)
+    d = m.createData()
+    fid = m.getFrameId("tool")
+    iq = {nm: m.idx_qs[m.getJointId(nm)] for nm in (*COLUMN_JOINTS, "tilt_x", "tilt_y")}
+    rng = np.random.default_rng(seed)
+    q = np.column_stack([rng.uniform(*COLUMN_TRAVEL, n), rng.uniform(-3.0, 3.0, n), rng.uniform(-0.6, 0.6, n),
+                         rng.uniform(-1.2, 1.2, n), rng.uniform(-1.5, 1.5, n)])
+    R = np.eye(3) if R is None else np.asarray(R, dtype=float)
+    t = np.zeros(3) if t is None else np.asarray(t, dtype=float)
+    out = np.empty((n, 3))
+    tilt_idx = [iq["tilt_x"], iq["tilt_y"]]
+    for k, row in enumerate(q):
+        th = np.zeros(m.nq)
+        for nm, v in zip(COLUMN_JOINTS, row):
+            th[iq[nm]] = v
+        c = tilt[0] + tilt[1] * row[0]
+        for _ in range(100):
+            g = pin.computeGeneralizedGravity(m, d, th)
+            new = -c * g[tilt_idx]
+            done = np.max(np.abs(new - th[tilt_idx])) < 1e-15
+            th[tilt_idx] = new
+            if done:
+                break
+        pin.framesForwardKinematics(m, d, th)
+        M = d.oMf[fid]
+        out[k] = R @ ((M.rotation @ (np.asarray(marker) / 1000.0) + M.translation) * 1000.0) + t
+    out += rng.normal(scale=sigma, size=out.shape) if sigma > 0 else 0.0
+    return q * np.array([1000.0, 1.0, 1.0, 1.0, 1.0]), out

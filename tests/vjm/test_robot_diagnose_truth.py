@@ -159,7 +159,9 @@ def test_vjm_calibrate_measures_both_points(torso):
     assert main(["calibrate", str(d / "torso.yaml"), str(d / "two.csv"), "--columns", str(d / "map.yaml"),
                  "--folds", "0", "--out", str(out)]) == 0
     rep = json.loads((out / "report.json").read_text())
-    assert rep["frames"] == list(HANDS) and rep["effects_tried"] == ["geometry", "compliance"]
+    # every effect that applies but the payload (weighed at one marker) and thermal (no temperature column)
+    assert rep["frames"] == list(HANDS) and "payload" not in rep["effects_tried"] and "thermal" not in \
+        rep["effects_tried"] and {"geometry", "compliance", "lateral", "coupling"} <= set(rep["effects_tried"])
     assert [m["frame"] for m in rep["registration"]["markers"]] == list(HANDS)
     urdf = (out / "calibrated.urdf").read_text()
     assert all(f'<link name="{h}_marker"' in urdf for h in HANDS)

@@ -7,7 +7,7 @@ import pytest
 from scipy.special import betainc
 
 from vjm.stats.fit import cross_validated, f_test, interleaved_folds
-from vjm.stats.staged import Nested, forward_stages, identifiable, least_squares_fit, select_stages
+from vjm.stats.staged import Nested, fold_errors, forward_stages, identifiable, least_squares_fit, select_stages
 
 N = 90
 T = np.linspace(-1.0, 1.0, N)
@@ -103,15 +103,15 @@ def test_k_fold_rms_is_that_of_an_explicit_loop_over_every_kth_row():
 
 def linear(X, y, kinds, folds=0):
     """The :class:`Nested` of the linear model y ~ X, its columns in the blocks ``kinds`` (``nuis`` first)."""
-    def fit(idx, x0):
-        return least_squares_fit(lambda b: X[:, idx] @ b - y, lambda b: X[:, idx], x0)
+    def fit(idx, x0, bounds=None):
+        return least_squares_fit(lambda b: X[:, idx] @ b - y, lambda b: X[:, idx], x0, bounds)
 
-    def cv(idx, x):
-        return cross_validated(lambda tr: np.linalg.lstsq(X[tr][:, idx], y[tr], rcond=None)[0],
-                               lambda te, b: (float(np.sum((X[te][:, idx] @ b - y[te]) ** 2)), int(te.sum())),
-                               interleaved_folds(len(y), folds))
+    def cv(idx, x, bounds=None):
+        return fold_errors(lambda tr: np.linalg.lstsq(X[tr][:, idx], y[tr], rcond=None)[0],
+                           lambda te, b: (float(np.sum((X[te][:, idx] @ b - y[te]) ** 2)), int(te.sum())),
+                           interleaved_folds(len(y), folds))
 
-    return Nested(tuple(f"c{i}" for i in range(X.shape[1])), tuple(kinds), fit, lambda x: X,
+    return Nested(tuple(f"c{i}" for i in range(X.shape[1])), tuple(kinds), fit, lambda x, cols: X[:, cols],
                   lambda idx, x: {}, y.size, y.size, "base", ("nuis",), cv=cv if folds else None)
 
 
@@ -161,6 +161,6 @@ def test_with_folds_a_stage_is_kept_only_if_its_held_out_error_drops():
     # a p-value that passes with a held-out error that does not drop: a model whose cv is never lower
     nf = linear(X, y, ["nuis", "a", "b"], folds=5)
     worse = Nested(nf.names, nf.kinds, nf.fit, nf.jacobian, nf.summary, nf.m, nf.points, nf.first, nf.nuisance,
-                   cv=lambda idx, x: float(len(idx)))
+                   cv=lambda idx, x: np.full((5, 2), [float(len(idx)) ** 2, 1.0]))
     stages, best, _ = forward_stages(worse, ["a", "b"], 1e-3, 1e-6)
     assert [s.kept for s in stages] == [True, False, False] and stages[1].p_value < 1e-3

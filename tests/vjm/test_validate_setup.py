@@ -135,7 +135,9 @@ def same(files):
 def test_a_test_file_of_the_fitted_setup_is_held_out_whole_on_the_fitted_registration(files, names, same):
     d, q, p, _ = files
     code, rep = same
-    assert code == 0 and rep["effects_tried"] == ["geometry", "compliance"]
+    # every effect that applies but the one excluded (and thermal: no temperature column); the truth's named
+    assert code == 0 and rep["effects_tried"] == [e for e in absolute.names("serial") if e not in ("payload", "thermal")]
+    assert sorted(rep["named_effects"]) == ["compliance", "geometry"]
     test, _ = rep["held_out"]["validate"]
     assert test["file"].endswith("test.csv") and test["registered"] == "on the fitted set-up"
     assert test["rows"] == HELD and test["registered_on"] == 0   # every row held out, none spent on registering

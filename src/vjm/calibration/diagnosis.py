@@ -4,16 +4,22 @@ calibration engine (one home for the fit: :func:`vjm.calibration.engine.calibrat
 The data (:class:`vjm.calibration.poses.AbsolutePoses`, read as it is through a column map) hold per row the
 joint values and the points an instrument measured in its own frame.  The diagnosis fits the
 registration (each instrument set-up's frame and the markers' offsets: a nuisance, reported apart with its
-standard deviations), then tries the effects in order (default: geometry, joint compliance under
-self-weight, a payload; ``--effect -name`` excludes one): an effect is named when its F test passes at ``alpha`` and, without
-``--validate`` files, its k-fold cross-validated error drops (an effect that improves the fitted rows but
-not the held-out ones is not named).  Parameters the identification Jacobian cannot tell apart are removed
-and listed; joints whose load hardly varies are reported not observable.
+standard deviations), then tries the effects in order: with none asked, every registered effect that applies
+to the robot and the data (:func:`candidates`; ``--effect`` names narrow, ``--effect -name`` excludes one).
+The plan (candidates, parameters, an estimate of the time) is told before the work and a line per stage
+while it runs.  Each parameter is fitted within its physical domain (:func:`vjm.effects.absolute.domain`).
+An effect is named when its F test passes at ``alpha``, no parameter of it has to leave its domain (else it
+"stands in for something else"), and its k-fold held-out gain exceeds the gain's fold-to-fold standard
+error and a practical threshold (``min_gain`` mm; default 10 % of the stated instrument sigma where the file
+states sigmas, else 1 % of the error the effect starts from): a significant effect below it is "significant
+but negligible", its gain in mm reported.  Parameters the identification Jacobian cannot tell apart are
+removed and listed; joints whose load hardly varies are reported not observable.
 
 The verdict: ``no_discrepancy`` (nothing named beyond the registration), ``explained`` (effects named) or
-``unexplained`` (the file states the instrument's sigmas and the final fit's residuals exceed them: a
-chi-square test at ``alpha``; a gap no effect of the library closes).  Without sigma columns the lack of fit
-is not judged, and the summary says so beside the verdict.
+``unexplained``: the file states the instrument's sigmas and the final fit's residuals exceed them (a
+chi-square test at ``alpha``), or an effect that stands in for something else buys what the effects named do
+not (by the practical threshold): a gap no effect of the library closes within its physical domain.  Without
+sigma columns the lack of fit is not judged, and the summary says so beside the verdict.
 
 The outcome is a :class:`vjm.discrepancy.diagnosis.Diagnosis` (one result type for every data kind) whose
 report is a :class:`PoseReport`.  Written as one output set: ``report.json``, ``report.html``, ``summary.txt``,
@@ -23,6 +29,7 @@ and the calibrated URDF and robot file (``calibrated.urdf``, ``calibrated.yaml``
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 import time
@@ -54,6 +61,12 @@ SCHEMA = "vjm.diagnosis.absolute/1"
 #: the work: 6 kB measured (UR10, 20,000 rows); 1.5 ms (200,000 rows on one machine) to 10 ms (20,000 rows on a
 #: shared 2-core one)
 ROW_COST = (8e3, 5e-3)
+#: time (s) per row and candidate parameter of a stage's fit (the plan's estimate: each stage fits the
+#: parameters kept before it and its own, once and once per fold): the UR10's whole library on series A,
+#: 106 s measured on 2 cores other jobs loaded to 8
+FIT_COST = 2e-6
+#: the practical threshold of an effect's held-out gain where the file states sigmas: this fraction of them
+SIGMA_FRACTION = 0.1
 #: the F test's level of an effect when none is given (that of ``vjm calibrate``)
 DEFAULT_ALPHA = 1e-3
 
@@ -89,6 +102,11 @@ class PoseReport(FrozenReport):
     verdict: str
     named_effects: tuple
     lack_of_fit: Mapping = field(default_factory=dict)
+    #: effects that fit only out of their physical domain, with the values they wanted
+    stands_in: tuple = ()
+    #: effects whose F test passes but whose gain is below its standard error or the practical threshold
+    negligible: tuple = ()
+    min_gain: Mapping = field(default_factory=dict)
 
     OPTIONAL = ("machine", "actuators")
 
@@ -145,10 +163,17 @@ def lack_of_fit(cal, data, alpha: float) -> dict:
             "rms_over_sigma": float(np.sqrt(stat / r.size))}
 
 
-def _verdict(named: list, lof: dict) -> str:
-    if lof.get("lack_of_fit"):
+def _verdict(named: list, lof: dict, open_gap: bool = False) -> str:
+    if lof.get("lack_of_fit") or open_gap:
         return "unexplained"
     return "explained" if named else "no_discrepancy"
+
+
+def open_gap(stands: list) -> bool:
+    """Whether an effect that stands in for something else (``stands``, :func:`vjm.calibration.report.stands_in`)
+    buys, out of its domain, at least the practical threshold more than the effects named: what the data show is
+    then not explained."""
+    return any(s["beyond_named_mm"] >= s["threshold_mm"] for s in stands)
 
 
 def pose_report(rep: dict, cal, data, alpha: float, **machine) -> PoseReport:
@@ -157,7 +182,8 @@ def pose_report(rep: dict, cal, data, alpha: float, **machine) -> PoseReport:
     ``actuators``)."""
     lof = lack_of_fit(cal, data, alpha)
     named = [e["effect"] for e in rep["effects"]]
-    fields = {**rep, "schema": SCHEMA, **machine, "verdict": _verdict(named, lof), "named_effects": named,
+    gap = open_gap(rep.get("stands_in", ()))
+    fields = {**rep, "schema": SCHEMA, **machine, "verdict": _verdict(named, lof, gap), "named_effects": named,
               "lack_of_fit": lof}
     return PoseReport(**fields)
 
@@ -167,6 +193,60 @@ def progress_lines(rep: PoseReport, progress) -> None:
     if progress:
         for s in rep["stages"]:
             progress(f"{s['name']}: {'named' if s['kept'] else 'not named'}, RMS {s['rms_mm']:.4f} mm")
+
+
+def candidates(model, data, effects) -> tuple:
+    """The effects tried on ``data``: those ``effects`` names (they narrow), or every registered effect that
+    applies to the robot and the data (:func:`vjm.effects.absolute.applicable`) less the ``-name``s excluded."""
+    from ..effects.absolute import applicable
+
+    asked = asked_effects(effects)
+    if asked:
+        return asked
+    out = {n[1:] for n in effects or () if n.startswith("-")}
+    return tuple(e for e in applicable(model, "absolute", data) if e not in out)
+
+
+def check_min_gain(min_gain) -> float | None:
+    """``--min-gain`` (mm): a finite number >= 0, or None (the default threshold)."""
+    if min_gain is None:
+        return None
+    if isinstance(min_gain, bool) or not isinstance(min_gain, (int, float)) or not np.isfinite(min_gain) \
+            or min_gain < 0:
+        raise VjmError(f"--min-gain must be a finite number of mm >= 0 (what an effect must buy), got {min_gain!r}")
+    return float(min_gain)
+
+
+def practical_gain(data, frames, min_gain: float | None) -> tuple[float | None, str]:
+    """(the practical threshold in mm, None: 1 % of the error each effect starts from; how it was set): the
+    ``min_gain`` asked, else :data:`SIGMA_FRACTION` of the median stated sigma where the file states every
+    point's."""
+    if min_gain is not None:
+        return min_gain, "--min-gain"
+    if frames and all(f in data.sigmas for f in frames):
+        sig = float(np.median(np.concatenate([np.ravel(data.sigmas[f]) for f in frames])))
+        return SIGMA_FRACTION * sig, f"{100 * SIGMA_FRACTION:g} % of the stated sigma ({sig:.3g} mm)"
+    return None, "1 % of the error each effect starts from"
+
+
+def plan_lines(model, data, opt) -> list:
+    """The plan told before the work: the candidates and their parameters, the folds, an estimate of the time
+    (:data:`FIT_COST` per row and parameter of each stage's fits)."""
+    from .engine import parameter_counts
+
+    counts = parameter_counts(model, opt.frame, data, opt.effects)
+    fits = 1 + opt.folds
+    total, cost = counts.get("nuisance", 0), 0.0
+    cost += total * fits
+    for e in opt.effects:
+        total += counts.get(e, 0)
+        cost += total * fits
+    est = FIT_COST * data.n * len(opt.frame) * cost
+    return [f"plan: {len(opt.effects)} candidate effects, {total} parameters ("
+            + ", ".join(f"{e} {counts.get(e, 0)}" for e in opt.effects)
+            + f"; registration {counts.get('nuisance', 0)}), {data.n} rows, "
+            + (f"{opt.folds}-fold cross-validation" if opt.folds else "no cross-validation")
+            + f"; about {est:.0f} s"]
 
 
 def read(path, model, columns=None):
@@ -183,27 +263,34 @@ def read(path, model, columns=None):
 
 def diagnose_poses(model, data, model_name: str | None = None, alpha: float | None = None, effects=None,
                    folds: int = 5, columns=None, validate=(), register: int = 30, outliers: bool = True,
-                   progress=None, frame=None, same_setup: bool = False) -> Diagnosis:
+                   progress=None, frame=None, same_setup: bool = False, min_gain: float | None = None) -> Diagnosis:
     """Diagnose absolute poses (see the module docstring): ``model`` and ``data`` loaded or their files,
     ``columns`` a column map file, ``validate`` held-out files (then no k-fold; the robot frozen, each on the
     fitted registration when its rows are in the fitted set-up: a ``group`` column of fitted groups, or none
     and ``same_setup``; else a new set-up registered on ``register`` of its poses), ``outliers`` rows no effect
     explains set aside, ``frame`` the measured points fitted (a name or several; None: every point of the
-    data)."""
+    data); ``min_gain`` the practical threshold in mm (None: the default, the module docstring)."""
     eff = check_options(effects)
-    opt = cr.Options(frame or None, eff, DEFAULT_ALPHA if alpha is None else alpha, 0 if validate else folds,
-                     register, same_setup)
+    min_gain = check_min_gain(min_gain)
+    opt = cr.Options(frame or None, eff, DEFAULT_ALPHA if alpha is None else alpha, folds, register, same_setup)
     cr.check_options(opt)
     m, d, vals, opt = cr.inputs(model, data, columns, list(validate), opt, bool(asked_effects(effects)),
                                 "--frame" if frame else "measured point")
+    gain, how = practical_gain(d, opt.frame, min_gain)
+    opt = dataclasses.replace(opt, effects=cr.effects_for(candidates(m, d, effects), opt.frame, False)
+                              if not asked_effects(effects) else opt.effects, min_gain=gain)
+    say = progress or (lambda line: print(line, file=sys.stderr))
     # before the work: a long run says so, one too large for the memory is refused
     plan("vjm calibrate", d.n, *ROW_COST, unit="rows", hint="calibrate on a subset of the rows (postures spread "
-         "over the workspace, not repeats)", progress=progress or (lambda line: print(line, file=sys.stderr)))
+         "over the workspace, not repeats)", progress=say)
+    for line in plan_lines(m, d, opt):
+        say(line)
     t0 = time.perf_counter()
     with quiet_limits():  # the joint limits said once on the whole data, not once per fold and evaluation
-        cal, held = cr.run(m, d, vals, opt, robust=outliers)
+        cal, held = cr.run(m, d, vals, opt, robust=outliers, progress=say)
         rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held,
                         time.perf_counter() - t0)
+        rep["min_gain"] = {"mm": gain, "set_by": how}
         report = pose_report(rep, cal, d, opt.alpha)
         before, after = cr.row_errors(cal, d)
     for x in [d, *vals]:

@@ -28,7 +28,7 @@ from ..errors import VjmError
 from ..kinematics.forward import actuator_names
 from . import diagnosis as absolute
 from . import report as cr
-from .diagnosis import DEFAULT_ALPHA, calibrated, pose_report, progress_lines, write
+from .diagnosis import DEFAULT_ALPHA, calibrated, check_min_gain, pose_report, progress_lines, write
 from .parallel import FRAME, effect_names
 from .parallel_fit import calibrate_platform, register_platform
 from .robust import calibrate_robust
@@ -70,7 +70,8 @@ def validate(cal, data, k: int) -> dict:
 
 def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: float | None = None, effects=None,
                             folds: int = 5, columns=None, validate_files=(), register: int = 30,
-                            outliers: bool = True, progress=None, same_setup: bool = False) -> Diagnosis:
+                            outliers: bool = True, progress=None, same_setup: bool = False,
+                            min_gain: float | None = None) -> Diagnosis:
     """Diagnose a parallel machine's absolute poses (the module docstring): ``model`` and ``data`` loaded or
     their files, ``columns`` a column map file, ``validate_files`` held-out files (then no k-fold),
     ``outliers`` rows no effect explains set aside (:mod:`vjm.calibration.robust`), ``same_setup``: validation
@@ -79,6 +80,7 @@ def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: f
     from ..modelio.read import load_model
 
     eff = check_options(effects)
+    min_gain = check_min_gain(min_gain)
     opt = cr.Options(FRAME, eff, DEFAULT_ALPHA if alpha is None else alpha, 0 if validate_files else folds, register,
                      same_setup)
     cr.check_options(replace(opt, effects=()))
@@ -92,9 +94,10 @@ def diagnose_platform_poses(model, data, model_name: str | None = None, alpha: f
             cr.check_validation(v, register)
     t0 = time.perf_counter()
     if outliers:
-        cal = calibrate_robust(m, d, FRAME, fit=_fit, effects=eff, alpha=opt.alpha, folds=opt.folds)
+        cal = calibrate_robust(m, d, FRAME, fit=_fit, effects=eff, alpha=opt.alpha, folds=opt.folds,
+                               min_gain=min_gain)
     else:
-        cal = calibrate_platform(m, d, eff, opt.alpha, folds=opt.folds)
+        cal = calibrate_platform(m, d, eff, opt.alpha, folds=opt.folds, min_gain=min_gain)
     held = [validate(cal, v, register) for v in vals]
     rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)
     report = pose_report(rep, cal, d, opt.alpha, machine="parallel", actuators=list(d.joints))

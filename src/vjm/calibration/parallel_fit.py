@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import VjmError
 from ..kinematics import forward as fk
+from ..stats.staged import Practical
 from .engine import final_uncertainty, fit, registration_from_frames, run_stages
 from .parallel import FRAME, effect_names, full_layout, nominal_state, problem
 from .result import Calibration
@@ -56,10 +57,11 @@ def _enough_rows(data, full: Layout, effects, folds: int) -> None:
 
 
 def calibrate_platform(model, data, effects=None, alpha: float = 1e-3, tol: float = 1e-3,
-                       folds: int = 0) -> Calibration:
+                       folds: int = 0, min_gain: float | None = None) -> Calibration:
     """Fit the registration, then the ``effects`` stages (the module docstring) of a parallel machine on
     absolute poses ``data`` (columns: its actuators, :func:`vjm.kinematics.forward.actuator_names`, and the
-    platform's point); ``effects`` None: all of a parallel machine's."""
+    platform's point); ``effects`` None: all of a parallel machine's; ``min_gain`` what an effect must buy (mm;
+    None: 1 % of the error it starts from)."""
     if folds == 1 or folds < 0:
         raise VjmError(f"folds must be 0 (no cross-validation) or at least 2, got {folds}")
     known = effect_names()
@@ -76,7 +78,8 @@ def calibrate_platform(model, data, effects=None, alpha: float = 1e-3, tol: floa
     meas = data.points[FRAME]
     frames, p0 = registration_from_frames(nominal.X, meas, data.groups, None if asm.dof == 6 else np.zeros(3))
     prob = problem(model, asm, data, frames, p0, nominal)
-    stages, best, removed = run_stages(prob, full, meas, [e for e in known if e in effects], alpha, tol, 0.0, folds)
+    stages, best, removed = run_stages(prob, full, meas, [e for e in known if e in effects], alpha, tol, 0.0, folds,
+                                       practical=Practical(min_gain))
     lay = full.pick(best.idx)
     gone = [(full.names[i], why) for i, why in removed]
     if asm.dof == 3:

@@ -64,6 +64,8 @@ class Options:
     folds: int = 0
     register_on: int = 30
     same_setup: bool = False
+    #: what an effect must buy (mm, held out) to be named; None: 1 % of the error it starts from
+    min_gain: float | None = None
 
 
 def check_options(opt: Options) -> None:
@@ -193,10 +195,34 @@ def _unit(name: str) -> str:
     return absolute.owner(name, "serial")[1]
 
 
+def _num(v: float):
+    return None if np.isnan(v) else float(v)
+
+
 def _stage(s) -> dict:
     return {"name": s.name, "kept": s.kept, "n_params": s.n_params, "rms_mm": s.rms,
-            "p_value": None if np.isnan(s.p_value) else s.p_value,
-            "cv_rms_mm": None if np.isnan(s.cv_rms) else s.cv_rms, "errors_mm": s.stats, "note": s.note}
+            "p_value": _num(s.p_value), "cv_rms_mm": _num(s.cv_rms), "errors_mm": s.stats, "note": s.note,
+            "gain_mm": _num(getattr(s, "gain", float("nan"))), "gain_se_mm": _num(getattr(s, "gain_se", float("nan"))),
+            "threshold_mm": _num(getattr(s, "threshold", float("nan"))), "category": getattr(s, "category", "")}
+
+
+def stands_in(cal: Calibration) -> list:
+    """The effects that fit only out of their physical domain ("stands in for something else"): the values
+    each wanted (beyond their bound by more than 2 standard deviations), what it buys out of its domain
+    (fitted rows, mm) and how much more than the effects named (``beyond_named_mm``)."""
+    final = [s for s in cal.stages if s.kept][-1]
+    return [{"effect": s.name, "why": s.note, "buys_mm": float(s.gain), "threshold_mm": float(s.threshold),
+             "beyond_named_mm": float(final.rms - s.rms), "rms_mm": s.rms,
+             "wanted": [dict(w) for w in s.wanted]}
+            for s in cal.stages if getattr(s, "category", "") == "stands_in"]
+
+
+def negligible(cal: Calibration) -> list:
+    """The effects whose F test passes but whose gain is below its fold-to-fold standard error or the practical
+    threshold ("significant but negligible"): the gain (mm), its standard error and the threshold."""
+    return [{"effect": s.name, "gain_mm": float(s.gain), "gain_se_mm": _num(s.gain_se),
+             "threshold_mm": float(s.threshold), "p_value": _num(s.p_value), "why": s.note}
+            for s in cal.stages if getattr(s, "category", "") == "negligible"]
 
 
 def effects_named(cal: Calibration) -> list:
@@ -277,6 +303,8 @@ def report(cal: Calibration, opt: Options, model_path, data, validations: list, 
         "not_observable": [r for r in removed if r["why"].startswith("not observable")],
         "set_aside": [{"row": i, "error_mm": float(e)} for i, e in zip(cal.set_aside, aside)],   # row: 0-based
         "seconds": seconds,
+        "stands_in": stands_in(cal),
+        "negligible": negligible(cal),
     }
 
 
@@ -310,11 +338,12 @@ def inputs(model, data, columns, validate_paths, opt: Options, asked: bool, opti
     return m, d, vals, opt
 
 
-def run(model, data, validate_sets: list, opt: Options, robust: bool = True) -> tuple[Calibration, list]:
+def run(model, data, validate_sets: list, opt: Options, robust: bool = True, progress=None) -> tuple[Calibration, list]:
     """Fit and hold out: (the calibration, the validation files' held-out errors); ``robust``: rows no effect
-    explains set aside (:mod:`vjm.calibration.robust`)."""
+    explains set aside (:mod:`vjm.calibration.robust`); ``progress`` told a line per stage."""
     fit = calibrate_robust if robust else calibrate
-    cal = fit(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds)
+    cal = fit(model, data, opt.frame, effects=opt.effects, alpha=opt.alpha, folds=opt.folds, min_gain=opt.min_gain,
+              progress=progress)
     return cal, [validate(cal, v, opt.register_on) for v in validate_sets]
 
 

@@ -30,10 +30,14 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
                   folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation in the choice "
                                                       "of effects (0: none; default 5, or 0 with --validate)"),
                   effect: Optional[list[str]] = typer.Option(None, "--effect", help="an effect tried (repeatable, "
-                                                             "in this order; default geometry, compliance, payload; "
-                                                             "also: coupling, lateral, bending, varying, thermal, "
-                                                             "tilt, backlash, guide_tilt, link_scale; -name: the "
-                                                             "default ones but that one)"),
+                                                             "in this order; default: every effect that applies to "
+                                                             "the robot and the data: geometry, compliance, "
+                                                             "coupling, lateral, bending, varying, thermal, tilt, "
+                                                             "backlash, payload, guide_tilt, link_scale; -name: all "
+                                                             "but that one)"),
+                  min_gain: Optional[float] = typer.Option(None, "--min-gain", help="what an effect must buy held "
+                                                           "out to be named, mm (default 10 %% of the stated sigma, "
+                                                           "else 1 %% of the error it starts from)"),
                   effects: Optional[str] = typer.Option(None, "--effects", help="the same as --effect, "
                                                         "comma-separated: a,b"),
                   frame: Optional[list[str]] = typer.Option(None, "--frame", help="a measured point (repeatable; "
@@ -59,7 +63,7 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
         dg = run(model, data, out, force=force, targets=targets, kind="absolute", set_name="vjm calibrate",
                  model_name=str(model), alpha=alpha, effects=effect_names(effect, effects), folds=folds,
                  frame=frame or None, columns=columns, validate=validate or (), register=register_on,
-                 same_setup=same_setup, outliers=outliers,
+                 same_setup=same_setup, outliers=outliers, min_gain=min_gain,
                  progress=(lambda s: typer.echo(s, err=True)) if verbose else None)
     except user_errors() as exc:
         _fail(exc)

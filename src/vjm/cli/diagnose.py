@@ -41,6 +41,8 @@ def run(model_path, data_path, out_dir, force: bool = False, targets=None, kind=
     from ..robot.compensate import check_targets
 
     check_arguments(**{k: v for k, v in kw.items() if k in ("alpha", "max_effects", "suggest") and v is not None})
+    if kw.get("min_gain") is None:
+        kw.pop("min_gain", None)
     if kw.get("same_setup") and not kw.get("validate"):
         raise VjmError("--same-setup says the --validate files were measured in the fitted data's set-up; give "
                        "--validate")
@@ -110,6 +112,10 @@ def diagnose_cmd(
     targets: Optional[Path] = typer.Option(None, "--targets", help="a robot's: also commands.csv, the joint values "
                                                                   "reaching these points x,y,z[,rx,ry,rz] (mm, rad, "
                                                                   "base frame) under self-weight, calibrated model"),
+    min_gain: Optional[float] = typer.Option(None, "--min-gain", help="absolute poses: what an effect must buy "
+                                                                     "held out to be named, mm (default 10 %% of the "
+                                                                     "stated sigma, else 1 %% of the error it starts "
+                                                                     "from)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="print each selection round"),
     suggest: int = typer.Option(0, "--suggest", min=0,
                                 help="write DIR/next_measurements.csv: N (posture, load) rows to measure next"),
@@ -133,7 +139,7 @@ def diagnose_cmd(
                  progress=(lambda s: typer.echo(s, err=True)) if verbose else None,
                  suggest=suggest, forces_only=forces_only, force=force, outliers=outliers, noise=noise,
                  columns=columns, validate=validate or (), register=register_on, targets=targets,
-                 same_setup=same_setup)
+                 same_setup=same_setup, min_gain=min_gain)
     except user_errors() as exc:
         _fail(exc)
     typer.echo(dg.summary().brief().rstrip("\n"))

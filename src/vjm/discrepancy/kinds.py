@@ -37,7 +37,7 @@ from .stages.kinds import DeflectionKind, StiffnessKind
 from .stages.thresholds import DEFAULT_ALPHA
 
 #: the options only absolute poses read
-POSE_OPTIONS = ("columns", "validate", "frame", "same_setup")
+POSE_OPTIONS = ("columns", "validate", "frame", "same_setup", "min_gain")
 #: the options only the stages' kinds read
 STAGE_OPTIONS = ("suggest", "forces_only", "noise", "max_effects")
 
@@ -68,6 +68,9 @@ class Kind:
                            "model file with urdf: or dh:)")
         if options.get("frame"):
             raise VjmError("--frame picks measured points of absolute poses, the data of a serial or tree robot")
+        if options.get("min_gain") is not None:
+            raise VjmError("--min-gain is the practical threshold of an effect on absolute poses (a robot's or a "
+                           "parallel machine's)")
         if options.get("folds") is not None:
             integer(options["folds"], "folds", Bounds(2), ArgumentError)
 
@@ -116,14 +119,15 @@ class _Poses(Kind):
     def check(self, options: dict) -> None:
         self.module.check_options(options.get("effects"), options.get("suggest", 0), options.get("forces_only", False),
                                   options.get("noise"))
+        self.module.check_min_gain(options.get("min_gain"))
         if options.get("folds") is not None:
             integer(options["folds"], "folds", Bounds(0), ArgumentError)
 
     def run(self, model, data, *, folds=None, validate=(), **options):
         for k in STAGE_OPTIONS:
             options.pop(k, None)
-        return self._diagnose(model, data, folds=(0 if validate else 5) if folds is None else folds,
-                              validate=validate, **options)
+        # 5 folds unless asked: the held-out gain names an effect, beside --validate files too
+        return self._diagnose(model, data, folds=5 if folds is None else folds, validate=validate, **options)
 
     def _diagnose(self, model, data, **options):
         raise NotImplementedError

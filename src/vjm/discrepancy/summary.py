@@ -220,10 +220,20 @@ def _pose_verdict_line(rep) -> str:
     if v == "no_discrepancy":
         return f"Verdict: no_discrepancy (nothing named beyond the registration){unjudged}."
     line = f"Verdict: {v}; named: {', '.join(rep['named_effects']) or 'nothing'}{unjudged}."
-    if v == "unexplained":
+    if v == "unexplained" and lof.get("lack_of_fit"):
         line += (f" The residuals stay {lof['rms_over_sigma']:.3g}x the stated sigmas (chi-square p = "
                  f"{lof['p_value']:.2g}): a gap no effect tried closes.")
+    elif v == "unexplained":
+        line += _stands_in_words(rep.get("stands_in") or ())
     return line
+
+
+def _stands_in_words(stands) -> str:
+    """What the effects that stand in for something else buy beyond those named, out of their domain."""
+    return "".join(f" {s['effect']} stands in for something else: out of its physical domain it buys "
+                   f"{s['beyond_named_mm']:.3g} mm more than the effects named (threshold {s['threshold_mm']:.3g} "
+                   f"mm), a gap no effect tried closes within its domain." for s in stands
+                   if s["beyond_named_mm"] >= s["threshold_mm"])
 
 
 def held_words(v) -> str:

@@ -38,7 +38,8 @@ def check_arguments(alpha=None, folds=None, max_effects=3, suggest=0):
 def diagnose(model, data, alpha: float | None = None, effects=None, folds: int | None = None, max_effects: int = 3,
              model_name: str | None = None, progress=None, suggest: int = 0, forces_only: bool = False,
              outliers: bool = True, noise: TrackerNoise | None = None, columns=None, validate=(),
-             register: int = 30, frame=None, kind: str | None = None, same_setup: bool = False) -> Diagnosis:
+             register: int = 30, frame=None, kind: str | None = None, same_setup: bool = False,
+             min_gain: float | None = None) -> Diagnosis:
     """Diagnose a model (loaded, or a model file) on a data set (read, or a file) of any registered kind.
 
     Parameters
@@ -59,6 +60,8 @@ def diagnose(model, data, alpha: float | None = None, effects=None, folds: int |
         groups, or none and ``same_setup`` -- else registered on ``register`` of its poses), the measured
         points fitted.
     kind : the name of the data kind (:mod:`vjm.discrepancy.kinds`); None: the registry recognises the data.
+    min_gain : absolute poses: what an effect must buy held out to be named (mm; None: 10 % of the stated
+        sigma, else 1 % of the error it starts from).
     progress : called with a line per selection round.
     """
     alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)
@@ -69,6 +72,8 @@ def diagnose(model, data, alpha: float | None = None, effects=None, folds: int |
     options = dict(alpha=alpha, effects=effects, folds=folds, max_effects=max_effects, model_name=model_name,
                    progress=progress, suggest=suggest, forces_only=forces_only, outliers=outliers, noise=noise,
                    columns=columns, validate=validate, register=register, frame=frame, same_setup=same_setup)
+    if min_gain is not None:
+        options["min_gain"] = min_gain
     k.check(options)
     if isinstance(data, (str, os.PathLike)):
         data = k.read(data, model, columns)

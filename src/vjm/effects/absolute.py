@@ -5,15 +5,18 @@ An absolute-pose effect is an :class:`~vjm.effects.base.Effect` whose parameters
 instrument frames by the calibration engine (:mod:`vjm.calibration.engine`) instead of added to a
 compliance.  Each class declares, once:
 
-- its ``name`` (a stage of the fit, tried in the order of registration), and ``default``: tried when none
-  are asked;
+- its ``name`` (a stage of the fit, tried in the order of registration), and ``default``: one of the core
+  effects (:func:`defaults`); with none asked the diagnosis tries every effect that applies
+  (:func:`applicable`, :meth:`PoseEffect.usable`);
 - ``model_kinds`` ("serial": a serial or tree robot; "parallel": a parallel machine) and ``data_kinds``
   (the data kinds of :mod:`vjm.discrepancy.stages.kinds` that show it);
 - its parameters: ``over`` (what they repeat over: ``"joint"`` every joint on the measured frame's path,
   ``"free"`` those that are not mimics, ``"pair"`` ordered pairs of free joints, ``"beam"`` the links
   bending as beams, ``"actuator"``, ``"chain"``, ``"once"``) and ``patterns``, one :class:`Pattern` per
   parameter of each item: how the name is formed (``"{joint}.compliance"``), its unit, its step kind for the
-  Jacobian's differences and its physical bounds (declared; the fit does not enforce them);
+  Jacobian's differences and its physical domain (``lower``, ``upper``, ``upper_from`` a limit the model
+  file may state, ``open`` the lower bound excluded): it bounds the total, the model's nominal value plus
+  the fitted correction (:func:`domain`), and the fit keeps to it;
 - ``rank``: where its parameters stand in the parameter vector; ``on_demand`` False: they are always
   listed there (their columns are computed anyway), True: only when the effect is tried;
 - the hooks of the engine: ``options`` (what the measurement problem must hold: ``"payload"`` the gravity
@@ -55,13 +58,22 @@ class Pattern:
     """One parameter per item an effect repeats over: ``name`` formed with the item's fields (``{joint}``,
     ``{other}``, ``{link}``, ``{actuator}``, ``{chain}``), its ``unit`` (``"site"``: the item's own, an
     actuator's mm or rad), the ``step`` kind of its Jacobian's differences (:data:`vjm.calibration.serial._STEP`
-    or a load-driven kind) and its physical bounds."""
+    or a load-driven kind) and its physical domain: ``lower`` and ``upper``, ``upper_from`` the attribute of the
+    model stating a tighter upper bound (``payload_limit``: the rated load, when the file states one), ``open``
+    the lower bound excluded (a scale > 0: a value on it is out of the domain)."""
 
     name: str
     unit: str
     step: str
     lower: float = -INF
     upper: float = INF
+    upper_from: str | None = None
+    open: bool = False
+
+    def bounds(self, model=None) -> tuple[float, float]:
+        """(lower, upper) of the total on ``model`` (its ``upper_from`` limit, if it states one)."""
+        cap = getattr(model, self.upper_from, None) if self.upper_from else None
+        return self.lower, self.upper if cap is None else min(self.upper, float(cap))
 
 
 @dataclass(frozen=True)
@@ -90,6 +102,9 @@ class PoseEffect(Effect):
     carries: tuple = ()
     single_marker: bool = False
     hand_written: bool = False
+    #: a catch-all (a joint turning with another's value can mimic many physical effects): tried after every
+    #: physical effect, which name what they can first
+    last: bool = False
     #: other spellings in ``vjm simulate``: {alias: the parameter pattern its keys fill}
     aliases: dict = {}
 
@@ -108,6 +123,11 @@ class PoseEffect(Effect):
         if ctx is None:
             return ()
         return tuple(Param(name, 0.0, p.lower, p.upper, null=0.0, unit=unit) for p, name, unit, _ in self._expand(ctx))
+
+    def usable(self, model, data) -> str | None:
+        """Why the data cannot show the effect (a column it needs missing), or None: a candidate of the
+        whole-library default on them."""
+        return None
 
     def applies_to(self, model, data_kind: str) -> str | None:
         kind = getattr(model, "kind", None)
@@ -159,13 +179,57 @@ def register_pose(cls):
 
 
 def names(model_kind: str) -> tuple:
-    """The effects of a ``model_kind`` ("serial", "parallel"), in the order they are tried."""
-    return tuple(n for n, e in POSES.items() if model_kind in e.model_kinds)
+    """The effects of a ``model_kind`` ("serial", "parallel"), in the order they are tried: that of their
+    registration, the catch-alls (:attr:`PoseEffect.last`) after the others."""
+    return tuple(n for n, e in _tried() if model_kind in e.model_kinds)
+
+
+def _tried() -> list:
+    return sorted(POSES.items(), key=lambda kv: kv[1].last)
 
 
 def defaults(model_kind: str) -> tuple:
     """The effects tried when none are asked, in order."""
     return tuple(n for n, e in POSES.items() if model_kind in e.model_kinds and e.default)
+
+
+def applicable(model, data_kind: str, data=None) -> tuple:
+    """The effects tried when none are asked for: every registered effect that applies to ``model`` and the
+    ``data_kind`` (:meth:`PoseEffect.applies_to`) and that ``data`` can show (:meth:`PoseEffect.usable`), in
+    the order they are tried."""
+    return tuple(n for n, e in _tried() if e.applies_to(model, data_kind) is None
+                 and (data is None or e.usable(model, data) is None))
+
+
+def domain(names, model=None, nominal=None, model_kind: str = "serial") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The physical domain of the corrections of the parameters ``names``: (lower, upper, open), the total
+    ``nominal[name] + correction`` kept within the declared bounds of the pattern forming each name
+    (:class:`Pattern`; a registration's or a marker's parameter, or one no effect forms, unbounded);
+    ``nominal`` the model's nominal values (missing ones 0), ``open`` the lower bounds excluded."""
+    nominal = nominal or {}
+    lo = np.full(len(names), -INF)
+    hi = np.full(len(names), INF)
+    op = np.zeros(len(names), dtype=bool)
+    for i, n in enumerate(names):
+        p = pattern_of(n, model_kind)
+        if p is None:
+            continue
+        a, b = p.bounds(model)
+        v = float(nominal.get(n, 0.0))
+        lo[i], hi[i], op[i] = a - v, b - v, p.open
+    return lo, hi, op
+
+
+def pattern_of(name: str, model_kind: str = "serial") -> Pattern | None:
+    """The :class:`Pattern` forming the parameter ``name`` (None: a registration's, a marker's, or none)."""
+    if name.startswith("reg["):
+        return None
+    for e in POSES.values():
+        if model_kind in e.model_kinds:
+            for p in e.patterns:
+                if _regex(p.name).match(name):
+                    return p
+    return None
 
 
 def of_kind(model_kind: str) -> list:
@@ -318,6 +382,7 @@ class Coupling(PoseEffect):
     patterns = (Pattern("{joint}.coupling[{other}]", "rad/rad", "rad"),)
     rank = 40
     hand_written = True
+    last = True
 
 
 @register_pose
@@ -373,6 +438,10 @@ class Thermal(PoseEffect):
     screen = "temperature"
     hand_written = True
 
+    def usable(self, model, data):
+        # the column of the calibration's flex loads (vjm.calibration.flex.TEMPERATURE)
+        return None if "meta_temperature" in getattr(data, "meta", {}) else "no meta_temperature column"
+
 
 @register_pose
 class Tilt(PoseEffect):
@@ -407,7 +476,7 @@ class Payload(PoseEffect):
     name = "payload"
     description = "an unknown mass at the measured point (a probe, a tool)"
     default = True
-    patterns = (Pattern("payload.mass", "kg", "kg", lower=0.0),)
+    patterns = (Pattern("payload.mass", "kg", "kg", lower=0.0, upper_from="payload_limit"),)
     rank = 100
     options = ("payload",)
     single_marker = True

@@ -23,6 +23,7 @@ Units N, mm, kg, rad (the URDF's metres are converted where it is read)::
       upper_arm_link: {mass: 1.5, com: [0, 0, 300]}
       forearm_link: {linkfea: forearm.json, com: [0, 0, 280]}   # the mass a linkfea result states
     payload: {frame: tool0, mass: 5.0, com: [0, 0, 50]}    # optional
+    payload_limit: 10.0             # optional: the rated load (kg), the bound of a calibrated payload mass
 
 A URDF alone (no ``joints:``) is a valid, rigid model: kinematics and gravity work, its stiffness
 is infinite (C = 0).
@@ -43,7 +44,8 @@ from . import robotformats
 MAX_SIZE_MM = 1e5
 MIN_SIZE_MM = 5.0
 #: the keys of a robot file besides its format's (``urdf:``, ``dh:`` ...: :mod:`vjm.modelio.robotformats`)
-COMMON_KEYS = ("tools", "gravity", "strict_limits", "home", "joints", "links", "masses", "payload")
+COMMON_KEYS = ("tools", "gravity", "strict_limits", "home", "joints", "links", "masses", "payload",
+               "payload_limit")
 
 
 def robot_keys() -> tuple[str, ...]:
@@ -243,7 +245,19 @@ def robot_from_dict(d: dict, base_dir: str, path: str | None, parse_link) -> Rob
             raise VjmError(f"home must be a list of {tree.nq} joint values ({', '.join(tree.q_names)}), got {home!r}")
         home = tuple(_num(v, "home") for v in home)
     return RobotModel(tree, springs, six, links, payload, g, str(d.get("name", tree.name)), path, dict(d), strict,
-                      home)
+                      home, _payload_limit(d.get("payload_limit"), payload))
+
+
+def _payload_limit(v, payload: Payload | None) -> float | None:
+    """The rated load (kg) of ``payload_limit:``: > 0, and at least the ``payload:`` the file states."""
+    if v is None:
+        return None
+    lim = _num(v, "payload_limit")
+    if not lim > 0:
+        raise VjmError(f"payload_limit must be > 0 (kg, the rated load), got {lim:g}")
+    if payload is not None and payload.mass > lim:
+        raise VjmError(f"payload.mass {payload.mass:g} kg exceeds payload_limit {lim:g} kg")
+    return lim
 
 
 def is_robot(d) -> bool:

@@ -187,6 +187,7 @@ class RobotModel(Model):
     raw : the model file's mapping (written back by :meth:`save`)
     strict_limits : a q outside a joint's limits is an error, not a warning
     home : the working configuration (nq,) the file names, or None (``vjm path``'s default seed)
+    payload_limit : the largest payload (kg, the rated load) the file states, or None: a calibrated mass's bound
     """
 
     tree: Tree
@@ -200,6 +201,7 @@ class RobotModel(Model):
     raw: dict | None = None
     strict_limits: bool = False
     home: tuple | None = None
+    payload_limit: float | None = None
 
     def __post_init__(self):
         names = {j.name for j in self.tree.joints}
