@@ -651,6 +651,17 @@ CASES = [
          {"o/notes.txt": "mine\n"}, "o/: a folder without a map"),
     Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare o", "--compare o/map.npz: not a readable "
          "map.npz", {"o/map.npz": "not a map\n"}, "o/map.npz: a text file"),
+    # 40.6: choosing faces (linkfea faces, the nearest faces of a selector that finds none)
+    Case("40.6", "linkfea compute s.stl --base plane:x=1 --tip plane:x=100 --out o/r.json", "base selector "
+         "plane:1,0,0,1,0,0,tol=0.01 finds no face; nearest: plane:x=0 (plane, 200 mm^2, 1 mm away)",
+         {"s.stl": stl(BAR)}, "a 100 x 20 x 10 bar; the base plane 1 mm off its end face"),
+    Case("40.6", "linkfea faces bar", "bar: linkfea faces reads a STEP file or an STL/OBJ/PLY surface",
+         note="a cad/ script (it names its own faces)"),
+    Case("40.6", "linkfea faces s.stl --preview p.png", "--preview draws the base and the tip: give --base and --tip "
+         "too", {"s.stl": stl(BAR)}, "a preview without the faces to colour"),
+    Case("40.6", "linkfea faces s.stl --base plane:x=0 --tip plane:x=100 --preview p.png", "--preview p.png exists "
+         "and is not a preview linkfea wrote; it is never overwritten", {"s.stl": stl(BAR), "p.png": "mine\n"},
+         "p.png: the user's own file"),
 ]
 
 

@@ -23,7 +23,7 @@ def faces(
 ):
     """List the planar and cylindrical faces of a part with a selector for each (for --base and --tip)."""
     from .cad import build_link, is_step
-    from .cad.faces import face_groups, write_preview
+    from .cad.faces import check_preview, face_groups, write_preview
     from .cad.surface import is_surface
     from .cli import _fail
 
@@ -33,6 +33,8 @@ def faces(
                                "(a cad/ script names its own faces)")
         if preview is not None and (base is None or tip is None):
             raise LinkFeaError("--preview draws the base and the tip: give --base and --tip too")
+        if preview is not None:  # before any work: never over a file linkfea did not write
+            check_preview(preview)
         if base is not None and tip is not None:
             link = build_link(spec, base=base, tip=tip, with_block=False)
             body = link.body

@@ -135,6 +135,15 @@ def nearest_selectors(body, selector, n: int = 3) -> list[str]:
     return out
 
 
+def check_preview(path):
+    """The preview's path, checked before any work: a file there that linkfea did not write is refused."""
+    from pathlib import Path
+
+    from ..files.outputs import check_file, owned
+
+    return check_file(Path(path), lambda p: p.name in owned(p.parent), "a preview linkfea wrote", option="--preview")
+
+
 def write_preview(link, path, window_size=(900, 700)):
     """A picture of the part with its base and tip faces coloured (:data:`BASE_RGB`, :data:`TIP_RGB`) and
     the link's frame as a triad of arrows (x red, y green, z blue) at its origin; off-screen, atomic."""
@@ -144,10 +153,10 @@ def write_preview(link, path, window_size=(900, 700)):
     import pyvista as pv
     from vtkmodules.vtkCommonCore import vtkLogger
 
-    from ..files.outputs import OutputSet, check_file, owned
+    from ..files.outputs import OutputSet
     from .step import tessellate
 
-    path = check_file(Path(path), lambda p: p.name in owned(p.parent), "a preview linkfea wrote", option="--preview")
+    path = check_preview(path)
 
     vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
     diag = float(link.body.BoundingBox().DiagonalLength)
