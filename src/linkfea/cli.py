@@ -50,13 +50,9 @@ def error_table(diagonal: np.ndarray, err: np.ndarray) -> Table:
 
 def _fail(msg, traceback: bool = False) -> None:
     """One ``error:`` line, exit 2; with ``traceback``, a link script's own traceback before it."""
-    from .runtime.checks import cli_message
+    from .runtime.clirun import fail
 
-    details = getattr(msg, "details", "")
-    if traceback and details:
-        print(details.rstrip("\n"), file=sys.stderr)
-    print(f"error: {cli_message(msg, FLAGS)}", file=sys.stderr)
-    raise typer.Exit(code=2)
+    fail(msg, FLAGS, traceback)
 
 
 def _traceback_option():

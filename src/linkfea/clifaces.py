@@ -25,7 +25,7 @@ def faces(
     from .cad import build_link, is_step
     from .cad.faces import check_preview, face_groups, write_preview
     from .cad.surface import is_surface
-    from .cli import _fail
+    from .runtime.clirun import fail
 
     try:
         if not (is_step(spec) or is_surface(spec)):
@@ -44,7 +44,7 @@ def faces(
         groups = face_groups(body)
         written = write_preview(link, preview) if preview is not None and link is not None else None
     except LinkFeaError as exc:
-        _fail(exc)
+        fail(exc)
     print(f"{len(groups)} selectable face groups of {spec} (largest first); use a selector as --base or --tip:")
     for g in groups:
         print("  " + g.line())

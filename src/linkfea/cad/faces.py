@@ -147,14 +147,12 @@ def check_preview(path):
 def write_preview(link, path, window_size=(900, 700)):
     """A picture of the part with its base and tip faces coloured (:data:`BASE_RGB`, :data:`TIP_RGB`) and
     the link's frame as a triad of arrows (x red, y green, z blue) at its origin; off-screen, atomic."""
-    from pathlib import Path
 
     import cadquery as cq
     import pyvista as pv
     from vtkmodules.vtkCommonCore import vtkLogger
 
     from ..files.outputs import OutputSet
-    from .step import tessellate
 
     path = check_preview(path)
 
@@ -163,11 +161,13 @@ def write_preview(link, path, window_size=(900, 700)):
     tol = 1e-3 * diag
 
     def poly(shape):
-        V, F = tessellate(shape, tol, 0.2)
+        v, f = shape.tessellate(tol, 0.2)
+        V = np.array([p.toTuple() for p in v], dtype=float).reshape(-1, 3)
+        F = np.array(f, dtype=np.int64).reshape(-1, 3)
         return pv.PolyData(V, np.hstack([np.full((len(F), 1), 3), F]).astype(np.int64).ravel())
 
     pl = pv.Plotter(off_screen=True, window_size=list(window_size))
-    pl.set_background("white")
+    pl.set_background("white")  # type: ignore[arg-type]  # pyvista decorator hides the signature
     pl.add_mesh(poly(link.body), color=[c / 255 for c in BODY_RGB], opacity=0.45)
     for faces, rgb, label in ((link.base_faces, BASE_RGB, "base"), (link.tip_faces, TIP_RGB, "tip")):
         if faces:
