@@ -57,6 +57,7 @@ def test_sag_is_labelled_and_reads_as_its_array(ur10):
     assert np.isclose(float(one.length), np.linalg.norm(t[:3]))
     # old code reading it as the bare array: indexing, arithmetic, numpy functions give plain arrays
     assert isinstance(one[:3], np.ndarray) and np.array_equal(one[:3], t[:3])
+    assert one.max() == t.max() and one.T.shape == (6,) and isinstance(one.copy(), np.ndarray)
     assert isinstance(one * 2.0, np.ndarray) and np.array_equal(one * 2.0, 2.0 * t)
     assert isinstance(np.zeros(6) + one, np.ndarray) and np.allclose(one, t) and one == pytest.approx(t)
     many = ur10.self_weight(np.array([Q, Q]))

@@ -45,6 +45,13 @@ class Sag(NDArrayOperatorsMixin):
             kwargs["out"] = tuple(plain(o) for o in kwargs["out"])
         return getattr(ufunc, method)(*(plain(x) for x in inputs), **kwargs)
 
+    def __getattr__(self, name: str):
+        # the array's other methods and properties (.sum(), .T, .copy() ...): reached only for names
+        # the dataclass lacks; dunder names are left alone (copy and pickle look for them)
+        if name.startswith("__") or name == "twist":
+            raise AttributeError(name)
+        return getattr(self.twist, name)
+
     def __getitem__(self, key):
         return self.twist[key]
 
