@@ -251,6 +251,11 @@ def compute(spec, options: ComputeOptions | None = None, *, params: dict | None 
             run, refinement = refined.run, refined.record
         richardson_fields = dict(error_estimate=None, error_estimate_note="not computed: run with --convergence "
                                                                           "(3 mesh sizes, Richardson)")
+    from .mesh.linkmesh import sliver_warning
+
+    slivers = sliver_warning(link.name, run.mesh.quality, run.mesh.n_tets, run.mesh.mesher)
+    if slivers:
+        warnings.warn(slivers, LinkFeaWarning, stacklevel=2)
     t0 = time.perf_counter()
     sharp = sharp_edges_note(link)
     timing = {**run.timing, "edges": time.perf_counter() - t0}

@@ -87,3 +87,21 @@ def test_default_material_and_progress_are_said(box_step, capsys):
     lines: list = []
     compute("bar", ComputeOptions(mesh_size=8.0), progress=lines.append)
     assert lines and not any("material" in ln for ln in lines)  # a script names its own
+
+
+def test_a_mesh_of_slivers_is_said():
+    """A mesh whose tets are mostly slivers (gmsh on an exported STL) gets a warning; a sound one none.
+    Regular tets have radius ratio 1, a tet flattened to 1e-4 of its height about 1e-4."""
+    from linkfea.mesh.linkmesh import radius_ratio, sliver_warning
+
+    P = np.array([[0, 0, 0], [1, 0, 0], [0.5, np.sqrt(3) / 2, 0], [0.5, np.sqrt(3) / 6, np.sqrt(2 / 3)],
+                  [0.5, np.sqrt(3) / 6, 1e-4 * np.sqrt(2 / 3)]])
+    T = np.array([[0, 1, 2, 3], [0, 1, 2, 4]])
+    rr = radius_ratio(P, T)
+    assert rr[0] == pytest.approx(1.0, rel=1e-9) and rr[1] < 1e-3
+    for tets, warned in (([0] * 99, False), ([0] * 90 + [1] * 10, True)):
+        q = {"n_poor_tets": int(np.sum(rr[tets] < 0.1)), "radius_ratio_min": float(rr[tets].min())}
+        msg = sliver_warning("l", q, len(tets), "gmsh")
+        assert bool(msg) is warned
+        if warned:
+            assert msg.startswith("l: 10% of the mesh's tets are slivers") and "--mesher pytetwild" in msg
