@@ -701,6 +701,17 @@ CASES = [
          CAL_FILES, "a practical threshold that is no number"),
     Case("38.2", D + " --min-gain 0.01", "--min-gain is the practical threshold of an effect on absolute poses",
          {"m.csv": GOOD}, "the threshold of absolute poses given with deflection data"),
+    # 40.6: choosing faces (linkfea faces, the nearest faces of a selector that finds none)
+    Case("40.6", "linkfea compute s.stl --base plane:x=1 --tip plane:x=100 --out o/r.json", "base selector "
+         "plane:1,0,0,1,0,0,tol=0.01 finds no face; nearest: plane:x=0 (plane, 200 mm^2, 1 mm away)",
+         {"s.stl": stl(BAR)}, "a 100 x 20 x 10 bar; the base plane 1 mm off its end face", number=440),
+    Case("40.6", "linkfea faces bar", "bar: linkfea faces reads a STEP file or an STL/OBJ/PLY surface",
+         note="a cad/ script (it names its own faces)"),
+    Case("40.6", "linkfea faces s.stl --preview p.png", "--preview draws the base and the tip: give --base and --tip "
+         "too", {"s.stl": stl(BAR)}, "a preview without the faces to colour"),
+    Case("40.6", "linkfea faces s.stl --base plane:x=0 --tip plane:x=100 --preview p.png", "--preview p.png exists "
+         "and is not a preview linkfea wrote; it is never overwritten", {"s.stl": stl(BAR), "p.png": "mine\n"},
+         "p.png: the user's own file"),
     # 40.3: silent wrong answers, units and ranges
     Case("40.3", "vjm calibrate r.yaml d.csv --out o", "joint j1 = 85.94 is beyond 2 pi rad (one turn): degrees where radians are meant?", {**X_FILES, "d.csv": _arm_poses(180 / 3.141592653589793)},
          "d.csv: the joints in degrees", number=400),

@@ -50,13 +50,9 @@ def error_table(diagonal: np.ndarray, err: np.ndarray) -> Table:
 
 def _fail(msg, traceback: bool = False) -> None:
     """One ``error:`` line, exit 2; with ``traceback``, a link script's own traceback before it."""
-    from .runtime.checks import cli_message
+    from .runtime.clirun import fail
 
-    details = getattr(msg, "details", "")
-    if traceback and details:
-        print(details.rstrip("\n"), file=sys.stderr)
-    print(f"error: {cli_message(msg, FLAGS)}", file=sys.stderr)
-    raise typer.Exit(code=2)
+    fail(msg, FLAGS, traceback)
 
 
 def _traceback_option():
@@ -98,6 +94,7 @@ def compute(
     from .cad.params import parse_param_args
     from .options import ComputeOptions
     from .pipeline import compute as run
+    from .pipeline import default_material_note
     from .result.fileset import check_result_out, write_result_set
 
     console = Console(stderr=True, quiet=quiet)
@@ -116,6 +113,9 @@ def compute(
     if not quiet:
         con = Console(width=max(Console().width, 100))
         show(res, con)
+        note = default_material_note(spec, material)
+        if note:
+            con.print(note)
         con.print(f"wrote {', '.join(str(p) for p in written)}")
     if not (res.diagnostics.refinement or {"reached": True})["reached"]:
         raise typer.Exit(code=TOLERANCE_NOT_REACHED)  # written, with the warning line the pipeline gave
@@ -275,6 +275,16 @@ def sweep_cmd(
         print(f"error: {len(rep.unfinished)} designs unfinished (lost workers); rerun to complete them",
               file=sys.stderr)
         raise typer.Exit(code=1)
+
+
+def _register() -> None:
+    """The commands kept in modules of their own."""
+    from .clifaces import faces
+
+    app.command("faces")(faces)
+
+
+_register()
 
 
 def main(argv=None) -> int:

@@ -8,12 +8,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from .mechanics.materials import get_material
+from .mechanics.materials import DEFAULT_MATERIAL, get_material
 from .options import ComputeOptions
 from .result.linkresult import LinkResult
 from .result.records import Diagnostics, MeshInfo
 from .runtime.errors import LinkFeaWarning
-from .runtime.progress import or_quiet
+from .runtime.progress import or_default
 
 __all__ = ["ComputeOptions", "LinkResult", "compute"]
 REFINE_GROWTH = 2.5
@@ -141,6 +141,18 @@ def sharp_edges_note(link) -> dict:
                                  "and the compliance converges slowly; a machining radius removes this")}
 
 
+def default_material_note(spec, material: str | None) -> str:
+    """One line saying that a STEP or surface file was computed in the default material, or ''."""
+    from .cad import is_step
+    from .cad.surface import is_surface
+
+    if material is not None or not (is_step(spec) or is_surface(spec)):
+        return ""
+    m = get_material(DEFAULT_MATERIAL)
+    return (f"material: {m.name} (E = {m.E:g} MPa, nu = {m.nu:g}) by default, the file names none; choose "
+            "another with --material (material= in Python)")
+
+
 def _source_file(spec) -> Path:
     """The absolute path of the file ``spec`` names: a STEP or surface file, or a script (bare names
     resolved by :func:`linkfea.runtime.resources.find_script`)."""
@@ -154,7 +166,7 @@ def _source_file(spec) -> Path:
 
 
 def compute(spec, options: ComputeOptions | None = None, *, params: dict | None = None,
-            progress: Callable[[str], None] | None = None, cache_dir=None) -> LinkResult:
+            progress: Callable[[str], None] | bool | None = None, cache_dir=None) -> LinkResult:
     """Compute a link's 6x6 compliance at its reference frame.
 
     Parameters
@@ -189,8 +201,9 @@ def compute(spec, options: ComputeOptions | None = None, *, params: dict | None 
           ``diagnostics.refinement`` says which, with each step's DOF and error.
     params : dict, optional
         Script parameters (strings are converted to the defaults' types).
-    progress : callable, optional
-        Called with a short message at each stage.
+    progress : callable, None or False
+        Called with a short message at each stage; None (the default) prints each stage as a line on
+        stderr (:class:`linkfea.runtime.progress.StderrLines`), False says nothing.
     cache_dir : path, optional
         Mesh cache folder.
     """
@@ -199,7 +212,7 @@ def compute(spec, options: ComputeOptions | None = None, *, params: dict | None 
     from .mesh import default_mesh_size
 
     opts = (ComputeOptions() if options is None else options).for_input(spec)
-    progress = or_quiet(progress)
+    progress = or_default(progress)
     t_all = time.perf_counter()
     progress("cad")
     t0 = time.perf_counter()
@@ -207,6 +220,9 @@ def compute(spec, options: ComputeOptions | None = None, *, params: dict | None 
     link = build_link(source, params, material=opts.material, base=opts.base, tip=opts.tip,
                       with_block=(opts.mode == "block"))
     mat = get_material(link.material)
+    note = default_material_note(spec, opts.material)
+    if note:
+        progress(note)
     t_cad = time.perf_counter() - t0
     H = opts.mesh_size if opts.mesh_size is not None else default_mesh_size(link)
 
@@ -235,6 +251,11 @@ def compute(spec, options: ComputeOptions | None = None, *, params: dict | None 
             run, refinement = refined.run, refined.record
         richardson_fields = dict(error_estimate=None, error_estimate_note="not computed: run with --convergence "
                                                                           "(3 mesh sizes, Richardson)")
+    from .mesh.linkmesh import sliver_warning
+
+    slivers = sliver_warning(link.name, run.mesh.quality, run.mesh.n_tets, run.mesh.mesher)
+    if slivers:
+        warnings.warn(slivers, LinkFeaWarning, stacklevel=2)
     t0 = time.perf_counter()
     sharp = sharp_edges_note(link)
     timing = {**run.timing, "edges": time.perf_counter() - t0}

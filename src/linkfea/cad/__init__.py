@@ -14,7 +14,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from ..mechanics.materials import get_material
+from ..mechanics.materials import DEFAULT_MATERIAL, get_material
 from ..runtime.errors import LinkFeaError, ScriptError
 from ..runtime.resources import cad_dir, find_script
 from .link import Link, check_link
@@ -102,14 +102,14 @@ def build_link(spec, params: dict | None = None, material: str | None = None,
             raise LinkFeaError("--param applies to cad/ scripts, not to surface files")
         if base is None or tip is None:
             raise LinkFeaError("a surface file (STL, OBJ, PLY) needs --base and --tip selectors")
-        return load_surface(spec, parse_selector(base), parse_selector(tip), material or "steel",
+        return load_surface(spec, parse_selector(base), parse_selector(tip), material or DEFAULT_MATERIAL,
                             with_block=with_block, block_length=block_length)
     if is_step(spec):
         if params:
             raise LinkFeaError("--param applies to cad/ scripts, not to STEP files")
         if base is None or tip is None:
             raise LinkFeaError("a STEP file needs --base and --tip selectors")
-        return load_step(spec, parse_selector(base), parse_selector(tip), material or "steel",
+        return load_step(spec, parse_selector(base), parse_selector(tip), material or DEFAULT_MATERIAL,
                          with_block=with_block, block_length=block_length)
     mod = load_script(spec)
     p = dict(params or {})

@@ -66,11 +66,21 @@ def interface_faces(link: Link) -> tuple[list, list]:
     The one home of that check: :func:`check_link`, the meshers and the beam models use it.
     """
     bf, tf = link.base_faces, link.tip_faces
-    if not bf:
-        raise LinkFeaError(f"{link.name}: base selector {link.base} finds no face")
-    if not tf:
-        raise LinkFeaError(f"{link.name}: tip selector {link.tip} finds no face")
+    for which, sel, found in (("base", link.base, bf), ("tip", link.tip, tf)):
+        if not found:
+            raise LinkFeaError(f"{link.name}: {which} selector {sel} finds no face{_nearest(link.body, sel)}")
     return bf, tf
+
+
+def _nearest(body, selector) -> str:
+    """``; nearest: ...`` naming the face groups closest to what ``selector`` asks (linkfea faces lists all)."""
+    from .faces import nearest_selectors
+
+    try:
+        near = nearest_selectors(body, selector)
+    except Exception:  # a body OpenCASCADE cannot walk: the message without the hint
+        return ""
+    return f"; nearest: {'; '.join(near)} (linkfea faces FILE lists them all)" if near else ""
 
 
 def check_link(link: Link) -> None:

@@ -26,6 +26,12 @@ def load_step(path, base: Selector, tip: Selector, material: str = "steel",
     extruded outward by ``block_length`` (default half the square root of the
     tip area); this needs planar tip faces.
     """
+    body = read_step_solid(path)
+    return link_from_solid(body, Path(path), base, tip, material, with_block, block_length)
+
+
+def read_step_solid(path):
+    """The one solid of a STEP file, checked (see :func:`load_step`)."""
     import cadquery as cq
 
     path = Path(path)
@@ -43,7 +49,7 @@ def load_step(path, base: Selector, tip: Selector, material: str = "steel",
                            "(several bodies, or a self-intersecting solid split on import)")
     body = solids[0]
     validate_solid(body, path.name)
-    return link_from_solid(body, path, base, tip, material, with_block, block_length)
+    return body
 
 
 def link_from_solid(body, path: Path, base: Selector, tip: Selector, material: str, with_block: bool,

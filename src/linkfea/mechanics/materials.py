@@ -62,6 +62,11 @@ MATERIALS = {
 MATERIALS["aluminum"] = MATERIALS["aluminium"]
 
 
+DEFAULT_MATERIAL = "steel"
+"""The material of a STEP or surface file computed without one (a cad/ script names its own); the
+computation says so in one line (:func:`linkfea.pipeline.default_material_note`)."""
+
+
 def get_material(name: str) -> Material:
     """Look a material up by name.
 

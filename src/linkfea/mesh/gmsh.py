@@ -185,13 +185,22 @@ def _threshold(gmsh, curves: list[int], h: float, H: float, grading: float) -> i
     return t
 
 
+TRIANGLE_KINK = 0.5
+"""|n1 - n2| below which two triangle faces (an STL's) meet at no corner: 0.5 is 29 degrees.  A
+tessellated fillet or bore kinks by the exporter's angular tolerance (a few to some 20 degrees) at
+every triangle edge; taken as corners they would be hundreds of false singularities."""
+
+
 def concave_edges(solid) -> list:
     """The concave (re-entrant) edges of a CAD solid, where the stress is singular.
 
     At the middle ``p`` of an edge shared by two faces with outward normals ``n1`` and ``n2``,
     the point ``p + d (n1 - n2)`` lies inside the solid exactly when the edge is concave (the
     material is the union of the two half-spaces there, not their intersection).  Tangent
-    edges (``n1 ~ n2``, a fillet's border) are not corners.
+    edges (``n1 ~ n2``, a fillet's border) are not corners.  Between two planar triangles (a
+    triangle surface made solid) the test needs no point classification: the edge is concave when
+    the third corner of one triangle lies outside the other's plane; kinks below
+    :data:`TRIANGLE_KINK` are the tessellation of a smooth surface, not corners.
     """
     import cadquery as cq
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
@@ -210,6 +219,15 @@ def concave_edges(solid) -> list:
         p = edge.positionAt(0.5)
         f1, f2 = faces.values()
         n = f1.normalAt(p) - f2.normalAt(p)
+        v1, v2 = f1.Vertices(), f2.Vertices()
+        if len(v1) == 3 and len(v2) == 3 and f1.geomType() == "PLANE" and f2.geomType() == "PLANE":
+            if n.Length < TRIANGLE_KINK:
+                continue
+            ends = {v.hashCode() for v in edge.Vertices()}
+            third = [v for v in v1 if v.hashCode() not in ends]
+            if third and f2.normalAt(p).dot(cq.Vector(third[0].toTuple()) - p) > d:
+                out.append(edge)
+            continue
         if n.Length < 0.1:
             continue
         if solid.isInside(p + n * d, tolerance=0.1 * d):

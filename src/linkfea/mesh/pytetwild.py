@@ -285,11 +285,15 @@ def _scratch_cwd():
             os.chdir(old)
 
 
-def select_facets(points: np.ndarray, tris: np.ndarray, faces, tol: float, ttol: float) -> np.ndarray:
+def select_facets(points: np.ndarray, tris: np.ndarray, faces, tol: float, ttol: float, body=None) -> np.ndarray:
     """Mask of triangles lying on CAD ``faces``: all 3 vertices within ``tol`` and normal aligned.
 
     ``tol`` is the mesher's envelope (plus tessellation error), so vertices the
-    mesher moved off the CAD surface are still caught.
+    mesher moved off the CAD surface are still caught.  With ``body`` (the solid the faces bound),
+    a triangle is kept only when its centroid is at least as close to ``faces`` as to the body's
+    other faces: a face that continues smoothly into a fillet (or the facets of a tessellated one,
+    as in an STL) has neighbours within ``tol`` of its plane and nearly parallel to it, and they are
+    theirs, not the interface's (on the input triangles themselves they added 3% to a 12 x 12 mm face).
     """
     if len(tris) == 0 or not faces:
         return np.zeros(len(tris), dtype=bool)
@@ -309,9 +313,32 @@ def select_facets(points: np.ndarray, tris: np.ndarray, faces, tol: float, ttol:
     if sel.any():
         idx = np.flatnonzero(sel)
         _, tn = tri_areas_normals(points, tris[idx])
-        cells = surf.find_closest_cell(points[tris[idx]].mean(axis=1))
+        cent = points[tris[idx]].mean(axis=1)
+        cells, cp = surf.find_closest_cell(cent, return_closest_point=True)
         sel[idx] = np.abs(np.einsum("ij,ij->i", tn, fn[cells])) >= NORMAL_COS
+        rest = _other_faces(body, faces, lo - tol, hi + tol) if body is not None else []
+        if rest and sel.any():
+            keep = np.flatnonzero(sel)
+            Vr, Fr = _surface(cq.Compound.makeCompound(rest), ttol)
+            _, cr = _polydata(Vr, Fr).find_closest_cell(cent[sel[idx]], return_closest_point=True)
+            c = cent[sel[idx]]
+            d_face = np.linalg.norm(c - cp[sel[idx]], axis=1)
+            sel[keep] = d_face <= np.linalg.norm(c - cr, axis=1)
     return sel
+
+
+def _other_faces(body, faces, lo, hi) -> list:
+    """The faces of ``body`` other than ``faces`` whose bounding box meets the box ``lo``..``hi``."""
+    own = {f.hashCode() for f in faces}
+    out = []
+    for f in body.Faces():
+        if f.hashCode() in own:
+            continue
+        b = f.BoundingBox()
+        if b.xmin <= hi[0] and b.xmax >= lo[0] and b.ymin <= hi[1] and b.ymax >= lo[1] and b.zmin <= hi[2] \
+                and b.zmax >= lo[2]:
+            out.append(f)
+    return out
 
 
 def _tag_pytetwild(link, points, tets, block_solid, env, ttol):
@@ -341,13 +368,13 @@ def _tag_pytetwild(link, points, tets, block_solid, env, ttol):
     tol = 1.5 * env + ttol
     bnd_tris = oriented[body_bnd]
     base_faces, tip_faces = interface_faces(link)
-    base_facets = bnd_tris[select_facets(points, bnd_tris, base_faces, tol, ttol)]
+    base_facets = bnd_tris[select_facets(points, bnd_tris, base_faces, tol, ttol, link.body)]
     if block_solid is not None:
         two = ~boundary
         iface = two & (block[owners[:, 0]] != block[np.maximum(owners[:, 1], 0)])
         tip_facets = oriented[iface]
     else:
-        tip_facets = bnd_tris[select_facets(points, bnd_tris, tip_faces, tol, ttol)]
+        tip_facets = bnd_tris[select_facets(points, bnd_tris, tip_faces, tol, ttol, link.body)]
     return block, base_facets, tip_facets
 
 

@@ -79,6 +79,18 @@ def version_option(prog: str):
     return typer.Option(False, "--version", help="print the version and exit", callback=show, is_eager=True)
 
 
+def fail(msg, flags: dict | None = None, traceback: bool = False) -> None:
+    """One ``error:`` line, exit 2; with ``traceback``, a link script's own traceback before it (its
+    ``details``).  ``flags``: Python argument names whose CLI flag differs (see :func:`checks.cli_message`)."""
+    from .checks import cli_message
+
+    details = getattr(msg, "details", "")
+    if traceback and details:
+        print(details.rstrip("\n"), file=sys.stderr)
+    print(f"error: {cli_message(msg, flags or {})}", file=sys.stderr)
+    raise typer.Exit(code=2)
+
+
 def run(app, argv=None, prog: str | None = None) -> int:
     """Run ``app`` on ``argv`` (default: ``sys.argv[1:]``); returns the exit status.
 

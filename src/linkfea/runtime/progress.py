@@ -18,3 +18,29 @@ def quiet(msg: str) -> None:
 def or_quiet(progress: Optional[Progress]) -> Progress:
     """``progress``, or :func:`quiet` for None."""
     return progress if progress is not None else quiet
+
+
+class StderrLines:
+    """The default progress of the Python calls: one line per stage on stderr, ``linkfea [12.3 s] meshing``
+    (seconds since the call began), flushed at once, so that a long run is visibly alive in a terminal and
+    in a notebook's output alike."""
+
+    def __init__(self, prefix: str = "linkfea"):
+        import time
+
+        self.prefix, self.t0 = prefix, time.perf_counter()
+
+    def __call__(self, msg: str) -> None:
+        import sys
+        import time
+
+        print(f"{self.prefix} [{time.perf_counter() - self.t0:.1f} s] {msg}", file=sys.stderr, flush=True)
+
+
+def or_default(progress) -> Progress:
+    """``progress`` itself; None: :class:`StderrLines` (visible by default); False: :func:`quiet`."""
+    if progress is None:
+        return StderrLines()
+    if progress is False:
+        return quiet
+    return progress

@@ -51,7 +51,7 @@ def run_design(task: dict) -> dict:
     try:
         from ..pipeline import compute
 
-        res = compute(_source_here(task), params=dict(task["params"]), cache_dir=task.get("cache_dir"),
+        res = compute(_source_here(task), params=dict(task["params"]), cache_dir=task.get("cache_dir"), progress=False,
                       options=ComputeOptions.from_mapping(task["options"]))
         doc = res.to_dict()
         doc["source"] = task["spec"]

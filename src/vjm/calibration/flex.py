@@ -30,6 +30,10 @@ driven by the nominal model's self-weight (or the temperature) and scaled by one
   retraction, which no model file states), linear in its parameters, and physical over the whole travel
   exactly when both ends are >= 0.  A mimic joint (one drive moving several segments) shares its master's
   two compliances, each segment tilting under its own moment;
+- **a telescopic stage's tilt** ``<joint>.column_tilt_lower`` and ``<joint>.column_tilt_upper``: the same
+  compliance, the stage turning about where it leaves its fixed guide (the joint's frame before its motion,
+  the exit of the guide) rather than about its carriage: a column's stage held in its guide at the guide's
+  top tilts about that top, and the point of rotation stays while the stage slides;
 - **a link spring's scale** ``<link>.link_scale`` (1): the model's link spring (a beam, a linkfea result:
   its 6x6 compliance ``C`` in the spring frame) deflects by ``C w`` under the wrench ``w`` it carries (the
   weight of everything beyond it, about the spring's origin, in its frame); the parameter multiplies that
@@ -69,11 +73,14 @@ class Beam:
 @dataclass(frozen=True, eq=False)
 class Guide:
     """A prismatic guide: the parameters' prefix ``name`` (the driving joint), the tree joints it moves
-    (``joints``: the driving one and its mimics on the path) and the rows' fraction of its travel ``s`` (n,)."""
+    (``joints``: the driving one and its mimics on the path), the rows' fraction of its travel ``s`` (n,) and
+    each joint's slide along its axis ``slide`` (n, len(joints), 3) mm in its own frame (where a telescopic
+    stage's point of rotation, the guide's exit, sits behind the carriage)."""
 
     name: str
     joints: tuple
     s: np.ndarray
+    slide: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,7 +120,7 @@ class Flex:
     def rows(self, mask: np.ndarray) -> Flex:
         """The loads of the rows ``mask`` selects."""
         return Flex(self.lateral[mask], tuple(replace(b, theta=b.theta[mask], u=b.u[mask]) for b in self.beams),
-                    None if self.dT is None else self.dT[mask], tuple(replace(g, s=g.s[mask]) for g in self.guides),
+                    None if self.dT is None else self.dT[mask], tuple(replace(g, s=g.s[mask], slide=g.slide[mask]) for g in self.guides),
                     tuple(replace(k, t=k.t[mask], r=k.r[mask]) for k in self.links))
 
 
@@ -268,15 +275,21 @@ def flex_loads(model, q: np.ndarray, frame: str, temperature=None) -> Flex:
     beams = tuple(_beam(model, a, b, k, L, W, F, M) for a, b, k, L in beam_axes(model, frame))
     dT = None if temperature is None else np.asarray(temperature, dtype=float) - T_REF
     qn = list(model.tree.q_names)
-    guides = tuple(Guide(name, js, (q[:, qn.index(name)] - lo) / (hi - lo)) for name, (lo, hi), js in
-                   guide_axes(model, frame))
+    joints = model.tree.joints
+    guides = tuple(Guide(name, js, (q[:, qn.index(name)] - lo) / (hi - lo),
+                         np.stack([np.outer(joint_value(joints[i], q, qn), _axis(joints[i])) for i in js], axis=1))
+                   for name, (lo, hi), js in guide_axes(model, frame))
     links = tuple(_link_load(model, name, ji, S, C, W) for name, ji, S, C in link_springs(model, frame))
     return Flex(lateral, beams, dT, guides, links)
 
 
-def guide_compliance(g: Guide, vals: dict) -> np.ndarray:
+#: the guide tilts' parameter prefixes: about the carriage, and about the guide's exit (a telescopic stage)
+GUIDE_TILTS = ("guide_tilt", "column_tilt")
+
+
+def guide_compliance(g: Guide, vals: dict, kind: str = "guide_tilt") -> np.ndarray:
     """The guide's tilt compliance (n,) rad/(N mm) at the rows: its ends' values interpolated along the travel."""
-    lo, hi = vals.get(f"{g.name}.guide_tilt_lower", 0.0), vals.get(f"{g.name}.guide_tilt_upper", 0.0)
+    lo, hi = vals.get(f"{g.name}.{kind}_lower", 0.0), vals.get(f"{g.name}.{kind}_upper", 0.0)
     return lo * (1.0 - g.s) + hi * g.s
 
 
@@ -318,12 +331,15 @@ def transforms(flex: Flex | None, model, frame: str, vals: dict) -> tuple[dict, 
             T = np.broadcast_to(np.eye(4), (len(flex.lateral), 4, 4)).copy()
             T[:, :3, :3] = rotations(c * flex.lateral[:, i])
             post[i] = T
-    for g in flex.guides:
-        c = guide_compliance(g, vals)
+    for g, kind in ((g, k) for g in flex.guides for k in GUIDE_TILTS):
+        c = guide_compliance(g, vals, kind)
         if np.any(c):
-            for i in g.joints:
+            for n, i in enumerate(g.joints):
                 T = np.broadcast_to(np.eye(4), (len(c), 4, 4)).copy()
                 T[:, :3, :3] = rotations(c[:, None] * flex.lateral[:, i])
+                if kind == "column_tilt":   # about the exit, the slide d behind the carriage: (R - I) d
+                    d = g.slide[:, n]
+                    T[:, :3, 3] = np.einsum("nij,nj->ni", T[:, :3, :3], d) - d
                 post[i] = post[i] @ T if i in post else T
     for k in flex.links:   # after the joint's motion and its bearing's tilt, as the chain's link springs
         v = vals.get(f"{k.name}.link_scale", 0.0)

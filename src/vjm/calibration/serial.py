@@ -476,10 +476,13 @@ def _guide_link_columns(prob: Problem, vals: dict, cols: dict, ji: int, base: np
     mine = [k for k in prob.flex.links if k.joint == ji]
     for g in prob.flex.guides:
         if ji in g.joints:
-            lat = np.cross(np.einsum("nij,nj->ni", base[:, :3, :3], prob.flex.lateral[:, ji]), pb - base[:, :3, 3])
-            for end, w in (("lower", 1.0 - g.s), ("upper", g.s)):
-                name = f"{g.name}.guide_tilt_{end}"
-                cols[name] = cols.get(name, 0.0) + lat * w[:, None]
+            w_ = np.einsum("nij,nj->ni", base[:, :3, :3], prob.flex.lateral[:, ji])
+            exit_ = base[:, :3, 3] - np.einsum("nij,nj->ni", base[:, :3, :3], g.slide[:, g.joints.index(ji)])
+            for kind, centre in (("guide_tilt", base[:, :3, 3]), ("column_tilt", exit_)):
+                lat = np.cross(w_, pb - centre)
+                for end, w in (("lower", 1.0 - g.s), ("upper", g.s)):
+                    name = f"{g.name}.{kind}_{end}"
+                    cols[name] = cols.get(name, 0.0) + lat * w[:, None]
     for k in mine:
         v = vals.get(f"{k.name}.link_scale", 0.0)
         M = link_motion(k, v)

@@ -90,7 +90,7 @@ UNITS = ("# Units: N, mm, kg, rad; gravity in m/s^2.  A joint's stiffness is in 
 
 #: fitted effects the robot file and the URDF have no place for (listed in the file's head, not carried)
 _NOT_CARRIED = ("lateral", "bending", "varying", "alpha", "backlash", "guide_tilt_lower", "guide_tilt_upper",
-                "link_scale")
+                "column_tilt_lower", "column_tilt_upper", "link_scale")
 
 
 class Rounded(float):

@@ -33,7 +33,8 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
                                                              "in this order; default: every effect that applies to "
                                                              "the robot and the data: geometry, compliance, "
                                                              "coupling, lateral, bending, varying, thermal, tilt, "
-                                                             "backlash, payload, guide_tilt, link_scale; -name: all "
+                                                             "backlash, payload, guide_tilt, column_tilt, link_scale; "
+                                                             "-name: all "
                                                              "but that one)"),
                   min_gain: Optional[float] = typer.Option(None, "--min-gain", help="what an effect must buy held "
                                                            "out to be named, mm (default 10 %% of the stated sigma, "

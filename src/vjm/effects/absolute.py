@@ -546,6 +546,20 @@ class GuideTilt(PoseEffect):
 
 
 @register_pose
+class ColumnTilt(GuideTilt):
+    """A telescopic stage tilting in its fixed guide about the guide's exit (the joint's frame before its
+    motion), under the moment it carries, its compliance growing as it extends: :class:`GuideTilt`'s
+    compliance about another point -- a carriage on rails turns about itself, a column's stage about the top
+    of the guide that holds it, which stays while the stage slides."""
+
+    name = "column_tilt"
+    description = "a telescopic stage tilting about its guide's exit under the moment it carries, more as it extends"
+    patterns = (Pattern("{joint}.column_tilt_lower", _TORQUE_UNIT, "guide", lower=0.0),
+                Pattern("{joint}.column_tilt_upper", _TORQUE_UNIT, "guide", lower=0.0))
+    rank = 111
+
+
+@register_pose
 class LinkScale(PoseEffect):
     """The model's link springs (beams, linkfea results) scaled, one factor per link spring (``over``
     ``"spring"``): the parameter multiplies the link's nominal deflection under what it carries

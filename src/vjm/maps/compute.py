@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Optional
 
 import numpy as np
@@ -123,9 +124,9 @@ class StiffnessMap:
         return map_html(self.architecture, self.shape, self.axes, self.fixed, self.points, self.reachable,
                         self.k_tran, self.k_rot)
 
-    def save(self, out, force: bool = False) -> None:
+    def save(self, out, force: bool = False) -> Path:
         """Write ``out/map.npz``, ``out/k_tran.png`` and ``out/k_rot.png`` as one set (:mod:`linkfea.files.outputs`):
-        all three new, or the old ones; ``force`` writes beside files of other origin."""
+        all three new, or the old ones; ``force`` writes beside files of other origin.  Returns the folder."""
         check_folder(out, MAP_FILES, force=force)
         with OutputSet(out, "vjm map") as s:
             npz, png_t, png_r = (s.path(n) for n in MAP_FILES)
@@ -138,6 +139,7 @@ class StiffnessMap:
                                 note=np.array("K world axes at the end-effector point; k_tran mm/N, "
                                               "k_rot rad/(N mm); NaN = unreachable"), **extra)
             self.save_pictures({"k_tran": png_t, "k_rot": png_r})
+        return Path(out)
 
     def save_pictures(self, paths: dict) -> None:
         """One PNG per map name in ``paths`` (``{"k_tran": path, "k_rot": path}``)."""

@@ -79,21 +79,45 @@ def principal_compliances(C) -> tuple[np.ndarray, np.ndarray]:
     return np.linalg.eigvalsh(C[:3, :3])[::-1], np.linalg.eigvalsh(C[3:, 3:])[::-1]
 
 
+def log_limits(values) -> tuple[float, float] | None:
+    """Limits of a log axis showing ``values``: whole decades around the positive finite ones, at least one
+    decade wide (equal values, as the three principal compliances of an isotropic point, would otherwise
+    collapse the axis); None if no value is positive and finite.
+
+    >>> log_limits([2.78e-4, 2.78e-4, 2.78e-4])
+    (0.0001, 0.001)
+    """
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v) & (v > 0)]
+    if not v.size:
+        return None
+    lo, hi = np.floor(np.log10(v.min())), np.ceil(np.log10(v.max()))
+    return float(10.0 ** lo), float(10.0 ** max(hi, lo + 1))
+
+
 def plot_principal(C, ax=None, title: str = ""):
-    """Bar chart of the principal compliances (translation and rotation, each on its own log axis)."""
+    """Bar chart of the principal compliances (translation and rotation, each on its own log axis).
+
+    A new figure lays itself out (constrained layout: both axis labels and the title inside it); each
+    axis spans whole decades around its bars (:func:`log_limits`).
+    """
     plt = pyplot()
     if ax is None:
-        _, ax = plt.subplots(figsize=(6, 3.5))
+        _, ax = plt.subplots(figsize=(6.4, 3.6), layout="constrained")
     t, r = principal_compliances(C)
     ax.bar(range(3), t, color="tab:blue", label="translation [mm/N]")
-    ax.set_yscale("log")
-    ax.set_ylabel("translation [mm/N]", color="tab:blue")
     ax2 = ax.twinx()
     ax2.bar(range(4, 7), r, color="tab:orange", label="rotation [rad/(N mm)]")
-    ax2.set_yscale("log")
-    ax2.set_ylabel("rotation [rad/(N mm)]", color="tab:orange")
+    for a, v, label, colour in ((ax, t, "translation [mm/N]", "tab:blue"),
+                                (ax2, r, "rotation [rad/(N mm)]", "tab:orange")):
+        lim = log_limits(v)
+        if lim is not None:
+            a.set_yscale("log")
+            a.set_ylim(*lim)
+        a.set_ylabel(label, color=colour)
     ax.set_xticks([0, 1, 2, 4, 5, 6], ["t1", "t2", "t3", "r1", "r2", "r3"])
-    ax.set_title(title or "principal compliances (eigenvalues of the C blocks)")
+    ax.set_xlim(-0.7, 6.7)
+    ax.set_title(title or "principal compliances (eigenvalues of the C blocks)", fontsize=10)
     return ax
 
 
@@ -183,3 +207,58 @@ def model_html(model) -> str:
     if model.path:
         rows.append(("file", model.path))
     return "<p><b>vjm Model</b></p>" + rows_table(rows)
+
+
+def _names(names, shown: int = 6) -> str:
+    """``a, b, c`` or ``a, b, ... (9)``: a short list in one line."""
+    names = [str(n) for n in names]
+    if len(names) <= shown:
+        return ", ".join(names) or "none"
+    return ", ".join(names[:shown - 1]) + f", ... ({len(names)})"
+
+
+def model_text(model) -> str:
+    """A parallel machine in three lines (the repr; ``_repr_html_`` has the whole table)."""
+    a = model.actuator
+    links = [f"{k} ({'rigid' if v.compliance is None else next(iter(v.source or {}), 'inline')})"
+             for k, v in model.links.items()]
+    head = f"<vjm Model {model.name or '(unnamed)'!r}: {model.architecture}, parallel machine"
+    return (f"{head}{f', from {model.path}' if model.path else ''}\n"
+            f" links: {_names(links)}; actuator {a.stiffness:g} N/mm; joints "
+            f"{'ideal' if model.joints.passive_stiffness is None else f'{model.joints.passive_stiffness:g} N mm/rad'}"
+            f"; effects: {_names(model.effects)}\n"
+            " .stiffness(x), .map(grid=...), .save(path); every field: ._repr_html_()>")
+
+
+def robot_rows(model) -> list:
+    """A robot model's facts as (label, value) rows: its repr's lines and its HTML table."""
+    p = model.payload
+    return [("name", model.name or "(unnamed)"), ("file", model.path or "-"),
+            ("joints", f"{model.nq} ({_names(model.q_names)})"),
+            ("tools", _names(model.tools)),
+            ("springs", f"{len(model.joint_springs)} joint, {len(model.joint6)} 6x6 joint, {len(model.links)} link"),
+            ("payload", "none" if p is None else f"{p.mass:g} kg at {p.frame}"),
+            ("gravity [m/s^2]", ", ".join(f"{float(g):g}" for g in model.gravity))]
+
+
+def robot_text(model) -> str:
+    """A serial or tree robot in a few lines (the repr)."""
+    r = dict(robot_rows(model))
+    return (f"<vjm RobotModel {r['name']!r}: {model.nq} joints ({_names(model.q_names)})"
+            f"{'' if model.path is None else f', from {model.path}'}\n"
+            f" tools: {r['tools']}; springs: {r['springs']}; payload {r['payload']}; gravity ({r['gravity [m/s^2]']}) "
+            f"m/s^2\n .stiffness(q), .self_weight(q), .joint_map(...), .save(path)>")
+
+
+def stiffness_text(k_tran, k_rot, rank, points) -> str:
+    """A StiffnessResult in a few lines: one pose's point, k_tran, k_rot and rank; several poses' ranges."""
+    k_tran, k_rot, rank = np.asarray(k_tran, dtype=float), np.asarray(k_rot, dtype=float), np.asarray(rank)
+    if k_tran.ndim == 0:
+        p = np.round(np.asarray(points, dtype=float), 4).tolist()
+        return (f"<StiffnessResult at {p} mm: k_tran = {float(k_tran):.4g} mm/N, k_rot = {float(k_rot):.4g} "
+                f"rad/(N mm), rank {int(rank)}\n .K, .C: 6x6, world axes at the end-effector point; .plot(), "
+                ".save(path)>")
+    return (f"<StiffnessResult, {len(k_tran)} poses: k_tran {np.nanmin(k_tran):.4g}..{np.nanmax(k_tran):.4g} "
+            f"mm/N, k_rot {np.nanmin(k_rot):.4g}..{np.nanmax(k_rot):.4g} rad/(N mm), rank "
+            f"{int(rank.min()) if rank.size else '-'}..{int(rank.max()) if rank.size else '-'}\n"
+            " .K, .C: (n, 6, 6), world axes at each end-effector point; .pose(i) gives one>")

@@ -159,7 +159,7 @@ def as_link(obj, key: str = "link") -> LinkSpring:
         import linkfea
 
         try:
-            return as_link(linkfea.compute(text), key)
+            return as_link(linkfea.compute(text, progress=False), key)  # vjm says what fails, in one line
         except LinkFeaError as exc:
             raise VjmError(f"{key}: {text!r} is neither a result JSON nor a link that linkfea can compute: "
                            f"{exc}") from None

@@ -273,6 +273,12 @@ class ParallelModel(Model):
 
         save_model(self, path)
 
+    def __repr__(self) -> str:
+        """A few lines: name, architecture, links, actuator, joints, effects (:meth:`_repr_html_`: all of it)."""
+        from ..maps.views import model_text
+
+        return model_text(self)
+
     def _repr_html_(self) -> str:
         """Architecture, geometry, links with their frames, actuator, joints and effects.
 

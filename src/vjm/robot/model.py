@@ -471,11 +471,16 @@ class RobotModel(Model):
                     wrench=None, tol: float = SAG_TOL, max_iter: int = 60, return_info: bool = False,
                     strict: bool = True):
         """The tool's deflection (n, 6) (or (6,)) under the robot's own weight (and a payload and a tool
-        wrench), from the equilibrium on the deflected geometry (see :mod:`vjm.robot.weight`)."""
+        wrench), from the equilibrium on the deflected geometry (see :mod:`vjm.robot.weight`): a
+        :class:`~vjm.robot.sag.Sag`, which reads as that array and names the tool, the joints and the units."""
+        from .sag import Sag
         from .weight import self_weight
 
         _loads(gravity, payload)
-        return self_weight(self, q, tool, gravity, payload, wrench, tol, max_iter, return_info, strict)
+        out = self_weight(self, q, tool, gravity, payload, wrench, tol, max_iter, return_info, strict)
+        t, info = out if return_info else (out, None)
+        sag = Sag(np.asarray(t), self._tool(tool), np.asarray(q, dtype=float), tuple(self.q_names))
+        return (sag, info) if return_info else sag
 
     def joint_map(self, q0, joints, ranges, n=41, tool: str | None = None, self_weight: bool = False):
         """k_tran, k_rot, K (and the sag) over two joints, the others at ``q0``; ``n`` values per joint (or one
@@ -520,6 +525,18 @@ class RobotModel(Model):
             return ik, None, None
         r = self.stiffness(ik.q[ok], tool)
         return ik, r, (self.self_weight(ik.q[ok], tool) if self_weight else None)
+
+    def __repr__(self) -> str:
+        """A few lines: name, file, joints, tools, springs, payload, gravity."""
+        from ..maps.views import robot_text
+
+        return robot_text(self)
+
+    def _repr_html_(self) -> str:
+        """The same facts as :meth:`__repr__`, as a table."""
+        from ..maps.views import robot_rows, rows_table
+
+        return "<p><b>vjm RobotModel</b></p>" + rows_table(robot_rows(self))
 
     def replace(self, **changes) -> "RobotModel":
         """A copy with some fields changed (``joint_springs=``, ``links=``, ``payload=``, ``gravity=``,

@@ -410,6 +410,12 @@ class StiffnessResult:
             return plot_matrix(r.C, ax=ax, title=f"C {title}")
         raise ValueError(f"kind must be 'principal' or 'matrix', got {kind!r}")
 
+    def __repr__(self) -> str:
+        """A few lines: the point (or the number of poses), k_tran, k_rot, rank; K and C are in the fields."""
+        from ..maps.views import stiffness_text
+
+        return stiffness_text(self.k_tran, self.k_rot, self.rank, self.points)
+
     def _repr_html_(self) -> str:
         from ..maps.views import stiffness_html
 
