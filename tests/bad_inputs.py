@@ -36,6 +36,7 @@ class Case:
     files: dict = field(default_factory=dict)  # name -> text written before the run ("encoding": its codec)
     note: str = ""  # what the files hold, for the table (default: their first lines)
     links: dict = field(default_factory=dict)  # name -> target of a symbolic link made before the run
+    number: int = 0  # the row's number in docs/bad_inputs.md (0: the one after the previous row's)
 
     @property
     def argv(self) -> list[str]:
@@ -209,6 +210,41 @@ TWO_POINTS = "j1,j2,l1.x,l1.y,l1.z,l2.x,l2.y,l2.z\n" + "".join(
 HEX_POSES = ("A1.l,A2.l,A3.l,B1.l,B2.l,B3.l,platform.x,platform.y,platform.z\n" + "".join(
     ",".join([f"{598 + 0.5 * ((k + i) % 7):.2f}" for i in range(6)] + [f"{k}", f"{-k}", f"{550 + k}"]) + "\n"
     for k in range(40)))
+
+
+# ------------------------------------------------------------------ units, ranges and malformed URDFs (issue 40)
+
+#: the two-joint arm with its joints off the z axis: the point l2 moves with j1 (a circle of radius 300 mm)
+ARM_X = ARM.replace('<origin xyz="0 0 0.3"/>', '<origin xyz="0.3 0 0.1"/>')
+
+
+def _arm_poses(q_scale=1.0, p_scale=1.0, rows=40, header="j1,j2,l2.x,l2.y,l2.z", extra="") -> str:
+    """Poses of ARM_X measured exactly (mm, rad), the joints times ``q_scale``, the points times ``p_scale``."""
+    import math
+
+    out = [header]
+    for k in range(rows):
+        q1, q2 = -1.5 + 0.075 * k, -1.0 + 0.05 * k
+        p = (1000 + 300 + 300 * math.cos(q1), 300 * math.sin(q1), 200.0)
+        out.append(",".join([f"{q_scale * q1:.6g}", f"{q_scale * q2:.6g}"] + [f"{p_scale * v:.6g}" for v in p]) + extra)
+    return "\n".join(out) + "\n"
+
+
+X_FILES = {"r.yaml": ROBOT, "r.urdf": ARM_X, "p.csv": _arm_poses()}
+#: ARM_X as a model file with other keys, for the model-file checks
+def _xrobot(extra: str, urdf: str = ARM_X) -> dict:
+    return {"r.yaml": ROBOT + extra, "r.urdf": urdf}
+
+
+#: the Puma 560's first rows as a DH table, its lengths in metres
+DH_METRES = """name: puma
+dh:
+  joints:
+    - {name: a1, a: 0, alpha: pi/2, d: 0.6604}
+    - {name: a2, a: 0.4318, alpha: 0, d: 0.14909}
+    - {name: a3, a: 0.0203, alpha: -pi/2, d: 0}
+"""
+TARGET = "x,y,z\n884,164,436\n"
 
 CASES = [
     # 18.2: numeric options, vjm
@@ -640,20 +676,20 @@ CASES = [
     # 38.3: an effect asked for that the robot cannot have
     Case("38.3", "vjm calibrate r.yaml p.csv --out o --effect guide_tilt", "guide_tilt: no prismatic joint with a "
          "finite travel (a linear axis, a track, a column) on the path to l2: the effect has nothing to fit", CAL_FILES,
-         "a two-joint revolute arm"),
+         "a two-joint revolute arm", number=360),
     Case("38.3", "vjm diagnose r.yaml p.csv --out o --effect link_scale", "link_scale: the model states no link "
          "spring (links: a beam, a linkfea result) on the path to l2: the effect has nothing to fit", CAL_FILES,
          "r.yaml: joint springs, no links:"),
     # 40.6: maps compared
     Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare m", "--compare m is the --out folder: its map "
-         "would be replaced", note="a map compared with the folder it is written to"),
+         "would be replaced", note="a map compared with the folder it is written to", number=470),
     Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare o", "--compare o: holds no map.npz",
          {"o/notes.txt": "mine\n"}, "o/: a folder without a map"),
     Case("40.6", "vjm map {puu} --grid 3 --slice z=0 --out m --compare o", "--compare o/map.npz: not a readable "
          "map.npz", {"o/map.npz": "not a map\n"}, "o/map.npz: a text file"),
     # 38.1: the rated load of a robot file; 38.2: the practical threshold of an effect's gain
     Case("38.1", "vjm calibrate r.yaml p.csv --out o", "payload_limit must be > 0 (kg, the rated load), got -5",
-         {**CAL_FILES, "r.yaml": ROBOT + "payload_limit: -5\n"}, "a negative rated load"),
+         {**CAL_FILES, "r.yaml": ROBOT + "payload_limit: -5\n"}, "a negative rated load", number=320),
     Case("38.1", "vjm diagnose r.yaml p.csv --out o", "payload_limit must be a finite number, got 'heavy'",
          {**CAL_FILES, "r.yaml": ROBOT + "payload_limit: heavy\n"}, "a rated load that is no number"),
     Case("38.1", "vjm calibrate r.yaml p.csv --out o", "payload.mass 8 kg exceeds payload_limit 5 kg",
@@ -668,7 +704,7 @@ CASES = [
     # 40.6: choosing faces (linkfea faces, the nearest faces of a selector that finds none)
     Case("40.6", "linkfea compute s.stl --base plane:x=1 --tip plane:x=100 --out o/r.json", "base selector "
          "plane:1,0,0,1,0,0,tol=0.01 finds no face; nearest: plane:x=0 (plane, 200 mm^2, 1 mm away)",
-         {"s.stl": stl(BAR)}, "a 100 x 20 x 10 bar; the base plane 1 mm off its end face"),
+         {"s.stl": stl(BAR)}, "a 100 x 20 x 10 bar; the base plane 1 mm off its end face", number=440),
     Case("40.6", "linkfea faces bar", "bar: linkfea faces reads a STEP file or an STL/OBJ/PLY surface",
          note="a cad/ script (it names its own faces)"),
     Case("40.6", "linkfea faces s.stl --preview p.png", "--preview draws the base and the tip: give --base and --tip "
@@ -676,6 +712,88 @@ CASES = [
     Case("40.6", "linkfea faces s.stl --base plane:x=0 --tip plane:x=100 --preview p.png", "--preview p.png exists "
          "and is not a preview linkfea wrote; it is never overwritten", {"s.stl": stl(BAR), "p.png": "mine\n"},
          "p.png: the user's own file"),
+    # 40.3: silent wrong answers, units and ranges
+    Case("40.3", "vjm calibrate r.yaml d.csv --out o", "joint j1 = 85.94 is beyond 2 pi rad (one turn): degrees where radians are meant?", {**X_FILES, "d.csv": _arm_poses(180 / 3.141592653589793)},
+         "d.csv: the joints in degrees", number=400),
+    Case("40.3", "vjm calibrate r.yaml m.csv --out o", "points in metres", {**X_FILES, "m.csv": _arm_poses(p_scale=1e-3)},
+         "m.csv: the points in metres"),
+    Case("40.3", "vjm calibrate r.yaml p.csv --columns c.yaml --out o", "joint j1 is revolute (rad), but its column is "
+         "mapped in mm", {**X_FILES, "c.yaml": "columns:\n  j1: [j1, mm]\n  j2: [j2, rad]\n  l2.x: l2.x\n  l2.y: l2.y\n"
+                                              "  l2.z: l2.z\n"}, "c.yaml maps the revolute joint j1 in mm"),
+    Case("40.3", "vjm calibrate r.yaml p.csv --columns c.yaml --out o", "radians mapped as deg",
+         {**X_FILES, "c.yaml": "columns:\n  j1: [j1, deg]\n  j2: [j2, deg]\n  l2.x: l2.x\n  l2.y: l2.y\n  l2.z: l2.z\n"},
+         "c.yaml maps the radian columns as deg"),
+    Case("40.3", "vjm calibrate r.yaml p.csv --out o --frame l2 --frame l2", "--frame l2 is given twice", X_FILES,
+         "X_FILES: a two-joint arm whose point l2 runs on a circle of 300 mm, and 40 exact poses of it"),
+    Case("40.3", "vjm diagnose r.yaml p.csv --out o --folds 1000000", "at most 50, got 1000000", X_FILES, "X_FILES"),
+    Case("40.3", "vjm calibrate r.yaml s.csv --out o", "the data hold 1 distinct pose (60 rows)",
+         {**X_FILES, "s.csv": "j1,j2,l2.x,l2.y,l2.z\n" + "0.1,0.2,1598,30,200\n" * 60}, "s.csv: 60 copies of one row"),
+    Case("40.3", "vjm calibrate r.yaml h.csv --out o", "column 'l2.x' appears twice in the header (columns 3 and 6)",
+         {**X_FILES, "h.csv": _arm_poses(header="j1,j2,l2.x,l2.y,l2.z,l2.x", extra=",0")}, "h.csv: two columns l2.x"),
+    Case("40.3", "vjm simulate r.yaml --out s.csv --effect offset:j2=0.1,j2=0.2", "offset:j2 is given twice (0.1 and "
+         "0.2)", X_FILES, "X_FILES"),
+    Case("40.3", "vjm stiffness r.yaml --q 0,0", "links add up to 632.5 m from its base to a frame, beyond 100 m",
+         _xrobot("", ARM_X.replace('xyz="0.3 0 0.1"', 'xyz="300 0 100"')), "r.urdf: ARM_X written in millimetres"),
+    Case("40.3", "vjm stiffness d.yaml --q 0,0,0", "below 5 mm: lengths in metres where millimetres are meant",
+         {"d.yaml": DH_METRES}, "d.yaml: the Puma 560's first three DH rows in metres"),
+    Case("40.3", "vjm stiffness r.yaml --q 0,0", "has magnitude 9810 m/s^2, not within 5% of 9.80665 (mm/s^2?",
+         _xrobot("gravity: [0, 0, -9810]\n"), "r.yaml: gravity: [0, 0, -9810]"),
+    Case("40.3", "vjm stiffness r.yaml --q 0,0", "masses.l2.mass must be in [0, 100000] kg, got 1e+300",
+         _xrobot("masses: {l2: {mass: 1.0e+300, com: [0, 0, 0]}}\n"), "r.yaml: a point mass of 1e300 kg"),
+    Case("40.3", "vjm stiffness r.yaml --q 0,0", "payload.mass must be in [0, 100000] kg, got 1e+300",
+         _xrobot("payload: {frame: l2, mass: 1.0e+300}\n"), "r.yaml: a payload of 1e300 kg"),
+    Case("40.3", "vjm stiffness r.yaml --q 0,0", "joints.j1.stiffness must be at least 1 N mm/rad",
+         {"r.yaml": ROBOT.replace("1.0e+8", "1.0e-300"), "r.urdf": ARM_X}, "r.yaml: j1's stiffness 1e-300"),
+    Case("40.3", "vjm stiffness r.yaml --q 0,0", "<inertia> of link 'l1': ixx must be 1 finite number, got 'nan'",
+         _xrobot("", ARM_X.replace('ixx="1"', 'ixx="nan"', 1)), "r.urdf: ixx=\"nan\" in l1's inertial"),
+    Case("40.3", "vjm stiffness d.yaml --q 0,0,0", "dh.joints[0].alpha: 90 rad is beyond one turn: degrees? write it "
+         "as 90*deg", {"d.yaml": DH_METRES.replace("0.6604", "660.4").replace("0.4318", "431.8").replace(
+             "alpha: pi/2, d", "alpha: 90, d")}, "d.yaml: a DH row with alpha: 90"),
+    Case("40.3", "vjm stiffness r.yaml --q 0,0", "home: j1 = 90 is beyond 2 pi rad (one turn): degrees where radians are meant?",
+         _xrobot("home: [90, -45]\n"), "r.yaml: home: [90, -45] (degrees)"),
+    Case("40.3", "vjm compensate {ur10} t.csv --out c.csv --seed 0,-69,86,-107,-90,0", "--seed: shoulder_lift_joint = "
+         "69 is beyond 2 pi rad", {"t.csv": TARGET}, "the seed in degrees"),
+    Case("40.3", "vjm compensate {ur10} t.csv --out c.csv", "a rotation vector of 180 rad (rx,ry,rz = 180, 0, 0), "
+         "beyond one turn", {"t.csv": "x,y,z,rx,ry,rz\n884,164,436,180,0,0\n"}, "t.csv: a target with rx = 180"),
+    Case("40.3", "vjm compensate {ur10} t.csv --out c.csv", "t.csv: column 'x' appears twice in the header",
+         {"t.csv": "x,y,z,x\n884,164,436,0\n"}, "t.csv: two columns x"),
+    Case("40.3", "vjm stiffness r.yaml --q 0,0", "tools: 'base' is fixed to the robot's base",
+         _xrobot("tools: [base]\n"), "r.yaml: tools: [base], the URDF's root link"),
+    # 40.4: tracebacks and the URDF parser's lines where one line is promised
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "joint 'j1': axis xyz='0 0 0' is zero",
+         _xrobot("", ARM_X.replace('<axis xyz="0 0 1"/>', '<axis xyz="0 0 0"/>', 1)), "r.urdf: an axis 0 0 0"),
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "<origin> of joint 'j1': xyz='1e308 0 0.1' is beyond 10000",
+         _xrobot("", ARM_X.replace('xyz="0.3 0 0.1"', 'xyz="1e308 0 0.1"', 1)), "r.urdf: an origin at 1e308 m"),
+    Case("40.4", "vjm calibrate r.yaml g.csv --out o", "sigmas must be at least 1e-06 mm",
+         {**X_FILES, "g.csv": _arm_poses(header="j1,j2,l2.x,l2.y,l2.z,l2.sigma", extra=",1e-300")},
+         "g.csv: a sigma of 1e-300 mm"),
+    Case("40.4", "vjm calibrate r.yaml b.csv --out o", "beyond 1e+06 mm (1 km)",
+         {**X_FILES, "b.csv": _arm_poses(p_scale=1e300)}, "b.csv: the points times 1e300"),
+    Case("40.4", "vjm calibrate r.yaml p.csv --columns c.yaml --out o", "no two consecutive ones the same",
+         {**X_FILES, "c.yaml": "rotation: euler_XXY\ncolumns:\n  j1: j1\n"}, "c.yaml: rotation: euler_XXY"),
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "<limit> of joint 'j1': lower must be 1 finite number, got 'nan'",
+         _xrobot("", ARM_X.replace('lower="-2"', 'lower="nan"', 1)), "r.urdf: a limit lower=\"nan\""),
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "<origin> of joint 'j1': rpy must be 3 finite numbers, got 'inf 0 0'",
+         _xrobot("", ARM_X.replace('xyz="0.3 0 0.1"', 'xyz="0.3 0 0.1" rpy="inf 0 0"', 1)), "r.urdf: an origin rpy=\"inf 0 0\""),
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "joint 'j1': a revolute joint needs <limit",
+         _xrobot("", ARM_X.replace('<limit lower="-2" upper="2" effort="1" velocity="1"/>', "", 1)),
+         "r.urdf: a revolute joint without <limit>"),
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "two links named 'l2'",
+         _xrobot("", ARM_X.replace("</robot>", '<link name="l2"/></robot>')), "r.urdf: link l2 twice"),
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "2 root links (base, x)",
+         _xrobot("", ARM_X.replace("</robot>", '<link name="x"/></robot>')), "r.urdf: a link no joint holds"),
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "the root element is <model>; a URDF's is <robot>",
+         _xrobot("", ARM_X.replace("<robot ", "<model ").replace("</robot>", "</model>")), "r.urdf: a <model> root"),
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "joint 'j4': mimics joint 'j3', itself a mimic",
+         _xrobot("", _urdf(_joint("j1", "base", "l1") + _joint("j2", "l1", "l2") + _joint("j3", "l2", "l3").replace(
+             "<axis", '<mimic joint="j2"/><axis') + _joint("j4", "l3", "l4").replace("<axis", '<mimic joint="j3"/><axis'),
+             ("base", "l1", "l2", "l3", "l4"))), "r.urdf: a mimic of a mimic"),
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "a kinematic cycle: links b <- a <- b (joints j3, j4)",
+         _xrobot("", ARM_X.replace("</robot>", '<link name="a"/><link name="b"/>' + _joint("j3", "a", "b", "fixed")
+                                   + _joint("j4", "b", "a", "fixed") + "</robot>")), "r.urdf: links a and b each other's parent"),
+    Case("40.4", "vjm stiffness r.yaml --q 0,0", "joint 'j2': link 'l2' is both its parent and its child",
+         _xrobot("", ARM_X.replace('<parent link="l1"/><child link="l2"/>', '<parent link="l2"/><child link="l2"/>'))
+         , "r.urdf: a joint whose parent is its child"),
 ]
 
 

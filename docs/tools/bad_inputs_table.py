@@ -55,7 +55,9 @@ def _files(case) -> str:
 
 def main() -> int:
     rows = []
-    for i, case in enumerate(CASES, 1):
+    i = 0
+    for case in CASES:
+        i = case.number or i + 1
         with tempfile.TemporaryDirectory() as d:
             res = run(case, Path(d))
         rows.append(f"| {i} | {case.issue} | `{_cell(case.command)}` | {_cell(_files(case))} | {res.status} | "

@@ -50,6 +50,7 @@ from ..maps.grid import plan
 from ..stats.fit import chi2_p
 from . import report as cr
 from .engine import effect_names, predict_points
+from .poses import quiet_limits, warn_limits
 
 #: the files of an absolute-pose diagnosis, one output set
 POSE_FILES = cr.FILES + ("report.html",)
@@ -285,12 +286,16 @@ def diagnose_poses(model, data, model_name: str | None = None, alpha: float | No
     for line in plan_lines(m, d, opt):
         say(line)
     t0 = time.perf_counter()
-    cal, held = cr.run(m, d, vals, opt, robust=outliers, progress=say)
-    rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held, time.perf_counter() - t0)
-    rep["min_gain"] = {"mm": gain, "set_by": how}
-    report = pose_report(rep, cal, d, opt.alpha)
+    with quiet_limits():  # the joint limits said once on the whole data, not once per fold and evaluation
+        cal, held = cr.run(m, d, vals, opt, robust=outliers, progress=say)
+        rep = cr.report(cal, opt, model_name or getattr(m, "path", None) or "<model>", d, held,
+                        time.perf_counter() - t0)
+        rep["min_gain"] = {"mm": gain, "set_by": how}
+        report = pose_report(rep, cal, d, opt.alpha)
+        before, after = cr.row_errors(cal, d)
+    for x in [d, *vals]:
+        warn_limits(m, x)
     progress_lines(report, progress)
-    before, after = cr.row_errors(cal, d)
     return Diagnosis(report, "absolute", write, calibrated, calibration=cal, rms_pose_before=before,
                      rms_pose_after=after)
 

@@ -27,6 +27,7 @@ A file read without a map must already use vjm's names (``,`` separated, mm and 
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import re
@@ -40,6 +41,12 @@ from ..errors import VjmError
 UNITS = {"mm": ("length", 1.0), "m": ("length", 1000.0), "rad": ("angle", 1.0), "deg": ("angle", np.pi / 180),
          "": ("any", 1.0)}
 _POINT = re.compile(r"^(?P<frame>.+)\.(?P<c>x|y|z|rx|ry|rz|sigma|sigma_x|sigma_y|sigma_z)$")
+#: a measured point farther than this from the instrument (mm) is in other units or corrupt: 1 km
+POINT_MAX_MM = 1e6
+#: a position sigma below this (mm) no instrument gives: a nanometre
+SIGMA_MIN_MM = 1e-6
+#: fewer distinct configurations than this calibrate nothing (an instrument frame alone has 6 parameters)
+MIN_DISTINCT = 3
 
 
 @dataclass(frozen=True)
@@ -68,6 +75,7 @@ class AbsolutePoses:
     group: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
     source: str = ""
+    units: dict = field(default_factory=dict)  # vjm name -> the unit the column map gave ("" unsaid)
 
     @property
     def n(self) -> int:
@@ -134,9 +142,11 @@ def column_map_from_dict(d, where: str = "column map") -> ColumnMap:
     if sep == dec:
         raise VjmError(f"{where}: the separator and the decimal mark are both {sep!r}")
     rot = str(d.get("rotation", "rotvec"))
-    if rot != "rotvec" and not re.fullmatch(r"euler_([xyz]{3}|[XYZ]{3})", rot):
-        raise VjmError(f"{where}: rotation must be rotvec or euler_<axes> (e.g. euler_XYZ intrinsic, euler_xyz "
-                       f"extrinsic); got {rot!r}")
+    axes = rot[6:].upper()
+    if rot != "rotvec" and (not re.fullmatch(r"euler_([xyz]{3}|[XYZ]{3})", rot) or axes[0] == axes[1]
+                            or axes[1] == axes[2]):
+        raise VjmError(f"{where}: rotation must be rotvec or euler_<axes>, three axes with no two consecutive ones "
+                       f"the same (e.g. euler_XYZ intrinsic, euler_xyz extrinsic, euler_ZYZ); got {rot!r}")
     cols = _entries(d.get("columns"), "columns", where)
     if not cols:
         raise VjmError(f"{where}: columns: is empty")
@@ -186,7 +196,14 @@ def _table(path, sep: str) -> tuple[list, list]:
         raise VjmError(f"{path}: not a text file (UTF-8)") from None
     if len(rows) < 2:
         raise VjmError(f"{path}: no data rows under the header")
-    return [c.strip() for c in rows[0]], rows[1:]
+    header = [undefused(c.strip()) for c in rows[0]]
+    seen: dict = {}
+    for i, h in enumerate(header):
+        if h and h in seen:
+            raise VjmError(f"{path}: column {h!r} appears twice in the header (columns {seen[h] + 1} and {i + 1}); "
+                           f"which one holds the data is not said: rename or remove one")
+        seen[h] = i
+    return header, rows[1:]
 
 
 def _identity_map(header: list) -> ColumnMap:
@@ -254,8 +271,10 @@ def _sigmas(vals: dict, frame: str, path) -> np.ndarray | None:
         s = np.column_stack([vals[k] for k in keys])
     else:
         return None
-    if not np.all(s > 0):
-        raise VjmError(f"{path}: {frame}: sigmas must be > 0")
+    if not np.all(s >= SIGMA_MIN_MM):
+        low = float(np.min(s))
+        raise VjmError(f"{path}: {frame}: sigmas must be at least {SIGMA_MIN_MM:g} mm (a nanometre; no instrument "
+                       f"measures a robot better), got {low:.3g}")
     return s
 
 
@@ -293,4 +312,135 @@ def read_poses(path, cmap: ColumnMap | None = None, joints=None, group: str | No
     bad = ~np.all(np.isfinite(np.column_stack([q] + list(points.values()))), axis=1)
     if np.any(bad):
         raise VjmError(f"{path}: row {int(np.argmax(bad)) + 2}: joint values and points must be finite")
-    return AbsolutePoses(tuple(names), q, points, rots, sig, g, meta, str(path))
+    _check_points(points, path)
+    units = {k: cmap.columns.get(k, cmap.optional.get(k, ("", "")))[1] for k in vals}
+    return AbsolutePoses(tuple(names), q, points, rots, sig, g, meta, str(path), units)
+
+
+def _check_points(points: dict, path) -> None:
+    """Points beyond :data:`POINT_MAX_MM` refused."""
+    for fr, p in points.items():
+        far = np.max(np.abs(p), axis=1)
+        if np.any(far > POINT_MAX_MM):
+            i = int(np.argmax(far > POINT_MAX_MM))
+            raise VjmError(f"{path}: row {i + 2}: point {fr!r} is {far[i]:.3g} mm from the instrument, beyond "
+                           f"{POINT_MAX_MM:g} mm (1 km): points are in mm (map the columns' unit in a column map)")
+
+
+def undefused(name: str) -> str:
+    """A header cell as vjm wrote it, its spreadsheet defusing undone: ``'=x`` -> ``=x`` (see
+    :func:`vjm.modelio.csvtext.cell`)."""
+    return name[1:] if len(name) > 1 and name[0] == "'" and name[1] in "=+-@" else name
+
+
+#: the measured points' spread over the model's predicted spread, beyond which one of the two is in other units
+SCALE_FACTOR = 10.0
+
+
+def check_distinct(data: AbsolutePoses) -> None:
+    """Refuse fitted data of fewer than :data:`MIN_DISTINCT` distinct configurations (one row copied 60 times
+    calibrates nothing, yet fits every effect to nothing)."""
+    distinct = len(np.unique(data.q, axis=0)) if data.q.shape[1] else len(
+        np.unique(np.column_stack(list(data.points.values())), axis=0))
+    if distinct < MIN_DISTINCT:
+        raise VjmError(f"{data.source}: the data hold {distinct} distinct pose{'s' if distinct != 1 else ''} "
+                       f"({data.n} rows); a calibration needs at least {MIN_DISTINCT} poses spread over the workspace")
+
+
+def check_against(model, data: AbsolutePoses, frames) -> None:
+    """Refuse data whose units the robot contradicts, before any fit (VjmError, one line; a case legitimate
+    data could look like warns once instead): a rotational joint's column mapped in a length unit (or a
+    prismatic one in an angle unit); a rotational joint's values beyond 2 pi, or any joint's beyond its
+    limits by a factor (:func:`vjm.robot.model.unit_slip`: degrees or metres read as radians or millimetres); measured points whose
+    spread is not that of the model's frames at the data's configurations within :data:`SCALE_FACTOR`
+    (points in metres, or a model in other units)."""
+    import warnings
+
+    from ..errors import VjmWarning
+    from ..robot.model import unit_slip
+
+    names = tuple(model.q_names)
+    kinds = {j.name: j.type for j in model.tree.joints}
+    q = data.q_for(names)
+    lo, hi = model.tree.limits
+    for name in names:
+        rot = kinds[name] != "prismatic"
+        unit = data.units.get(name, "")
+        if unit and UNITS[unit][0] != ("angle" if rot else "length"):
+            raise VjmError(f"{data.source}: joint {name} is {kinds[name]} ({'rad' if rot else 'mm'}), but its column "
+                           f"is mapped in {unit}: map it as [column, {'rad' if rot else 'mm'}] (or "
+                           f"{'deg' if rot else 'm'})")
+    slip = unit_slip(model.tree, q)
+    if slip is not None:
+        msg = f"{data.source}: joint {slip[1]} Give the column's unit in a column map ([column, deg], [column, m])"
+        if slip[2]:
+            raise VjmError(msg)
+        warnings.warn(msg + " (a continuous joint may turn more: then ignore this)", VjmWarning, stacklevel=2)
+    deg = _deg_hint(data, names, kinds, q)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for fr in frames:
+            _check_scale(data.points[fr], model.forward(q, fr)[:, :3, 3], fr, data.source, deg)
+    if deg:
+        warnings.warn(f"{data.source}: {deg}", VjmWarning, stacklevel=2)
+
+
+@contextlib.contextmanager
+def quiet_limits():
+    """The joint-limit warnings of a model's evaluations silenced (a fit evaluates the rows once per fold and
+    stage: :func:`warn_limits` says it once instead)."""
+    import warnings
+
+    from ..errors import VjmWarning
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", r".* is outside its limits ", VjmWarning)
+        yield
+
+
+def warn_limits(model, data: AbsolutePoses) -> None:
+    """One warning for the rows outside the joint limits (the fit's many evaluations say nothing more)."""
+    import warnings
+
+    from ..errors import VjmWarning
+
+    names = tuple(model.q_names)
+    q = data.q_for(names)
+    lo, hi = model.tree.limits
+    out = (q < lo - 1e-12) | (q > hi + 1e-12)
+    if np.any(out):
+        i, j = np.argwhere(out)[0]
+        warnings.warn(f"{data.source}: {int(out.any(axis=1).sum())} of {len(q)} rows outside the joint limits "
+                      f"(row {i + 2}: {names[j]} = {q[i, j]:g}, limits [{lo[j]:g}, {hi[j]:g}])", VjmWarning,
+                      stacklevel=3)
+
+
+def _deg_hint(data: AbsolutePoses, names, kinds, q: np.ndarray) -> str:
+    """Radians mapped as degrees: every rotational column mapped ``deg`` within 2 pi before the conversion."""
+    deg = [j for j, n in enumerate(names) if kinds[n] != "prismatic" and data.units.get(n) == "deg"]
+    if deg and float(np.max(np.abs(q[:, deg]))) * 180 / np.pi <= 2 * np.pi:
+        return (f"the joint columns mapped in deg all lie within +-{2 * np.pi:.3g} before the conversion: radians "
+                f"mapped as deg? (map them as [column, rad])")
+    return ""
+
+
+def spread(p: np.ndarray) -> float:
+    """RMS distance (mm) of points (n, 3) from their centroid: a size that no rigid move of the frame changes."""
+    return float(np.sqrt(np.mean(np.sum((p - p.mean(axis=0)) ** 2, axis=1))))
+
+
+def _check_scale(measured: np.ndarray, predicted: np.ndarray, frame: str, source: str, deg: str) -> None:
+    s_data, s_model = spread(measured), spread(predicted)
+    if s_model < 1.0 or s_data == 0.0:  # a point the joints hardly move: no scale to compare
+        return
+    r = s_data / s_model
+    if 1 / SCALE_FACTOR <= r <= SCALE_FACTOR:
+        return
+    if 1e-3 / 3 <= r <= 3e-3:
+        hint = "points in metres (map their columns as [column, m]), or a model in millimetres"
+    elif 1e3 / 3 <= r <= 3e3:
+        hint = "points in microns, or a model in metres"
+    else:
+        hint = deg or "check the units of the points, of the joints and of the model"
+    raise VjmError(f"{source}: the measured points of {frame} spread over {s_data:.3g} mm, the model's {frame} at "
+                   f"the same joint values over {s_model:.3g} mm (a factor {r:.3g}): {hint}")

@@ -45,6 +45,8 @@ def default_effects() -> tuple:
 
 
 SET_NAME = "vjm calibrate"
+#: --folds at most this: each fold refits the whole staged selection, and held-out folds of a row or two say nothing
+MAX_FOLDS = 50
 SCHEMA = "vjm.calibration/1"
 
 
@@ -72,8 +74,9 @@ def check_options(opt: Options) -> None:
     bad = set(opt.effects) - set(known)
     if bad:
         raise VjmError(f"--effects: unknown effect(s) {', '.join(sorted(bad))}; effects: {', '.join(known)}")
-    if opt.folds == 1 or opt.folds < 0:
-        raise VjmError(f"--folds must be 0 (no cross-validation) or at least 2, got {opt.folds}")
+    if opt.folds == 1 or opt.folds < 0 or opt.folds > MAX_FOLDS:
+        raise VjmError(f"--folds must be 0 (no cross-validation) or at least 2 and at most {MAX_FOLDS}, got "
+                       f"{opt.folds}")
     if opt.register_on < 3:
         raise VjmError(f"--register must be at least 3 poses (an instrument frame has 6 parameters), got "
                        f"{opt.register_on}")
@@ -99,6 +102,9 @@ def check_frame(model, data, frame=None, option: str = "--frame") -> tuple:
     """The measured frames: ``frame`` (a name, or several), or every point the data measure; each must be
     measured by the data and be a frame of the model (errors name the ``option`` that chose them)."""
     frames = tuple(data.points) if not frame else ((frame,) if isinstance(frame, str) else tuple(frame))
+    twice = sorted({f for f in frames if frames.count(f) > 1})
+    if twice:
+        raise VjmError(f"{option} {twice[0]} is given twice: each measured point counts once")
     names = {f.name for f in model.tree.frames}
     for f in frames:
         if f not in data.points:
@@ -307,7 +313,7 @@ def inputs(model, data, columns, validate_paths, opt: Options, asked: bool, opti
     checked before any fitting; ``model`` and ``data`` a loaded model and data set, or their files (a data file
     without a ``group`` column is one instrument set-up, named by the file; each validation file a new one)."""
     from ..modelio.read import load_model
-    from .poses import read_column_map, read_poses
+    from .poses import check_against, check_distinct, read_column_map, read_poses
 
     m: Any = load_model(model) if isinstance(model, (str, os.PathLike)) else model
     robot_of(m)
@@ -326,6 +332,9 @@ def inputs(model, data, columns, validate_paths, opt: Options, asked: bool, opti
         check_frame(m, v, frames, option)
         if v.group[0] not in fitted:
             check_validation(v, opt.register_on)
+    check_distinct(d)
+    for x in [d, *vals]:
+        check_against(m, x, frames)
     return m, d, vals, opt
 
 

@@ -95,6 +95,8 @@ def parse_hidden(model, specs, frame: str) -> Hidden:
                 eff.check_hidden(model, key, v)
             except VjmError as exc:
                 raise ArgumentError("effect", str(exc)) from None
+            if key in vals:
+                raise ArgumentError("effect", f"{kind}:{name} is given twice ({vals[key]:g} and {v:g}); give it once")
             vals[key] = v
     return Hidden(tuple((e, given[n]) for n, e in absolute.POSES.items() if n in given))
 
@@ -157,6 +159,8 @@ def run(model, model_path, effects, poses: str, noise_t: float, seed: int, out, 
     from linkfea.files.atomic import write_text
     from linkfea.files.outputs import SIMULATED_CSV_MARK, check_file, is_simulated_csv
 
+    from ..modelio.csvtext import header
+
     if not (np.isfinite(noise_t) and noise_t >= 0):
         raise ArgumentError("noise-t", f"must be a number >= 0 (mm), got {noise_t!r}")
     check_file(out, is_simulated_csv, "a CSV written by vjm simulate")
@@ -167,7 +171,7 @@ def run(model, model_path, effects, poses: str, noise_t: float, seed: int, out, 
     head = list(model.q_names) + [f"{frame}.{c}" for c in "xyz"] + ([f"{frame}.sigma"] if noise_t > 0 else [])
     lines = [f"{SIMULATED_CSV_MARK} from {os.path.basename(str(model_path))}; poses {poses}; noise_t {noise_t} mm; "
              f"seed {seed}; the robot's base frame; hidden effects: {hidden.describe(model)}",
-             ",".join(head)]
+             header(head)]
     for q, p in zip(Q, P):
         lines.append(",".join([repr(float(v)) for v in (*q, *p)] + ([repr(float(noise_t))] if noise_t > 0 else [])))
     write_text(out, "\n".join(lines) + "\n")

@@ -68,7 +68,7 @@ def seed_of(model, text: str | None, option: str = "--q") -> np.ndarray:
     if q.shape != (model.nq,):
         raise VjmError(f"{option} expects {model.nq} numbers q1,...,q{model.nq} for {model.path or model.name} "
                        f"({', '.join(model.q_names)}; rad, mm for prismatic joints) or home, got {text!r}")
-    return model.check_q(q)[0][0]
+    return model.check_seed(q, option)[0]
 
 
 def parse_joints(model, text: str, n_default: int) -> tuple[tuple, tuple, tuple]:

@@ -58,6 +58,8 @@ def parse_effect(spec: str):
         k, eq, v = item.partition("=")
         if not eq:
             raise VjmError(f"--effect {spec}: expected param=value, got '{item}'")
+        if k.strip() in vals:
+            raise VjmError(f"--effect {spec}: {k.strip()} is given twice; give it once")
         try:
             vals[k.strip()] = float(v)
         except ValueError:

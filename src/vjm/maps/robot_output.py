@@ -16,6 +16,8 @@ import numpy as np
 from linkfea.files.atomic import file_sha256, plain
 from linkfea.files.outputs import OutputSet, check_folder
 
+from ..modelio.csvtext import header
+
 #: the output set's name in the folder's manifest, and summary.json's writer
 WRITER = "vjm map"
 FILES = ("map.npz", "map.csv", "k_tran.png", "k_rot.png", "summary.json")
@@ -103,7 +105,7 @@ def write_set(out, res, arrays: dict, summary: dict, force: bool = False) -> Pat
         head, rows = table(res, summary["joint_names"], res.csv_columns())
         with open(tmp["map.csv"], "w", encoding="utf-8", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(head)
+            fh.write(header(head) + "\r\n")  # the csv module's line end, as the rows'
             w.writerows(rows)
         with open(tmp["summary.json"], "w", encoding="utf-8") as fh:
             json.dump(summary, fh, indent=1)

@@ -56,6 +56,18 @@ def _val(v, where: str) -> float:
     raise VjmError(f"{where} must be a number or an expression, got {v!r}")
 
 
+def _angles(r: dict, w: str, jt: str) -> None:
+    """A row's angles (rad) beyond a turn (a revolute joint's limits beyond two: some wrists turn more than
+    one) are in degrees: refused, with the expression that says so."""
+    given = [(f"{w}.{k}", r[k], 2 * np.pi, "one turn") for k in ("alpha", "theta", "beta") if k in r]
+    lim = r.get("limits")
+    if jt == "revolute" and isinstance(lim, list):
+        given += [(f"{w}.limits", v, 4 * np.pi, "two turns") for v in lim]
+    for where, v, bound, turns in given:
+        if abs(_val(v, where)) > bound + 1e-9:
+            raise VjmError(f"{where}: {v!r} rad is beyond {turns}: degrees? write it as {v}*deg (angles are in rad)")
+
+
 def _E(kind: str, a: float) -> np.ndarray:
     return elementary(kind, np.array([a]))[0]
 
@@ -100,6 +112,7 @@ def tree_from_dh(spec, name: str = "", where: str = "dh") -> Tree:
         if jt not in ("revolute", "prismatic"):
             raise VjmError(f"{w}.type must be revolute or prismatic, got {jt!r}")
         a, alpha, d, theta, beta = (_val(r.get(k, 0.0), f"{w}.{k}") for k in ("a", "alpha", "d", "theta", "beta"))
+        _angles(r, w, jt)
         if beta != 0.0 and d != 0.0:
             raise VjmError(f"{w}: Hayati's beta replaces d (nearly parallel axes): give d: 0 with beta")
         lo, hi = -np.inf, np.inf

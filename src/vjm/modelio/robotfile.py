@@ -5,7 +5,7 @@ Units N, mm, kg, rad (the URDF's metres are converted where it is read)::
 
     name: UR10
     urdf: ur10.urdf                 # relative to this file; or dh: {...} (vjm.modelio.dh)
-    tools: [tool0]                  # optional: the tool frames (default: the links without a child)
+    tools: [tool0]                  # optional: the tool frames (default: tool0, else the deepest childless link)
     gravity: [0, 0, -9.80665]       # optional, m/s^2 in the base frame (a wall or ceiling mount turns it)
     strict_limits: false            # optional: a q outside a joint's limits is an error, not a warning
     home: [0, -1.2, 1.5, -1.87, -1.57, 0]   # optional: the working configuration (rad, mm), vjm path's seed
@@ -35,10 +35,14 @@ import os
 import numpy as np
 
 from ..errors import VjmError
-from ..robot.model import GRAVITY, JointSpring, Payload, PlacedSpring, RobotModel
+from ..robot.model import GRAVITY, MAX_MASS, MIN_STIFFNESS, JointSpring, Payload, PlacedSpring, RobotModel
 from ..robot.tree import Body, Tree, origin_transform
 from . import robotformats
 
+#: a robot's plausible size (mm): its frames at zero joint values within this of the base (100 m), and
+#: reaching at least this far if they reach at all (5 mm); beyond, its lengths are in other units
+MAX_SIZE_MM = 1e5
+MIN_SIZE_MM = 5.0
 #: the keys of a robot file besides its format's (``urdf:``, ``dh:`` ...: :mod:`vjm.modelio.robotformats`)
 COMMON_KEYS = ("tools", "gravity", "strict_limits", "home", "joints", "links", "masses", "payload",
                "payload_limit")
@@ -65,7 +69,8 @@ def _joint_spring(spec, where: str) -> JointSpring:
     if isinstance(spec, str):
         from .description import evaluate
 
-        evaluate(spec, {"q": 0.0}, where)  # read once now: a typo fails at load, not in a map
+        k0 = evaluate(spec, {"q": 0.0}, where)  # read once now: a typo fails at load, not in a map
+        _at_least(k0, f"{where} at q = 0")
         return JointSpring(expression=spec)
     if isinstance(spec, dict):
         if set(spec) != {"table"}:
@@ -76,13 +81,44 @@ def _joint_spring(spec, where: str) -> JointSpring:
         t = np.array([[_num(a, f"{where}.table"), _num(b, f"{where}.table")] for a, b in rows])
         if np.any(np.diff(t[:, 0]) <= 0):
             raise VjmError(f"{where}.table: the q values must increase")
-        if np.any(t[:, 1] <= 0):
-            raise VjmError(f"{where}.table: every stiffness must be > 0")
+        for k in t[:, 1]:
+            _at_least(k, f"{where}.table")
         return JointSpring(table=(t[:, 0].copy(), t[:, 1].copy()))
     k = _num(spec, where)
-    if not k > 0:
-        raise VjmError(f"{where} must be > 0 (N mm/rad, or N/mm for a prismatic joint), got {k:g}")
+    _at_least(k, where)
     return JointSpring(stiffness=k)
+
+
+def _at_least(k: float, where: str) -> None:
+    if not k >= MIN_STIFFNESS:
+        raise VjmError(f"{where} must be at least {MIN_STIFFNESS:g} N mm/rad (N/mm for a prismatic joint), got {k:g}")
+
+
+def _mass(v, where: str) -> float:
+    m = _num(v, where)
+    if not 0 <= m <= MAX_MASS:
+        raise VjmError(f"{where} must be in [0, {MAX_MASS:g}] kg, got {m:g}")
+    return m
+
+
+def check_size(tree: Tree, where: str) -> None:
+    """Refuse a robot larger than :data:`MAX_SIZE_MM` or smaller than :data:`MIN_SIZE_MM` (a URDF written in
+    millimetres, a DH table in metres): its size the longest path of offsets from the base to a frame."""
+    reach = np.zeros(len(tree.joints))  # the length of the path of offsets from the base: a bound of the reach
+    for i, j in enumerate(tree.joints):  # a joint's parent comes before it
+        reach[i] = (reach[j.parent] if j.parent >= 0 else 0.0) + float(np.linalg.norm(j.placement[:3, 3]))
+    far = [(reach[f.joint] if f.joint >= 0 else 0.0) + float(np.linalg.norm(f.placement[:3, 3])) for f in tree.frames]
+    size = max(far + list(reach) + [0.0])
+    heavy = [b for b in tree.bodies if not b.mass <= MAX_MASS]
+    if heavy:
+        raise VjmError(f"{where}: body {heavy[0].name!r} has a mass of {heavy[0].mass:g} kg, above {MAX_MASS:g} kg (100 t)")
+    if size > MAX_SIZE_MM:
+        raise VjmError(f"{where}: the robot's links add up to {size / 1000:.4g} m from its base to a frame, "
+                       f"beyond {MAX_SIZE_MM / 1000:g} m: lengths in millimetres where metres are meant (a URDF is in m)?")
+    if 0 < size < MIN_SIZE_MM:
+        raise VjmError(f"{where}: the robot's links add up to {size:.3g} mm from its base to its farthest frame, below "
+                       f"{MIN_SIZE_MM:g} mm: "
+                       f"lengths in metres where millimetres are meant (a DH table is in mm)?")
 
 
 def _joints(d, base_dir: str, tree: Tree, parse_link):
@@ -151,11 +187,11 @@ def _masses(d, tree: Tree, base_dir: str) -> tuple:
                 raise VjmError(f"{where}.linkfea must be a file path")
             m = _linkfea_mass(os.path.normpath(os.path.join(base_dir, spec["linkfea"])), f"{where}.linkfea")
         elif "mass" in spec:
-            m = _num(spec["mass"], f"{where}.mass")
+            m = _mass(spec["mass"], f"{where}.mass")
         else:
             raise VjmError(f"{where}: a centre of mass without a mass")
-        if m < 0:
-            raise VjmError(f"{where}.mass must be >= 0 (kg), got {m:g}")
+        if not 0 <= m <= MAX_MASS:
+            raise VjmError(f"{where}.mass must be in [0, {MAX_MASS:g}] kg, got {m:g}")
         if "com" not in spec:
             raise VjmError(f"{where}: a mass of {m:g} kg without a centre of mass (com: [x, y, z] mm)")
         c = _vec3(spec["com"], f"{where}.com")
@@ -167,9 +203,7 @@ def _payload(d, tree: Tree) -> Payload:
     if not isinstance(d, dict) or set(d) - {"frame", "mass", "com"} or "frame" not in d or "mass" not in d:
         raise VjmError("payload must be a mapping {frame: name, mass: kg, com: [x, y, z] mm}")
     tree.frame(str(d["frame"]))
-    m = _num(d["mass"], "payload.mass")
-    if m < 0:
-        raise VjmError(f"payload.mass must be >= 0 (kg), got {m:g}")
+    m = _mass(d["mass"], "payload.mass")
     return Payload(str(d["frame"]), m, _vec3(d.get("com", [0, 0, 0]), "payload.com"))
 
 
@@ -187,8 +221,13 @@ def robot_from_dict(d: dict, base_dir: str, path: str | None, parse_link) -> Rob
     if tools is not None and (not isinstance(tools, list) or not all(isinstance(t, str) for t in tools) or not tools):
         raise VjmError("tools must be a list of frame names")
     tree = robotformats.READERS[formats[0]].read(d, base_dir)
+    check_size(tree, str(tree.source or path or "the robot"))
     if tools and tree.tools != tuple(tools):
         tree = Tree(tree.name, tree.joints, tree.frames, tree.bodies, tuple(tools), tree.source, tree.declared)
+    for t in tree.tools:
+        if tree.frame(t).joint < 0:
+            raise VjmError(f"tools: {t!r} is fixed to the robot's base: no joint moves it, so it has no stiffness "
+                           f"to compute; name a frame the joints move")
     springs, six = _joints(d.get("joints") or {}, base_dir, tree, parse_link)
     links = _links(d.get("links") or {}, base_dir, tree, parse_link)
     if d.get("masses"):

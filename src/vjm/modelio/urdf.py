@@ -11,18 +11,17 @@ import os
 
 import numpy as np
 
-from ..errors import VjmError
+from ..errors import VjmError, VjmWarning
 from ..robot.tree import Body, Frame, Tree, TreeJoint, axis_alignment
+from .urdfcheck import URDF_MAX_BYTES, check_xml
 
 #: metres to millimetres (URDF to vjm)
 MM = 1000.0
 #: the model file's key this format reads (:mod:`vjm.modelio.robotformats`), and how a message names it
 KEYS = ("urdf",)
 DESCRIBES = "urdf: (a file)"
-#: a URDF's size and its deepest chain of joints, checked before the parser gets it: the parser recurses
-#: once per joint and overflows its stack (SIGSEGV) near 5,000; a real robot has tens
-URDF_MAX_BYTES = 20_000_000
-URDF_MAX_DEPTH = 1000
+#: the tool frame a URDF without ``tools:`` prefers (ROS-Industrial's name of the flange's tool frame)
+TOOL0 = "tool0"
 
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
@@ -57,16 +56,45 @@ def _joint_kind(jm, name: str, path: str):
 
 
 def _build(pin, path: str, mimic: bool):
-    import contextlib
-    import io
+    """The parser's model; what it prints on the process's stderr (file descriptor 2, written by C++, which
+    ``sys.stderr`` does not see) captured and given as one line."""
+    import tempfile
 
-    err = io.StringIO()
-    try:
-        with contextlib.redirect_stderr(err):
-            return pin.buildModelFromUrdf(path, mimic=mimic)
-    except (ValueError, RuntimeError, IndexError) as exc:
-        msg = " ".join(str(exc).split()) or "unreadable"
-        raise VjmError(f"{path}: not a valid URDF: {msg}") from None
+    with tempfile.TemporaryFile() as cap:
+        import sys
+
+        sys.stderr.flush()
+        saved = os.dup(2)
+        os.dup2(cap.fileno(), 2)
+        try:
+            model, exc = pin.buildModelFromUrdf(path, mimic=mimic), None
+        except (ValueError, RuntimeError, IndexError) as e:
+            model, exc = None, e
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        cap.seek(0)
+        said = _parser_said(cap.read(4096).decode("utf-8", "replace"))
+    if exc is not None:
+        msg = said or " ".join(str(exc).split()) or "unreadable"
+        raise VjmError(f"{path}: not a valid URDF: {msg}")
+    if said:
+        import warnings
+
+        warnings.warn(f"{path}: the URDF parser says: {said}", VjmWarning, stacklevel=3)
+    return model
+
+
+def _parser_said(text: str) -> str:
+    """The parser's first message without its C++ source location (``... at line 124 in .../joint.cpp``)."""
+    import re
+
+    for line in text.splitlines():
+        line = re.sub(r"\s+at line \d+ in \S+$", "", line.strip())
+        line = re.sub(r"^(Error|Warning|Info|Debug):\s*", "", line).strip()
+        if line:
+            return line
+    return ""
 
 
 def recognises(mapping) -> bool:
@@ -83,11 +111,13 @@ def read(mapping: dict, base_dir: str) -> Tree:
 
 def read_urdf(path, tools=None) -> Tree:
     """The tree of a URDF file (mm, kg).  ``tools``: names of the tool frames (links or fixed
-    joints); default: every link without a child."""
+    joints); default: the links without a child that a joint moves, ``tool0`` or the deepest first."""
     path = os.path.abspath(os.fspath(path))
     if not os.path.isfile(path):
         raise VjmError(f"urdf: file not found: {path}")
-    with_inertial = _check_xml(path)
+    from linkfea.files.atomic import read_user_file
+
+    with_inertial = check_xml(read_user_file(path, "URDF", limit=URDF_MAX_BYTES, error=VjmError), path)
     import pinocchio as pin
 
     plain = _build(pin, path, False)
@@ -119,11 +149,56 @@ def read_urdf(path, tools=None) -> Tree:
             bodies.append(Body(plain.names[j] if j else "base", j - 1, float(I.mass),
                                np.asarray(I.lever, dtype=float) * MM))
     frames, leaves = _frames(pin, plain)
-    tools = tuple(tools) if tools else tuple(leaves)
-    if not tools:
-        raise VjmError(f"{path}: the URDF has no link without a child to serve as a tool frame; name one under tools:")
+    _finite(path, joints, bodies, frames)
+    given, got = sum(with_inertial.values()), sum(b.mass for b in bodies)
+    if abs(got - given) > 1e-9 * max(given, 1.0):
+        raise VjmError(f"{path}: the URDF parser gave the links {got:g} kg in all, the file's inertials "
+                       f"{given:g} kg: it dropped or changed a mass it could not read")
+    tools = tuple(tools) if tools else _default_tools(path, leaves, frames, joints)
     declared = frozenset(f.joint for f in frames if f.name in with_inertial)
     return Tree(str(plain.name), tuple(joints), tuple(frames), tuple(bodies), tools, path, declared)
+
+
+def _finite(path: str, joints, bodies, frames) -> None:
+    """What the parser gave back: every placement, limit, mass and centre of mass a number (a value it could
+    not read it may leave NaN, or drop a link's mass)."""
+    for j in joints:
+        if not np.all(np.isfinite(j.placement)) or np.isnan(j.lower) or np.isnan(j.upper):
+            raise VjmError(f"{path}: joint {j.name!r}: the URDF parser gave a placement or limit that is not a number")
+    for b in bodies:
+        if not (np.isfinite(b.mass) and np.all(np.isfinite(b.com))):
+            raise VjmError(f"{path}: link {b.name!r}: the URDF parser gave a mass or centre of mass that is not a "
+                           f"number")
+    for f in frames:
+        if not np.all(np.isfinite(f.placement)):
+            raise VjmError(f"{path}: frame {f.name!r}: the URDF parser gave a placement that is not a number")
+
+
+def _default_tools(path: str, leaves, frames, joints) -> tuple:
+    """The tool frames of a URDF without ``tools:``: its links without a child that a joint moves (a frame fixed
+    to the root is no tool), ``tool0`` first if it is one, else the deepest (most joints from the root; the
+    first in the file of equals).  A choice among several is said once."""
+    import warnings
+
+    at = {f.name: f.joint for f in frames}
+
+    def depth(j: int) -> int:
+        n = 0
+        while j >= 0:
+            n, j = n + 1, joints[j].parent
+        return n
+
+    moving = [n for n in leaves if at[n] >= 0]
+    if not moving:
+        raise VjmError(f"{path}: no link without a child is moved by a joint (childless links: "
+                       f"{', '.join(leaves) or 'none'}); name the tool frame under tools:")
+    best = TOOL0 if TOOL0 in moving else max(moving, key=lambda n: depth(at[n]))
+    tools = (best,) + tuple(n for n in moving if n != best)
+    if len(tools) > 1:
+        why = "ROS-Industrial's tool frame" if best == TOOL0 else f"{depth(at[best])} joints from the root, the deepest"
+        warnings.warn(f"{os.path.basename(path)}: no tools: named; tool frame {best!r} chosen ({why}; the others: "
+                      f"{', '.join(tools[1:])}); name it under tools: to say so", VjmWarning, stacklevel=4)
+    return tools
 
 
 def _frames(pin, model):
@@ -139,71 +214,3 @@ def _frames(pin, model):
         if f.type == pin.FrameType.BODY and i not in parents:
             leaves.append(f.name)
     return frames, leaves
-
-
-def _check_xml(path: str) -> set:
-    """What urdfdom reports badly or not at all, named here: a link with two parents (a kinematic loop),
-    a joint whose parent or child link does not exist, a joint of unknown type, a mass without an
-    origin or a negative one.  Returns the names of the links that declare an inertial."""
-    import xml.etree.ElementTree as ET
-
-    from linkfea.files.atomic import read_user_file
-
-    raw = read_user_file(path, "URDF", limit=URDF_MAX_BYTES, error=VjmError)
-    try:
-        root = ET.fromstring(raw)
-    except ET.ParseError as exc:
-        raise VjmError(f"{path}: not a valid URDF: {exc}") from None
-    links = {e.get("name") for e in root.findall("link")}
-    child_of: dict = {}
-    for j in root.findall("joint"):
-        name, jt = j.get("name"), j.get("type")
-        known = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
-        if jt not in known:
-            raise VjmError(f"{path}: joint {name!r}: unknown type {jt!r}; known: {', '.join(known)}")
-        for tag in ("parent", "child"):
-            e = j.find(tag)
-            ln = None if e is None else e.get("link")
-            if ln not in links:
-                raise VjmError(f"{path}: joint {name!r}: its {tag} link {ln!r} is not defined in the file")
-        c = j.find("child").get("link")
-        if c in child_of:
-            raise VjmError(f"{path}: link {c!r} is the child of two joints ({child_of[c]!r} and {name!r}): a "
-                           f"kinematic loop, which a URDF tree cannot describe")
-        child_of[c] = name
-    _check_depth(path, {j.find("child").get("link"): j.find("parent").get("link") for j in root.findall("joint")})
-    declared = set()
-    for link in root.findall("link"):
-        inert = link.find("inertial")
-        if inert is None:
-            continue
-        declared.add(link.get("name"))
-        me = inert.find("mass")
-        val = None if me is None else me.get("value")
-        try:
-            mass = float(val) if val is not None else None
-        except ValueError:
-            mass = None
-        if mass is None or not np.isfinite(mass) or mass < 0:
-            raise VjmError(f"{path}: link {link.get('name')!r}: inertial mass must be a number >= 0 (kg), got {val!r}")
-        if mass > 0 and inert.find("origin") is None:
-            raise VjmError(f"{path}: link {link.get('name')!r}: a mass of {mass:g} kg without a centre of mass "
-                           f"(<origin xyz=...> in <inertial>)")
-    return declared
-
-
-def _check_depth(path: str, parent: dict) -> None:
-    """Refuse a chain of more than :data:`URDF_MAX_DEPTH` joints (``parent``: {child link: parent link})."""
-    depth: dict = {}
-    for link in parent:
-        chain = []
-        while link in parent and link not in depth and len(chain) <= len(parent):
-            chain.append(link)
-            link = parent[link]
-        d = depth.get(link, 0)
-        for k in reversed(chain):
-            d += 1
-            depth[k] = d
-            if d > URDF_MAX_DEPTH:
-                raise VjmError(f"{path}: a chain of more than {URDF_MAX_DEPTH:,} joints (down to link {k!r}); a "
-                               f"robot has tens, and the URDF parser cannot take such a depth")

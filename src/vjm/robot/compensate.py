@@ -39,7 +39,8 @@ from ..compensation import Compensation
 from ..errors import VjmError, VjmWarning
 from ..kinematics.poses import rotation_matrix
 from ..kinematics.transforms import rotation_vector
-from .ik import LENGTH, SINGULAR, levenberg_marquardt
+from ..modelio.csvtext import header
+from .ik import LENGTH, SINGULAR, levenberg_marquardt, rotation_vectors
 
 #: default tolerance (mm; rotations times LENGTH) of the deflected tool pose
 TOL = 1e-6
@@ -67,8 +68,8 @@ def targets_of(targets, orientation=None) -> tuple[np.ndarray, bool]:
         T = np.zeros((len(P), 4, 4))
         T[:, :3, 3], T[:, 3, 3] = P, 1.0
         free = orientation is None
-        T[:, :3, :3] = np.eye(3) if free else rotation_matrix(np.broadcast_to(np.asarray(orientation, float),
-                                                                              (len(P), 3)))
+        T[:, :3, :3] = np.eye(3) if free else rotation_matrix(np.broadcast_to(
+            rotation_vectors(orientation, "compensate: orientation"), (len(P), 3)))
     else:
         raise VjmError(f"compensate: targets must be poses (n, 4, 4) or points (n, 3) in mm, got shape {a.shape}")
     if len(T) == 0 or not np.all(np.isfinite(T)):
@@ -172,6 +173,10 @@ def read_targets(path) -> tuple[np.ndarray, np.ndarray | None]:
     if missing:
         raise VjmError(f"{path}: no column {', '.join(missing)}; a targets file has the columns x,y,z[,rx,ry,rz] "
                        f"(mm, rad in the robot's base frame), got {', '.join(head)}")
+    twice = [c for c in ("x", "y", "z", "rx", "ry", "rz") if head.count(c) > 1]
+    if twice:
+        raise VjmError(f"{path}: column {twice[0]!r} appears twice in the header; which one holds the target is not "
+                       f"said: rename or remove one")
     rot = [c for c in ("rx", "ry", "rz") if c in head]
     if rot and len(rot) != 3:
         raise VjmError(f"{path}: columns {', '.join(rot)} without the other rotation components; give rx,ry,rz "
@@ -188,7 +193,7 @@ def read_targets(path) -> tuple[np.ndarray, np.ndarray | None]:
         if not np.all(np.isfinite(out[i])):
             raise VjmError(f"{path}: target {i + 1} (under the header): x,y,z{',rx,ry,rz' if rot else ''} must be "
                            f"finite numbers, got {','.join(r)!r}")
-    return out[:, :3], (out[:, 3:] if rot else None)
+    return out[:, :3], (rotation_vectors(out[:, 3:], f"{path}") if rot else None)
 
 
 def commands_text(model, c: Compensation, source: str, tool: str, model_file: str | None = None) -> str:
@@ -200,7 +205,7 @@ def commands_text(model, c: Compensation, source: str, tool: str, model_file: st
     named = model_file or os.path.basename(str(model.path or model.name))
     lines = [f"{MARK} from {named}; targets {source} ({what}); tool {tool}; tol {c.tol:g} mm; units rad "
              f"(mm prismatic), mm",
-             ",".join(["target", *model.q_names, "residual_mm", "converged", "status", "iterations", "sag_mm"])]
+             header(["target", *model.q_names, "residual_mm", "converged", "status", "iterations", "sag_mm"])]
     for i in range(len(c.commanded)):
         q = [repr(float(v)) for v in c.commanded[i]] if c.converged[i] else [""] * model.nq
         res = f"{c.residual[i]:.6g}" if np.isfinite(c.residual[i]) else ""

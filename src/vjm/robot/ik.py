@@ -36,13 +36,27 @@ class IKResult:
     residual: np.ndarray
 
 
+def rotation_vectors(w, where: str) -> np.ndarray:
+    """Rotation vectors (rad) as given, refused if not finite or longer than 2 pi (one turn: degrees?)."""
+    a = np.asarray(w, dtype=float)
+    if not np.all(np.isfinite(a)):
+        raise VjmError(f"{where}: a rotation vector must be finite numbers (rad)")
+    turn = np.linalg.norm(np.reshape(a, (-1, 3)), axis=1) if a.size else np.zeros(0)
+    if np.any(turn > 2 * np.pi + 1e-9):
+        i = int(np.argmax(turn))
+        raise VjmError(f"{where}: a rotation vector of {turn[i]:.4g} rad (rx,ry,rz = "
+                       f"{', '.join(f'{v:g}' for v in np.reshape(a, (-1, 3))[i])}), beyond one turn (2 pi): degrees? "
+                       f"rx,ry,rz are the rotation vector in rad")
+    return a
+
+
 def pose_targets(points, orientation=None) -> np.ndarray:
     """Tool frames (n, 4, 4) at points (n, 3) mm with one orientation (rotation vector, rad; default none)."""
     P = np.atleast_2d(np.asarray(points, dtype=float))
     if P.ndim != 2 or P.shape[1] != 3 or not np.all(np.isfinite(P)):
         raise VjmError(f"points must be (n, 3) finite numbers (mm), got shape {np.shape(points)}")
     T = np.zeros((len(P), 4, 4))
-    T[:, :3, :3] = rotation_matrix(np.zeros(3) if orientation is None else np.asarray(orientation, dtype=float))
+    T[:, :3, :3] = rotation_matrix(np.zeros(3) if orientation is None else rotation_vectors(orientation, "orientation"))
     T[:, :3, 3] = P
     T[:, 3, 3] = 1.0
     return T

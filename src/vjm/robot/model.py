@@ -40,6 +40,68 @@ GRAVITY = (0.0, 0.0, -9.80665)
 BLOCK = 2048
 #: tolerance of the self-weight equilibrium: Newton step of the tool pose below this x its size
 SAG_TOL = 1e-11
+#: plausible ranges, beyond which a value is in other units: gravity within this fraction of standard gravity
+#: (or none at all), a joint stiffness of at least this (N mm/rad or N/mm: 1 N mm/rad turns a joint by a radian
+#: under 1 N at 1 mm), a mass or payload of at most this (kg: 100 t), joint values beyond their limits by this
+#: factor (of the larger limit)
+GRAVITY_TOL = 0.05
+MIN_STIFFNESS = 1.0
+MAX_MASS = 1e5
+LIMIT_FACTOR = 2.0
+
+
+def check_gravity(g, where: str = "gravity") -> np.ndarray:
+    """Gravity (3,) m/s^2: finite, and standard gravity within :data:`GRAVITY_TOL` (or zero: no weight)."""
+    try:
+        a = np.asarray(g, dtype=float)
+    except (TypeError, ValueError):
+        a = np.full(1, np.nan)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise VjmError(f"{where} must be 3 finite numbers (m/s^2, base frame), got {g!r}")
+    top = float(np.max(np.abs(a)))
+    size = top * float(np.linalg.norm(a / top)) if top > 0 else 0.0  # no overflow to inf at 1e300
+    g0 = float(np.linalg.norm(GRAVITY))
+    if size != 0.0 and abs(size / g0 - 1) > GRAVITY_TOL:
+        unit = " (mm/s^2? gravity is in m/s^2)" if abs(size / g0 / 1000 - 1) < GRAVITY_TOL else ""
+        raise VjmError(f"{where} {[float(x) for x in a]} has magnitude {size:.6g} m/s^2, not within "
+                       f"{GRAVITY_TOL:.0%} of {g0:g}{unit}; give [0, 0, 0] for no weight")
+    return a
+
+
+def check_payload(p, where: str = "payload"):
+    """A :class:`Payload` (or None) of a mass in [0, :data:`MAX_MASS`] kg at a finite centre of mass."""
+    if p is None:
+        return p
+    if not isinstance(p, Payload):
+        raise VjmError(f"{where} must be a vjm.robot.model.Payload(frame, mass kg, com mm) or None, got {p!r}")
+    m = p.mass
+    if isinstance(m, bool) or not isinstance(m, (int, float, np.floating)) or not (0 <= m <= MAX_MASS):
+        raise VjmError(f"{where}.mass must be a number in [0, {MAX_MASS:g}] kg, got {m!r}")
+    c = np.asarray(p.com, dtype=float)
+    if c.shape != (3,) or not np.all(np.isfinite(c)):
+        raise VjmError(f"{where}.com must be 3 finite numbers (mm), got {p.com!r}")
+    return p
+
+
+def unit_slip(tree, q) -> tuple[int, str, bool] | None:
+    """Joint values (n, nq) that look like other units: (joint, what is wrong, sure) for the first such
+    joint, or None.  A rotational joint's value beyond 2 pi (one turn: degrees?), sure unless the joint is
+    continuous (it may turn more); any joint's beyond its limits by :data:`LIMIT_FACTOR`."""
+    a = np.atleast_2d(np.asarray(q, dtype=float))
+    lo, hi = tree.limits
+    types = [j.type for j in tree.joints if j.mimic is None]
+    for j, name in enumerate(tree.q_names):
+        rot = types[j] != "prismatic"
+        top = float(np.max(np.abs(a[:, j]))) if len(a) else 0.0
+        bound = max(abs(lo[j]), abs(hi[j]))
+        if rot and top > 2 * np.pi + 1e-9:
+            sure = bool(np.isfinite(bound))
+            return j, f"{name} = {top:.4g} is beyond 2 pi rad (one turn): degrees where radians are meant?", sure
+        if np.isfinite(bound) and bound > 0 and top > LIMIT_FACTOR * bound:
+            return j, (f"{name} = {top:.4g} is beyond its limits [{lo[j]:g}, {hi[j]:g}] by a factor "
+                       f"{top / bound:.3g}: {'degrees where radians' if rot else 'metres or microns where millimetres'} are "
+                       f"meant?"), True
+    return None
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,10 +125,11 @@ class JointSpring:
             from ..modelio.description import evaluate
 
             k = np.array([evaluate(str(self.expression), {"q": float(v)}, where) for v in q])
-        bad = ~(k > 0)
+        bad = ~(k >= MIN_STIFFNESS)
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
-            raise VjmError(f"{where}: stiffness {k[i]:g} at q = {q[i]:g}; it must be > 0")
+            raise VjmError(f"{where}: stiffness {k[i]:g} at q = {q[i]:g}; it must be at least {MIN_STIFFNESS:g} "
+                           f"(N mm/rad, N/mm for a prismatic joint)")
         return 1.0 / k
 
 
@@ -153,13 +216,14 @@ class RobotModel(Model):
             f = self.tree.frame(s.at)
             if f.joint < 0:
                 raise VjmError(f"links.{k}: frame {s.at!r} is fixed to the base; a link spring sits on a moving link")
-        if self.payload is not None:
+        if check_payload(self.payload) is not None:
             self.tree.frame(self.payload.frame)
-        g = np.asarray(self.gravity, dtype=float)
-        if g.shape != (3,) or not np.all(np.isfinite(g)):
-            raise VjmError(f"gravity must be 3 finite numbers (m/s^2, base frame), got {self.gravity!r}")
-        if self.home is not None and len(self.home) != self.nq:
-            raise VjmError(f"home must be {self.nq} joint values ({', '.join(self.q_names)}), got {self.home!r}")
+        check_gravity(self.gravity)
+        if self.home is not None:
+            if len(self.home) != self.nq or not np.all(np.isfinite(np.asarray(self.home, dtype=float))):
+                raise VjmError(f"home must be {self.nq} joint values ({', '.join(self.q_names)}; finite numbers), "
+                               f"got {self.home!r}")
+            self.check_seed(self.home, "home")
 
     kind = "serial"
     architecture = "robot"
@@ -225,6 +289,19 @@ class RobotModel(Model):
                 raise VjmError(msg)
             warnings.warn(msg, VjmWarning, stacklevel=3)
         return a, single
+
+    def check_seed(self, q, what: str = "seed") -> np.ndarray:
+        """:meth:`check_q` of a configuration the user gives (a seed, ``home``), and VjmError if its values look
+        like degrees or metres (:func:`unit_slip`; a continuous joint beyond a turn warns)."""
+        a = np.atleast_2d(np.asarray(q, dtype=float))
+        if a.ndim == 2 and a.shape[1] == self.nq and np.all(np.isfinite(a)):
+            slip = unit_slip(self.tree, a)
+            if slip is not None:
+                msg = f"{self._where}{what}: {slip[1]}"
+                if slip[2]:
+                    raise VjmError(msg)
+                warnings.warn(msg + "; a continuous joint may turn more: then ignore this", VjmWarning, stacklevel=3)
+        return self.check_q(q)[0]
 
     @property
     def _where(self) -> str:
@@ -306,7 +383,11 @@ class RobotModel(Model):
         Computed in blocks of ``BLOCK`` configurations with the configuration axis last (the
         chain's closed-form Jacobian, ``C = sum_s J_s C_s J_s^T`` and its inverse stay in cache)."""
         a, single = self.check_q(q)
-        ch, _ = self.chain(self._tool(tool))
+        name = self._tool(tool)
+        if self.tree.frame(name).joint < 0:
+            raise VjmError(f"{self._where}{name!r} is fixed to the robot's base: no joint moves it, so it has no "
+                           f"stiffness (K = 0); tools: {', '.join(self.tools)}")
+        ch, _ = self.chain(name)
         n = len(a)
         out = (np.empty((n, 3)), np.empty((n, 6, 6)), np.empty((n, 6, 6)), np.empty(n), np.empty(n),
                np.empty(n, dtype=int), np.empty(n, dtype=bool), np.empty((n, 3)))
@@ -376,7 +457,13 @@ class RobotModel(Model):
         """Linear deflection twist ``C w`` (n, 6) (or (6,)) of the tool under wrench(es) at the tool point
         (Fx..Mz, N and N mm, world axes)."""
         r = self.stiffness(np.atleast_2d(np.asarray(q, dtype=float)), tool)
-        W = np.broadcast_to(np.asarray(wrench, dtype=float), (r.C.shape[0], 6))
+        try:
+            W = np.broadcast_to(np.asarray(wrench, dtype=float), (r.C.shape[0], 6))
+        except (TypeError, ValueError):
+            raise VjmError(f"deflection: the wrench must be 6 numbers (N, N mm) or one row per configuration, got "
+                           f"shape {np.shape(wrench)}") from None
+        if not np.all(np.isfinite(W)):
+            raise VjmError(f"deflection: the wrench must be finite numbers (N, N mm), got {np.asarray(wrench)!r}")
         t = np.einsum("nij,nj->ni", r.C, W)
         return t[0] if np.ndim(q) == 1 else t
 
@@ -389,6 +476,7 @@ class RobotModel(Model):
         from .sag import Sag
         from .weight import self_weight
 
+        _loads(gravity, payload)
         out = self_weight(self, q, tool, gravity, payload, wrench, tol, max_iter, return_info, strict)
         t, info = out if return_info else (out, None)
         sag = Sag(np.asarray(t), self._tool(tool), np.asarray(q, dtype=float), tuple(self.q_names))
@@ -406,7 +494,11 @@ class RobotModel(Model):
         an :class:`~vjm.robot.ik.IKResult` with ``q``, ``reached``, ``singular``, ``residual``."""
         from .ik import solve
 
-        return solve(self, np.asarray(poses, dtype=float).reshape(-1, 4, 4), self.check_q(seed)[0][0], tool, tol)
+        T = np.asarray(poses, dtype=float)
+        if T.shape[-2:] != (4, 4) or T.ndim not in (2, 3):
+            raise VjmError(f"inverse: poses must be tool frames (4, 4) or (n, 4, 4) (mm), got shape {T.shape}; for "
+                           f"points (n, 3) use compensate or cartesian_map (orientation free or given)")
+        return solve(self, T.reshape(-1, 4, 4), self.check_seed(seed)[0], tool, tol)
 
     def compensate(self, targets, seed, tool: str | None = None, gravity=None, payload: Payload | None = None,
                    tol: float = 1e-6, orientation=None):
@@ -415,6 +507,8 @@ class RobotModel(Model):
         the configuration of ``seed``: a :class:`~vjm.compensation.Compensation` (:mod:`vjm.robot.compensate`)."""
         from .compensate import compensate
 
+        _loads(gravity, payload)
+        self.check_seed(seed)
         return compensate(self, targets, seed, tool, gravity, payload, tol, orientation)
 
     def cartesian_map(self, points, seed, orientation=None, tool: str | None = None, self_weight: bool = False):
@@ -425,7 +519,7 @@ class RobotModel(Model):
         points only (``ik.reached`` says which); unreachable and singular points are flagged in ``ik``."""
         from .ik import pose_targets, solve_path
 
-        ik = solve_path(self, pose_targets(points, orientation), self.check_q(seed)[0][0], tool)
+        ik = solve_path(self, pose_targets(points, orientation), self.check_seed(seed)[0], tool)
         ok = ik.reached
         if not np.any(ok):
             return ik, None, None
@@ -466,3 +560,10 @@ class RobotModel(Model):
         from ..modelio.robotwrite import save_robot
 
         save_robot(self, path)
+
+
+def _loads(gravity, payload) -> None:
+    """A call's gravity and payload (None: the model's), checked as the model's are."""
+    if gravity is not None:
+        check_gravity(gravity)
+    check_payload(payload)

@@ -94,7 +94,7 @@ def setup(model, seed=None, tool_frame=None, tool=None) -> RobotTool:
         seed = model.home
     if np.shape(seed) != (model.nq,):
         raise VjmError(f"--seed must have {model.nq} joint values ({', '.join(model.q_names)}), got {list(seed)!r}")
-    q0 = model.check_q(seed)[0]
+    q0 = model.check_seed(seed, "--seed")
     if _singular(model, q0, frame)[0]:
         raise VjmError(f"the seed configuration {np.round(q0[0], 6).tolist()} is at a singular posture of the robot: "
                        f"its configuration (elbow, wrist) is undefined; choose one clear of it")
