@@ -22,6 +22,7 @@ ROBOT = {
     "backlash": ("test_robot_truth_cases.py", "test_backlash_flipping_with_the_gravity_torque_is_named"),
     "payload": ("test_robot_calibration.py", "test_a_payload_at_the_marker_is_weighed_through_the_compliances"),
     "guide_tilt": ("test_guide_tilt.py", "test_a_tilting_guide_is_named_and_its_compliance_recovered"),
+    "column_tilt": ("test_column_truth.py", "test_the_whole_library_names_the_column_alone_and_recovers_it"),
     "link_scale": ("test_link_scale.py", "test_a_link_more_compliant_than_its_cad_is_scaled"),
 }
 PARALLEL = {
