@@ -532,7 +532,7 @@ CASES = [
     Case("27", "vjm calibrate r.yaml p.csv --out o --validate v.csv", "v.csv: 5 rows; a validation file needs more "
          "than --register (30) rows", {**CAL_FILES, "v.csv": "\n".join(POSES.splitlines()[:6]) + "\n"},
          "a validation file shorter than its registration"),
-    Case("27", "vjm calibrate r.yaml p.csv --out o", "p.csv: 4 rows (9 coordinates per fold) for up to 26 parameters",
+    Case("27", "vjm calibrate r.yaml p.csv --out o", "p.csv: 4 rows (9 coordinates per fold) for up to 37 parameters",
          {**CAL_FILES, "p.csv": "\n".join(POSES.splitlines()[:5]) + "\n"}, "four poses"),
     Case("27", "vjm calibrate r.yaml p.csv --columns c.yaml --out o", "l2.x: unit 'deg' is not a length",
          {**CAL_FILES, "c.yaml": "columns: {j1: [j1, rad], j2: [j2, rad], l2.x: [l2.x, deg], l2.y: [l2.y, mm], "
@@ -575,7 +575,7 @@ CASES = [
     Case("27.1", "vjm diagnose r.yaml p.csv --out o --validate v.csv", "v.csv: 5 rows; a validation file needs more "
          "than --register (30) rows", {**CAL_FILES, "v.csv": "\n".join(POSES.splitlines()[:6]) + "\n"},
          "a validation file shorter than its registration"),
-    Case("27.1", "vjm diagnose r.yaml p.csv --out o", "p.csv: 4 rows (9 coordinates per fold) for up to 26 parameters",
+    Case("27.1", "vjm diagnose r.yaml p.csv --out o", "p.csv: 4 rows (9 coordinates per fold) for up to 37 parameters",
          {**CAL_FILES, "p.csv": "\n".join(POSES.splitlines()[:5]) + "\n"}, "four absolute poses"),
     Case("27.1", "vjm diagnose r.yaml p.csv --out o", "o: report.json is there and was not written by linkfea or vjm",
          {**CAL_FILES, "o/report.json": "{}\n"}, "a report folder holding the user's report.json"),

@@ -49,7 +49,7 @@ from ..errors import VjmError
 from ..maps.grid import plan
 from ..stats.fit import chi2_p
 from . import report as cr
-from .engine import effect_names, predict_points
+from .engine import check_data, effect_names, predict_points
 from .poses import quiet_limits, warn_limits
 
 #: the files of an absolute-pose diagnosis, one output set
@@ -283,7 +283,8 @@ def diagnose_poses(model, data, model_name: str | None = None, alpha: float | No
     # before the work: a long run says so, one too large for the memory is refused
     plan("vjm calibrate", d.n, *ROW_COST, unit="rows", hint="calibrate on a subset of the rows (postures spread "
          "over the workspace, not repeats)", progress=say)
-    for line in plan_lines(m, d, opt):
+    check_data(m, d, (opt.frame,) if isinstance(opt.frame, str) else tuple(opt.frame), opt.effects, opt.folds)
+    for line in plan_lines(m, d, opt):   # after the checks: a refusal is the one line said
         say(line)
     t0 = time.perf_counter()
     with quiet_limits():  # the joint limits said once on the whole data, not once per fold and evaluation

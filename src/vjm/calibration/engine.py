@@ -345,14 +345,7 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
     if len(fr) > 1 and one:
         raise VjmError(f"a {one[0]} is weighed at the marker: with several measured points, leave it out of the "
                        f"effects")
-    _enough_rows(model, data, fr, effects, folds)
-    use = _options(effects)
-    if use["thermal"]:
-        _temperature(data)   # before any fitting
-    for e in effects:   # an effect asked for with nothing to fit on this robot (its own reason)
-        why = getattr(absolute.POSES[e], "usable", lambda m, d: None)(model, data)
-        if why:
-            raise VjmError(f"{e}: {why}: the effect has nothing to fit")
+    use = check_data(model, data, fr, effects, folds)
     frames, ps = _initial(model, data, fr, p0)
     measured = tuple(zip(fr, ps))
     prob = _problems(model, data, measured, frames, **use)
@@ -376,6 +369,21 @@ def final_uncertainty(prob, lay: Layout, x: np.ndarray, meas: np.ndarray, data, 
              pose_blocks(data.q, data.groups)]
     sig = np.concatenate([data.sigmas[f] for f in fr]).ravel() if all(f in data.sigmas for f in fr) else None
     return parameter_std(_jacobian(prob, lay, x), r, parts, sig)
+
+
+def check_data(model, data, fr: tuple, effects, folds: int) -> dict:
+    """Refuse, before any fitting, data that cannot show the ``effects`` on the measured frames ``fr``: too few
+    rows, no temperature for the thermal effect, an effect with nothing to fit on this robot (its own
+    reason); the problem options the effects need."""
+    _enough_rows(model, data, fr, effects, folds)
+    use = _options(effects)
+    if use["thermal"]:
+        _temperature(data)
+    for e in effects:
+        why = getattr(absolute.POSES[e], "usable", lambda m, d: None)(model, data)
+        if why:
+            raise VjmError(f"{e}: {why}: the effect has nothing to fit")
+    return use
 
 
 def run_stages(prob, full: Layout, meas: np.ndarray, order, alpha: float, tol: float, flat: float, folds: int,
