@@ -84,10 +84,11 @@ def robot_of(model) -> None:
 
 
 def check_writeback(model) -> None:
-    """Refuse, before any work, a robot whose calibration cannot be written back (no URDF file)."""
-    urdf = model.tree.source
-    if not urdf or not os.path.isfile(urdf):
-        raise VjmError(f"{model.path}: the robot has no URDF file to write the calibration back into (a DH table?)")
+    """Refuse, before any work, a robot whose calibration cannot be written back (no URDF file nor DH table)."""
+    from .write import writable
+
+    if not writable(model):
+        raise VjmError(f"{model.path}: the robot has no URDF file nor DH table to write the calibration back into")
 
 
 def check_frame(model, data, frame=None, option: str = "--frame") -> tuple:
@@ -289,17 +290,15 @@ def write_set(out, cal: Calibration, rep: dict, force: bool = False, set_name: s
     from linkfea.files.outputs import OutputSet, check_folder
 
     from ..discrepancy.summary import pose_text
-    from .write import calibrated_urdf, robot_file
+    from .write import calibrated_files
 
     extra = extra or {}
-    files = FILES + tuple(k for k in extra if k not in FILES)
     out = Path(out)
-    check_folder(out, files, force=force)
+    check_folder(out, FILES + tuple(k for k in extra if k not in FILES), force=force)
     check_writeback(cal.model)
-    urdf = cal.model.tree.source
     texts = {"report.json": json.dumps(plain(rep), indent=1) + "\n", "summary.txt": pose_text(rep),
-             "calibrated.urdf": calibrated_urdf(cal, urdf), "calibrated.yaml": robot_file(cal, "calibrated.urdf"),
-             **extra}
+             **calibrated_files(cal), **extra}   # a DH table's set has no calibrated.urdf
+    files = tuple(k for k in FILES if k in texts) + tuple(k for k in extra if k not in FILES)
     with OutputSet(out, set_name) as s:
         for name in files:
             Path(s.path(name)).write_text(texts[name], encoding="utf-8")
