@@ -637,6 +637,10 @@ CASES = [
          "of other groups (c); hold out one set-up per file",
          {**CAL_FILES, "g.csv": GROUPED, "v.csv": GROUPED.replace(",b\n", ",c\n")},
          "a held-out file mixing a fitted set-up and another"),
+    # 38.0: a DH table's named frames (a calibrated marker) are fixed to a frame of the table
+    Case("38.0", "vjm stiffness d.yaml --q 0", "dh.frames.m.at: no frame 'link7'; frames: tool, link1",
+         {"d.yaml": "dh:\n  joints:\n    - {name: a, a: 100}\n  frames:\n    m: {at: link7}\n"},
+         "a DH table whose frame m is fixed to a frame it does not have"),
 ]
 
 

@@ -23,8 +23,8 @@ from vjm.calibration.poses import AbsolutePoses
 from vjm.calibration.serial import Layout, Problem, predict
 from vjm.calibration.simulate import design, measure, parse_hidden
 from vjm.calibration.write import calibrated_files
-from vjm.robot.model import JointSpring
 from vjm.cli import main
+from vjm.robot.model import JointSpring
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 UR10 = os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml")

@@ -11,8 +11,9 @@ the measurement model of :mod:`vjm.calibration.serial` is fitted by Levenberg-Ma
    registration and of the columns kept before (Gram-Schmidt); the others are combinations of those,
    removed and listed with the parameters they combine (a base frame against the first joint, a
    translation along parallel axes ...) -- never fitted as degenerate parameters;
-3. **compliance**: a torsional compliance per joint, the deflection ``-c g_j(q)`` under the nominal model's
-   gravity torque.  A joint whose gravity torque hardly varies over the data (its spread below
+3. **compliance**: a torsional compliance per joint, the deflection ``-(c0 + c) g_j(q)`` under the nominal model's
+   gravity torque, ``c`` the correction fitted to the model file's ``c0`` (the fit starts from what the model
+   file states: its joint and link springs and payload, :mod:`vjm.calibration.nominal`).  A joint whose gravity torque hardly varies over the data (its spread below
    ``flat`` of the largest joint's) cannot be told from an offset: it is reported not observable.
    Then **coupling** (asked only): a joint turning by ``k`` times another's value (a wrist's gear train, or
    a column holding a combination of joints written as an ordinary joint), the same selection deciding

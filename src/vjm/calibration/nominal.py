@@ -144,3 +144,11 @@ def _span(model, joint: str, spring) -> np.ndarray:
         knots = np.asarray(spring.table[0], dtype=float)
         q = np.concatenate([q, knots[(knots >= lo) & (knots <= hi)]])
     return q
+
+
+def totals(model, values: dict) -> dict:
+    """{parameter: {"nominal": its model-file value, "total": nominal + fitted}} of the fitted ``values`` whose
+    nominal value is not 0 (a report's words for them: the fitted value is the correction)."""
+    nom = nominal_values(model, values)
+    return {k: {"nominal": nom[k], "total": nom[k] + float(v)} for k, v in values.items() if nom[k] != 0.0}
+

@@ -29,6 +29,7 @@ import numpy as np
 from ..effects import absolute
 from ..errors import VjmError
 from .engine import calibrate, effect_names, error_stats, instrument_frame, position_errors, register
+from .nominal import totals
 from .result import Calibration
 from .robust import calibrate_robust
 
@@ -230,14 +231,16 @@ def report(cal: Calibration, opt: Options, model_path, data, validations: list, 
     """The report's mapping (see the module docstring)."""
     removed = [{"parameter": n, "why": why} for n, why in cal.removed]
     aside = position_errors(cal, data.subset(list(cal.set_aside))) if cal.set_aside else []
+    total = totals(cal.model, cal.robot_values()) if cal.model.kind == "serial" else {}
     return {
         "schema": SCHEMA, "model": str(model_path), "data": data.source, "rows": int(data.n), "frame": cal.frame,
         "frames": list(cal.markers),
         "effects_tried": list(opt.effects), "alpha": opt.alpha,
         "effects": effects_named(cal),
         "stages": [_stage(s) for s in cal.stages],
-        "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": cal.kinds[k][1] if k in cal.kinds else _unit(k)}
-                       for k, v in cal.robot_values().items()},
+        # "value" is what the fit found: for a parameter the model file states, the correction to "nominal"
+        "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": cal.kinds[k][1] if k in cal.kinds else _unit(k),
+                           **total.get(k, {})} for k, v in cal.robot_values().items()},
         "held_out": {"folds": opt.folds, "validate": validations},
         "registration": registration(cal),
         "not_identifiable": [r for r in removed if not r["why"].startswith("not observable")],

@@ -6,10 +6,12 @@ The measured point ``p`` of frame ``F`` at configuration ``q``, in the instrumen
 
 - ``T_F``: the chain from the base to ``F`` with, per joint, an **origin error** (a small twist
   ``dx dy dz`` mm, ``ex ey ez`` rad, applied after the URDF origin: ``origin @ exp(error)``), a **joint
-  offset** added to its value, and a **compliance** ``c`` (rad per N mm) turning the gravity torque
-  ``g_j(q)`` of the nominal model (N mm, :meth:`RobotModel.gravity_torques`) into a joint deflection
-  ``-c g_j(q)`` (the link sags the way its weight pulls);
-  with a fitted payload mass (kg) at the marker, its gravity torques add to the model's;
+  offset** added to its value, and a **compliance correction** ``c`` (rad per N mm) to the model file's
+  compliance ``c0`` (:mod:`vjm.calibration.nominal`), turning the gravity torque ``g_j(q)`` of the nominal model
+  (its masses and payload, N mm) into a joint deflection ``-(c0 + c) g_j(q)`` (the link sags the way its weight
+  pulls); with a fitted payload correction (kg) at the marker, its gravity torques add to the model's;
+- the sag of the model's other springs (link springs, 6x6 joint springs) under its weight, a twist per row added
+  to the point to first order (:class:`vjm.calibration.nominal.Nominal`);
 - ``p``: the marker's offset on ``F`` (mm), ``R_g, t_g``: the instrument frame of the registration group
   (the nuisance parameters, fitted jointly and reported apart).
 

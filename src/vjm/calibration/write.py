@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 
 import numpy as np
 
@@ -259,7 +260,7 @@ def calibrated_mapping(cal, urdf_name: str | None) -> tuple[dict, dict]:
     doc = _source_doc(src)
     markers = [f"{f}_marker" for f in cal.markers]
     d: dict = {"name": f"{src.name or 'robot'} (calibrated)"}
-    move = None
+    move: Callable[[str], np.ndarray] | None = None
     if is_dh(src):
         d["dh"], move = calibrated_dh(cal)
     else:
@@ -330,7 +331,7 @@ def _row(source: dict, fitted: dict) -> dict:
     return {k: new[k] if k in new else source[k] for k in ROW_KEYS if k in new or k in source}
 
 
-def calibrated_dh(cal) -> tuple[dict, object]:
+def calibrated_dh(cal) -> tuple[dict, Callable[[str], np.ndarray]]:
     """The source's DH table re-fitted to the calibrated kinematics (:func:`vjm.modelio.dh.match_table`: the
     same convention and rows, new base, tool and row values, the joints' values meaning what they meant), each
     link's centre of mass where it was on its link, and each marker a ``frames:`` entry ``<frame>_marker`` on its
@@ -441,6 +442,7 @@ def calibrated_model(cal) -> RobotModel:
         from ..modelio.read import model_from_dict
 
         m = model_from_dict(d, os.path.dirname(os.path.abspath(src.path or ".")))
+        assert isinstance(m, RobotModel)   # a dh: mapping is a robot's
         return replace(m, raw=None)
     from ..modelio.robotfile import _joint_spring
     from ..robot.model import JointSpring, Payload
