@@ -22,7 +22,7 @@ from vjm.calibration.nominal import model_torques, nominal_state, nominal_values
 from vjm.calibration.poses import AbsolutePoses
 from vjm.calibration.serial import Layout, Problem, predict
 from vjm.calibration.simulate import design, measure, parse_hidden
-from vjm.calibration.write import calibrated_files
+from vjm.calibration.write import calibrated_files, calibrated_model
 from vjm.cli import main
 from vjm.robot.model import JointSpring
 
@@ -119,6 +119,9 @@ def test_a_dh_robot_is_calibrated_and_written_back_as_a_dh_table(puma_tool, tmp_
     R, t = instrument_frame(cal, "A")   # the data's frame is the base's; the registration takes what it absorbs
     got = (back.forward(Qn, "tool_marker")[:, :3, 3] + back.self_weight(Qn, "tool_marker")[:, :3]) @ R.T + t
     assert np.max(np.linalg.norm(got - truth, axis=1)) < 3 * SIGMA
+    mem = calibrated_model(cal)   # the model in memory is the file's
+    assert mem.tools == back.tools == ("tool_marker", "tool")
+    np.testing.assert_allclose(mem.forward(Qn, "tool_marker"), back.forward(Qn, "tool_marker"), atol=1e-9)
     nominal = m.forward(Qn, "tool")[:, :3, 3] + m.self_weight(Qn, "tool")[:, :3]
     assert np.mean(np.linalg.norm(nominal - truth, axis=1)) > 50 * SIGMA   # the hidden effects: about a mm
     # the hidden compliance, total: three times the file's, as the re-read stiffness says
@@ -127,3 +130,55 @@ def test_a_dh_robot_is_calibrated_and_written_back_as_a_dh_table(puma_tool, tmp_
     assert abs(1 / k - 3 / 2.0e8) < 4 * s + 0.01 * 3 / 2.0e8   # within 4 sd (and the file's rounding)
     # q3 as the file states it: its correction, if fitted, within 4 sd of 0
     assert abs(1 / back.joint_springs["q3"].stiffness - 1e-8) < 4 * cal.std.get("q3.compliance", 0.0) + 1e-12
+
+
+CRAIG = """name: PUMA 560 (Craig's modified DH)
+dh:
+  convention: modified
+  joints:
+    - {name: q1, alpha: 0, a: 0, d: 0, mass: 0, com: [0, 0, 0]}
+    - {name: q2, alpha: -pi/2, a: 0, d: 0, mass: 17.4, com: [68, 6, -16]}
+    - {name: q3, alpha: 0, a: 431.8, d: 149.09, mass: 4.8, com: [0, -70, 14]}
+    - {name: q4, alpha: -pi/2, a: 20.3, d: 433.07, mass: 0.82, com: [0, 0, -19]}
+    - {name: q5, alpha: pi/2, a: 0, d: 0, mass: 0.34, com: [0, 0, 0]}
+    - {name: q6, alpha: -pi/2, a: 0, d: 0, mass: 0.09, com: [0, 0, 32]}
+  tool: {xyz: [0, 0, 100]}
+joints: {q2: {stiffness: 2.0e+8}, q3: {stiffness: 1.0e+8}}
+"""
+#: a calibration's geometry: offsets and origin errors (mm, rad) on most joints
+GEOMETRY = {"q2.offset": 2e-3, "q2.dx": 0.3, "q2.ez": 4e-4, "q3.offset": -1.5e-3, "q3.dy": -0.2, "q3.ex": 3e-4,
+            "q4.dz": 0.5, "q4.ey": -5e-4, "q5.offset": 1e-3, "q6.dx": 0.1, "tool.px": 5.0, "tool.pz": 40.0}
+
+
+@pytest.mark.parametrize("source", ["standard", "modified"])
+def test_a_written_dh_table_has_the_calibrated_kinematics(puma_tool, tmp_path, source):
+    """The table written back, read again, moves its marker as the calibration's measurement model does
+    (vjm.calibration.serial.chain_frames: the source tree with the origin errors and offsets), both conventions."""
+    from vjm.calibration.result import Calibration
+    from vjm.calibration.serial import chain_frames
+
+    if source == "modified":
+        (tmp_path / "craig.yaml").write_text(CRAIG, encoding="utf-8")
+        m = _load(str(tmp_path / "craig.yaml"))
+    else:
+        m = puma_tool
+    p0 = np.array([5.0, -3.0, 20.0])
+    cal = Calibration(m, "tool", dict(GEOMETRY), {}, {}, p0)
+    (tmp_path / "calibrated.yaml").write_text(calibrated_files(cal)["calibrated.yaml"], encoding="utf-8")
+    back = _load(str(tmp_path / "calibrated.yaml"))
+    assert yaml.safe_load((tmp_path / "calibrated.yaml").read_text())["dh"]["convention"] == source
+    Q = design(m, "random:50", np.random.default_rng(7))
+    T = chain_frames(m, Q, "tool", GEOMETRY)
+    marker = p0 + np.array([GEOMETRY["tool.px"], 0.0, GEOMETRY["tool.pz"]])
+    want = np.einsum("nij,j->ni", T[:, :3, :3], marker) + T[:, :3, 3]
+    np.testing.assert_allclose(back.forward(Q, "tool_marker")[:, :3, 3], want, atol=1e-6)
+    assert np.max(np.linalg.norm(m.forward(Q, "tool")[:, :3, 3] - want, axis=1)) > 10.0   # the test has teeth
+    # each link's centre of mass where the calibrated chain carries it (the source's com in its corrected link frame)
+    rows = yaml.safe_load((tmp_path / "calibrated.yaml").read_text())["dh"]["joints"]
+    source = m.raw["dh"]["joints"]
+    for i, (r, r0) in enumerate(zip(rows, source)):
+        L = chain_frames(m, Q, f"link{i + 1}", GEOMETRY)
+        want = np.einsum("nij,j->ni", L[:, :3, :3], np.array(r0["com"], dtype=float)) + L[:, :3, 3]
+        B = back.forward(Q, f"link{i + 1}")
+        np.testing.assert_allclose(np.einsum("nij,j->ni", B[:, :3, :3], np.array(r["com"])) + B[:, :3, 3], want,
+                                   atol=1e-6)

@@ -185,23 +185,24 @@ def _named_frames(spec, frames: tuple, where: str) -> tuple:
 _PARAMS = ("theta", "d", "a", "alpha", "beta")
 
 
-def _row_frames(conv: str, kind: str, v: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """A_i (n, 4, 4) of a row (theta, d, a, alpha, beta) at joint values q (n,)."""
-    th, d, a, al, be = v
-    rot, sl = (th + q, d) if kind == "revolute" else (th, d + q)
-    parts = (("rz", rot), ("tz", sl), ("tx", a), ("rx", al), ("ry", be)) if conv == "standard" else \
-        (("rx", al), ("ry", be), ("tx", a), ("rz", rot), ("tz", sl))
-    T = np.broadcast_to(np.eye(4), (len(q), 4, 4))
-    for k, x in parts:
-        T = T @ elementary(k, np.broadcast_to(np.asarray(x, dtype=float), q.shape))
-    return T
+def _row_constant(conv: str, kind: str, v) -> tuple[np.ndarray, bool]:
+    """A row (theta, d, a, alpha, beta) as ``A_i = C M(q)`` (standard: the joint's motion first, then the constant)
+    or ``A_i = C M(q)`` with the constant first (modified): (C 4x4, whether the motion comes first).  The joint's
+    motion (about or along z) commutes with Rz(theta) and Tz(d)."""
+    th, d, a, al, be = (float(x) for x in v)
+    if conv == "standard":
+        return _E("rz", th) @ _E("tz", d) @ _E("tx", a) @ _E("rx", al) @ _E("ry", be), True
+    return _E("rx", al) @ _E("ry", be) @ _E("tx", a) @ _E("rz", th) @ _E("tz", d), False
 
 
 def _table_tool(conv: str, kinds: list, base: np.ndarray, rows: np.ndarray, tool: np.ndarray,
                 Q: np.ndarray) -> np.ndarray:
+    """The tool frames (n, 4, 4) of a table (rows (nq, 5)) at configurations Q (n, nq)."""
     T = np.broadcast_to(base, (len(Q), 4, 4))
     for i, kind in enumerate(kinds):
-        T = T @ _row_frames(conv, kind, rows[i], Q[:, i])
+        C, motion_first = _row_constant(conv, kind, rows[i])
+        M = elementary("rz" if kind == "revolute" else "tz", Q[:, i])
+        T = T @ (M @ C if motion_first else C @ M)
     return T @ tool
 
 
@@ -220,6 +221,15 @@ def match_table(spec: dict, Q: np.ndarray, target: np.ndarray, where: str = "dh"
     for i, v in enumerate(v0):
         hayati = "beta" in rows[i] or (abs(np.sin(v[3])) < 1e-3 and v[1] == 0.0)
         free[i, 1], free[i, 4] = not hayati, hayati
+    # what the base and the tool frames take (they commute with the first and last joints' motions) is kept as the
+    # source writes it: standard, the first row's theta and d and the whole last row; modified, the whole first
+    # row and the last row's theta and d
+    if conv == "standard":
+        free[0, :2] = False
+        free[-1, :] = False
+    else:
+        free[0, :] = False
+        free[-1, :2] = False
     B0 = _frame(spec.get("base"), f"{where}.base")
     T0 = _frame(spec.get("tool"), f"{where}.tool")
     scale = max(1.0, float(np.max(np.abs(target[:, :3, 3]))))
@@ -238,10 +248,10 @@ def match_table(spec: dict, Q: np.ndarray, target: np.ndarray, where: str = "dh"
 
     from scipy.optimize import least_squares
 
-    # the corrections are small: Levenberg-Marquardt from the table's own values (the base and the tool overlap
-    # the first and last rows: the damping picks one of the equivalent tables near the source's)
-    x = least_squares(resid, np.zeros(12 + int(free.sum())), method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15,
-                      max_nfev=20000).x
+    # the corrections are small: Levenberg-Marquardt from the table's own values, its steps scaled by the columns
+    # (the base and the tool overlap the first and last rows: the damping keeps one table near the source's)
+    x = least_squares(resid, np.zeros(12 + int(free.sum())), method="lm", x_scale="jac", xtol=1e-15, ftol=1e-15,
+                      gtol=1e-15, max_nfev=20000).x
     err = float(np.max(np.abs(resid(x))))
     if not err < 1e-6:
         raise VjmError(f"{where}: no table of these rows reproduces the calibrated kinematics (off by {err:.3g} mm); "
