@@ -794,6 +794,10 @@ CASES = [
     Case("40.4", "vjm stiffness r.yaml --q 0,0", "joint 'j2': link 'l2' is both its parent and its child",
          _xrobot("", ARM_X.replace('<parent link="l1"/><child link="l2"/>', '<parent link="l2"/><child link="l2"/>'))
          , "r.urdf: a joint whose parent is its child"),
+    # 38.0: a DH table's named frames (a calibrated marker) are fixed to a frame of the table
+    Case("38.0", "vjm stiffness d.yaml --q 0", "dh.frames.m.at: no frame 'link7'; frames: tool, link1",
+         {"d.yaml": "dh:\n  joints:\n    - {name: a, a: 100}\n  frames:\n    m: {at: link7}\n"},
+         "a DH table whose frame m is fixed to a frame it does not have"),
 ]
 
 

@@ -1,8 +1,9 @@
 """calibrated.yaml is complete: everything the source model file states (home, tools, gravity, joint and link
-springs, added masses, payload), the fitted compliances in place of the nominal stiffnesses, rounded at their
-standard deviations; the joints the fit did not identify keep their nominal stiffness, marked "not identified".
-Loaded back, it is the source model with the fitted stiffnesses substituted (built here with the model's own
-``replace``), its K has full rank, and ``vjm compensate`` finds its seed in the carried ``home:``."""
+springs, added masses, payload), the total stiffnesses (the source's compliance plus the fitted correction) in
+place of the nominal ones, rounded at their standard deviations; the joints the fit did not identify keep their
+nominal stiffness, marked "not identified".  Loaded back, it is the source model with the total stiffnesses
+substituted (built here with the model's own ``replace``), its K has full rank, and ``vjm compensate`` finds its
+seed in the carried ``home:``."""
 import os
 import re
 import warnings
@@ -22,8 +23,10 @@ UR10 = os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml")
 URDF = os.path.join(ROOT, "data", "robots", "ur10", "ur10.urdf")
 Q = np.array([[0.0, -1.2, 1.5, -1.9, -1.57, 0.0], [0.4, -0.7, 0.9, 0.3, 1.1, -0.6],
               [-1.3, -2.1, 2.2, -0.4, 0.2, 2.5], [2.0, -0.2, -1.4, 1.9, -2.3, 0.8]])
-#: fitted compliances (rad/(N mm)) and their standard deviations; wrist_1's was removed as not observable
+#: the total compliances (rad/(N mm)) and their standard deviations; wrist_1's was removed as not observable
 FITTED = {"shoulder_lift_joint": (7.9766e-9, 1.63e-10), "elbow_joint": (1.0487e-8, 3.1e-10)}
+#: the source's compliances (1 / its stiffnesses): the calibration's values are the corrections to them
+NOMINAL = {"shoulder_lift_joint": 1 / 1.5e8, "elbow_joint": 1 / 8.0e7}
 WHY = "not observable: its gravity torque hardly varies"
 EXTRA = ("masses:\n  forearm_link: {mass: 2.5, com: [0, 30, 200]}\n"
          "payload: {frame: tool0, mass: 3.0, com: [0, 0, 50]}\n")
@@ -43,7 +46,7 @@ def written(tmp_path_factory):
     src_path = d / "ur10_full.yaml"
     src_path.write_text(open(UR10).read().replace("urdf: ur10.urdf", f"urdf: {URDF}") + EXTRA)
     src = _load(src_path)
-    values = {f"{j}.compliance": c for j, (c, _) in FITTED.items()}
+    values = {f"{j}.compliance": c - NOMINAL[j] for j, (c, _) in FITTED.items()}   # the elbow's < 0
     std = {f"{j}.compliance": s for j, (_, s) in FITTED.items()}
     cal = Calibration(src, "tool0", values, std, {}, np.zeros(3), removed=(("wrist_1_joint.compliance", WHY),))
     write_calibrated(cal, URDF, str(d / "calibrated.urdf"), str(d / "calibrated.yaml"))
@@ -51,10 +54,9 @@ def written(tmp_path_factory):
 
 
 def _substituted(src, stiffness):
-    """The source model with the stiffnesses ``stiffness`` {joint: N mm/rad} in place of the nominal ones and
-    rigid links (the calibration's model: its joint compliances absorb the links' sag)."""
-    return src.replace(joint_springs={**src.joint_springs, **{j: JointSpring(stiffness=k) for j, k in stiffness.items()}},
-                       links={})
+    """The source model with the stiffnesses ``stiffness`` {joint: N mm/rad} in place of the nominal ones, its link
+    springs kept (the calibration deflects them as the source states them)."""
+    return src.replace(joint_springs={**src.joint_springs, **{j: JointSpring(stiffness=k) for j, k in stiffness.items()}})
 
 
 def test_reloads_to_the_source_with_the_fitted_compliances(written):
@@ -79,15 +81,11 @@ def test_reloads_to_the_source_with_the_fitted_compliances(written):
 def test_the_source_file_entries_are_carried(written):
     src_path, src, out = written
     given, d = yaml.safe_load(src_path.read_text()), yaml.safe_load(out.read_text())
-    for key in ("home", "masses", "payload", "gravity"):
+    for key in ("home", "masses", "payload", "gravity", "links"):
         assert d[key] == given[key], key
     assert d["tools"] == ["tool0_marker"] + given["tools"]
     back = _load(out)
-    assert back.home == src.home and set(src.links) == {"upper_arm", "forearm"}
-    # the link springs are left out (the fit takes the links as rigid), said in a comment that lists them
-    assert "links" not in d and not back.links
-    text = out.read_text()
-    assert "count it twice" in text and all(f"#     {k}:" in text for k in given["links"])
+    assert back.home == src.home and set(back.links) == set(src.links) == {"upper_arm", "forearm"}
     assert back.payload.mass == 3.0 and back.payload.frame == "tool0"
     assert sum(b.mass for b in back.tree.bodies) == pytest.approx(sum(b.mass for b in src.tree.bodies), rel=1e-12)
 
@@ -158,7 +156,7 @@ def test_vjm_stiffness_has_full_rank_and_compensate_needs_no_seed(tmp_path, caps
     out = tmp_path / "out"
     assert main(["calibrate", UR10, str(tmp_path / "poses.csv"), "--folds", "0", "--out", str(out)]) == 0
     text = (out / "calibrated.yaml").read_text()
-    assert "home:" in text and "\nlinks:" not in text and "#   links:" in text
+    assert "home:" in text and "\nlinks:" in text   # the link springs carried: the fit deflects them
     capsys.readouterr()
     assert main(["stiffness", str(out / "calibrated.yaml"), "--q", "0,-1.2,1.5,-1.9,-1.57,0"]) == 0
     assert "rank(K) = 6" in capsys.readouterr().out

@@ -15,7 +15,8 @@ from vjm.calibration.serial import rotation_matrix  # noqa: E402
 from vjm.cli import main  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-UR10 = os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml")
+# the model pinocchio's truth simulates: the URDF, rigid (the calibration corrects the model it is given)
+UR10 = os.path.join(ROOT, "tests", "ur10_rigid.yaml")
 URDF = os.path.join(ROOT, "data", "robots", "ur10", "ur10.urdf")
 SIGMA = 0.01
 HIDDEN = truth.Hidden(

@@ -15,6 +15,7 @@ from vjm.calibration.serial import rotation_matrix  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 URDF = os.path.join(ROOT, "data", "robots", "ur10", "ur10.urdf")
+RIGID = os.path.join(ROOT, "tests", "ur10_rigid.yaml")
 SIGMA = 0.01
 BASE = dict(R=rotation_matrix([0.3, -0.2, 2.0]), t=np.array([2000.0, -1500.0, 300.0]),
             marker=np.array([10.0, -20.0, 110.0]), sigma=SIGMA)
@@ -25,7 +26,7 @@ EFFECTS = ("geometry", "compliance", "backlash", "payload")
 def model():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return vjm.load_model(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
+        return vjm.load_model(RIGID)   # the model pinocchio's truth simulates: the URDF, rigid
 
 
 def _q(model, n, seed, away=3.0):

@@ -23,7 +23,8 @@ from vjm.errors import VjmError  # noqa: E402
 
 pin = truth.pin
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-UR10 = os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml")
+# the model pinocchio's truth simulates: the URDF, rigid (the calibration corrects the model it is given)
+UR10 = os.path.join(ROOT, "tests", "ur10_rigid.yaml")
 URDF = os.path.join(ROOT, "data", "robots", "ur10", "ur10.urdf")
 SIGMA = 0.01   # mm
 HIDDEN = truth.Hidden(

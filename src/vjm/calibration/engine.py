@@ -11,8 +11,9 @@ the measurement model of :mod:`vjm.calibration.serial` is fitted by Levenberg-Ma
    registration and of the columns kept before (Gram-Schmidt); the others are combinations of those,
    removed and listed with the parameters they combine (a base frame against the first joint, a
    translation along parallel axes ...) -- never fitted as degenerate parameters;
-3. **compliance**: a torsional compliance per joint, the deflection ``-c g_j(q)`` under the nominal model's
-   gravity torque.  A joint whose gravity torque hardly varies over the data (its spread below
+3. **compliance**: a torsional compliance per joint, the deflection ``-(c0 + c) g_j(q)`` under the nominal model's
+   gravity torque, ``c`` the correction fitted to the model file's ``c0`` (the fit starts from what the model
+   file states: its joint and link springs and payload, :mod:`vjm.calibration.nominal`).  A joint whose gravity torque hardly varies over the data (its spread below
    ``flat`` of the largest joint's) cannot be told from an offset: it is reported not observable.
    Then **coupling** (asked only): a joint turning by ``k`` times another's value (a wrist's gear train, or
    a column holding a combination of joints written as an ordinary joint), the same selection deciding
@@ -53,6 +54,7 @@ from ..errors import VjmError
 from ..stats.staged import Best, Nested, Practical, least_squares_fit, select_stages
 from ..stats.uncertainty import Uncertainty, parameter_std, pose_blocks, residual_blocks
 from .flex import TEMPERATURE, flex_loads
+from .nominal import model_torques, nominal_state
 from .parallel import points as platform_points
 from .result import Calibration
 from .serial import (
@@ -92,11 +94,13 @@ def _problem(model, data, frame: str, frames: dict, p0: np.ndarray, payload: boo
     if missing:
         raise VjmError(f"{data.source}: group(s) {', '.join(missing)} not registered")
     gidx = np.array([groups.index(str(g)) for g in data.groups])
+    # the model as the file states it (joint and link springs, payload): the fit corrects it (vjm.calibration.nominal)
     return Problem(model, frame, q, gidx, groups, tuple(frames[g][0] for g in groups),
-                   tuple(frames[g][1] for g in groups), np.asarray(p0, dtype=float), model.gravity_torques(q),
+                   tuple(frames[g][1] for g in groups), np.asarray(p0, dtype=float), model_torques(model, q),
                    unit_torques(model, q, frame, p0) if payload else None,
-                   np.stack([model.gravity_torques(q, e) for e in np.eye(3)]) if tilt else None,
-                   flex_loads(model, q, frame, _temperature(data) if thermal else None) if flex or thermal else None)
+                   np.stack([model_torques(model, q, e) for e in np.eye(3)]) if tilt else None,
+                   flex_loads(model, q, frame, _temperature(data) if thermal else None) if flex or thermal else None,
+                   nominal_state(model, q, frame, p0, payload))
 
 
 def _problems(model, data, measured, frames: dict, **opts):
@@ -267,7 +271,8 @@ def _rows(prob, mask: np.ndarray):
     return replace(prob, q=prob.q[mask], gidx=prob.gidx[mask], torques=prob.torques[mask],
                    unit_torques=None if prob.unit_torques is None else prob.unit_torques[mask],
                    gravity_basis=None if prob.gravity_basis is None else prob.gravity_basis[:, mask],
-                   flex=None if prob.flex is None else prob.flex.rows(mask))
+                   flex=None if prob.flex is None else prob.flex.rows(mask),
+                   nominal=None if prob.nominal is None else prob.nominal.rows(mask))
 
 
 def _held_out(prob, full: Layout, meas: np.ndarray, folds: int, last: dict | None = None):

@@ -31,6 +31,7 @@ import numpy as np
 from ..effects import absolute
 from ..errors import VjmError
 from .engine import calibrate, effect_names, error_stats, instrument_frame, position_errors, register
+from .nominal import totals
 from .result import Calibration
 from .robust import calibrate_robust
 from .sizes import as_mapping, effect_sizes
@@ -92,10 +93,11 @@ def robot_of(model) -> None:
 
 
 def check_writeback(model) -> None:
-    """Refuse, before any work, a robot whose calibration cannot be written back (no URDF file)."""
-    urdf = model.tree.source
-    if not urdf or not os.path.isfile(urdf):
-        raise VjmError(f"{model.path}: the robot has no URDF file to write the calibration back into (a DH table?)")
+    """Refuse, before any work, a robot whose calibration cannot be written back (no URDF file nor DH table)."""
+    from .write import writable
+
+    if not writable(model):
+        raise VjmError(f"{model.path}: the robot has no URDF file nor DH table to write the calibration back into")
 
 
 def check_frame(model, data, frame=None, option: str = "--frame") -> tuple:
@@ -288,14 +290,16 @@ def report(cal: Calibration, opt: Options, model_path, data, validations: list, 
     """The report's mapping (see the module docstring)."""
     removed = [{"parameter": n, "why": why} for n, why in cal.removed]
     aside = position_errors(cal, data.subset(list(cal.set_aside))) if cal.set_aside else []
+    total = totals(cal.model, cal.robot_values()) if cal.model.kind == "serial" else {}
     return {
         "schema": SCHEMA, "model": str(model_path), "data": data.source, "rows": int(data.n), "frame": cal.frame,
         "frames": list(cal.markers),
         "effects_tried": list(opt.effects), "alpha": opt.alpha,
         "effects": sized(cal, data, effects_named(cal)),
         "stages": [_stage(s) for s in cal.stages],
-        "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": cal.kinds[k][1] if k in cal.kinds else _unit(k)}
-                       for k, v in cal.robot_values().items()},
+        # "value" is what the fit found: for a parameter the model file states, the correction to "nominal"
+        "parameters": {k: {"value": v, "std": cal.std.get(k), "unit": cal.kinds[k][1] if k in cal.kinds else _unit(k),
+                           **total.get(k, {})} for k, v in cal.robot_values().items()},
         "std_method": cal.std_method,
         "held_out": {"folds": opt.folds, "validate": validations},
         "registration": registration(cal),
@@ -355,17 +359,15 @@ def write_set(out, cal: Calibration, rep: dict, force: bool = False, set_name: s
     from linkfea.files.outputs import OutputSet, check_folder
 
     from ..discrepancy.summary import pose_text
-    from .write import calibrated_urdf, robot_file
+    from .write import calibrated_files
 
     extra = extra or {}
-    files = FILES + tuple(k for k in extra if k not in FILES)
     out = Path(out)
-    check_folder(out, files, force=force)
+    check_folder(out, FILES + tuple(k for k in extra if k not in FILES), force=force)
     check_writeback(cal.model)
-    urdf = cal.model.tree.source
     texts = {"report.json": json.dumps(plain(rep), indent=1) + "\n", "summary.txt": pose_text(rep),
-             "calibrated.urdf": calibrated_urdf(cal, urdf), "calibrated.yaml": robot_file(cal, "calibrated.urdf"),
-             **extra}
+             **calibrated_files(cal), **extra}   # a DH table's set has no calibrated.urdf
+    files = tuple(k for k in FILES if k in texts) + tuple(k for k in extra if k not in FILES)
     with OutputSet(out, set_name) as s:
         for name in files:
             Path(s.path(name)).write_text(texts[name], encoding="utf-8")

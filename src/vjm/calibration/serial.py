@@ -6,10 +6,12 @@ The measured point ``p`` of frame ``F`` at configuration ``q``, in the instrumen
 
 - ``T_F``: the chain from the base to ``F`` with, per joint, an **origin error** (a small twist
   ``dx dy dz`` mm, ``ex ey ez`` rad, applied after the URDF origin: ``origin @ exp(error)``), a **joint
-  offset** added to its value, and a **compliance** ``c`` (rad per N mm) turning the gravity torque
-  ``g_j(q)`` of the nominal model (N mm, :meth:`RobotModel.gravity_torques`) into a joint deflection
-  ``-c g_j(q)`` (the link sags the way its weight pulls);
-  with a fitted payload mass (kg) at the marker, its gravity torques add to the model's;
+  offset** added to its value, and a **compliance correction** ``c`` (rad per N mm) to the model file's
+  compliance ``c0`` (:mod:`vjm.calibration.nominal`), turning the gravity torque ``g_j(q)`` of the nominal model
+  (its masses and payload, N mm) into a joint deflection ``-(c0 + c) g_j(q)`` (the link sags the way its weight
+  pulls); with a fitted payload correction (kg) at the marker, its gravity torques add to the model's;
+- the sag of the model's other springs (link springs, 6x6 joint springs) under its weight, a twist per row added
+  to the point to first order (:class:`vjm.calibration.nominal.Nominal`);
 - ``p``: the marker's offset on ``F`` (mm), ``R_g, t_g``: the instrument frame of the registration group
   (the nuisance parameters, fitted jointly and reported apart).
 
@@ -142,7 +144,7 @@ def layout_of(groups, markers, at: absolute.Site, effects) -> Layout:
 class Problem:
     """What the prediction needs besides the parameters: the model, the measured frame, the rows'
     configurations (n, nq), their group index (n,), the groups' base registration (R0, t0) and the
-    marker's base offset p0, and the nominal gravity torques (n, nq) N mm."""
+    marker's base offset p0, and the nominal gravity torques (n, nq) N mm (the model's masses and payload)."""
 
     model: Any
     frame: str
@@ -159,6 +161,9 @@ class Problem:
     gravity_basis: np.ndarray | None = None
     #: the loads of the lateral compliances, link bending and temperature (:class:`vjm.calibration.flex.Flex`), or None
     flex: Any = None
+    #: what the model file states per row, the fit's corrections added to it: its joint compliances and the sag of
+    #: its other springs (:class:`vjm.calibration.nominal.Nominal`); None: a rigid model (older callers)
+    nominal: Any = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -227,6 +232,9 @@ def predict(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = N
     T = chain_frames(prob.model, prob.q, prob.frame, vals, deflections(prob, vals), prob.flex)
     p = prob.p0 + np.array([vals.get(f"{prob.frame}.p{k}", 0.0) for k in "xyz"])
     pb = np.einsum("nij,j->ni", T[:, :3, :3], p) + T[:, :3, 3]
+    w = _sag(prob, vals)
+    if w is not None:
+        pb = pb + w[:, :3] + np.cross(w[:, 3:], prob.nominal.R @ p)
     out = np.empty_like(pb)
     for gi, g in enumerate(prob.groups):
         rows = prob.gidx == gi
@@ -235,6 +243,14 @@ def predict(prob: Problem, layout: Layout, x: np.ndarray, fixed: dict | None = N
         R = rotation_matrix(w) @ prob.R0[gi]
         out[rows] = pb[rows] @ R.T + prob.t0[gi] + t
     return out
+
+
+def _sag(prob: Problem, vals: dict) -> np.ndarray | None:
+    """The twist (n, 6) of the model's springs other than the joints' (link springs ...) at the measured frame,
+    with the fitted payload's share, or None (:class:`vjm.calibration.nominal.Nominal`): added to the point to
+    first order, ``t + w x R p`` with the frame's nominal rotation R, so that it is linear in the marker ``p``."""
+    nom = prob.nominal
+    return None if nom is None else nom.twist(vals.get("payload.mass", 0.0) if prob.unit_torques is not None else 0.0)
 
 
 def tilted_gravity(prob: Problem, vals: dict, d: int | None = None) -> np.ndarray:
@@ -260,15 +276,19 @@ def total_torques(prob: Problem, vals: dict) -> np.ndarray:
 
 
 def deflections(prob: Problem, vals: dict) -> np.ndarray:
-    """The joints' deflections (n, nq) ``-c g(q) - b sign(g(q))`` under the compliances ``c`` and the
-    backlashes ``b`` of ``vals`` (a clearance taken up on the side the gravity torque pushes to)."""
+    """The joints' deflections (n, nq) ``-(c0 + c) g(q) - b sign(g(q))`` under the model's compliances ``c0``,
+    the fitted corrections ``c`` and the backlashes ``b`` of ``vals`` (a clearance taken up on the side the
+    gravity torque pushes to)."""
     tau = total_torques(prob, vals)
     dq = np.zeros_like(prob.q)
+    c0 = None if prob.nominal is None else prob.nominal.compliance
     for i, name in enumerate(prob.model.tree.q_names):
         c = vals.get(f"{name}.compliance", 0.0)
+        if c0 is not None and c0[:, i].any():
+            c = c + c0[:, i]
         b = vals.get(f"{name}.backlash", 0.0)
         cq = vals.get(f"{name}.varying", 0.0)
-        if c:
+        if np.any(c):
             dq[:, i] -= c * tau[:, i]
         if cq:
             dq[:, i] -= cq * prob.q[:, i] * tau[:, i]
@@ -408,6 +428,15 @@ def _base_columns(prob: Problem, vals: dict) -> tuple[np.ndarray, dict]:
     if prob.flex is not None and prob.flex.dT is not None:
         c = cols.get("thermal.alpha", 0.0)
         cols["thermal.alpha"] = c + prob.flex.dT[:, None] * (last[:, :3, :3] @ tree.frame(prob.frame).placement[:3, 3])
+    w = _sag(prob, vals)
+    if w is not None:   # the sag of the other springs, linear in the marker only (see predict)
+        R = prob.nominal.R
+        pb = pb + w[:, :3] + np.cross(w[:, 3:], R @ p)
+        for i, c in enumerate("xyz"):
+            cols[f"{prob.frame}.p{c}"] = cols[f"{prob.frame}.p{c}"] + np.cross(w[:, 3:], R[:, :, i])
+        u = prob.nominal.unit_sag
+        if u is not None and prob.unit_torques is not None:
+            cols["payload.mass"] = cols.get("payload.mass", 0.0) + u[:, :3] + np.cross(u[:, 3:], R @ p)
     return pb, cols
 
 
@@ -426,6 +455,8 @@ def _torque_columns(prob: Problem, vals: dict, cols: dict, qn: list, k: int, ax:
             name = f"{qn[k]}.coupling[{b}]"
             cols[name] = cols.get(name, 0.0) + ax * q[:, qn.index(b), None]
     ceff = vals.get(comp, 0.0) + vals.get(var, 0.0) * q[:, k]
+    if prob.nominal is not None:
+        ceff = ceff + prob.nominal.compliance[:, k]
     if prob.gravity_basis is not None:
         for axis, name in enumerate(("base.tilt_rx", "base.tilt_ry")):
             dtau = np.einsum("kn,k->n", prob.gravity_basis[:, :, k], tilted_gravity(prob, vals, axis))

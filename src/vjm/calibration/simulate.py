@@ -2,8 +2,9 @@
 
 Each row holds the joint values a controller would report and the point a tracker would measure: a
 frame's origin (default the first tool) where the robot really is -- its joints turned by hidden
-offsets, its joints' compliances scaled by hidden factors, sagging under its own weight (the
-equilibrium of :meth:`vjm.robot.model.RobotModel.self_weight`) -- plus Gaussian noise, in the
+offsets, its joints' compliances scaled by hidden factors, sagging under its own weight and payload on its
+joint and link springs (the nonlinear equilibrium of :meth:`vjm.robot.model.RobotModel.self_weight`, not the
+calibration's first-order measurement model) -- plus Gaussian noise, in the
 robot's base frame (vjm calibrate registers the instrument frame anyway).  So ``vjm calibrate``
 can be tried, and its recovery of known effects checked, without a tracker.
 

@@ -1,4 +1,4 @@
-"""A calibration written back: the calibrated URDF, and the robot file with the joint stiffnesses found.
+"""A calibration written back: the calibrated URDF (or DH table), and the robot file with the joint stiffnesses found.
 
 The URDF is the source URDF with, for every joint the calibration corrected, its ``<origin>`` times the
 correction ``exp(origin error) Rot(axis, offset)`` (a joint offset is a turn of the origin about the
@@ -6,15 +6,22 @@ joint's own axis, which commutes with the joint's motion), and each marker as a 
 ``<frame>_marker`` on its measured frame (one per measured point: a marker on each hand).  Everything else (inertials, limits, meshes) is kept as written.
 The robot file beside it names that URDF and carries everything the source model file states (``home:``, tools,
 gravity, joint and link springs, added masses, payload, payload limit), each value the fit identified in place of
-the nominal one: a fitted compliance ``c`` as the joint's stiffness ``1 / c`` (N mm/rad, the robot file's unit),
-rounded at the second significant digit of its standard deviation, which a comment gives; a joint not identified
-keeps its nominal stiffness, with a comment saying why.  Loaded back, vjm and pinocchio reproduce the calibrated
-positions; :func:`calibrated_model` is that file's model in memory, the same rounded values in it.
+the nominal one.  The fit corrects the source model (:mod:`vjm.calibration.nominal`): a fitted ``<joint>.compliance``
+``dc`` is a correction, and the file writes the joint's *total* stiffness ``1 / (1/k + dc)`` (N mm/rad, the robot
+file's unit; a table's knots or an expression corrected alike), rounded at the second significant digit of its
+standard deviation, the source's value and the correction in a comment; the payload likewise (the source's mass plus
+the fitted one).  A joint not identified keeps its nominal stiffness, with a comment saying why.
+
+A source written as a DH table is written back as a DH table (``calibrated.yaml`` alone, :func:`calibrated_files`):
+the same convention and rows re-fitted to the calibrated kinematics (:func:`calibrated_dh`), the markers as
+``frames:`` of the table.  Loaded back, vjm and pinocchio reproduce the calibrated positions;
+:func:`calibrated_model` is that file's model in memory, the same rounded values in it.
 """
 from __future__ import annotations
 
 import os
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 
 import numpy as np
 
@@ -22,6 +29,7 @@ from ..errors import VjmError
 from ..kinematics.transforms import elementary
 from ..robot.model import RobotModel
 from ..robot.tree import _rigid_inverse, origin_transform
+from .nominal import nominal_values
 from .serial import GEOMETRY, _delta, rotation_matrix
 
 MM = 1000.0
@@ -148,9 +156,31 @@ def _sd(s) -> str:
     return "no standard deviation" if s is None or not np.isfinite(s) else f"{s:.2g}"
 
 
+def _total_spec(spec, dc: float, s) -> tuple[object, str, str] | None:
+    """The stiffness entry (a robot file's) of a spring ``spec`` (its ``stiffness:``; None: the joint is rigid in the
+    source) whose compliance is corrected by ``dc``: the total ``1 / (1/k + dc)`` -- a number (rounded at the
+    fitted standard deviation ``s``), a table of the corrected knots, or the expression with the correction --,
+    the total compliance's text and the stiffness' standard deviation's; None if the total is not > 0."""
+    if dc == 0.0 and spec is not None:   # no correction: the source's entry as written
+        return spec, "the source's", _sd(None if s is None or isinstance(spec, (str, dict)) else s * float(spec) ** 2)
+    if spec is None or isinstance(spec, (int, float)):
+        c = dc + (0.0 if spec is None else 1.0 / float(spec))
+        if not c > 0:
+            return None
+        sk = None if s is None else s / c ** 2   # the stiffness' standard deviation, to first order
+        return rounded(1.0 / c, sk), f"{c:.4g}", _sd(sk)
+    if isinstance(spec, dict):   # a table: each knot's compliance corrected
+        knots = [[float(a), 1.0 / float(b) + dc] for a, b in spec["table"]]
+        if not all(c > 0 for _, c in knots):
+            return None
+        return {"table": [[a, float(f"{1.0 / c:.6g}")] for a, c in knots]}, "the table's, each knot", "its knots'"
+    return f"1 / (1 / ({spec}) + {rounded(dc, s).text})", "the expression's", "its"
+
+
 def _joints(cal, doc: dict) -> dict:
-    """{joint: (its robot file entry, comment)}: a fitted compliance's stiffness (rounded, with its standard
-    deviation) in place of the source's; a joint the fit did not identify keeps the source's entry."""
+    """{joint: (its robot file entry, comment)}: where the fit corrected a joint's compliance, the total's stiffness
+    (the source's compliance plus the fitted correction; rounded, with the correction's standard deviation) in place
+    of the source's; a joint the fit did not identify keeps the source's entry."""
     src = cal.model
     declared = doc.get("joints") or {}
     why = {n: w for n, w in cal.removed}
@@ -162,14 +192,16 @@ def _joints(cal, doc: dict) -> dict:
             spec = _spring_spec(src.joint_springs[name])
         ku, cu = ("N/mm", "mm/N") if kinds.get(name, "r")[0] == "t" else ("N mm/rad", "rad/(N mm)")
         key = f"{name}.compliance"
-        c, s = cal.values.get(key), cal.std.get(key)
-        if c is not None and c > 0:
-            sk = None if s is None else s / c ** 2   # the stiffness' standard deviation, to first order
-            out[name] = ({**(spec or {}), "stiffness": rounded(1.0 / c, sk)},
-                         f"fitted: +- {_sd(sk)} {ku}; compliance {rounded(c, s).text} +- {_sd(s)} {cu}")
+        dc, s = cal.values.get(key), cal.std.get(key)
+        total = None if dc is None else _total_spec((spec or {}).get("stiffness"), dc, s)
+        if total is not None:
+            c0 = nominal_values(src, [key])[key]
+            out[name] = ({**(spec or {}), "stiffness": total[0]},
+                         f"fitted: +- {total[2]} {ku}; total compliance {total[1]} {cu} = the source's {c0:.4g} + the "
+                         f"fitted correction {rounded(dc, s).text} +- {_sd(s)}")
         elif spec is not None:
-            reason = (why[key] if key in why else f"its fitted compliance {c:.3g} {cu} is not > 0" if c is not None
-                      else "its compliance was not fitted")
+            reason = (why[key] if key in why else f"the total of its fitted correction {dc:.3g} {cu} is not > 0"
+                      if dc is not None else "its compliance was not fitted")
             out[name] = (spec, f"not identified ({reason}): the source model's value")
     return out
 
@@ -189,33 +221,52 @@ def _gravity(cal) -> tuple[list, str | None]:
 
 
 def _payload(cal, doc: dict) -> tuple[dict | None, str | None]:
-    """The payload: the fitted mass (kg) at the first measured point where identified, else the source's."""
+    """The payload: the source's plus the fitted correction (kg) at the first measured point, one point mass where
+    both ride on the same link (at their common centre of mass, in the measured frame); else the source's."""
     src = cal.model
     nominal = doc.get("payload")
     if nominal is None and not doc and src.payload is not None:
         p = src.payload
         nominal = {"frame": p.frame, "mass": float(p.mass), "com": [float(x) for x in p.com]}
     m, s = cal.values.get("payload.mass"), cal.std.get("payload.mass")
-    if m is not None and m > 0:
-        return ({"frame": cal.frame, "mass": rounded(m, s), "com": [float(x) for x in cal.p0]},
-                f"fitted: mass +- {_sd(s)} kg, at the measured point of {cal.frame}")
-    if nominal is None:
-        return None, None
-    return nominal, ("not identified (" + (f"its fitted mass {m:.3g} kg is not > 0" if m is not None
-                                           else "the payload was not fitted") + "): the source model's")
+    if m is None:
+        return nominal, None if nominal is None else "not identified (the payload was not fitted): the source model's"
+    pl = src.payload
+    m0 = 0.0 if pl is None else float(pl.mass)
+    if not m0 + m > 0:
+        return nominal, f"not identified (the source's {m0:.3g} kg plus the fitted correction {m:.3g} kg is not > 0)" \
+            + (": the source model's" if nominal is not None else "")
+    tree = src.tree
+    here = tree.frame(cal.frame)
+    if pl is not None and m0 > 0 and tree.frame(pl.frame).joint != here.joint:
+        return nominal, (f"the source model's; the fitted correction {m:.3g} +- {_sd(s)} kg at the measured point of "
+                         f"{cal.frame} is not carried (the payload rides on another link)")
+    com = np.asarray(cal.p0, dtype=float) * m
+    if pl is not None and m0 > 0:   # the source's payload, in the measured frame
+        P = _rigid_inverse(here.placement) @ tree.frame(pl.frame).placement
+        com = com + m0 * (P[:3, :3] @ np.asarray(pl.com, dtype=float) + P[:3, 3])
+    return ({"frame": cal.frame, "mass": rounded(m0 + m, s), "com": [float(x) for x in com / (m0 + m)]},
+            f"fitted: total {m0 + m:.4g} kg = the source's {m0:.4g} + the fitted correction {rounded(m, s).text} +- "
+            f"{_sd(s)} kg at the measured point of {cal.frame}")
 
 
-def calibrated_mapping(cal, urdf_name: str) -> tuple[dict, dict]:
+def calibrated_mapping(cal, urdf_name: str | None) -> tuple[dict, dict]:
     """The calibrated robot file's mapping and its comments ({key or joints.<name>: text}): the source model
-    file's every entry (tools, gravity, home, joint springs, added masses, payload, payload limit; the link
-    springs only as a comment of :func:`robot_file`: the fit takes the links as rigid),
-    the fitted values in place of the nominal ones where identified (:class:`Rounded`), the URDF
-    ``urdf_name`` and the markers as the first tools."""
+    file's every entry (tools, gravity, home, joint and link springs, added masses, payload, payload limit), the
+    fitted values in place of the nominal ones where identified (:class:`Rounded`; a compliance or a payload as
+    the total, the source's plus the fitted correction), the URDF ``urdf_name`` -- or, for a source written as a
+    DH table, the table re-fitted to the calibrated kinematics (:func:`calibrated_dh`) -- and the markers as
+    the first tools."""
     src = cal.model
     doc = _source_doc(src)
     markers = [f"{f}_marker" for f in cal.markers]
-    d: dict = {"name": f"{src.name or 'robot'} (calibrated)", "urdf": urdf_name,
-               "tools": markers + [t for t in src.tools if t not in markers]}
+    d: dict = {"name": f"{src.name or 'robot'} (calibrated)"}
+    move: Callable[[str], np.ndarray] | None = None
+    if is_dh(src):
+        d["dh"], move = calibrated_dh(cal)
+    else:
+        d["urdf"] = urdf_name
+    d["tools"] = markers + [t for t in src.tools if t not in markers]
     notes: dict = {}
     d["gravity"], notes["gravity"] = _gravity(cal)
     if "strict_limits" in doc:
@@ -226,18 +277,107 @@ def calibrated_mapping(cal, urdf_name: str) -> tuple[dict, dict]:
     if joints:
         d["joints"] = {n: spec for n, (spec, _) in joints.items()}
         notes.update({f"joints.{n}": text for n, (_, text) in joints.items()})
+    if doc.get("links"):   # the fit deflected them as the source states them (vjm.calibration.nominal)
+        d["links"] = doc["links"] if move is None else {k: _moved_entry(v, move) for k, v in doc["links"].items()}
+        notes["links"] = "as the source model states them (not fitted; the calibration deflects them)"
     if doc.get("masses"):
-        d["masses"] = doc["masses"]
+        d["masses"] = doc["masses"] if move is None else {k: _moved_com(v, move(k)) for k, v in doc["masses"].items()}
         notes["masses"] = "as the source model states them (not fitted)"
-    # The fit takes the links as rigid (its torsional joint compliances absorb the links' sag under the
-    # robot's weight): the source's link springs on top of them would count that sag twice, so they are
-    # written as a comment (robot_file), not as springs of this model.
     payload, notes["payload"] = _payload(cal, doc)
     if payload is not None:
-        d["payload"] = payload
+        d["payload"] = payload if move is None else _moved_com(payload, move(str(payload["frame"])))
     if "payload_limit" in doc:
         d["payload_limit"] = doc["payload_limit"]
     return d, {k: v for k, v in notes.items() if v}
+
+
+def is_dh(model) -> bool:
+    """Whether a robot's model file holds a DH table (its calibration is written back as one)."""
+    return isinstance(model.raw, dict) and "dh" in model.raw
+
+
+def _origin(T: np.ndarray) -> dict:
+    return {"xyz": [float(x) for x in T[:3, 3]], "rpy": list(rpy(T[:3, :3]))}
+
+
+def _moved_entry(entry, move) -> dict:
+    """A ``links:`` entry (at: frame, xyz, rpy) placed where it was on its link, in the re-fitted frame."""
+    T = move(str(entry["at"])) @ origin_transform(entry.get("xyz", [0, 0, 0]), entry.get("rpy", [0, 0, 0]))
+    return {**entry, **_origin(T)}
+
+
+def _moved_com(entry, M: np.ndarray) -> dict:
+    """A mass or payload entry (com in a frame) with its centre of mass where it was, in the re-fitted frame."""
+    c = M[:3, :3] @ np.asarray(entry.get("com", [0, 0, 0]), dtype=float) + M[:3, 3]
+    return {**entry, "com": [float(x) for x in c]}
+
+
+def _frames_at(model, names, q: np.ndarray) -> dict:
+    """{frame: its world frame (4, 4) at q (nq,)} of a robot's named frames (limits not checked)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return {n: model.forward(q, n) for n in names}
+
+
+def _row(source: dict, fitted: dict) -> dict:
+    """A DH row: the source's name, type, limits and inertial, the fitted a, alpha, d, theta (and beta where
+    the source has it or the fit needs it), in the order of :data:`vjm.modelio.dh.ROW_KEYS`."""
+    from ..modelio.dh import ROW_KEYS
+
+    new = {k: (0.0 if abs(v) < 1e-12 else v) for k, v in fitted.items()}   # round-off of the fit, not geometry
+    if new.get("beta") == 0.0 and "beta" not in source:
+        del new["beta"]
+    return {k: new[k] if k in new else source[k] for k in ROW_KEYS if k in new or k in source}
+
+
+def calibrated_dh(cal) -> tuple[dict, Callable[[str], np.ndarray]]:
+    """The source's DH table re-fitted to the calibrated kinematics (:func:`vjm.modelio.dh.match_table`: the
+    same convention and rows, new base, tool and row values, the joints' values meaning what they meant), each
+    link's centre of mass where it was on its link, and each marker a ``frames:`` entry ``<frame>_marker`` on its
+    measured frame; and ``move(frame)``, the 4x4 taking a point of the calibrated tree's ``frame`` into the
+    re-fitted table's frame of that name (a DH link frame follows the calibrated axes)."""
+    from ..modelio.dh import match_table, tree_from_dh
+    from ..robot.model import RobotModel
+
+    spec = cal.model.raw["dh"]
+    cm = RobotModel(_corrected_tree(cal))
+    lo, hi = cm.tree.limits
+    lo, hi = np.where(np.isfinite(lo), lo, -np.pi), np.where(np.isfinite(hi), hi, np.pi)
+    Q = lo + (hi - lo) * np.random.default_rng(0).random((48, cm.nq))
+    table = {k: v for k, v in spec.items() if k != "frames"}
+    if corrections(cal):   # the geometry corrected: the rows re-fitted (else the source's, as written)
+        rows, B, Tt = match_table(spec, Q, _frames_at(cm, ["tool"], Q)["tool"])
+        table["base"], table["tool"] = _origin(B), _origin(Tt)
+        table["joints"] = [_row(r, new) for r, new in zip(spec["joints"], rows)]
+    else:
+        table["joints"] = [dict(r) for r in spec["joints"]]
+    q0 = np.clip(np.zeros(cm.nq), lo, hi)
+    names = [f.name for f in cm.tree.frames]
+    old = _frames_at(cm, names, q0)
+    refit = RobotModel(tree_from_dh(table))
+    new = _frames_at(refit, [n for n in names if n in {f.name for f in refit.tree.frames}], q0)
+
+    def move(frame: str) -> np.ndarray:
+        return _rigid_inverse(new[frame]) @ old[frame] if frame in new else np.eye(4)
+
+    for i, r in enumerate(table["joints"]):   # each link's centre of mass where the calibrated tree carries it
+        if "com" in spec["joints"][i]:
+            b = next(b for b in cm.tree.bodies if b.joint == i and b.name == cm.tree.joints[i].name)
+            link = f"link{i + 1}"
+            M = move(link) @ _rigid_inverse(cm.tree.frame(link).placement)
+            r["com"] = [float(x) for x in M[:3, :3] @ np.asarray(b.com, dtype=float) + M[:3, 3]]
+    marks = {}
+    for f, p in cal.markers.items():
+        T = move(f) @ origin_transform(np.asarray(p, dtype=float), [0, 0, 0])
+        marks[f"{f}_marker"] = {"at": f, **_origin(T)}
+    for n, e in (spec.get("frames") or {}).items():
+        marks.setdefault(n, {**e, **_origin(move(str(e["at"])) @ origin_transform(e.get("xyz", [0, 0, 0]),
+                                                                                   e.get("rpy", [0, 0, 0])))})
+    if marks:
+        table["frames"] = marks
+    return table, move
 
 
 def _dumper():
@@ -257,19 +397,16 @@ def _yaml(d) -> str:
     return yaml.dump(d, Dumper=_dumper(), sort_keys=False, default_flow_style=None, width=1 << 30)
 
 
-def robot_file(cal, urdf_name: str) -> str:
+def robot_file(cal, urdf_name: str | None) -> str:
     """The robot file (YAML text) naming the calibrated URDF: :func:`calibrated_mapping`, each fitted value
     with its standard deviation and each joint not identified with why, as comments."""
     d, notes = calibrated_mapping(cal, urdf_name)
-    head = ("# Calibrated by vjm.calibration.engine from absolute poses: the calibrated URDF and everything the\n"
+    what = "DH table" if urdf_name is None else "URDF"
+    head = (f"# Calibrated by vjm.calibration.engine from absolute poses: the calibrated {what} and everything the\n"
             "# source model file states, each value the fit identified in place of the source's, rounded at the\n"
             "# second significant digit of its standard deviation (given beside it, +-); a joint \"not identified\"\n"
-            "# keeps the source's value.\n" + UNITS)
-    links = _source_doc(cal.model).get("links")
-    if links:
-        head += ("# The source model's link springs, left out: the calibration takes the links as rigid and its joint\n"
-                 "# compliances absorb their sag, so adding them back would count it twice:\n"
-                 + "".join(f"#   {line}\n" for line in _yaml({"links": links}).splitlines()))
+            "# keeps the source's value.  The fit corrects the source model: a joint's stiffness and the payload\n"
+            "# here are the totals (the source's value plus the fitted correction, both given beside it).\n" + UNITS)
     flex = {k: v for k, v in cal.values.items() if k.rsplit(".", 1)[-1] in _NOT_CARRIED or ".coupling[" in k}
     if flex:   # fitted, but neither the URDF nor the robot file has a place for them: said, not dropped silently
         head += ("# Fitted effects this file and the URDF do not carry (vjm.calibration.flex, vjm.calibration.serial units):\n"
@@ -294,16 +431,53 @@ def calibrated_model(cal) -> RobotModel:
     correction, as the written URDF has it), a marker frame ``<frame>_marker`` (and its fixed joint's frame) on
     each measured frame, the markers first among the tools, and the rest as :func:`calibrated_mapping` has
     it: the fitted values as the file rounds them (so that this is the model the file says), the source's
-    springs (not its link springs: the fit takes the links as rigid), added masses, payload, gravity and ``home:`` where nothing was identified.
+    joint and link springs, added masses, payload, gravity and ``home:`` where nothing was identified.  A source
+    written as a DH table gives the model of its calibrated table (:func:`calibrated_dh`), read as the file is.
     ``tree.source`` stays the source URDF: the corrections are in the tree, not in that file.  ``path`` and
     ``raw`` are None: no file holds it (:meth:`save` says so; write the files with :func:`write_calibrated`)."""
+    src = cal.model
+    d, notes = calibrated_mapping(cal, "calibrated.urdf")
+    if is_dh(src):
+        from dataclasses import replace
+
+        from ..modelio.read import model_from_dict
+
+        m = model_from_dict(d, os.path.dirname(os.path.abspath(src.path or ".")))
+        assert isinstance(m, RobotModel)   # a dh: mapping is a robot's
+        return replace(m, raw=None)
+    from ..modelio.robotfile import _joint_spring
+    from ..robot.model import JointSpring, Payload
+
+    new = _corrected_tree(cal, d["tools"])
+    springs = {}
+    for n, spec in d.get("joints", {}).items():
+        k = spec.get("stiffness")
+        if isinstance(k, Rounded):   # fitted
+            springs[n] = JointSpring(stiffness=float(k))
+        elif k is not None and n in src.joint_springs and not notes.get(f"joints.{n}", "").startswith("fitted"):
+            springs[n] = src.joint_springs[n]
+        elif k is not None:   # a corrected table or expression
+            springs[n] = _joint_spring(k, f"joints.{n}.stiffness")
+    carried = src.raw is not None   # a model built in memory has no file entries for its 6x6 and link springs
+    pl = d.get("payload")
+    payload = None if pl is None else Payload(str(pl["frame"]), float(pl["mass"]),
+                                              np.asarray(pl.get("com", [0, 0, 0]), dtype=float))
+    home = d.get("home")
+    return RobotModel(new, springs, dict(src.joint6) if carried else {}, dict(src.links) if carried else {},
+                      payload, tuple(float(g) for g in d["gravity"]), d["name"],
+                      strict_limits=bool(d.get("strict_limits", False)),
+                      home=None if home is None else tuple(home))
+
+
+def _corrected_tree(cal, tools=None):
+    """The source's tree with each corrected joint's placement times its correction (:func:`corrections`: the URDF
+    origin times the correction, as the written URDF has it) and a marker frame ``<frame>_marker`` (and its fixed
+    joint's frame) on each measured frame; ``tools`` (default the source's)."""
     from dataclasses import replace
 
-    from ..robot.model import JointSpring, Payload
     from ..robot.tree import Frame, Tree
 
-    src = cal.model
-    tree = src.tree
+    tree = cal.model.tree
     fix = corrections(cal)
     joints = tuple(replace(j, placement=j.placement @ fix[j.name]) if j.name in fix else j for j in tree.joints)
     frames = list(tree.frames)
@@ -312,24 +486,7 @@ def calibrated_model(cal) -> RobotModel:
         P = f.placement.copy()
         P[:3, 3] += P[:3, :3] @ np.asarray(p, dtype=float)
         frames += [Frame(f"{frame}_marker_joint", f.joint, P), Frame(f"{frame}_marker", f.joint, P.copy())]
-    d, _ = calibrated_mapping(cal, "calibrated.urdf")
-    new = Tree(tree.name, joints, tuple(frames), tree.bodies, tuple(d["tools"]), tree.source, tree.declared)
-    springs = {}
-    for n, spec in d.get("joints", {}).items():
-        k = spec.get("stiffness")
-        if isinstance(k, Rounded):   # fitted
-            springs[n] = JointSpring(stiffness=float(k))
-        elif k is not None:
-            springs[n] = src.joint_springs[n]
-    carried = src.raw is not None   # a model built in memory has no file entries for its 6x6 and link springs
-    pl = d.get("payload")
-    payload = None if pl is None else Payload(str(pl["frame"]), float(pl["mass"]),
-                                              np.asarray(pl.get("com", [0, 0, 0]), dtype=float))
-    home = d.get("home")
-    return RobotModel(new, springs, dict(src.joint6) if carried else {}, {},
-                      payload, tuple(float(g) for g in d["gravity"]), d["name"],
-                      strict_limits=bool(d.get("strict_limits", False)),
-                      home=None if home is None else tuple(home))
+    return Tree(tree.name, joints, tuple(frames), tree.bodies, tuple(tools or tree.tools), tree.source, tree.declared)
 
 
 def write_calibrated(cal, urdf_path, out_urdf, out_yaml) -> None:
@@ -345,6 +502,22 @@ def write_calibrated(cal, urdf_path, out_urdf, out_yaml) -> None:
         with atomic_path(p) as tmp:
             with open(tmp, "w") as f:
                 f.write(text)
+
+
+def calibrated_files(cal) -> dict:
+    """{file name: text} of a calibration written back: ``calibrated.urdf`` (the source's URDF corrected) and
+    ``calibrated.yaml`` naming it; for a source written as a DH table, ``calibrated.yaml`` alone, its table
+    re-fitted."""
+    if is_dh(cal.model):
+        return {"calibrated.yaml": robot_file(cal, None)}
+    return {"calibrated.urdf": calibrated_urdf(cal, cal.model.tree.source),
+            "calibrated.yaml": robot_file(cal, "calibrated.urdf")}
+
+
+def writable(model) -> bool:
+    """Whether a robot's calibration can be written back: its source is a URDF file or a DH table read from a file."""
+    urdf = model.tree.source
+    return is_dh(model) or bool(urdf and os.path.isfile(urdf))
 
 
 def calibrated_commands(cal, targets, seed) -> str:
