@@ -28,8 +28,7 @@ def column(tmp_path_factory):
     d = tmp_path_factory.mktemp("column")
     (d / "column.urdf").write_text(truth.column_robot_urdf(False))
     (d / "hidden.urdf").write_text(truth.column_robot_urdf(True))
-    (d / "column.yaml").write_text("urdf: column.urdf\njoints:\n  shoulder: {stiffness: 4.0e9}\n"
-                                   "  elbow: {stiffness: 2.0e9}\n  wrist: {stiffness: 1.0e9}\n")
+    (d / "column.yaml").write_text("urdf: column.urdf\n")   # rigid joints, as the truth's
     q, p = truth.column_robot_poses(str(d / "hidden.urdf"), 400, tilt=TILT, R=rotation_matrix([0.1, -0.2, 0.5]),
                                     t=[1500, -300, 100], marker=(10, 5, -3), sigma=0.01, seed=3)
     np.savetxt(d / "poses.csv", np.column_stack([q, p]), delimiter=",", comments="", fmt="%.10f",

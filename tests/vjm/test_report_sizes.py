@@ -48,10 +48,17 @@ CHROMIUM = next((shutil.which(n) for n in ("chromium", "chromium-browser", "goog
 
 
 @pytest.fixture(scope="module")
-def fitted():
+def fitted(tmp_path_factory):
+    # the truth's robot: the bundled URDF, rigid links, the bundled shoulder-lift and elbow springs as the model
+    # file's nominal values (the fit corrects them to the hidden ones)
+    d = tmp_path_factory.mktemp("sizes")
+    (d / "ur10.yaml").write_text(f"urdf: {URDF}\ntools: [tool0]\ngravity: [0, 0, -9.80665]\n"
+                                 "home: [0, -1.2, 1.5, -1.8707963267948966, -1.5707963267948966, 0]\n"
+                                 "joints:\n  shoulder_lift_joint: {stiffness: 1.5e+8}\n"
+                                 "  elbow_joint: {stiffness: 8.0e+7}\n")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = vjm.load_model(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
+        model = vjm.load_model(d / "ur10.yaml")
     rng = np.random.default_rng(1)
     q = rng.uniform(-np.pi, np.pi, (200, 6))
     q[:, 1] = rng.uniform(-np.pi, 0.0, 200)   # the upper arm above the base plate: large, varied gravity torques
@@ -61,6 +68,13 @@ def fitted():
     sizes = {s.effect: s for s in effect_sizes(cal, data, {e["effect"]: e["parameters"]
                                                            for e in cr.effects_named(cal)})}
     return model, data, cal, sizes
+
+
+def _total(cal, key: str) -> float:
+    """A compliance's total (rad/(N mm)): the model file's plus the fitted correction."""
+    from vjm.calibration.nominal import nominal_values
+
+    return nominal_values(cal.model, [key])[key] + cal.values[key]
 
 
 def _tool(model, q, compliance) -> np.ndarray:
@@ -76,7 +90,7 @@ def test_the_compliance_sag_is_pinocchio_deflection_at_home_and_at_the_poses(fit
     model, data, cal, sizes = fitted
     size = sizes["compliance"]
     home = np.asarray(model.home)[None, :]
-    own = {j: cal.values[f"{j}.compliance"] * 1e3 for j in COMPLIANCE}   # the calibration's, rad/(N m)
+    own = {j: _total(cal, f"{j}.compliance") * 1e3 for j in COMPLIANCE}   # the calibration's, rad/(N m)
     elbow = {"elbow_joint": own["elbow_joint"]}
     part = {p.name: p for p in size.parts}["shoulder_lift_joint"]
     # the calibrated model's own compliances: pinocchio's deflection to the second-order terms
@@ -86,7 +100,7 @@ def test_the_compliance_sag_is_pinocchio_deflection_at_home_and_at_the_poses(fit
     assert size.total.mean_mm == pytest.approx(rows.mean(), rel=2e-3)
     assert size.total.max_mm == pytest.approx(rows.max(), rel=2e-3)
     # the hidden compliances: within the fit's error (4 standard deviations of the compliances, relative)
-    rel = {j: cal.std[f"{j}.compliance"] / cal.values[f"{j}.compliance"] for j in COMPLIANCE}
+    rel = {j: cal.std[f"{j}.compliance"] / _total(cal, f"{j}.compliance") for j in COMPLIANCE}
     true_home = _sag(model, home, COMPLIANCE, {})[0]
     assert abs(size.total.home_mm - true_home) <= 4 * max(rel.values()) * true_home
     true_part = _sag(model, home, COMPLIANCE, {"elbow_joint": COMPLIANCE["elbow_joint"]})[0]
@@ -99,7 +113,7 @@ def test_the_stiffness_is_the_model_file_unit_with_its_interval(fitted):
     size = sizes["compliance"]
     for p in size.parts:
         st = p.stiffness
-        c, s = cal.values[f"{p.name}.compliance"], cal.std[f"{p.name}.compliance"]
+        c, s = _total(cal, f"{p.name}.compliance"), cal.std[f"{p.name}.compliance"]
         assert (st.unit, st.compliance_unit) == ("N mm/rad", "rad/(N mm)")
         assert st.stiffness == pytest.approx(1.0 / c, rel=1e-2)   # as calibrated.yaml rounds it
         assert st.low == pytest.approx(1.0 / (1.0 / st.stiffness + Z95 * s), rel=1e-12)
@@ -113,10 +127,11 @@ def test_the_stiffness_is_the_model_file_unit_with_its_interval(fitted):
 def test_a_compliance_not_above_zero_has_no_stiffness_and_a_wide_one_an_open_interval(fitted):
     _, _, cal, _ = fitted
     key = "elbow_joint.compliance"
-    neg = stiffness_of(dataclasses.replace(cal, values={**cal.values, key: -2e-9}), "elbow_joint")
-    assert neg.stiffness is None and neg.compliance == -2e-9 and neg.nominal == 8.0e7
+    # a correction taking the total to -2e-9
+    neg = stiffness_of(dataclasses.replace(cal, values={**cal.values, key: -2e-9 - 1 / 8.0e7}), "elbow_joint")
+    assert neg.stiffness is None and neg.compliance == pytest.approx(-2e-9, rel=1e-9) and neg.nominal == 8.0e7
     assert "no constant stiffness fitted > 0 (fitted compliance -2e-09 rad/(N mm))" in stiffness_words(asdict(neg))
-    c = cal.values[key]
+    c = _total(cal, key)
     wide = stiffness_of(dataclasses.replace(cal, std={**cal.std, key: c}), "elbow_joint")   # c - 1.96 c < 0
     assert wide.high == float("inf") and wide.low == pytest.approx(1.0 / (1.0 / wide.stiffness + Z95 * c), rel=1e-12)
     size = as_mapping(EffectSize("compliance", Size("compliance", (key,), 0.1, 0.2, 0.3),
@@ -165,7 +180,7 @@ def test_the_rows_errors_are_the_stages(fitted, report):
     before, after = report[1]
     assert before.mean() == pytest.approx(cal.stages[0].stats["mean"], rel=1e-5)
     assert after.mean() == pytest.approx([s for s in cal.stages if s.kept][-1].stats["mean"], rel=1e-9)
-    assert before.mean() > 10 * after.mean()
+    assert before.mean() > 4 * after.mean()   # the nominal springs off the hidden ones by 25-35 %: 0.1 mm against the noise
 
 
 class _Images(html.parser.HTMLParser):

@@ -54,7 +54,7 @@ from ..errors import VjmError
 from ..stats.staged import Best, Nested, Practical, least_squares_fit, select_stages
 from ..stats.uncertainty import Uncertainty, parameter_std, pose_blocks, residual_blocks
 from .flex import TEMPERATURE, flex_loads
-from .nominal import model_torques, nominal_state
+from .nominal import model_torques, nominal_state, nominal_values
 from .parallel import points as platform_points
 from .result import Calibration
 from .serial import (
@@ -357,7 +357,7 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
     meas = _measurements(data, measured)
     full = _layout(model, measured, prob.groups, effects)
     stages, best, removed = run_stages(prob, full, meas, [s for s in known if s in effects], alpha, tol, flat,
-                                       folds, bounds=absolute.domain(full.names, model, nominal),
+                                       folds, bounds=absolute.domain(full.names, model, _nominal(model, full, nominal)),
                                        practical=Practical(min_gain), progress=progress)
     lay = full.pick(best.idx)
     unc = final_uncertainty(prob, lay, best.x, meas, data, fr)
@@ -374,6 +374,14 @@ def final_uncertainty(prob, lay: Layout, x: np.ndarray, meas: np.ndarray, data, 
              pose_blocks(data.q, data.groups)]
     sig = np.concatenate([data.sigmas[f] for f in fr]).ravel() if all(f in data.sigmas for f in fr) else None
     return parameter_std(_jacobian(prob, lay, x), r, parts, sig)
+
+
+def _nominal(model, full: Layout, nominal: dict | None) -> dict:
+    """The model file's values of the parameters (:func:`vjm.calibration.nominal.nominal_values`): the physical
+    domain bounds their totals; ``nominal`` given, those instead."""
+    if nominal is not None or model.kind != "serial":
+        return nominal or {}
+    return nominal_values(model, full.names)
 
 
 def check_data(model, data, fr: tuple, effects, folds: int) -> dict:

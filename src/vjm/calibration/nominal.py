@@ -115,7 +115,8 @@ def nominal_values(model, names) -> dict:
     """{parameter name: its nominal value in the model file}, for the calibration's parameter ``names``: a
     ``<joint>.compliance`` the joint spring's compliance (rad/(N mm), mm/N; a spring varying with the joint's
     value: its smallest over the joint's limits, the stiffest, so that ``nominal + correction >= 0`` there holds
-    everywhere), ``payload.mass`` the model's payload (kg); 0 for every other (the model states nothing of
+    everywhere), ``payload.mass`` the model's payload (kg), a ``<link>.link_scale`` 1 (the link spring as stated); 0 for
+    every other (the model states nothing of
     it: an origin error, an offset, a backlash ...).  The fitted value of a parameter is a correction: its total
     is this plus the fitted value."""
     out = {}
@@ -127,6 +128,8 @@ def nominal_values(model, names) -> dict:
                 v = float(np.min(s.compliance(_span(model, n[:-len(".compliance")], s), f"joints.{n}")))
         elif n == "payload.mass" and model.payload is not None:
             v = float(model.payload.mass)
+        elif n.endswith(".link_scale") and n[:-len(".link_scale")] in getattr(model, "links", {}):
+            v = 1.0   # the link spring as the file states it, its sag in the start
         out[n] = v
     return out
 

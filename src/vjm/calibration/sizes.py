@@ -165,7 +165,10 @@ def stiffness_of(cal, joint: str, z: float = Z95, joints: dict | None = None) ->
     s = cal.std.get(key)
     k = (file_joints(cal) if joints is None else joints).get(joint, {}).get("stiffness")
     if not isinstance(k, Rounded):   # no constant fitted > 0: the file keeps the source's entry
-        return Stiffness(joint, float(cal.values[key]), s, None, None, None, nominal, unit, cunit)
+        from .nominal import nominal_values
+
+        total = nominal_values(cal.model, [key])[key] + float(cal.values[key])   # the fitted value: a correction
+        return Stiffness(joint, total, s, None, None, None, nominal, unit, cunit)
     c = 1.0 / float(k)
     lo_c, hi_c = (c, c) if s is None else (c - z * s, c + z * s)
     return Stiffness(joint, c, s, float(k), 1.0 / hi_c, float("inf") if lo_c <= 0 else 1.0 / lo_c, nominal, unit,

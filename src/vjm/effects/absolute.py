@@ -570,7 +570,7 @@ class LinkScale(PoseEffect):
     name = "link_scale"
     description = "each link spring of the model scaled: how compliant the link is against its CAD or FEA"
     over = "spring"
-    patterns = (Pattern("{link}.link_scale", "1", "scale", lower=0.0),)
+    patterns = (Pattern("{link}.link_scale", "1", "scale", lower=0.0, open=True),)
     rank = 120
     options = ("flex",)
     hand_written = True
