@@ -144,3 +144,33 @@ def test_the_payload_is_bounded_by_the_rated_load_and_the_compliances_by_zero(tm
     (tmp_path / "bad.yaml").write_text(text + "\npayload_limit: -5\n")
     with pytest.raises(VjmError, match="payload_limit must be > 0"):
         load_model(tmp_path / "bad.yaml")
+
+
+def test_a_stage_whose_gauss_newton_step_buys_little_is_not_fitted():
+    """The pre-screen (:func:`vjm.stats.staged.linear_gain`): on a linear model one Gauss-Newton step from the
+    fit before a stage is its fit, so the skipped stage's RSS is that of the full fit; a stage buying less
+    than half the threshold is recorded unfitted, one buying more (or any, the threshold 0) is fitted."""
+    import dataclasses
+
+    from vjm.stats.staged import forward_stages
+
+    X = np.column_stack([np.ones(N), T, T ** 2, np.sin(3 * T)])
+    y = 0.5 + 2.0 * T + 1e-3 * T ** 2 + 0.3 * np.sin(3 * T) + 0.01 * noise(7)
+    kinds = ("nuis", "a", "small", "big")
+    nf = linear(X, y, kinds, practical=Practical(0.002))
+    calls = []
+
+    def fit(idx, x0, bounds=None):
+        calls.append(list(idx))
+        return least_squares_fit(lambda b: X[:, idx] @ b - y, lambda b: X[:, idx], x0, bounds)
+
+    nf = dataclasses.replace(nf, residual=lambda x: X @ x - y, fit=fit)
+    stages, _, _ = forward_stages(nf, ("a", "small", "big"), 1e-3, 1e-6)
+    by = {s.name: s for s in stages}
+    exact = least_squares_fit(lambda b: X[:, :3] @ b - y, lambda b: X[:, :3], np.zeros(3))[2]
+    assert [0, 1, 2] not in calls and not by["small"].kept   # not fitted
+    assert by["small"].rss == pytest.approx(exact, rel=1e-9) and by["small"].gain < 0.5 * 0.002
+    assert by["big"].kept and [0, 1, 3] in calls
+    calls.clear()
+    forward_stages(dataclasses.replace(nf, practical=Practical(0.0)), ("a", "small", "big"), 1e-3, 1e-6)
+    assert [0, 1, 2] in calls

@@ -428,7 +428,7 @@ def run_stages(prob, full: Layout, meas: np.ndarray, order, alpha: float, tol: f
                 meas.size, len(meas), "registration", ("reg", "marker"),
                 cv=_held_out(prob, full, meas, folds, last) if folds else None, screen=screen,
                 through={n: absolute.carried(n) for n in order}, bounds=bounds if bounded else None,
-                practical=practical)
+                practical=practical, residual=lambda x: (_predict(prob, full, x) - meas).ravel())
     return select_stages(nf, order, alpha, tol, removed or (), progress)
 
 

@@ -118,6 +118,9 @@ class Nested:
     bounds: tuple | None = None
     #: what a stage must buy to be named besides its F test
     practical: Practical = Practical()
+    #: values of every parameter -> the residuals (m,): a stage whose Gauss-Newton step from the fit before it
+    #: buys under half the practical threshold is not fitted (:func:`linear_gain`); None: every stage fitted
+    residual: Callable | None = None
 
 
 class Fitted(NamedTuple):
@@ -334,6 +337,12 @@ def forward_stages(nf: Nested, order, alpha: float, tol: float, removed=(), prog
         trial = best.idx + kept
         x0 = np.zeros(len(trial))
         x0[:len(best.idx)] = best.x
+        lin = linear_gain(nf, best, x_all, J[:, list(range(len(best.idx))) + [cols.index(i) for i in kept]]) \
+            if kept else None
+        if lin is not None:
+            stages.append(_linear_stage(nf, best, name, len(trial), alpha, *lin))
+            _say(progress, k, len(order), stages[-1], t0)
+            continue
         f = domain_fit(nf, trial, x0, name) if kept else Fitted(best.x, best.std, best.rss, [], None, best.x, best.rss)
         # the F test of the fit within the domain; one that passes only out of it stands in for something else
         pv = f_test(best.rss, len(best.idx), f.rss, len(trial), nf.m)
@@ -349,6 +358,31 @@ def forward_stages(nf: Nested, order, alpha: float, tol: float, removed=(), prog
             best = Best(trial, f.x, f.std, f.rss, _pooled(j["folds"]), j["folds"])
         _say(progress, k, len(order), stages[-1], t0)
     return stages, best, removed
+
+
+def linear_gain(nf: Nested, best: Best, x_all: np.ndarray, J: np.ndarray) -> tuple[float, float, float] | None:
+    """(RSS, gain in mm, threshold) of a stage's Gauss-Newton step from the fit before it (the Jacobian ``J``
+    of its trial parameters there: the first step of its fit) when that gain is under half the practical
+    threshold -- the stage cannot be named, its fit is skipped (30 couplings on 12k rows: 80 s) -- else None."""
+    if nf.residual is None:
+        return None
+    r = nf.residual(x_all)
+    step = np.linalg.lstsq(J, -r, rcond=None)[0]
+    rss = float(np.sum((r + J @ step) ** 2))
+    start = best.cv if nf.cv is not None else _rms(nf, best.rss)
+    thr = nf.practical.threshold(start)
+    gain = _rms(nf, best.rss) - _rms(nf, rss)
+    return (rss, gain, thr) if gain < 0.5 * thr else None
+
+
+def _linear_stage(nf: Nested, best: Best, name: str, size: int, alpha: float, rss: float, gain: float,
+                  thr: float) -> Stage:
+    """The record of a stage not fitted (:func:`linear_gain`): its linearised RSS, F test and gain."""
+    pv = f_test(best.rss, len(best.idx), rss, size, nf.m)
+    cat, note = ("negligible", f"significant but negligible: buys {gain:.3g} mm on the fitted rows (one "
+                 f"Gauss-Newton step), threshold {thr:.3g} mm") if pv < alpha else ("", "")
+    return Stage(name, False, size, rss, _rms(nf, rss), pv, float("nan"), nf.summary(best.idx, best.x), note, gain,
+                 float("nan"), thr, cat)
 
 
 def _say(progress, k: int, n: int, s: Stage, t0: float) -> None:
