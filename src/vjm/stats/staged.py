@@ -337,8 +337,8 @@ def forward_stages(nf: Nested, order, alpha: float, tol: float, removed=(), prog
         trial = best.idx + kept
         x0 = np.zeros(len(trial))
         x0[:len(best.idx)] = best.x
-        lin = linear_gain(nf, best, x_all, J[:, list(range(len(best.idx))) + [cols.index(i) for i in kept]]) \
-            if kept else None
+        lin = linear_gain(nf, best, x_all, J[:, list(range(len(best.idx))) + [cols.index(i) for i in kept]],
+                          trial) if kept else None
         if lin is not None:
             stages.append(_linear_stage(nf, best, name, len(trial), alpha, *lin))
             _say(progress, k, len(order), stages[-1], t0)
@@ -360,10 +360,12 @@ def forward_stages(nf: Nested, order, alpha: float, tol: float, removed=(), prog
     return stages, best, removed
 
 
-def linear_gain(nf: Nested, best: Best, x_all: np.ndarray, J: np.ndarray) -> tuple[float, float, float] | None:
-    """(RSS, gain in mm, threshold) of a stage's Gauss-Newton step from the fit before it (the Jacobian ``J``
-    of its trial parameters there: the first step of its fit) when that gain is under half the practical
-    threshold -- the stage cannot be named, its fit is skipped (30 couplings on 12k rows: 80 s) -- else None."""
+def linear_gain(nf: Nested, best: Best, x_all: np.ndarray, J: np.ndarray,
+                trial: list) -> tuple[float, float, float, str] | None:
+    """(RSS, gain in mm, threshold, where) of a stage's Gauss-Newton step from the fit before it (the Jacobian
+    ``J`` of its ``trial`` parameters there: the first step of its fit) when that gain -- on the fitted rows,
+    then held out (the folds from that step) -- is under half the practical threshold: the stage cannot be
+    named, its fit is skipped (30 couplings on 12k rows: 80 s); else None."""
     if nf.residual is None:
         return None
     r = nf.residual(x_all)
@@ -372,15 +374,21 @@ def linear_gain(nf: Nested, best: Best, x_all: np.ndarray, J: np.ndarray) -> tup
     start = best.cv if nf.cv is not None else _rms(nf, best.rss)
     thr = nf.practical.threshold(start)
     gain = _rms(nf, best.rss) - _rms(nf, rss)
-    return (rss, gain, thr) if gain < 0.5 * thr else None
+    if gain < 0.5 * thr:
+        return rss, gain, thr, "on the fitted rows"
+    if nf.cv is None or not thr > 0:
+        return None
+    x = np.concatenate([best.x, np.zeros(len(trial) - len(best.idx))]) + step
+    held = best.cv - _pooled(_cv(nf, trial, x))
+    return (rss, held, thr, "held out") if held < 0.5 * thr else None
 
 
 def _linear_stage(nf: Nested, best: Best, name: str, size: int, alpha: float, rss: float, gain: float,
-                  thr: float) -> Stage:
+                  thr: float, where: str) -> Stage:
     """The record of a stage not fitted (:func:`linear_gain`): its linearised RSS, F test and gain."""
     pv = f_test(best.rss, len(best.idx), rss, size, nf.m)
-    cat, note = ("negligible", f"significant but negligible: buys {gain:.3g} mm on the fitted rows (one "
-                 f"Gauss-Newton step), threshold {thr:.3g} mm") if pv < alpha else ("", "")
+    cat, note = ("negligible", f"significant but negligible: buys {gain:.3g} mm {where} (one Gauss-Newton "
+                 f"step), threshold {thr:.3g} mm") if pv < alpha else ("", "")
     return Stage(name, False, size, rss, _rms(nf, rss), pv, float("nan"), nf.summary(best.idx, best.x), note, gain,
                  float("nan"), thr, cat)
 
