@@ -53,7 +53,7 @@ test: $(STAMP)
 	$(BIN)/ruff check src tests docs/examples docs/tools && $(BIN)/mypy src && \
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict; rc=$$?; \
 	wait $$pid || cat .cache/kernels.log; exit $$rc
-	$(PY) -m pytest -n 2 --dist loadfile
+	DOCS_SITE=$(CURDIR)/.cache/site $(PY) -m pytest -n 2 --dist loadfile --durations=15
 
 clean:
 	rm -rf out .cache

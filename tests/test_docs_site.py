@@ -53,7 +53,11 @@ PROBE = ('<script>window.addEventListener("load", () => {document.body.setAttrib
 
 @pytest.fixture(scope="session")
 def site(tmp_path_factory):
-    """The site, built once: ``mkdocs build --strict`` (a broken link or an unresolved reference fails)."""
+    """The site, built once: ``mkdocs build --strict`` (a broken link or an unresolved reference fails); under
+    ``make test``, the site its strict build wrote just before (``DOCS_SITE``)."""
+    made = os.environ.get("DOCS_SITE")
+    if made and (Path(made) / "index.html").is_file():
+        return Path(made)
     out = tmp_path_factory.mktemp("site")
     env = dict(os.environ, NO_MKDOCS_2_WARNING="1",
                PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
