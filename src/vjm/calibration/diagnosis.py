@@ -10,8 +10,8 @@ The plan (candidates, parameters, an estimate of the time) is told before the wo
 while it runs.  Each parameter is fitted within its physical domain (:func:`vjm.effects.absolute.domain`).
 An effect is named when its F test passes at ``alpha``, no parameter of it has to leave its domain (else it
 "stands in for something else"), and its k-fold held-out gain exceeds the gain's fold-to-fold standard
-error and a practical threshold (``min_gain`` mm; default 10 % of the stated instrument sigma where the file
-states sigmas, else 1 % of the error the effect starts from): a significant effect below it is "significant
+error and a practical threshold (``min_gain`` mm; default 1 % of the error the effect starts from, and at
+least 10 % of the stated instrument sigma where the file states sigmas): a significant effect below it is "significant
 but negligible", its gain in mm reported.  Parameters the identification Jacobian cannot tell apart are
 removed and listed; joints whose load hardly varies are reported not observable.
 
@@ -48,6 +48,7 @@ from ..discrepancy.summary import pose_text
 from ..errors import VjmError
 from ..maps.grid import plan
 from ..stats.fit import chi2_p
+from ..stats.staged import Practical
 from . import report as cr
 from .engine import check_data, effect_names, predict_points
 from .poses import quiet_limits, warn_limits
@@ -217,16 +218,18 @@ def check_min_gain(min_gain) -> float | None:
     return float(min_gain)
 
 
-def practical_gain(data, frames, min_gain: float | None) -> tuple[float | None, str]:
-    """(the practical threshold in mm, None: 1 % of the error each effect starts from; how it was set): the
-    ``min_gain`` asked, else :data:`SIGMA_FRACTION` of the median stated sigma where the file states every
-    point's."""
+def practical_gain(data, frames, min_gain: float | None) -> tuple[Practical, float | None, str]:
+    """(the practical threshold, its mm when fixed, how it was set): the ``min_gain`` asked; else 1 % of the
+    error each effect starts from, and at least :data:`SIGMA_FRACTION` of the median stated sigma where the file
+    states every point's (the larger: residuals many times the sigmas would let effects of a micrometre pass)."""
     if min_gain is not None:
-        return min_gain, "--min-gain"
+        return Practical(min_gain), min_gain, "--min-gain"
     if frames and all(f in data.sigmas for f in frames):
         sig = float(np.median(np.concatenate([np.ravel(data.sigmas[f]) for f in frames])))
-        return SIGMA_FRACTION * sig, f"{100 * SIGMA_FRACTION:g} % of the stated sigma ({sig:.3g} mm)"
-    return None, "1 % of the error each effect starts from"
+        return (Practical(None, floor=SIGMA_FRACTION * sig), None,
+                f"1 % of the error each effect starts from, at least {100 * SIGMA_FRACTION:g} % of the stated "
+                f"sigma ({SIGMA_FRACTION * sig:.3g} mm)")
+    return Practical(), None, "1 % of the error each effect starts from"
 
 
 def plan_lines(model, data, opt) -> list:
@@ -276,9 +279,9 @@ def diagnose_poses(model, data, model_name: str | None = None, alpha: float | No
     cr.check_options(opt)
     m, d, vals, opt = cr.inputs(model, data, columns, list(validate), opt, bool(asked_effects(effects)),
                                 "--frame" if frame else "measured point")
-    gain, how = practical_gain(d, opt.frame, min_gain)
+    practical, gain, how = practical_gain(d, opt.frame, min_gain)
     opt = dataclasses.replace(opt, effects=cr.effects_for(candidates(m, d, effects), opt.frame, False)
-                              if not asked_effects(effects) else opt.effects, min_gain=gain)
+                              if not asked_effects(effects) else opt.effects, min_gain=practical)
     say = progress or (lambda line: print(line, file=sys.stderr))
     # before the work: a long run says so, one too large for the memory is refused
     plan("vjm calibrate", d.n, *ROW_COST, unit="rows", hint="calibrate on a subset of the rows (postures spread "

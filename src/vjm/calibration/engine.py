@@ -330,7 +330,7 @@ def block_folds(group: np.ndarray, k: int) -> list:
 
 def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry", "compliance"), alpha: float = 1e-3,
               tol: float = 1e-3, flat: float = 0.05, p0=None, folds: int = 0, nominal: dict | None = None,
-              min_gain: float | None = None, progress=None) -> Calibration:
+              min_gain: float | Practical | None = None, progress=None) -> Calibration:
     """Fit registration, then the ``effects`` stages (see the module docstring) on ``data``.
 
     ``folds`` > 1: a stage is kept only if its cross-validated RMS (:func:`_held_out`) drops by more than the
@@ -358,7 +358,8 @@ def calibrate(model, data, frame: str | tuple | None = None, effects=("geometry"
     full = _layout(model, measured, prob.groups, effects)
     stages, best, removed = run_stages(prob, full, meas, [s for s in known if s in effects], alpha, tol, flat,
                                        folds, bounds=absolute.domain(full.names, model, _nominal(model, full, nominal)),
-                                       practical=Practical(min_gain), progress=progress)
+                                       practical=min_gain if isinstance(min_gain, Practical) else Practical(min_gain),
+                                       progress=progress)
     lay = full.pick(best.idx)
     unc = final_uncertainty(prob, lay, best.x, meas, data, fr)
     return Calibration(model, fr[0], dict(zip(lay.names, best.x)), dict(zip(lay.names, unc.std)), frames, ps[0],

@@ -66,7 +66,7 @@ class Options:
     register_on: int = 30
     same_setup: bool = False
     #: what an effect must buy (mm, held out) to be named; None: 1 % of the error it starts from
-    min_gain: float | None = None
+    min_gain: Any = None   # mm, or a vjm.stats.staged.Practical
 
 
 def check_options(opt: Options) -> None:

@@ -37,8 +37,8 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
                                                              "-name: all "
                                                              "but that one)"),
                   min_gain: Optional[float] = typer.Option(None, "--min-gain", help="what an effect must buy held "
-                                                           "out to be named, mm (default 10 %% of the stated sigma, "
-                                                           "else 1 %% of the error it starts from)"),
+                                                           "out to be named, mm (default 1 %% of the error it starts "
+                                                           "from, at least 10 %% of the stated sigma)"),
                   effects: Optional[str] = typer.Option(None, "--effects", help="the same as --effect, "
                                                         "comma-separated: a,b"),
                   frame: Optional[list[str]] = typer.Option(None, "--frame", help="a measured point (repeatable; "

@@ -113,9 +113,9 @@ def diagnose_cmd(
                                                                   "reaching these points x,y,z[,rx,ry,rz] (mm, rad, "
                                                                   "base frame) under self-weight, calibrated model"),
     min_gain: Optional[float] = typer.Option(None, "--min-gain", help="absolute poses: what an effect must buy "
-                                                                     "held out to be named, mm (default 10 %% of the "
-                                                                     "stated sigma, else 1 %% of the error it starts "
-                                                                     "from)"),
+                                                                     "held out to be named, mm (default 1 %% of the "
+                                                                     "error it starts from, at least 10 %% of the "
+                                                                     "stated sigma)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="print each selection round"),
     suggest: int = typer.Option(0, "--suggest", min=0,
                                 help="write DIR/next_measurements.csv: N (posture, load) rows to measure next"),

@@ -60,8 +60,8 @@ def diagnose(model, data, alpha: float | None = None, effects=None, folds: int |
         groups, or none and ``same_setup`` -- else registered on ``register`` of its poses), the measured
         points fitted.
     kind : the name of the data kind (:mod:`vjm.discrepancy.kinds`); None: the registry recognises the data.
-    min_gain : absolute poses: what an effect must buy held out to be named (mm; None: 10 % of the stated
-        sigma, else 1 % of the error it starts from).
+    min_gain : absolute poses: what an effect must buy held out to be named (mm; None: 1 % of the error it
+        starts from, at least 10 % of the stated sigma).
     progress : called with a line per selection round.
     """
     alpha, folds, max_effects, suggest = check_arguments(alpha, folds, max_effects, suggest)

@@ -79,13 +79,17 @@ class Best(NamedTuple):
 @dataclass(frozen=True)
 class Practical:
     """The practical threshold of a stage's gain: ``absolute`` mm when given, else ``fraction`` of the error the
-    stage starts from."""
+    stage starts from, and at least ``floor`` mm (a part of the instrument's stated sigma: where the model's
+    errors are many times the sigma, the sigma alone would name effects worth a micrometre)."""
 
     absolute: float | None = None
     fraction: float = 0.01
+    floor: float = 0.0
 
     def threshold(self, start: float) -> float:
-        return float(self.absolute) if self.absolute is not None else self.fraction * float(start)
+        if self.absolute is not None:
+            return float(self.absolute)
+        return max(float(self.floor), self.fraction * float(start))
 
 
 @dataclass(frozen=True)
