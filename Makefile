@@ -46,14 +46,15 @@ demo: $(STAMP)
 # Lint and type-check first (seconds), build the docs site (strict: a broken link or a stale reference
 # fails; output in .cache/site), then the suite.  Meanwhile the compiled kernels are compiled once
 # (python -m vjm.kernels, log in .cache/kernels.log), so that the two test workers load them from the
-# cache instead of each compiling them on first use; should that fail, the tests report why.
+# cache instead of each compiling them on first use; should that fail, the tests report why.  One BLAS
+# thread per test worker: two workers on two cores, each with two BLAS threads, wait on each other.
 test: $(STAMP)
 	@mkdir -p .cache
 	$(PY) -m vjm.kernels > .cache/kernels.log 2>&1 & pid=$$!; \
 	$(BIN)/ruff check src tests docs/examples docs/tools && $(BIN)/mypy src && \
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict; rc=$$?; \
 	wait $$pid || cat .cache/kernels.log; exit $$rc
-	DOCS_SITE=$(CURDIR)/.cache/site $(PY) -m pytest -n 2 --dist loadfile --durations=15
+	DOCS_SITE=$(CURDIR)/.cache/site OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -m pytest -n 2 --dist loadfile --durations=15
 
 clean:
 	rm -rf out .cache

@@ -64,7 +64,8 @@ def test_the_ipa_data_pass_and_their_degrees_or_metres_are_refused(tmp_path):
 
 def test_the_joint_limit_warning_is_said_once(tmp_path):
     """19 of the 40 poses beyond j1's limit: one warning for the run, not one per fold and stage."""
-    res = run(Case("40.4", "vjm calibrate r.yaml p.csv --out o --folds 7", "", CAL_FILES), tmp_path)
+    res = run(Case("40.4", "vjm calibrate r.yaml p.csv --out o --folds 7 --effects geometry,compliance", "", CAL_FILES),
+              tmp_path)
     assert res.status == 0, res.stderr
     limits = [ln for ln in res.stderr.splitlines() if "limits" in ln]
     assert len(limits) == 1 and "19 of 40 rows outside the joint limits" in limits[0], res.stderr
