@@ -63,6 +63,15 @@ class Hidden:
     passive: dict = field(default_factory=dict)
 
 
+def ur10_postures(n: int, seed: int) -> np.ndarray:
+    """n random UR10 configurations (rad): every joint over a turn, the upper arm above the base plate (the
+    shoulder lift in [-pi, 0]): large, varied gravity torques."""
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-np.pi, np.pi, (n, 6))
+    q[:, 1] = rng.uniform(-np.pi, 0.0, n)
+    return q
+
+
 def _rotation(w) -> np.ndarray:
     return pin.exp3(np.asarray(w, dtype=float))
 

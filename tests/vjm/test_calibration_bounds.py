@@ -5,11 +5,12 @@ negligible stage against held-out errors refitted fold by fold, the held-out err
 against the refit, and the payload's bound from the model file's rated load."""
 import numpy as np
 import pytest
+from nested import linear
 from scipy.optimize import nnls
 
 from vjm.effects import absolute
 from vjm.stats.fit import interleaved_folds
-from vjm.stats.staged import Nested, Practical, fold_errors, least_squares_fit, select_stages
+from vjm.stats.staged import Practical, fold_errors, least_squares_fit, select_stages
 
 N = 400
 T = np.linspace(-1.0, 1.0, N)
@@ -17,23 +18,6 @@ T = np.linspace(-1.0, 1.0, N)
 
 def noise(seed, n=N):
     return np.random.default_rng(seed).standard_normal(n)
-
-
-def linear(X, y, kinds, folds=0, lower=None, practical=Practical()):
-    """The :class:`Nested` of the linear model y ~ X (blocks ``kinds``, ``nuis`` first), ``lower`` bounds."""
-    def fit(idx, x0, bounds=None):
-        return least_squares_fit(lambda b: X[:, idx] @ b - y, lambda b: X[:, idx], x0, bounds)
-
-    def cv(idx, x, bounds=None):
-        return fold_errors(lambda tr: np.linalg.lstsq(X[tr][:, idx], y[tr], rcond=None)[0],
-                           lambda te, b: (float(np.sum((X[te][:, idx] @ b - y[te]) ** 2)), int(te.sum())),
-                           interleaved_folds(len(y), folds))
-
-    p = X.shape[1]
-    bounds = None if lower is None else (np.asarray(lower, dtype=float), np.full(p, np.inf), np.zeros(p, dtype=bool))
-    return Nested(tuple(f"c{i}" for i in range(p)), tuple(kinds), fit, lambda x, cols: X[:, cols],
-                  lambda idx, x: {}, y.size, y.size, "base", ("nuis",), cv=cv if folds else None, bounds=bounds,
-                  practical=practical)
 
 
 def test_the_bounded_fit_is_the_non_negative_least_squares():

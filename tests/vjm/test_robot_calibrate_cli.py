@@ -44,15 +44,8 @@ def names():
         return vjm.load_model(UR10).q_names
 
 
-def _q(n, seed):
-    rng = np.random.default_rng(seed)
-    q = rng.uniform(-np.pi, np.pi, (n, 6))
-    q[:, 1] = rng.uniform(-np.pi, 0.0, n)
-    return q
-
-
 def _write(path, names, hidden, n, seed):
-    q = _q(n, seed)
+    q = truth.ur10_postures(n, seed)
     p = truth.measure(URDF, "tool0", names, q, hidden, np.random.default_rng(seed + 100))
     head = ";".join([f"J{i}" for i in range(6)] + ["X", "Y", "Z"])
     rows = [";".join(f"{v:.12f}".replace(".", ",") for v in np.r_[np.degrees(a), b / 1000.0]) for a, b in zip(q, p)]

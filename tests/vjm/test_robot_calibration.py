@@ -29,13 +29,6 @@ def model():
         return vjm.load_model(RIGID)   # the model pinocchio's truth simulates: the URDF, rigid
 
 
-def _q(n, seed):
-    rng = np.random.default_rng(seed)
-    q = rng.uniform(-np.pi, np.pi, (n, 6))
-    q[:, 1] = rng.uniform(-np.pi, 0.0, n)   # the upper arm above the base plate: large, varied gravity torques
-    return q
-
-
 def _data(model, hidden, q, seed, group="A"):
     pts = truth.measure(URDF, "tool0", model.q_names, q, hidden, np.random.default_rng(seed))
     return AbsolutePoses(tuple(model.q_names), q, {"tool0": pts}, group=np.full(len(q), group, dtype=object))
@@ -53,7 +46,7 @@ CLEAN = truth.Hidden(R=INSTRUMENT[0], t=INSTRUMENT[1], marker=MARKER, sigma=SIGM
 
 @pytest.fixture(scope="module")
 def hidden_fit(model):
-    data = _data(model, HIDDEN, _q(300, 1), 2)
+    data = _data(model, HIDDEN, truth.ur10_postures(300, 1), 2)
     return data, calibrate(model, data, "tool0")
 
 
@@ -82,11 +75,11 @@ def test_hidden_effects_are_named_and_recovered(model, hidden_fit):
 
 def test_calibrated_model_predicts_held_out_poses(model, hidden_fit):
     _, cal = hidden_fit
-    q = _q(150, 4)
+    q = truth.ur10_postures(150, 4)
     exact = _data(model, truth.Hidden(**{**HIDDEN.__dict__, "sigma": 0.0}), q, 5)
     e = position_errors(cal, exact)
     assert np.max(e) < 3 * SIGMA
-    reg_only = calibrate(model, _data(model, HIDDEN, _q(300, 1), 2), "tool0", effects=())
+    reg_only = calibrate(model, _data(model, HIDDEN, truth.ur10_postures(300, 1), 2), "tool0", effects=())
     assert np.mean(position_errors(reg_only, exact)) > 0.3   # the hidden effects are mm-sized: the test has teeth
 
 
@@ -104,7 +97,7 @@ def test_instrument_frame_and_marker_are_recovered(hidden_fit):
 
 
 def test_clean_data_give_registration_only(model):
-    data = _data(model, CLEAN, _q(300, 6), 7)
+    data = _data(model, CLEAN, truth.ur10_postures(300, 6), 7)
     cal = calibrate(model, data, "tool0", effects=("geometry", "compliance", "payload"))
     assert [s.name for s in cal.stages if s.kept] == ["registration"]
     assert set(cal.robot_values()) == set()
@@ -118,7 +111,7 @@ def test_a_new_set_up_is_registered_with_the_robot_frozen(model, hidden_fit):
     _, cal = hidden_fit
     R2 = rotation_matrix([-0.1, 0.4, -1.0])
     moved = truth.Hidden(**{**HIDDEN.__dict__, "R": R2, "t": np.array([-500.0, 2500.0, -100.0])})
-    q = _q(60, 8)
+    q = truth.ur10_postures(60, 8)
     few, rest = _data(model, moved, q[:12], 9, "B"), _data(model, moved, q[12:], 10, "B")
     cal2 = register(cal, few)
     assert cal2.robot_values() == cal.robot_values()
@@ -136,7 +129,7 @@ def test_one_pass_jacobian_matches_central_differences():
         warnings.simplefilter("ignore")
         model = vjm.load_model(os.path.join(ROOT, "data", "robots", "ur10", "ur10.yaml"))
     rng = np.random.default_rng(11)
-    q = _q(40, 12)
+    q = truth.ur10_postures(40, 12)
     d = AbsolutePoses(tuple(model.q_names), q, {"tool0": np.zeros((40, 3))},
                       group=np.array(["A"] * 20 + ["B"] * 20, dtype=object))
     frames = {"A": (rotation_matrix([0.1, 0.2, 0.3]), np.ones(3)), "B": (np.eye(3), np.zeros(3))}
@@ -152,7 +145,7 @@ def test_one_pass_jacobian_matches_central_differences():
 
 def test_a_payload_at_the_marker_is_weighed_through_the_compliances(model):
     hidden = truth.Hidden(**{**HIDDEN.__dict__, "payload": 5.0})
-    data = _data(model, hidden, _q(200, 13), 14)
+    data = _data(model, hidden, truth.ur10_postures(200, 13), 14)
     cal = calibrate(model, data, "tool0", effects=("geometry", "compliance", "payload"))
     assert [s.kept for s in cal.stages] == [True, True, True, True]
     m, s = cal.values["payload.mass"], cal.std["payload.mass"]
@@ -160,7 +153,7 @@ def test_a_payload_at_the_marker_is_weighed_through_the_compliances(model):
     for j in ("shoulder_lift_joint", "elbow_joint"):
         c, sc = cal.values[f"{j}.compliance"] * 1000, cal.std[f"{j}.compliance"] * 1000
         assert abs(c - HIDDEN.compliance[j]) < 4 * sc
-    exact = _data(model, truth.Hidden(**{**hidden.__dict__, "sigma": 0.0}), _q(100, 15), 16)
+    exact = _data(model, truth.Hidden(**{**hidden.__dict__, "sigma": 0.0}), truth.ur10_postures(100, 15), 16)
     assert np.max(position_errors(cal, exact)) < 3 * SIGMA
 
 
@@ -201,12 +194,12 @@ def test_the_calibrated_urdf_reproduces_the_calibrated_positions_in_pinocchio(mo
 
 
 def test_cross_validation_keeps_what_predicts_held_out_rows(model):
-    clean = calibrate(model, _data(model, CLEAN, _q(150, 17), 18), "tool0", folds=3)
+    clean = calibrate(model, _data(model, CLEAN, truth.ur10_postures(150, 17), 18), "tool0", folds=3)
     st = clean.stages[0]
     # noise only: the held-out folds' RMS is the noise's (sigma sqrt(3) per point), a little above the fit's
     assert st.rms < st.cv_rms < 1.15 * SIGMA * np.sqrt(3)
     assert [s.name for s in clean.stages if s.kept] == ["registration"]
-    cal = calibrate(model, _data(model, HIDDEN, _q(150, 19), 20), "tool0", folds=3)
+    cal = calibrate(model, _data(model, HIDDEN, truth.ur10_postures(150, 19), 20), "tool0", folds=3)
     cv = [s.cv_rms for s in cal.stages]
     assert [s.kept for s in cal.stages] == [True, True, True] and cv[0] > cv[1] > cv[2]
     assert cv[2] < 1.3 * SIGMA * np.sqrt(3)

@@ -4,10 +4,11 @@ from projections and the regularised incomplete beta function, the leave-one-out
 matrix (PRESS), the standard errors from ``s^2 (X^T X)^-1``."""
 import numpy as np
 import pytest
+from nested import linear
 from scipy.special import betainc
 
 from vjm.stats.fit import cross_validated, f_test, interleaved_folds
-from vjm.stats.staged import Nested, fold_errors, forward_stages, identifiable, least_squares_fit, select_stages
+from vjm.stats.staged import Nested, forward_stages, identifiable, least_squares_fit, select_stages
 
 N = 90
 T = np.linspace(-1.0, 1.0, N)
@@ -99,20 +100,6 @@ def test_k_fold_rms_is_that_of_an_explicit_loop_over_every_kth_row():
         sq += sum((y[i] - X[i] @ b) ** 2 for i in test)
     assert rms == pytest.approx(np.sqrt(sq / N), rel=1e-9)
     assert np.isnan(cross_validated(None, None, []))
-
-
-def linear(X, y, kinds, folds=0):
-    """The :class:`Nested` of the linear model y ~ X, its columns in the blocks ``kinds`` (``nuis`` first)."""
-    def fit(idx, x0, bounds=None):
-        return least_squares_fit(lambda b: X[:, idx] @ b - y, lambda b: X[:, idx], x0, bounds)
-
-    def cv(idx, x, bounds=None):
-        return fold_errors(lambda tr: np.linalg.lstsq(X[tr][:, idx], y[tr], rcond=None)[0],
-                           lambda te, b: (float(np.sum((X[te][:, idx] @ b - y[te]) ** 2)), int(te.sum())),
-                           interleaved_folds(len(y), folds))
-
-    return Nested(tuple(f"c{i}" for i in range(X.shape[1])), tuple(kinds), fit, lambda x, cols: X[:, cols],
-                  lambda idx, x: {}, y.size, y.size, "base", ("nuis",), cv=cv if folds else None)
 
 
 def test_stages_are_kept_by_their_f_test_and_combinations_removed():

@@ -45,13 +45,6 @@ def names():
         return vjm.load_model(UR10).q_names
 
 
-def _q(n, seed):
-    rng = np.random.default_rng(seed)
-    q = rng.uniform(-np.pi, np.pi, (n, 6))
-    q[:, 1] = rng.uniform(-np.pi, 0.0, n)
-    return q
-
-
 def _write(path, names, q, p, group=None, sigma=None):
     """vjm's own names: joints (rad), tool0.x/y/z (mm), optional group and sigma columns."""
     head = list(names) + ["tool0.x", "tool0.y", "tool0.z"] + (["group"] if group else []) + (
@@ -66,13 +59,13 @@ def files(tmp_path_factory, names):
     """One set-up measured at FIT + HELD poses, split into a calibration and a test file (without a group
     column, and with one naming the set-up); 50 poses of another set-up (a group of its own)."""
     d = tmp_path_factory.mktemp("setup")
-    q = _q(FIT + HELD, 1)
+    q = truth.ur10_postures(FIT + HELD, 1)
     p = truth.measure(URDF, "tool0", names, q, HIDDEN, np.random.default_rng(101))
     _write(d / "fit.csv", names, q[:FIT], p[:FIT])
     _write(d / "test.csv", names, q[FIT:], p[FIT:])
     _write(d / "fit_g.csv", names, q[:FIT], p[:FIT], "tracker", SIGMA)
     _write(d / "test_g.csv", names, q[FIT:], p[FIT:], "tracker", SIGMA)
-    qo = _q(50, 2)
+    qo = truth.ur10_postures(50, 2)
     _write(d / "other.csv", names, qo, truth.measure(URDF, "tool0", names, qo, MOVED, np.random.default_rng(102)),
            "moved")
     return d, q, p, qo
