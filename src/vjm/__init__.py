@@ -25,13 +25,14 @@ from .stiffness.linear import StiffnessResult
 
 __all__ = ["VjmError", "EquilibriumError", "Model", "Actuator", "LinkSpring", "Joints", "StiffnessResult",
            "StiffnessMap", "JointMap", "CartesianMap", "Diagnosis", "PathResult", "Compensation",
-           "load_model", "save_model", "with_links", "diagnose", "path"]
+           "load_model", "save_model", "with_links", "diagnose", "path", "design", "DesignResult"]
 
 #: what the verbs return, imported on first use (matplotlib, scipy): name -> (module, attribute)
 _LAZY = {"path": ("toolpath.dispatch", "path"), "PathResult": ("toolpath.result", "PathResult"),
          "StiffnessMap": ("maps.compute", "StiffnessMap"), "JointMap": ("maps.robot_joint", "JointMap"),
          "CartesianMap": ("maps.robot_cartesian", "CartesianMap"), "Diagnosis": ("discrepancy.diagnosis", "Diagnosis"),
-         "Compensation": ("compensation", "Compensation")}
+         "Compensation": ("compensation", "Compensation"),
+         "design": ("synthesis.run", "design"), "DesignResult": ("synthesis.result", "DesignResult")}
 
 
 def __dir__():

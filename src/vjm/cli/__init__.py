@@ -1,5 +1,5 @@
 """``vjm`` command line, one module per command (in meshio's style): ``stiffness``, ``map``, ``table1``,
-``sweep``, ``calibrate``, ``compensate``, ``diagnose``, ``simulate``, ``path``.
+``sweep``, ``calibrate``, ``compensate``, ``diagnose``, ``simulate``, ``path``, ``design``.
 
 Each module holds its command's function; this one builds the typer ``app`` and registers them.  Every
 command turns a user error into one ``error:`` line on stderr and exit status 2 (:mod:`.common`).
@@ -12,7 +12,7 @@ import typer
 
 from linkfea.runtime.clirun import HELP_SETTINGS, version_option
 
-from . import calibrate, compensate, diagnose, map, path, simulate, stiffness, sweep, table1
+from . import calibrate, compensate, design, diagnose, map, path, simulate, stiffness, sweep, table1
 
 app = typer.Typer(add_completion=False, **HELP_SETTINGS,
                   help="Stiffness, deflection, diagnosis and calibration of robots by the virtual-joint method: "
@@ -38,6 +38,7 @@ app.command("compensate")(compensate.compensate_cmd)
 app.command("diagnose")(diagnose.diagnose_cmd)
 app.command("simulate")(simulate.simulate_cmd)
 app.command("path")(path.path_cmd)
+app.command("design")(design.design_cmd)
 
 
 def main(argv=None) -> int:

@@ -1,0 +1,137 @@
+"""vjm design: the search reaches a closed-form optimum, reports only verified designs, and is reproducible.
+
+The truth is tests/truth_design.py (Timoshenko's cantilever written out, not linkfea's beam module);
+the links here are closed-form beams, which go through the same spec, search and verification as
+FEA links (tests/vjm/test_design_fea.py runs FEA links).
+"""
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from truth_design import lightest_square, write_arm
+
+import vjm
+from linkfea.mechanics.materials import get_material
+from vjm.synthesis.links import beam_sample
+from vjm.synthesis.machine import load_machine
+from vjm.synthesis.spec import parse_spec
+
+PUU = Path(__file__).resolve().parents[2] / "data" / "orthoglide" / "puu.yaml"
+L_ARM = 400.0
+TARGET = 0.02  # mm/N
+
+
+def _spec(tmp_path, doc, name="spec.yaml"):
+    p = tmp_path / name
+    p.write_text(yaml.safe_dump(doc))
+    return p
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory):
+    d = tmp_path_factory.mktemp("arm")
+    model = write_arm(d, L_ARM)
+    doc = {"machine": model, "links": {"arm": {"beam": {"section": "rect", "length": L_ARM, "material": "aluminium"},
+                                               "free": {"width": [5, 60], "height": [5, 60]}}},
+           "constraints": {"k_tran_max": TARGET}, "joints": {"j1": [-1.0, 1.0]}, "joint_grid": 3,
+           "budget": 30, "seed": 3}
+    spec = _spec(d, doc)
+    return spec, vjm.design(spec, d / "out")
+
+
+def test_the_one_link_arm_reaches_the_closed_form_optimum(arm):
+    spec, res = arm
+    al = get_material("aluminium")
+    s = lightest_square(L_ARM, al.E, al.nu, TARGET)
+    m_true = al.density * s * s * L_ARM * 1000.0
+    assert res.feasible
+    assert res.moving_mass_kg == pytest.approx(m_true, rel=0.01)
+    assert res.moving_mass_kg >= m_true * (1 - 1e-6)          # nothing feasible is lighter than the optimum
+    assert res.k_tran_max <= TARGET
+    p = res.parameters["arm"]
+    assert p["width"] == pytest.approx(s, rel=0.03) and p["height"] == pytest.approx(s, rel=0.03)
+    assert res.fea_runs <= 30
+
+
+def test_the_reported_design_is_verified_and_nothing_evaluated_is_lighter(arm):
+    spec, res = arm
+    doc = json.loads((spec.parent / "out" / "design.json").read_text())
+    assert doc["schema"] == "vjm.design/1" and doc["feasible"] and doc["fea_runs"] == len(doc["history"])
+    s = parse_spec(yaml.safe_load(spec.read_text()), str(spec))
+    machine = load_machine(s)
+    link = s.links[0]
+    lighter = []
+    for h in doc["history"]:
+        b = beam_sample(link, h["params"])   # every evaluated design, recomputed
+        v = machine.values({"arm": b.compliance})
+        if v["k_tran_max"] <= TARGET and b.mass < doc["moving_mass_kg"] * (1 - 1e-12):
+            lighter.append(h)
+    assert not lighter
+    b = beam_sample(link, doc["parameters"]["arm"])
+    assert b.mass == pytest.approx(doc["moving_mass_kg"], rel=1e-12)
+    assert machine.values({"arm": b.compliance})["k_tran_max"] == pytest.approx(doc["k_tran_max"], rel=1e-12)
+    c = doc["constraints"][0]
+    assert c["slack"] == pytest.approx(TARGET - doc["k_tran_max"], rel=1e-9) and c["error_bar"] == 0.0
+    for name in ("convergence.png", "report.html", "optimum_arm.json"):
+        assert (spec.parent / "out" / name).is_file()
+
+
+def test_the_same_spec_and_seed_give_the_same_answer(arm, tmp_path):
+    spec, res = arm
+    again = vjm.design(spec)
+    assert again.parameters == res.parameters and again.history == res.history
+    other = vjm.design(spec, seed=11)
+    assert other.feasible and other.moving_mass_kg == pytest.approx(res.moving_mass_kg, rel=0.01)
+
+
+def _puu_beams(tmp_path, budget=40, **extra):
+    doc = {"machine": str(PUU),
+           "links": {"foot": {"beam": {"section": "rect", "length": 50, "material": "aluminium"},
+                              "free": {"width": [20, 100], "height": [4, 30]}},
+                     "leg": {"beam": {"section": "rect", "length": 310, "material": "aluminium"},
+                             "free": {"width": [8, 40], "height": [4, 20]}}},
+           "constraints": {"k_tran_max": 0.015}, "grid": 5, "budget": budget, **extra}
+    return _spec(tmp_path, doc)
+
+
+def test_a_parallel_machine_of_beams_beats_a_grid_of_its_closed_form(tmp_path):
+    """Both links free: the verified optimum is lighter than every feasible point of a 6^4 grid of the closed form."""
+    spec = _puu_beams(tmp_path)
+    res = vjm.design(spec)
+    assert res.feasible and res.k_tran_max <= 0.015 and res.fea_runs <= 40
+    s = parse_spec(yaml.safe_load(spec.read_text()), str(spec))
+    machine = load_machine(s)
+    foot, leg = s.links
+    axes = [np.geomspace(p.lo, p.hi, 6) for link in s.links for p in link.free]
+    best = np.inf
+    feet = {(a, b): beam_sample(foot, {"width": a, "height": b}) for a in axes[0] for b in axes[1]}
+    legs = {(a, b): beam_sample(leg, {"width": a, "height": b}) for a in axes[2] for b in axes[3]}
+    for f, g in itertools.product(feet.values(), legs.values()):
+        m = 3 * f.mass + 3 * g.mass
+        if m < best and machine.values({"foot": f.compliance, "leg": g.compliance})["k_tran_max"] <= 0.015:
+            best = m
+    assert res.moving_mass_kg <= best
+
+
+def test_an_unreachable_target_is_an_answer(tmp_path):
+    spec = _puu_beams(tmp_path, budget=16)
+    res = vjm.design(spec, tmp_path / "out", targets=[1e-4])
+    assert not res.feasible
+    assert res.message.startswith("no design within the bounds reaches k_tran_max <= 0.0001 mm/N; the stiffest found is")
+    assert "(upper)" in res.message           # the stiffest design sits at upper bounds
+    doc = json.loads((tmp_path / "out" / "design.json").read_text())
+    assert doc["feasible"] is False and doc["front"][0]["feasible"] is False
+
+
+def test_the_front_shares_its_designs_and_grows_heavier_as_the_target_tightens(tmp_path):
+    spec = _puu_beams(tmp_path, budget=40)
+    res = vjm.design(spec, tmp_path / "out", targets=[0.03, 0.015, 0.01])
+    masses = [r["moving_mass_kg"] for r in sorted(res.front, key=lambda r: -r["target"])]
+    assert all(r["feasible"] and r["k_tran_max"] <= r["target"] for r in res.front)
+    assert masses == sorted(masses) and masses[0] < masses[-1]
+    assert res.fea_runs <= 40
+    text = (tmp_path / "out" / "front.csv").read_text().splitlines()
+    assert text[0].startswith("target,feasible,moving_mass_kg") and len(text) == 4
