@@ -215,6 +215,9 @@ HEX_POSES = ("A1.l,A2.l,A3.l,B1.l,B2.l,B3.l,platform.x,platform.y,platform.z\n" 
 # ------------------------------------------------------------------ units, ranges and malformed URDFs (issue 40)
 
 #: the two-joint arm with its joints off the z axis: the point l2 moves with j1 (a circle of radius 300 mm)
+#: a design spec of the 3-PUU's leg bar: {free} its free parameters, {rest} more top-level lines
+DESIGN = ("machine: " + str(PLACES["puu"]) + "\nlinks:\n  leg:\n    cad: parallelogram_bar\n    fixed: {{boss_height: 20}}\n"
+          "    free: {free}\nconstraints: {{k_tran_max: 0.015}}\n{rest}")
 ARM_X = ARM.replace('<origin xyz="0 0 0.3"/>', '<origin xyz="0.3 0 0.1"/>')
 
 
@@ -798,6 +801,24 @@ CASES = [
     Case("38.0", "vjm stiffness d.yaml --q 0", "dh.frames.m.at: no frame 'link7'; frames: tool, link1",
          {"d.yaml": "dh:\n  joints:\n    - {name: a, a: 100}\n  frames:\n    m: {at: link7}\n"},
          "a DH table whose frame m is fixed to a frame it does not have"),
+    # 39.7: vjm design refuses a bad spec before any FEA
+    Case("39.7", "vjm design s.yaml --out o", "parallelogram_bar.py has no parameter 'thickness'",
+         {"s.yaml": DESIGN.format(free="{thickness: [1, 2]}", rest="")}, "s.yaml: a free parameter the script lacks"),
+    Case("39.7", "vjm design s.yaml --out o", "the bounds [24, 8] are reversed",
+         {"s.yaml": DESIGN.format(free="{width: [24, 8]}", rest="")}, "s.yaml: width: [24, 8]"),
+    Case("39.7", "vjm design s.yaml --out o", "does not build at the corner boss_height=20, width=30, height=8",
+         {"s.yaml": DESIGN.format(free="{width: [8, 30], height: [8, 16]}", rest="")},
+         "s.yaml: width up to 30 mm, wider than the 24 mm bosses"),
+    Case("39.7", "vjm design s.yaml --out o", "constraint sag_max: a parallel model cannot give it",
+         {"s.yaml": DESIGN.format(free="{width: [8, 24]}", rest="").replace("k_tran_max: 0.015", "sag_max: 0.5")},
+         "s.yaml: a self-weight sag limit on a parallel machine"),
+    Case("39.7", "vjm design s.yaml --out o", "budget: 3 runs is below the search's minimum of 4",
+         {"s.yaml": DESIGN.format(free="{width: [8, 24]}", rest="budget: 3\n")}, "s.yaml: budget: 3"),
+    Case("39.7", "vjm design s.yaml --out o", "has no link 'arm'; its links: foot, leg",
+         {"s.yaml": DESIGN.format(free="{width: [8, 24]}", rest="").replace("  leg:", "  arm:")},
+         "s.yaml: a link named arm"),
+    Case("39.7", "vjm design s.yaml --out o --targets 0.01,x", "--targets expects k_tran_max limits",
+         {"s.yaml": DESIGN.format(free="{width: [8, 24]}", rest="")}, "a target that is not a number"),
 ]
 
 

@@ -135,3 +135,35 @@ def test_the_front_shares_its_designs_and_grows_heavier_as_the_target_tightens(t
     assert res.fea_runs <= 40
     text = (tmp_path / "out" / "front.csv").read_text().splitlines()
     assert text[0].startswith("target,feasible,moving_mass_kg") and len(text) == 4
+
+
+def test_a_robot_s_arm_tubes_under_a_sag_limit(tmp_path):
+    """data/design/ur10_arms.yaml: the answer, written back into the UR10's model file as plain beams and read
+    by the model reader, sags at most the limit over the joint grid; every lighter evaluated pair sags more."""
+    root = Path(__file__).resolve().parents[2]
+    res = vjm.design(root / "data" / "design" / "ur10_arms.yaml", budget=12)
+    assert res.feasible and res.fea_runs <= 12
+
+    src = yaml.safe_load((root / "data" / "robots" / "ur10" / "ur10.yaml").read_text())
+    q = []
+    for a in (-2.0, -1.3, -0.6):
+        for b in (0.4, 1.3, 2.2):
+            x = list(src["home"])
+            x[1], x[2] = a, b
+            q.append(x)
+
+    def sag(params):
+        doc = dict(src, urdf=str(root / "data" / "robots" / "ur10" / "ur10.urdf"))
+        doc["links"] = {k: dict(v, beam={**v["beam"], **params[k]}) for k, v in src["links"].items()}
+        p = tmp_path / "r.yaml"
+        p.write_text(yaml.safe_dump(doc))
+        return float(np.max(np.linalg.norm(np.asarray(vjm.load_model(p).self_weight(np.array(q)))[:, :3], axis=1)))
+
+    assert sag(res.parameters) == pytest.approx(res.constraints[0].value, rel=1e-9)
+    assert sag(res.parameters) <= 1.5
+    by_link = {}
+    for h in res.history:
+        by_link.setdefault(h["link"], []).append(h)
+    lighter = [(a, b) for a in by_link["upper_arm"] for b in by_link["forearm"]
+               if a["mass_kg"] + b["mass_kg"] < res.moving_mass_kg * (1 - 1e-12)]
+    assert lighter and all(sag({"upper_arm": a["params"], "forearm": b["params"]}) > 1.5 for a, b in lighter[:6])

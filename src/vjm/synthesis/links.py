@@ -196,10 +196,17 @@ class LinkRunner:
             name, (link, ps) = next(iter(fea.items()))
             res[name] = self._fea(link, ps)
         elif fea:
-            with ThreadPoolExecutor(len(fea)) as pool:  # one Dask client: the links' designs share the workers
+            pool = ThreadPoolExecutor(len(fea))  # one Dask client: the links' designs share the workers
+            try:
                 futures = {name: pool.submit(self._fea, link, ps) for name, (link, ps) in fea.items()}
                 for name, f in futures.items():
                     res[name] = f.result()
+            except KeyboardInterrupt:
+                # Ctrl-C reaches this thread only: closing the client cancels the FEA the other threads wait on
+                self.close()
+                raise
+            finally:
+                pool.shutdown(wait=False, cancel_futures=True)
         return {name: res.get(name, []) for name in batches}
 
     def close(self) -> None:

@@ -104,7 +104,7 @@ def _message(o: Outcome, mass: float, vals: dict, active: tuple) -> str:
     if o.feasible:
         return f"the lightest verified design meets every constraint: {mass:.4g} kg"
     c = max(o.constraints, key=lambda c: vals[c.label] / c.limit)
-    bounds = " and ".join(active) if active else "none"
+    bounds = "none" if not active else active[0] if len(active) == 1 else ", ".join(active[:-1]) + " and " + active[-1]
     return (f"no design within the bounds reaches {c.label} <= {c.limit:g} {UNITS[c.quantity]}; the stiffest "
             f"found is {vals[c.label]:.4g} at {mass:.4g} kg; the active bounds are {bounds}")
 
