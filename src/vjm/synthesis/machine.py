@@ -82,6 +82,21 @@ class Machine:
                 out[c.label] = self._map(m, pts)[0 if c.quantity == "k_tran_max" else 1]
         return out
 
+    def reduced(self, comps: dict, n: int = 48) -> "Machine":
+        """This machine on fewer points: per quantity of the grid, the ``n`` nearest to their limits with the
+        links ``comps``.  A search near those links screens its candidates on them (the worst case sits
+        there); its answer is always checked on the whole grid."""
+        if len(self.points) <= 2 * n:
+            return self
+        m = self.with_links(comps)
+        kt, kr = self._arrays(m, self.kin if self.kin is not None else self.points)
+        idx = np.union1d(np.argsort(kt)[-n:], np.argsort(kr)[-n:])
+        if any(c.quantity == "sag_max" and c.poses is None for c in self.spec.constraints):
+            sag = np.linalg.norm(np.asarray(m.self_weight(self.points))[:, :3], axis=1)
+            idx = np.union1d(idx, np.argsort(sag)[-n:])
+        P = self.points[idx]
+        return Machine(self.model, self.spec, P, self.model.kinematics(P) if self.kind == "parallel" else None)
+
     def _map(self, m, pts) -> tuple:
         kt, kr = self._arrays(m, pts)
         worst = lambda k: float(np.max(k)) if np.all(np.isfinite(k)) else float("inf")  # noqa: E731

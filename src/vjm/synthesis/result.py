@@ -126,13 +126,17 @@ def convergence_png(res: DesignResult) -> bytes:
     ax1.scatter(runs, [r["mass_kg"] for r in res.rounds], c=["C0" if r["feasible"] else "C3" for r in res.rounds],
                 s=16, zorder=3)
     ax1.set_ylabel("incumbent mass (kg)")
-    ax1.set_title("red: no feasible design yet (the one nearest to feasible)", fontsize=8)
+    if not all(r["feasible"] for r in res.rounds):
+        ax1.set_title("red: no feasible design yet (the one nearest to feasible)", fontsize=8)
     c = res.constraints[0]
     key = c.quantity + ("" if c.poses is None else f" at {len(c.poses)} poses")
     ax2.step(runs, [r.get(key, float("nan")) for r in res.rounds], where="post", color="C1")
     ax2.axhline(c.limit, color="0.4", ls="--", lw=1, label=f"limit {c.limit:g}")
     ax2.set_ylabel(f"{c.quantity} ({c.units})")
     ax2.set_xlabel("runs (link designs evaluated)")
+    from matplotlib.ticker import MaxNLocator
+
+    ax2.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax2.legend(fontsize=8)
     fig.tight_layout()
     return _png(fig)

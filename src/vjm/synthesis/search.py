@@ -34,8 +34,14 @@ from .surrogate import LinkSurrogate
 
 #: relative mass gain below which the surrogates' proposal does not earn another round
 RTOL = 1e-3
+#: the neighbourhood (unit coordinates) of the first exploring round; each one halves it, down to R_MIN
+R_START = 0.2
+R_MIN = 0.02
+#: an exploring candidate may be predicted this much heavier than the incumbent (near a local optimum of
+#: the surrogates, nothing predicted feasible is lighter: what is learnt is on the boundary beside it)
+EXPLORE_MASS = 0.01
 #: candidates drawn per round (a power of two: a balanced Sobol sequence)
-POOL = 256
+POOL = 128
 #: combinations of evaluated designs checked exactly per round at most (the rest: with the incumbent's links)
 MAX_COMBOS = 4000
 #: points (of the grids and poses) constrained one by one in the gradient search: the nearest to their limits
@@ -165,7 +171,7 @@ class Search:
     def run(self, cons: tuple) -> Outcome:
         """Rounds until converged or out of budget, for the constraints ``cons``."""
         out = Outcome(cons, None, False, "")
-        margin, rnd = 0.0, 0
+        margin, rnd, radius = 0.0, 0, R_START
         while True:
             rnd += 1
             inc = self.best(cons, out.best)
@@ -180,13 +186,24 @@ class Search:
                 out.reason = "the surrogates found no candidate"
                 break
             params, pmass, pg = prop
-            if inc_ok and pmass >= inc.mass * (1.0 - RTOL):
-                out.reason = "converged: the surrogates predict nothing lighter"
-                break
             new = {n: [p] for n, p in params.items() if self._known(n, p) is None}
-            if not new:
-                out.reason = "converged: the proposed design was evaluated already"
-                break
+            if (inc_ok and pmass >= inc.mass * (1.0 - RTOL)) or not new:
+                # the surrogates see nothing lighter: look around the incumbent where they know least,
+                # in a shrinking neighbourhood, before calling it converged
+                reason = "converged: the surrogates predict nothing lighter" if new else \
+                    "converged: the proposed design was evaluated already"
+                prop = None
+                while prop is None and radius >= R_MIN:
+                    prop = propose(self, cons, margin, rnd, inc, radius) if inc_ok else None
+                    radius /= 2.0
+                    if prop is not None:
+                        params = prop[0]
+                        new = {n: [p] for n, p in params.items() if self._known(n, p) is None}
+                        prop = prop if new else None
+                if prop is None:
+                    out.reason = reason
+                    break
+                pg = prop[2]
             if self.runs + len(new) > self.spec.fea_runs:
                 out.reason = f"budget: {self.spec.fea_runs} runs"
                 break
@@ -218,8 +235,12 @@ def _slices(links) -> list:
     return out
 
 
-def propose(search: Search, cons: tuple, margin: float, rnd: int, inc: Combo):
+def propose(search: Search, cons: tuple, margin: float, rnd: int, inc: Combo, radius: float | None = None):
     """The lightest machine the surrogates predict feasible (with ``margin`` in log units), or the stiffest.
+
+    With ``radius``, an exploring proposal instead: within ``radius`` (unit coordinates) of the incumbent,
+    predicted feasible and at most EXPLORE_MASS heavier than it, the candidate that best balances a low predicted mass and a
+    large distance from the links' evaluated designs (where the surrogates know least); None if there is none.
 
     Returns ``({link: params}, predicted mass, predicted violation)`` of the snapped design, or None."""
     from scipy.optimize import minimize
@@ -246,29 +267,40 @@ def propose(search: Search, cons: tuple, margin: float, rnd: int, inc: Combo):
             mass += k * float(m[0])
         return comps, mass
 
-    def viol(u):
+    here = np.concatenate([link.unit(next(s for s in search.samples[link.name] if s.key == k).params)
+                           for link, k in zip(links, inc.keys)])
+    # candidates are screened on the points that bind near the incumbent, the answer on the whole grid
+    near = search.machine.reduced(predict(here)[0])
+
+    def viol(u, machine=near):
         comps, _ = predict(np.clip(u, 0.0, 1.0))
-        v = search.machine.values(comps)
+        v = machine.values(comps)
         return max(np.log(v[c.label] / c.limit) if np.isfinite(v[c.label]) else 50.0 for c in cons)
 
     def mass(u):
         return predict(np.clip(u, 0.0, 1.0))[1]
 
     def pointwise(u):
-        return search.machine.pointwise(predict(np.clip(u, 0.0, 1.0))[0], cons)
+        return near.pointwise(predict(np.clip(u, 0.0, 1.0))[0], cons)
 
     pool = qmc.Sobol(d=dim, rng=np.random.default_rng([search.spec.seed, 1000 + rnd])).random(POOL)
-    here = np.concatenate([link.unit(next(s for s in search.samples[link.name] if s.key == k).params)
-                           for link, k in zip(links, inc.keys)])
+    if radius is not None:
+        pool = np.clip(here + radius * (2.0 * pool - 1.0), 0.0, 1.0)
     pool = np.vstack([here[None, :], pool])
     g = np.array([viol(u) for u in pool])
     m = np.array([mass(u) for u in pool])
+    if radius is not None:
+        got = _explore(search, links, sl, pool, g, m, margin, inc)
+        return None if got is None else (got[0], got[2], viol(got[1], search.machine))
     feas = np.flatnonzero(g <= -margin)
     bounds = [(0.0, 1.0)] * dim
     opts = {"maxiter": 100, "ftol": 1e-10, "eps": 1e-6}
     results = []
     if len(feas):
-        for i in feas[np.argsort(m[feas], kind="stable")][:3]:
+        starts = [int(i) for i in feas[np.argsort(m[feas], kind="stable")][:2]]
+        if 0 in feas and 0 not in starts:  # the incumbent too: its surrogate is exact there
+            starts.append(0)
+        for i in starts:
             # the worst case over the points is not smooth where the worst point changes: the points
             # nearest to their limit at the start are constrained one by one instead
             top = np.argsort(pointwise(pool[i]))[-ACTIVE:]
@@ -281,13 +313,34 @@ def propose(search: Search, cons: tuple, margin: float, rnd: int, inc: Combo):
             r = minimize(viol, pool[i], method="SLSQP", bounds=bounds, options=opts)
             for u in (r.x, pool[i]):
                 results.append(_snapped(links, sl, u))
-    scored = [(params, u, mass(u), viol(u)) for params, u in results]
+    scored = [(params, u, mass(u), viol(u, search.machine)) for params, u in results]
     good = [x for x in scored if x[3] <= -margin + 1e-9]
     if good:
         params, u, pm, pg = min(good, key=lambda x: x[2])
     else:
         params, u, pm, pg = min(scored, key=lambda x: x[3])
     return params, pm, pg
+
+
+def _explore(search: Search, links, sl, pool, g, m, margin: float, inc: Combo):
+    """The exploring choice among ``pool`` (see :func:`propose`): equal weights on the predicted mass and the
+    distance (both scaled to [0, 1] over the eligible candidates), as in stochastic RBF methods."""
+    ok = np.flatnonzero((g <= -margin) & (m <= inc.mass * (1.0 + EXPLORE_MASS)))
+    ok = ok[ok > 0]  # not the incumbent itself
+    if not len(ok):
+        return None
+    dist = np.zeros(len(ok))
+    for link, part in zip(links, sl):
+        U = np.array([link.unit(x.params) for x in search.samples[link.name]])
+        dist += np.min(np.linalg.norm(pool[ok][:, None, part] - U[None, :, :], axis=2), axis=1)
+
+    def scaled(x):
+        span = np.ptp(x)
+        return (x - x.min()) / span if span > 0 else np.zeros_like(x)
+
+    i = ok[int(np.argmin(0.5 * scaled(m[ok]) + 0.5 * scaled(-dist)))]
+    params, u = _snapped(links, sl, pool[i])
+    return params, u, float(m[i])
 
 
 def _snapped(links, sl, u) -> tuple:
