@@ -167,3 +167,19 @@ def test_a_robot_s_arm_tubes_under_a_sag_limit(tmp_path):
     lighter = [(a, b) for a in by_link["upper_arm"] for b in by_link["forearm"]
                if a["mass_kg"] + b["mass_kg"] < res.moving_mass_kg * (1 - 1e-12)]
     assert lighter and all(sag({"upper_arm": a["params"], "forearm": b["params"]}) > 1.5 for a, b in lighter[:6])
+
+
+def test_integer_and_choice_parameters_snap_to_what_a_script_takes():
+    s = parse_spec({"machine": str(PUU), "constraints": {"k_tran_max": 0.02},
+                    "links": {"leg": {"cad": "parallelogram_bar",
+                                      "free": {"width": {"int": [8, 24]}, "material": {"choice": ["aluminium", "steel"]},
+                                               "height": [8, 20]}}}}, str(PUU))
+    width, material, height = s.links[0].free
+    assert [width.kind, material.kind, height.kind] == ["int", "choice", "real"]
+    for u in np.linspace(0, 1, 23):
+        w, m, h = width.from_unit(u), material.from_unit(u), height.from_unit(u)
+        assert isinstance(w, int) and 8 <= w <= 24 and m in ("aluminium", "steel") and 8 <= h <= 20
+        assert width.from_unit(width.to_unit(w)) == w and material.from_unit(material.to_unit(m)) == m
+        assert height.from_unit(height.to_unit(h)) == pytest.approx(h, rel=1e-12)
+    # log coordinates: the geometric mean of the bounds sits in the middle
+    assert height.from_unit(0.5) == pytest.approx(float(f"{np.sqrt(8 * 20):.4g}"))

@@ -95,7 +95,7 @@ class Machine:
             sag = np.linalg.norm(np.asarray(m.self_weight(self.points))[:, :3], axis=1)
             idx = np.union1d(idx, np.argsort(sag)[-n:])
         P = self.points[idx]
-        return Machine(self.model, self.spec, P, self.model.kinematics(P) if self.kind == "parallel" else None)
+        return Machine(self.model, self.spec, P, self.model.kinematics(P) if self.kind == "parallel" else None)  # type: ignore[attr-defined]
 
     def _map(self, m, pts) -> tuple:
         kt, kr = self._arrays(m, pts)

@@ -166,6 +166,10 @@ class Search:
             u = qmc.LatinHypercube(d=len(link.free), rng=np.random.default_rng([self.spec.seed, i])).random(
                 initial_count(link))
             wanted[link.name] = [link.params(x) for x in u]
+        fea = sum(len(v) for k, v in wanted.items() if self.links[k].kind == "cad")
+        self.progress(f"design: {sum(map(len, wanted.values()))} starting designs "
+                      f"({', '.join(f'{k} {len(v)}' for k, v in wanted.items())}; {fea} by FEA, cached ones are read), "
+                      f"then rounds of one design per link; at most {self.spec.fea_runs} runs")
         self.evaluate(wanted)
 
     def run(self, cons: tuple) -> Outcome:
