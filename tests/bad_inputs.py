@@ -819,6 +819,13 @@ CASES = [
          "s.yaml: a link named arm"),
     Case("39.7", "vjm design s.yaml --out o --targets 0.01,x", "--targets expects k_tran_max limits",
          {"s.yaml": DESIGN.format(free="{width: [8, 24]}", rest="")}, "a target that is not a number"),
+    # 40.3: --folds bounded wherever it is taken: at most 50, and no more than the postures or rows held out
+    Case("40.3", "vjm diagnose {puu} m.csv --out rep --folds 1000000", "--folds must be a whole number in [2, 50], "
+         "got 1000000", {"m.csv": GOOD}, number=480),
+    Case("40.3", "vjm diagnose {puu} m.csv --out rep --folds 2", "--folds 2: the data hold 1 posture, and each fold "
+         "holds out at least one: too few to cross-validate", {"m.csv": GOOD}),
+    Case("40.3", "vjm calibrate r.yaml p.csv --out o --folds 41", "--folds 41: the data hold 40 rows", X_FILES,
+         "X_FILES (40 poses)"),
 ]
 
 

@@ -46,7 +46,7 @@ def test_no_bounds_contain_nan(bounds):
     (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, alpha=0.0), r"^alpha must be in \(0, 1\), got 0$"),
     (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, alpha=float("nan")), r"^alpha must be a finite number"),
     (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, alpha="0.05"), r"^alpha must be a number in \(0, 1\)"),
-    (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, folds=1), r"^folds must be a whole number >= 2"),
+    (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, folds=1), r"^folds must be a whole number in \[2, 50\], got 1$"),
     (lambda: vjm.discrepancy.workflow.diagnose(PUU, None, suggest=2.5), r"^suggest must be a whole number >= 0"),
     (lambda: vjm.discrepancy.simulate.simulate(PUU, [], np.zeros((1, 3)), np.eye(6)[:1], -1.0, None, 0),
      r"^noise_t must be >= 0 mm, got -1$"),

@@ -8,11 +8,13 @@ bytes compared with the set before the kill.  Coarsest meshes: each command runs
 """
 import json
 import os
+import shlex
 import signal
 import subprocess
 import sys
 from pathlib import Path
 
+import bad_inputs
 import pytest
 
 import linkfea
@@ -48,6 +50,14 @@ def run(tool, args, env, fault=None, cwd=None):
     return p.returncode, err
 
 
+def in_process(tool, args, env, monkeypatch, cwd):
+    """A run that is not killed, in this process (as the bad-input table runs its cases): the state before a
+    kill and the rerun after it need no process of their own; the killed runs do."""
+    monkeypatch.setenv("LINKFEA_CACHE_DIR", env["LINKFEA_CACHE_DIR"])
+    res = bad_inputs.run(bad_inputs.Case("", shlex.join([tool, *map(str, args)]), ""), cwd)
+    return res.status, res.stderr
+
+
 def no_temporaries(folder: Path):
     left = [p.name for p in folder.rglob("*") if p.name.startswith((".linkfea-tmp", ".linkfea-journal", ".tmp_", ".old_"))]
     assert not left, left
@@ -60,14 +70,14 @@ def _bar_length(vtu: Path) -> float:
     return float(pv.read(vtu).points[:, 0].max())
 
 
-def test_compute_killed_while_writing_json_vtu_png(tmp_path, env):
+def test_compute_killed_while_writing_json_vtu_png(tmp_path, env, monkeypatch):
     """Lengths 200 and 150 mm alternate; after each kill the JSON, the mesh in the VTU and the PNG
     are all of one run (the PNG and JSON bytes are the old ones exactly when the run is the old one)."""
     out = tmp_path / "r.json"
 
     def compute(length, fault=None):
-        return run("linkfea", ["compute", "bar", "--mesh-size", "60", "--param", f"length={length}", "--out", str(out),
-                               "-q"], env, fault)
+        args = ["compute", "bar", "--mesh-size", "60", "--param", f"length={length}", "--out", str(out), "-q"]
+        return run("linkfea", args, env, fault) if fault else in_process("linkfea", args, env, monkeypatch, tmp_path)
 
     assert compute(200)[0] == 0
     length = 200
@@ -92,26 +102,28 @@ def test_compute_killed_while_writing_json_vtu_png(tmp_path, env):
     # a rerun (without pictures) succeeds, leaves no temporary, and removes the earlier result's own
     # .png, which would not match the new JSON; the .vtu whose bytes the JSON does not record is not
     # the tool's to remove and stays as it is
-    rc, err = run("linkfea", ["compute", "bar", "--mesh-size", "60", "--no-picture", "--out", str(out), "-q"], env)
+    rc, err = in_process("linkfea", ["compute", "bar", "--mesh-size", "60", "--no-picture", "--out", str(out), "-q"], env,
+                         monkeypatch, tmp_path)
     assert rc == 0, err
     assert sorted(os.listdir(tmp_path)) == ["r.json", "r.vtu"] and (tmp_path / "r.vtu").read_bytes() == old["r.vtu"]
 
 
 # --------------------------------------------------------------------------- vjm diagnose
-def test_diagnose_killed_while_writing_the_report(tmp_path, env):
+def test_diagnose_killed_while_writing_the_report(tmp_path, env, monkeypatch):
     """Two data files alternate; after each kill report.json, report.html and the figures are of one
     run, and the user's own file in the folder (written with --force) is untouched."""
     for k in (1, 2):
-        rc, err = run("vjm", ["simulate", PUU, "--poses", "grid:2", "--seed", str(k), "--out", f"m{k}.csv"], env,
-                      cwd=tmp_path)
+        rc, err = in_process("vjm", ["simulate", PUU, "--poses", "grid:2", "--seed", str(k), "--out", f"m{k}.csv"], env,
+                             monkeypatch, tmp_path)
         assert rc == 0, err
     rep = tmp_path / "rep"
     rep.mkdir()
     (rep / "notes.txt").write_text("mine")
 
     def diagnose(k, fault=None):
-        return run("vjm", ["diagnose", PUU, f"m{k}.csv", "--effect", "gravity", "--out", "rep", "--force"], env,
-                   fault, cwd=tmp_path)
+        args = ["diagnose", PUU, f"m{k}.csv", "--effect", "gravity", "--out", "rep", "--force"]
+        return run("vjm", args, env, fault, cwd=tmp_path) if fault else in_process("vjm", args, env, monkeypatch,
+                                                                                    tmp_path)
 
     assert diagnose(1)[0] == 0
     data = 1

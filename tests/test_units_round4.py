@@ -252,3 +252,53 @@ def test_names_in_csv_headers_are_quoted_defused_and_read_back(tmp_path):
     assert first.startswith("'=cmd|calc!A0,j2,") and '"to""o,l.x"' in first
     d = read_poses(tmp_path / "s.csv", joints=m.q_names)
     assert d.joints == m.q_names and list(d.points) == [tool] and d.n == 12
+
+
+def test_a_formula_named_joint_reaches_map_csv_defused_and_readable(tmp_path):
+    """`vjm map` end to end on the two-joint arm whose joints are named ``=cmd|calc!A0`` and ``-j"2,x``: map.csv's
+    header holds each name in one cell behind a ``'``, the csv module reads it back, and the joint values stand
+    under their joint (the arm's point at (300 + 300 cos q1, 300 sin q1, 200) mm: q1 = atan2(y, x - 300))."""
+    import csv
+
+    from vjm.cli import main
+
+    (tmp_path / "r.urdf").write_text(X_FILES["r.urdf"].replace('name="j1"', 'name="=cmd|calc!A0"')
+                                     .replace('name="j2"', 'name="-j&quot;2,x"'))
+    (tmp_path / "r.yaml").write_text("urdf: r.urdf\nhome: [0.1, 0.2]\n"
+                                     "joints: {'=cmd|calc!A0': {stiffness: 1.0e+8}, '-j\"2,x': {stiffness: 5.0e+7}}\n")
+    out = tmp_path / "m"
+    assert main(["map", str(tmp_path / "r.yaml"), "--grid", "2", "--box", "300:600,0:300,100:300", "--slice", "z=200",
+                 "--out", str(out)]) == 0
+    text = (out / "map.csv").read_text(encoding="utf-8")
+    assert text.splitlines()[0] == ("x_mm,y_mm,z_mm,status,'=cmd|calc!A0,\"'-j\"\"2,x\",k_tran_mm_per_N,"
+                                    "k_rot_rad_per_Nmm")
+    head, *rows = list(csv.reader(text.splitlines()))
+    assert head[4:6] == ["'=cmd|calc!A0", "'-j\"2,x"] and not any(h.startswith(("=", "+", "-", "@")) for h in head)
+    assert len(rows) == 4 and all(len(r) == len(head) for r in rows)
+    ok = [r for r in rows if r[3] == "ok"]
+    assert len(ok) == 2
+    for r in ok:
+        x, y = float(r[0]), float(r[1])
+        assert float(r[4]) == pytest.approx(math.atan2(y, x - 300.0), abs=1e-6)
+
+
+def test_folds_beyond_50_or_the_data_are_refused_before_any_fit(tmp_path):
+    """``--folds`` of the deflection diagnosis: 1e6 folds is one error line and exit 2 from the command itself, at
+    once (it used to run a leave-one-posture-out cross-validation and report 1000000 folds); through the Python
+    API, more folds than the data's postures are refused, as many are taken."""
+    import subprocess
+    import sys
+
+    from bad_inputs import GOOD
+
+    (tmp_path / "m.csv").write_text(GOOD)
+    p = subprocess.run([sys.executable, "-m", "vjm.cli", "diagnose", str(ROOT / "data" / "orthoglide" / "puu.yaml"),
+                        "m.csv", "--out", "rep", "--folds", "1000000"], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 2, p.stderr
+    assert p.stderr.strip() == "error: --folds must be a whole number in [2, 50], got 1000000", p.stderr
+    assert not (tmp_path / "rep").exists()
+    table1 = ROOT / "data" / "seed_table1.csv"   # 3 postures
+    with pytest.raises(VjmError, match=r"--folds 4: the data hold 3 postures, .* at most 3 folds"):
+        vjm.diagnose(ROOT / "data" / "orthoglide" / "puu.yaml", table1, folds=4)
+    assert vjm.diagnose(ROOT / "data" / "orthoglide" / "puu.yaml", table1, folds=3).report["cv_folds"] == 3

@@ -1,11 +1,13 @@
 """`linkfea compute` end to end on a coarse bar, and its failure modes."""
 import json
 import os
+import shlex
 import subprocess
 import sys
 
 import numpy as np
 import pytest
+from bad_inputs import Case, run
 from typer.testing import CliRunner
 
 from linkfea.cli import app
@@ -97,13 +99,15 @@ def _linkfea(args, env):
     ["bar", "--mesher", "netgen"],
     ["missing.step", "--base", "plane:x=0", "--tip", "plane:x=1"],
 ])
-def test_bad_input_gives_one_error_line_and_no_file(args, env, tmp_path):
-    out = tmp_path / "o" / "r.json"
-    p = _linkfea(["compute", *args, "--out", str(out)], env)
-    assert p.returncode == 2
-    lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: "), p.stderr
-    assert not out.parent.exists() or not any(out.parent.iterdir())
+def test_bad_input_gives_one_error_line_and_no_file(args, env, tmp_path, monkeypatch):
+    """In process, as the bad-input table runs its cases (``main`` returns the exit status); the status of a
+    real ``linkfea`` process is test_broken_step_via_cli's."""
+    monkeypatch.setenv("LINKFEA_CACHE_DIR", env["LINKFEA_CACHE_DIR"])
+    res = run(Case("", shlex.join(["linkfea", "compute", *args, "--out", "o/r.json"]), ""), tmp_path)
+    assert res.status == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), res.stderr
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
 
 
 def test_broken_step_via_cli(env, tmp_path):

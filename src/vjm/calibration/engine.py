@@ -51,6 +51,7 @@ import numpy as np
 
 from ..effects import absolute
 from ..errors import VjmError
+from ..stats.fit import check_fold_count
 from ..stats.staged import Best, Nested, Practical, least_squares_fit, select_stages
 from ..stats.uncertainty import Uncertainty, parameter_std, pose_blocks, residual_blocks
 from .flex import TEMPERATURE, flex_loads
@@ -447,7 +448,7 @@ def parameter_counts(model, frames, data, effects) -> dict:
 
 def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:
     """Refuse a set too small for the fit: 3 rows per group (a Kabsch start), and more coordinates than the
-    parameters the effects may take (in each fold's training rows)."""
+    parameters the effects may take (in each fold's training rows), and no more folds than rows."""
     groups = {str(g) for g in data.groups}
     few = [g for g in sorted(groups) if np.sum(np.asarray([str(x) for x in data.groups]) == g) < 3]
     if few:
@@ -459,6 +460,8 @@ def _enough_rows(model, data, fr: tuple, effects, folds: int) -> None:
     if 3 * n * len(fr) <= size:
         raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "
                        f"{size} parameters: measure more poses")
+    if folds:
+        check_fold_count(folds, data.n, "row")
 
 
 def _stats(prob, layout: Layout, x: np.ndarray, meas: np.ndarray) -> dict:

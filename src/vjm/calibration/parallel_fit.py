@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import VjmError
 from ..kinematics import forward as fk
+from ..stats.fit import check_fold_count
 from ..stats.staged import Practical
 from .engine import final_uncertainty, fit, registration_from_frames, run_stages
 from .parallel import FRAME, effect_names, full_layout, nominal_state, problem
@@ -54,6 +55,8 @@ def _enough_rows(data, full: Layout, effects, folds: int) -> None:
     if 3 * n <= size:
         raise VjmError(f"{data.source}: {data.n} rows ({3 * n} coordinates{' per fold' if folds else ''}) for up to "
                        f"{size} parameters: measure more poses")
+    if folds:
+        check_fold_count(folds, data.n, "row")
 
 
 def calibrate_platform(model, data, effects=None, alpha: float = 1e-3, tol: float = 1e-3,

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..effects import absolute
 from ..errors import VjmError
+from ..stats.fit import MAX_FOLDS
 from .engine import calibrate, effect_names, error_stats, instrument_frame, position_errors, register
 from .nominal import totals
 from .result import Calibration
@@ -46,8 +47,6 @@ def default_effects() -> tuple:
 
 
 SET_NAME = "vjm calibrate"
-#: --folds at most this: each fold refits the whole staged selection, and held-out folds of a row or two say nothing
-MAX_FOLDS = 50
 SCHEMA = "vjm.calibration/1"
 
 

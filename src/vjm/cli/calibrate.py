@@ -28,7 +28,8 @@ def calibrate_cmd(model: Path = typer.Argument(..., help="robot model YAML (urdf
                                                   "column were measured in the fitted data's set-up: every row "
                                                   "held out on its registration"),
                   folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation in the choice "
-                                                      "of effects (0: none; default 5, or 0 with --validate)"),
+                                                      "of effects (0: none, else 2 to 50 and at most the rows; "
+                                                      "default 5, or 0 with --validate)"),
                   effect: Optional[list[str]] = typer.Option(None, "--effect", help="an effect tried (repeatable, "
                                                              "in this order; default: every effect that applies to "
                                                              "the robot and the data: geometry, compliance, "

@@ -95,8 +95,9 @@ def diagnose_cmd(
                                                                       "-name: the default ones but that one "
                                                                       "(absolute poses)"),
     effects: Optional[str] = typer.Option(None, "--effects", help="the same as --effect, comma-separated: a,b"),
-    folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation (default 5; absolute poses: "
-                                                              "0 none, and 0 with --validate)"),
+    folds: Optional[int] = typer.Option(None, "--folds", help="k-fold cross-validation, 2 to 50 and at most the "
+                                                              "postures (default 5; absolute poses: 0 none, at most "
+                                                              "the rows, and 0 with --validate)"),
     frame: Optional[List[str]] = typer.Option(None, "--frame", help="a robot's: a measured point fitted "
                                                                     "(repeatable; default: every point of the data)"),
     columns: Optional[Path] = typer.Option(None, "--columns", help="absolute poses (a robot's or a parallel "

@@ -27,9 +27,11 @@ from linkfea.runtime.checks import Bounds, integer
 from ..calibration import diagnosis as absolute
 from ..calibration import parallel_diagnosis as platform
 from ..calibration.poses import AbsolutePoses, read_column_map
+from ..effects.context import unique_postures
 from ..errors import ArgumentError, VjmError
 from ..modelio.read import file_kind
 from ..resources import data_file
+from ..stats.fit import MAX_FOLDS, check_fold_count
 from .data import QUANTITIES, StiffnessObs, read_csv
 from .pipeline import diagnose_stages
 from .report import REPORT_FILES
@@ -72,7 +74,7 @@ class Kind:
             raise VjmError("--min-gain is the practical threshold of an effect on absolute poses (a robot's or a "
                            "parallel machine's)")
         if options.get("folds") is not None:
-            integer(options["folds"], "folds", Bounds(2), ArgumentError)
+            integer(options["folds"], "folds", Bounds(2, MAX_FOLDS), ArgumentError)
 
     def output_files(self, targets: bool = False) -> tuple:
         """The output set's files (``targets``: commands.csv too)."""
@@ -82,6 +84,8 @@ class Kind:
         """The diagnosis of ``data`` (read) on ``model`` (loaded)."""
         for k in POSE_OPTIONS + ("register",):
             options.pop(k, None)
+        if folds is not None:   # a fold holds out whole postures (the default 5 is cut to what the data have)
+            check_fold_count(folds, len(unique_postures(data.P)[0]), "posture")
         return diagnose_stages(model, data, self.stages, DEFAULT_ALPHA if alpha is None else alpha,
                                folds=5 if folds is None else folds, name=self.name, **options)
 

@@ -22,7 +22,6 @@ __all__ = ["diagnose", "check_arguments", "diagnose_plan", "run_stages", "set_as
 
 #: valid ranges of diagnose's numeric arguments: a level of 0 or 1 makes every test pass or fail
 ALPHA = Bounds(0, 1, lo_open=True, hi_open=True)
-FOLDS = Bounds(2)
 MAX_EFFECTS = Bounds(1)
 SUGGEST = Bounds(0)
 

@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, stats
 
+from ..errors import VjmError
 from .components import REWEIGHT_ROUNDS, REWEIGHT_TOL, component_labels, group_fields, group_var
 from .terms import Problem
 
@@ -282,6 +283,19 @@ def chi2_margin(alpha: float, dof: int = 1) -> float:
 def normal_upper(p: float) -> float:
     """The standard normal deviate with upper-tail probability ``p`` (a z threshold)."""
     return float(stats.norm.isf(p))
+
+
+#: --folds at most this: each fold refits the whole selection, and held-out folds of a row or two say nothing
+MAX_FOLDS = 50
+
+
+def check_fold_count(folds: int, count: int, what: str) -> None:
+    """Refuse more ``folds`` than the data have ``what`` (``count`` postures or rows, singular) to hold out: a
+    fold would hold out nothing, and the report would name a cross-validation that was not made."""
+    if folds > count:
+        most = f"at most {count} folds" if count >= 2 else "too few to cross-validate (give no --folds)"
+        raise VjmError(f"--folds {folds}: the data hold {count} {what}{'s' if count != 1 else ''}, and each fold "
+                       f"holds out at least one: {most}")
 
 
 def grouped_folds(groups, k: int = 5, seed: int = 0) -> list:
