@@ -66,7 +66,31 @@ def _path() -> None:
     P[:, 0] = np.linspace(-20.0, 20.0, n)
     W = np.zeros((n, 6))
     W[:, 0] = 100.0
-    equilibrium.equilibria(m, P, W)
+    s = equilibrium.equilibria(m, P, W)
+    _path_entries(m, P, W, s)
+
+
+def _path_entries(m, P, W, s) -> None:
+    """The path kernel's entry points called one by one (the linearization, the Newton step, the
+    right-hand side, the block factorization and solve, the residual check), as a check of the
+    compiled equations against the numpy ones calls them: each is compiled for those calls too."""
+    from vjm.stiffness import nonlinear as nl
+    from vjm.stiffness import nonlinear_kernel as K
+    from vjm.toolpath import equilibrium as eq
+
+    b = eq._Block(m, P, W, None)
+    tab, (v0, R0, S, D, fixed, kappa, kd, xr, Wd, Pd) = eq._pack(b)
+    nv = s.state.shape[1] - 6 - b.nc
+    z = np.concatenate([eq._to_x(b.chains, s.state[:, :nv]), s.state[:, nv:]], axis=1)
+    pt = (v0[0], R0[0], S[0], D[0], fixed[0])
+    gk, Gk, Hk = np.empty(b.nc), np.empty((b.nc, b.nx + 6)), np.empty((b.nx + 6, b.nx + 6))
+    K.linearize(tab, pt, z[0], Pd[0], True, gk, Gk, Hk)
+    dk = K.newton_step(tab, pt, z[0], Wd[0], Pd[0], kappa[0], kd[0], xr[0])
+    rhs = np.empty(len(dk))
+    K._rhs(gk, Gk, z[0], Wd[0], kappa[0], xr[0], rhs)
+    if K.nonlinear_block.factor(tab, b.nx, kd[0], Gk, Hk, K.nonlinear_block.workspace(tab)):
+        K.nonlinear_block.full_solve(tab, b.nx, kd[0], Gk, Hk, rhs)
+    K.residual_ok(tab, pt, z[0], Wd[0], Pd[0], kappa[0], xr[0], b.lref, eq.RTOL, nl.ROUNDOFF)
 
 
 def _robot() -> None:
