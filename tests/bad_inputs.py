@@ -218,6 +218,9 @@ HEX_POSES = ("A1.l,A2.l,A3.l,B1.l,B2.l,B3.l,platform.x,platform.y,platform.z\n" 
 #: a design spec of the 3-PUU's leg bar: {free} its free parameters, {rest} more top-level lines
 DESIGN = ("machine: " + str(PLACES["puu"]) + "\nlinks:\n  leg:\n    cad: parallelogram_bar\n    fixed: {{boss_height: 20}}\n"
           "    free: {free}\nconstraints: {{k_tran_max: 0.015}}\n{rest}")
+#: a design spec of the 3-PUU's leg as a beam: {beam} its mapping, {free} its free dimensions
+BEAM_DESIGN = ("machine: " + str(PLACES["puu"]) + "\nlinks:\n  leg:\n    beam: {beam}\n    free: {free}\n"
+               "constraints: {{k_tran_max: 0.015}}\n")
 ARM_X = ARM.replace('<origin xyz="0 0 0.3"/>', '<origin xyz="0.3 0 0.1"/>')
 
 
@@ -819,6 +822,18 @@ CASES = [
          "s.yaml: a link named arm"),
     Case("39.7", "vjm design s.yaml --out o --targets 0.01,x", "--targets expects k_tran_max limits",
          {"s.yaml": DESIGN.format(free="{width: [8, 24]}", rest="")}, "a target that is not a number"),
+    Case("39.7", "vjm design s.yaml --out o --seed -1", "--seed must be an integer >= 0",
+         {"s.yaml": DESIGN.format(free="{width: [8, 24]}", rest="")}, "a negative seed"),
+    Case("39.7", "vjm design s.yaml --out o", "the machine's leg is 310.0 mm long",
+         {"s.yaml": BEAM_DESIGN.format(beam="{section: rect, length: 31, material: aluminium}",
+                                       free="{width: [8, 24]}")}, "s.yaml: a leg beam 31 mm long on the 310 mm leg"),
+    Case("39.7", "vjm design s.yaml --out o", "a rect beam frees its section's dimensions (width, height)",
+         {"s.yaml": BEAM_DESIGN.format(beam="{section: rect, length: 310, material: aluminium}",
+                                       free="{diameter: [8, 24]}")}, "s.yaml: a rectangle's diameter freed"),
+    Case("39.7", "vjm design s.yaml --out o", "q[0] = -120 of joint 'shoulder_pan_joint' is outside its limits",
+         {"s.yaml": "machine: " + str(PLACES["ur10"]) + "\nlinks:\n  forearm:\n    beam: {section: tube, length: 572.3, "
+          "material: aluminium, inner_diameter: 40}\n    free: {diameter: [60, 130]}\nconstraints: {sag_max: 1.5}\n"
+          "joints: {shoulder_pan_joint: [-120, 120]}\n"}, "s.yaml: a joint range in degrees"),
     # 40.3: --folds bounded wherever it is taken: at most 50, and no more than the postures or rows held out
     Case("40.3", "vjm diagnose {puu} m.csv --out rep --folds 1000000", "--folds must be a whole number in [2, 50], "
          "got 1000000", {"m.csv": GOOD}, number=480),

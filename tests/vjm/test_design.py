@@ -183,3 +183,33 @@ def test_integer_and_choice_parameters_snap_to_what_a_script_takes():
         assert height.from_unit(height.to_unit(h)) == pytest.approx(h, rel=1e-12)
     # log coordinates: the geometric mean of the bounds sits in the middle
     assert height.from_unit(0.5) == pytest.approx(float(f"{np.sqrt(8 * 20):.4g}"))
+
+
+def test_conservative_answers_hold_at_the_top_of_the_error_bar(tmp_path, monkeypatch):
+    """Beams given a 5 % error bar on every diagonal entry (as an FEA result carries one): --conservative's
+    answer meets the limit at the top of the bar, where the nominal answer does not, and every evaluated pair
+    lighter than it exceeds the limit at the top of its bar."""
+    import vjm.synthesis.links as links
+
+    plain = links.beam_sample
+
+    def with_bar(link, params):
+        s = plain(link, params)
+        return links.LinkSample(s.link, s.params, s.key, True, s.compliance, s.mass, np.full(6, 0.05))
+
+    monkeypatch.setattr(links, "beam_sample", with_bar)
+    spec = _puu_beams(tmp_path, budget=16)
+    nominal = vjm.design(spec)
+    safe = vjm.design(spec, conservative=True)
+    c0, c1 = nominal.constraints[0], safe.constraints[0]
+    assert c0.error_bar > 0 and c0.value <= 0.015 < c0.value + c0.error_bar
+    assert safe.feasible and c1.value + c1.error_bar <= 0.015 and c1.slack >= 0
+    s = parse_spec(yaml.safe_load(spec.read_text()), str(spec))
+    machine = load_machine(s)
+    feet = [h for h in safe.history if h["link"] == "foot"]
+    legs = [h for h in safe.history if h["link"] == "leg"]
+    lighter = [(f, g) for f in feet for g in legs if 3 * (f["mass_kg"] + g["mass_kg"]) < safe.moving_mass_kg * (1 - 1e-12)]
+    assert lighter
+    for f, g in lighter:
+        comps = {"foot": plain(s.links[0], f["params"]).compliance, "leg": plain(s.links[1], g["params"]).compliance}
+        assert machine.values(comps, {"foot": np.full(6, 0.05), "leg": np.full(6, 0.05)}, 1.0)["k_tran_max"] > 0.015

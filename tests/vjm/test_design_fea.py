@@ -58,14 +58,4 @@ def test_a_killed_run_resumes_from_the_cache_and_a_cached_rerun_runs_no_fea(tmp_
     leg = json.loads((tmp_path / "o" / "optimum_leg.json").read_text())
     assert leg["mass_kg"] * 3 == pytest.approx(doc["moving_mass_kg"], rel=1e-12)
     assert (tmp_path / "o" / "optimum_leg.step").read_text(errors="replace").startswith("ISO-10303-21")
-    c = doc["constraints"][0]
-    assert c["error_bar"] > 0                                      # the FEA's error bar, carried to k_tran_max
-
-    # --conservative: the constraint holds at the top of the error bar, at a mass no lower
-    cons = _run(tmp_path, None, "--conservative", "--budget", "7")
-    assert cons.returncode == 0, cons.stderr
-    doc3 = json.loads((tmp_path / "o" / "design.json").read_text())
-    c3 = doc3["constraints"][0]
-    assert doc3["conservative"] and c3["value"] + c3["error_bar"] <= 0.0153 and c3["slack"] >= 0
-    if doc3["feasible"] and c["value"] + c["error_bar"] > 0.0153:
-        assert doc3["moving_mass_kg"] > doc["moving_mass_kg"]
+    assert doc["constraints"][0]["error_bar"] > 0                 # the FEA's error bar, carried to k_tran_max

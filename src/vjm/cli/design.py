@@ -34,13 +34,9 @@ def design_cmd(spec: Path = typer.Argument(..., help="design spec YAML (machine,
     """Design synthesis: the lightest links (by CAD and FEA) whose machine meets the stiffness constraints."""
     from ..synthesis.run import design
 
-    try:
+    try:   # Ctrl-C: exit 130 (the command line's own handling); every finished FEA design is in the cache
         res = design(spec, out, budget=budget, workers=workers, scheduler=scheduler, seed=seed,
                      targets=_targets(targets), conservative=conservative or None, force=force, progress=_progress)
-    except KeyboardInterrupt:
-        typer.echo(f"interrupted: the FEA designs computed so far are kept in {out}/links; the same command "
-                   "resumes from them", err=True)
-        raise typer.Exit(130) from None
     except user_errors() as exc:
         _fail(exc)
     typer.echo(res.summary())

@@ -128,12 +128,16 @@ def load_machine(spec: DesignSpec) -> Machine:
     """The spec's model and points, with every link and constraint checked against the model's kind."""
     from ..modelio.read import load_model
 
-    model = load_model(spec.machine)
+    try:
+        model = load_model(spec.machine)
+    except VjmError as exc:
+        raise VjmError(f"machine {spec.machine}: {exc}") from None
     kind = model.kind
     for link in spec.links:
         if link.name not in model.links:
             raise VjmError(f"links.{link.name}: the machine {spec.machine} has no link {link.name!r}; its links: "
                            f"{', '.join(model.links) or 'none'}")
+        _check_length(model, link)
     for c in spec.constraints:
         if kind not in QUANTITIES[c.quantity]:
             raise VjmError(f"constraint {c.quantity}: a {kind} model cannot give it (a robot's only: the self-weight "
@@ -155,18 +159,35 @@ def load_machine(spec: DesignSpec) -> Machine:
             if q.shape[1] != model.nq:
                 raise VjmError(f"constraint {c.quantity}: poses of a robot are {model.nq} joint values each "
                                f"({', '.join(model.q_names)})")
-            model.check_q(q)
+            model.replace(strict_limits=True).check_q(q)
     return Machine(model, spec, Q)
+
+
+def _check_length(model, link) -> None:
+    """A beam's length is the machine's: the model file's own beam for that link, when it states one."""
+    if link.kind != "beam":
+        return
+    own = model.links[link.name]
+    src = (getattr(own, "spring", own).source or {}).get("beam")
+    length = link.source.get("length")
+    if isinstance(src, dict) and "length" in src and length != src["length"]:
+        raise VjmError(f"links.{link.name}.beam.length is {length!r} mm, the machine's {link.name} is {src['length']!r} "
+                       "mm long (its geometry does not follow the beam): give its length")
 
 
 def _check_points(model, c) -> None:
     P = np.array(c.poses, dtype=float)
     if P.shape[1] not in (3, 6):
-        raise VjmError(f"constraint {c.quantity}: poses of a parallel machine are points x, y, z (mm)")
+        raise VjmError(f"constraint {c.quantity}: poses of a parallel machine are points x, y, z (mm) or x, y, z, "
+                       "rx, ry, rz (mm, rad)")
     ok = model.reachable(P[:, :3]) if P.shape[1] == 3 else np.ones(len(P), bool)
     if not np.all(ok):
         raise VjmError(f"constraint {c.quantity}: the pose {P[int(np.flatnonzero(~ok)[0])].tolist()} is not "
                        f"reachable by {model.architecture}")
+    try:
+        model.kinematics(P)   # a 6-value pose's reach, and every pose's inverse kinematics
+    except VjmError as exc:
+        raise VjmError(f"constraint {c.quantity}: {exc}") from None
 
 
 def joint_grid(model, spec: DesignSpec) -> np.ndarray:
@@ -187,5 +208,5 @@ def joint_grid(model, spec: DesignSpec) -> np.ndarray:
             q[names.index(j)] = v
         rows.append(q)
     Q = np.array(rows) if rows else home[None, :]
-    model.check_q(Q)
+    model.replace(strict_limits=True).check_q(Q)   # beyond a joint's limits is an error here (radians, not degrees)
     return Q

@@ -23,19 +23,30 @@ AT_BOUND = 1e-3
 def prepare(spec, budget=None, workers=None, scheduler=None, seed=None, targets=None,
             conservative=None) -> DesignSpec:
     """The spec (a path or a DesignSpec) with the command line's overrides, checked (no FEA)."""
+    if not isinstance(spec, (DesignSpec, str, os.PathLike)):
+        raise VjmError(f"spec must be the path of a design spec (YAML) or a DesignSpec, got {type(spec).__name__}")
     s = spec if isinstance(spec, DesignSpec) else read_spec(spec)
     over = {k: v for k, v in (("fea_runs", budget), ("workers", workers), ("scheduler", scheduler), ("seed", seed),
                               ("conservative", conservative)) if v is not None}
     if targets is not None:
+        if isinstance(targets, (str, bytes)) or not isinstance(targets, (list, tuple, np.ndarray)) or not len(targets) \
+                or not all(isinstance(t, (int, float, np.floating)) and not isinstance(t, bool) for t in targets):
+            raise VjmError(f"--targets must be a list of k_tran_max limits > 0 (mm/N), got {targets!r}")
         ts = tuple(float(t) for t in targets)
-        if not ts or any(not (np.isfinite(t) and t > 0) for t in ts):
+        if any(not (np.isfinite(t) and t > 0) for t in ts):
             raise VjmError(f"--targets must be k_tran_max limits > 0 (mm/N), got {targets!r}")
         over["targets"] = ts
     s = dataclasses.replace(s, **over)
-    if isinstance(s.fea_runs, bool) or not isinstance(s.fea_runs, int) or s.fea_runs < 1:
-        raise VjmError(f"--budget must be a positive integer, got {s.fea_runs!r}")
-    if s.workers is not None and (isinstance(s.workers, bool) or not isinstance(s.workers, int) or s.workers < 1):
-        raise VjmError(f"--workers must be a positive integer, got {s.workers!r}")
+    for name, v, lo, hi in (("--budget", s.fea_runs, 1, None), ("--workers", s.workers, 1, None),
+                            ("--seed", s.seed, 0, 2 ** 32 - 1)):
+        if v is None and name == "--workers":
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo or (hi is not None and v > hi):
+            raise VjmError(f"{name} must be an integer >= {lo}{'' if hi is None else f' and <= {hi}'}, got {v!r}")
+    if not isinstance(s.conservative, bool):
+        raise VjmError(f"conservative must be True or False, got {s.conservative!r}")
+    if s.scheduler is not None and not isinstance(s.scheduler, str):
+        raise VjmError(f"--scheduler must be an address such as tcp://host:8786, got {s.scheduler!r}")
     check_budget(s)
     return s
 
@@ -51,6 +62,12 @@ def design(spec, out=None, *, budget: int | None = None, workers: int | None = N
     the corners of the bounds, the budget, the output folder) runs before the first FEA.
     """
     s = prepare(spec, budget, workers, scheduler, seed, targets, conservative)
+    if not isinstance(force, bool):
+        raise VjmError(f"force must be True or False, got {force!r}")
+    if progress is not None and not callable(progress):
+        raise VjmError(f"progress must be a callable taking one line of text, got {type(progress).__name__}")
+    if out is not None and not isinstance(out, (str, os.PathLike)):
+        raise VjmError(f"out must be a folder's path, got {type(out).__name__}")
     machine = load_machine(s)
     for link in s.links:
         (check_cad if link.kind == "cad" else check_beam)(link)
@@ -60,7 +77,7 @@ def design(spec, out=None, *, budget: int | None = None, workers: int | None = N
     if out is not None:
         from linkfea.files.outputs import check_folder, claim
 
-        check_folder(out, DESIGN_FILES, force=force)
+        check_folder(out, list(DESIGN_FILES) + optimum_names(s), force=force)
         claim(out, ["links/"], "vjm design links")
         where = Path(out)
     else:
@@ -70,8 +87,13 @@ def design(spec, out=None, *, budget: int | None = None, workers: int | None = N
     search = Search(s, machine, runner, progress)
     try:
         search.start()
-        ts = sorted(s.targets, reverse=True) or [None]   # loosest first: each target starts from the last one's designs
-        outcomes = [(t, search.run(target_constraints(s, t))) for t in ts]
+        # loosest first: each target starts from the designs of the ones before it, and gets an equal share
+        # of the runs left (the last, tightest one, the one design.json reports, gets what they leave)
+        ts = sorted(s.targets, reverse=True) or [None]
+        outcomes = []
+        for i, t in enumerate(ts):
+            cap = search.runs + (s.fea_runs - search.runs) // (len(ts) - i)
+            outcomes.append((t, search.run(target_constraints(s, t), cap)))
     finally:
         runner.close()
         if tmp is not None:
@@ -100,9 +122,16 @@ def _active(spec: DesignSpec, picks: dict) -> tuple:
     return tuple(out)
 
 
+def optimum_names(s: DesignSpec) -> list:
+    """The files of the optimum's links: ``optimum_<link>.json`` and, for a CAD link, ``.step``."""
+    return [f"optimum_{link.name}.{ext}" for link in s.links for ext in (("json", "step") if link.kind == "cad"
+                                                                          else ("json",))]
+
+
 def _message(o: Outcome, mass: float, vals: dict, active: tuple) -> str:
     if o.feasible:
-        return f"the lightest verified design meets every constraint: {mass:.4g} kg"
+        cut = "; the budget ended the search before it converged" if o.reason.startswith("budget") else ""
+        return f"the lightest verified design meets every constraint: {mass:.4g} kg{cut}"
     c = max(o.constraints, key=lambda c: vals[c.label] / c.limit)
     bounds = "none" if not active else active[0] if len(active) == 1 else ", ".join(active[:-1]) + " and " + active[-1]
     return (f"no design within the bounds reaches {c.label} <= {c.limit:g} {UNITS[c.quantity]}; the stiffest "

@@ -53,8 +53,8 @@ def initial_count(link: FreeLink) -> int:
 
 
 def minimum_budget(spec: DesignSpec) -> int:
-    """The starting designs of every link and one round more."""
-    return sum(initial_count(link) for link in spec.links) + 1
+    """The starting designs of every link and one round more (a design per link)."""
+    return sum(initial_count(link) for link in spec.links) + len(spec.links)
 
 
 @dataclass
@@ -172,8 +172,9 @@ class Search:
                       f"then rounds of one design per link; at most {self.spec.fea_runs} runs")
         self.evaluate(wanted)
 
-    def run(self, cons: tuple) -> Outcome:
-        """Rounds until converged or out of budget, for the constraints ``cons``."""
+    def run(self, cons: tuple, cap: int | None = None) -> Outcome:
+        """Rounds until converged or out of budget (``cap`` runs in all, at most the spec's), for ``cons``."""
+        cap = self.spec.fea_runs if cap is None else min(cap, self.spec.fea_runs)
         out = Outcome(cons, None, False, "")
         margin, rnd, radius = 0.0, 0, R_START
         while True:
@@ -208,8 +209,8 @@ class Search:
                     out.reason = reason
                     break
                 pg = prop[2]
-            if self.runs + len(new) > self.spec.fea_runs:
-                out.reason = f"budget: {self.spec.fea_runs} runs"
+            if self.runs + len(new) > cap:
+                out.reason = f"budget: {cap} runs" + ("" if cap == self.spec.fea_runs else " (this target's share)")
                 break
             self.evaluate(new)
             picks = tuple(self._known(n, params[n]) for n in self.samples)
@@ -279,7 +280,7 @@ def propose(search: Search, cons: tuple, margin: float, rnd: int, inc: Combo, ra
     def viol(u, machine=near):
         comps, _ = predict(np.clip(u, 0.0, 1.0))
         v = machine.values(comps)
-        return max(np.log(v[c.label] / c.limit) if np.isfinite(v[c.label]) else 50.0 for c in cons)
+        return max(np.log(max(v[c.label], 1e-300) / c.limit) if np.isfinite(v[c.label]) else 50.0 for c in cons)
 
     def mass(u):
         return predict(np.clip(u, 0.0, 1.0))[1]
@@ -373,4 +374,4 @@ def check_budget(spec: DesignSpec) -> None:
     if spec.fea_runs < need:
         raise VjmError(f"budget: {spec.fea_runs} runs is below the search's minimum of {need} (2 d + 1 starting "
                        f"designs per link: {', '.join(f'{x.name} {initial_count(x)}' for x in spec.links)}, "
-                       "and one round)")
+                       "and one round of a design per link)")

@@ -44,8 +44,8 @@ OBJECTIVES = ("moving_mass",)
 TOP_KEYS = ("machine", "links", "objective", "constraints", "grid", "joints", "joint_grid", "budget", "seed",
             "targets", "conservative")
 LINK_KEYS = ("cad", "beam", "free", "fixed", "compute")
-#: beam keys a spec may free (the section's dimensions, mm)
-BEAM_FREE = ("width", "height", "diameter", "inner_diameter", "length")
+#: the dimensions (mm) a beam of each section may free; not its length, which the machine's geometry fixes
+BEAM_FREE = {"rect": ("width", "height"), "circle": ("diameter",), "tube": ("diameter", "inner_diameter")}
 
 
 @dataclass(frozen=True)
@@ -198,10 +198,13 @@ def _link(name: str, d, base: str) -> FreeLink:
         raise VjmError(f"{where}.beam must be a mapping (section, length, material ...)")
     if compute:
         raise VjmError(f"{where}: compute: options are for cad: links (a beam is computed in closed form)")
-    bad = [p.name for p in params if p.name not in BEAM_FREE or p.kind != "real"]
+    dims = BEAM_FREE.get(beam.get("section"), ())
+    if not dims:
+        raise VjmError(f"{where}.beam.section must be rect, circle or tube, got {beam.get('section')!r}")
+    bad = [p.name for p in params if p.name not in dims or p.kind != "real"]
     if bad:
-        raise VjmError(f"{where}.free: a beam frees its dimensions ({', '.join(BEAM_FREE)}) as [lo, hi]; "
-                       f"{bad[0]!r} is not one")
+        raise VjmError(f"{where}.free: a {beam['section']} beam frees its section's dimensions ({', '.join(dims)}) "
+                       f"as [lo, hi]; {bad[0]!r} is not one (its length is the machine's)")
     return FreeLink(name, "beam", {**beam, **fixed}, params, {}, {})
 
 
@@ -286,7 +289,7 @@ def parse_spec(d, path: str = "<spec>") -> DesignSpec:
         raise VjmError(f"{path}: machine: names the model file (a parallel machine or a robot)")
     machine = os.path.join(base, d["machine"])
     if not os.path.isfile(machine):
-        raise VjmError(f"{path}: machine file {machine} not found")
+        raise VjmError(f"{path}: machine file {machine} {'is a folder' if os.path.isdir(machine) else 'not found'}")
     links = d.get("links")
     if not isinstance(links, dict) or not links:
         raise VjmError(f"{path}: links: must name at least one free link")
@@ -299,8 +302,8 @@ def parse_spec(d, path: str = "<spec>") -> DesignSpec:
     jp = {str(k): _param(str(k), v, f"joints.{k}") for k, v in joints.items()}
     runs, workers, scheduler = _budget(d.get("budget", 33))
     seed = _integer(d.get("seed", 0), "seed", 0, 2 ** 32 - 1)
-    targets = d.get("targets") or ()
-    if not isinstance(targets, (list, tuple)):
+    targets = d.get("targets", [])
+    if not isinstance(targets, list):
         raise VjmError("targets: a list of k_tran_max limits (mm/N) for the mass-stiffness front")
     targets = tuple(_number(t, "targets[]") for t in targets)
     if any(t <= 0 for t in targets):
@@ -320,6 +323,8 @@ def read_spec(path) -> DesignSpec:
     from ..modelio.yamldata import read_yaml
 
     p = os.fspath(path)
+    if os.path.isdir(p):
+        raise VjmError(f"design spec {p} is a folder; give the spec file (YAML)")
     if not os.path.isfile(p):
         raise VjmError(f"design spec {p} not found")
     return parse_spec(read_yaml(p, "design spec"), p)
