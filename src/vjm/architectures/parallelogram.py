@@ -176,11 +176,15 @@ def parallelogram_leg_compliances(model, chain_values, q_act) -> list[dict]:
                        "stiffness undefined); give the bar's compliance")
     L, d = model.geometry["L"], model.geometry["d"]
     cj = joint_spring_compliance(model)
+    # the chains' angles in one batch: the same arithmetic pose by pose, a third of the calls (a fit
+    # evaluates this thousands of times on a few postures, where the calls' overhead is the cost)
+    qs = [chain_values[k][:, ch.index("q2")] for k, ch in enumerate(model.chains)]
+    q_all = np.concatenate(qs)
+    Kp, _ = parallelogram_stiffness(model.leg.compliance, L, d, q_all)
+    legs = np.split(parallelogram_compliance(Kp, q_all), np.cumsum([len(q) for q in qs])[:-1])
     out = []
     for k, ch in enumerate(model.chains):
-        q = chain_values[k][:, ch.index("q2")]
-        Kp, _ = parallelogram_stiffness(model.leg.compliance, L, d, q)
-        dct = {ACTUATOR: actuator_compliance(model, q_act[:, k]), LEG: parallelogram_compliance(Kp, q)}
+        dct = {ACTUATOR: actuator_compliance(model, q_act[:, k]), LEG: legs[k]}
         if model.foot.compliance is not None:
             dct[FOOT] = model.foot.compliance
         if cj is not None:
