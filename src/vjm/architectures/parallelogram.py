@@ -183,7 +183,7 @@ def parallelogram_leg_compliances(model, chain_values, q_act) -> list[dict]:
     Kp, _ = parallelogram_stiffness(model.leg.compliance, L, d, q_all)
     legs = np.split(parallelogram_compliance(Kp, q_all), np.cumsum([len(q) for q in qs])[:-1])
     out = []
-    for k, ch in enumerate(model.chains):
+    for k in range(len(model.chains)):
         dct = {ACTUATOR: actuator_compliance(model, q_act[:, k]), LEG: legs[k]}
         if model.foot.compliance is not None:
             dct[FOOT] = model.foot.compliance
