@@ -101,6 +101,20 @@ class Compliance:
         C.setflags(write=False)
         object.__setattr__(self, "matrix", C)
 
+    def congruence(self, d) -> "Compliance":
+        """``D C D`` with ``D = diag(d)``, ``d`` six positive numbers (a section's moduli scaled mode by
+        mode), frame None.  Not checked again: a diagonal congruence leaves the symmetry and the
+        diagonally scaled matrix the check reads exactly as they were (a fit calls this thousands of times)."""
+        d = np.asarray(d, dtype=float)
+        if d.shape != (6,) or not np.all(np.isfinite(d)) or np.any(d <= 0):
+            raise LinkFeaError(f"a congruence takes six positive finite factors, got {d!r}")
+        C = self.matrix * np.outer(d, d)
+        C.setflags(write=False)
+        out = object.__new__(Compliance)
+        for name, value in (("matrix", C), ("frame", None), ("units", self.units), ("what", self.what)):
+            object.__setattr__(out, name, value)
+        return out
+
     @property
     def stiffness(self) -> np.ndarray:
         """``K = C^-1`` (N/mm, N mm/rad by block)."""

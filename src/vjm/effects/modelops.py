@@ -156,6 +156,16 @@ def _link(C):
     return LinkSpring(np.asarray(C, float), None)
 
 
+def _scaled(link: LinkSpring, d: np.ndarray, D: np.ndarray) -> LinkSpring:
+    """``link`` with its compliance congruent by ``diag(d)`` (``D = outer(d, d)``): the same matrix as
+    ``C * D`` checked again, without the check a checked matrix does not need."""
+    from linkfea.mechanics.compliance import Compliance
+
+    if isinstance(link.value, Compliance) and np.all(np.isfinite(d)) and np.all(d > 0):
+        return LinkSpring(link.value.congruence(d), None)
+    return _link(link.compliance * D)   # checked when the model is made: a bad factor named there
+
+
 def foot_is_rigid(model) -> bool:
     return model.foot.compliance is None
 
@@ -198,8 +208,7 @@ def with_link_scale(model, s: float):
         return model
     d = np.where(_LINK_SCALE_MASK > 0, np.sqrt(s), 1.0)
     D = np.outer(d, d)
-    ch = {k: _link(getattr(model, k).compliance * D) for k in ("foot", "leg")
-          if getattr(model, k).compliance is not None}
+    ch = {k: _scaled(getattr(model, k), d, D) for k in ("foot", "leg") if getattr(model, k).compliance is not None}
     return model.replace(**ch)
 
 
@@ -234,7 +243,7 @@ def with_mode_factor(model, key: str, mode: str, f: float):
         raise VjmError(f"{link_label(model, key)}_{mode} needs a flexible {link_label(model, key)}")
     d = np.ones(6)
     d[list(MODES[mode])] = np.sqrt(f)
-    return model.replace(**{key: _link(C * np.outer(d, d))})
+    return model.replace(**{key: _scaled(getattr(model, key), d, np.outer(d, d))})
 
 
 #: c26 / sqrt(c22 c66) of an Euler-Bernoulli cantilever (eq. 14): (L^2/2) / (L^2/sqrt 3)
