@@ -75,6 +75,19 @@ def _num(v, key: str) -> float:
 def beam_compliance(spec: dict, key: str = "beam") -> np.ndarray:
     """Cantilever compliance (tip frame) from a ``beam:`` mapping, via linkfea.beam.closed_form."""
     from linkfea.beam import closed_form as lb
+    from linkfea.runtime.errors import LinkFeaError
+
+    s, E, nu, length = beam_section(spec, key)
+    try:
+        return lb.cantilever_compliance(length, s, E, nu, shear=bool(spec.get("shear", True)))
+    except LinkFeaError as exc:
+        raise VjmError(f"{key}: {exc}") from None
+
+
+def beam_section(spec: dict, key: str = "beam") -> tuple:
+    """``(Section, E, nu, length)`` of a ``beam:`` mapping (MPa, mm): linkfea.beam.closed_form's section
+    constants (its area, inertias), the material's moduli and the beam's length; VjmError naming ``key``."""
+    from linkfea.beam import closed_form as lb
     from linkfea.mechanics.materials import get_material
     from linkfea.runtime.errors import LinkFeaError
 
@@ -105,7 +118,7 @@ def beam_compliance(spec: dict, key: str = "beam") -> np.ndarray:
             s = lb.tube_section(g("diameter"), g("inner_diameter"), nu)
         else:
             raise VjmError(f"{key}.section must be rect, circle or tube, got {sec!r}")
-        return lb.cantilever_compliance(length, s, E, nu, shear=bool(spec.get("shear", True)))
+        return s, E, nu, length
     except LinkFeaError as exc:
         raise VjmError(f"{key}: {exc}") from None
 

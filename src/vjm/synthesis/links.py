@@ -12,7 +12,6 @@ every link) run at the same time on one Dask cluster, started only when a design
 from __future__ import annotations
 
 import hashlib
-import math
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -40,15 +39,6 @@ class LinkSample:
     error_text: str = ""
 
 
-def _beam_area(spec: dict) -> float:
-    s = spec.get("section")
-    if s == "rect":
-        return float(spec["width"]) * float(spec["height"])
-    if s == "circle":
-        return math.pi / 4 * float(spec["diameter"]) ** 2
-    return math.pi / 4 * (float(spec["diameter"]) ** 2 - float(spec["inner_diameter"]) ** 2)
-
-
 def beam_key(spec: dict) -> str:
     import json
 
@@ -57,20 +47,25 @@ def beam_key(spec: dict) -> str:
 
 def beam_sample(link: FreeLink, params: dict) -> LinkSample:
     """A closed-form beam (:func:`vjm.modelio.read.beam_compliance`, the model files' ``beam:``) and its mass."""
+    from linkfea.beam.closed_form import cantilever_compliance
     from linkfea.mechanics.materials import get_material
     from linkfea.runtime.errors import LinkFeaError
 
-    from ..modelio.read import beam_compliance
+    from ..modelio.read import beam_section
 
     spec = {**link.source, **params}  # type: ignore[dict-item]
-    C = beam_compliance(spec, f"links.{link.name}.beam")
+    section, E, nu, length = beam_section(spec, f"links.{link.name}.beam")
+    try:
+        C = cantilever_compliance(length, section, E, nu, shear=bool(spec.get("shear", True)))
+    except LinkFeaError as exc:
+        raise VjmError(f"links.{link.name}.beam: {exc}") from None
     try:
         rho = get_material(spec["material"]).density
     except (KeyError, LinkFeaError):
         rho = None
     if rho is None:
         raise VjmError(f"links.{link.name}.beam: give a material with a density (the objective is the mass)")
-    mass = rho * _beam_area(spec) * float(spec["length"]) * 1000.0  # t/mm^3 * mm^3 -> kg
+    mass = rho * section.A * length * 1000.0  # t/mm^3 * mm^3 -> kg
     return LinkSample(link.name, dict(params), beam_key(spec), True, C, mass)
 
 

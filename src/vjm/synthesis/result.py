@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -161,9 +160,9 @@ def front_png(res: DesignResult) -> bytes:
 
 
 def _png(fig) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    return buf.getvalue()
+    from ..calibration.figures import png
+
+    return png(fig)
 
 
 def _html(res: DesignResult, pictures: list) -> str:
