@@ -167,7 +167,7 @@ def write_preview(link, path, window_size=(900, 700)):
         return pv.PolyData(V, np.hstack([np.full((len(F), 1), 3), F]).astype(np.int64).ravel())
 
     pl = pv.Plotter(off_screen=True, window_size=list(window_size))
-    pl.set_background("white")  # type: ignore[arg-type]  # pyvista decorator hides the signature
+    pl.set_background("white")
     pl.add_mesh(poly(link.body), color=[c / 255 for c in BODY_RGB], opacity=0.45)
     for faces, rgb, label in ((link.base_faces, BASE_RGB, "base"), (link.tip_faces, TIP_RGB, "tip")):
         if faces:

@@ -117,7 +117,7 @@ def sizing_field(shapes, H: float, ttol: float, edges=(), edge_size: float | Non
     h_min = min([h for _, h in feats] + ([edge_size] if use_edges else []))
     step = max(h_min, float(np.linalg.norm(hi - lo)) / 50.0)
     n = np.maximum(1, np.ceil((hi - lo) / step).astype(int))
-    grid = pv.ImageData(dimensions=tuple(n + 1), spacing=tuple((hi - lo) / n), origin=tuple(lo)).to_tetrahedra()  # type: ignore[call-arg]
+    grid = pv.ImageData(dimensions=tuple(n + 1), spacing=tuple((hi - lo) / n), origin=tuple(lo)).to_tetrahedra()
     pts = np.asarray(grid.points, dtype=float)
     vals = np.full(len(pts), float(H))
     for f, h in feats:
@@ -140,7 +140,7 @@ def sizing_field(shapes, H: float, ttol: float, edges=(), edge_size: float | Non
         allv = np.concatenate([vals, np.full(int(keep.sum()), float(edge_size))])
         tets = Delaunay(allp).simplices.astype(np.int32)
         return allp, tets, allv
-    return pts, np.asarray(grid.cells_dict[pv.CellType.TETRA], dtype=np.int32), vals  # type: ignore[index]
+    return pts, np.asarray(grid.cells_dict[pv.CellType.TETRA], dtype=np.int32), vals
 
 
 REFINE_STEPS = 4

@@ -87,5 +87,5 @@ def plotter(grid, name: str, case: int = PICTURE_CASE, scale: float | None = Non
     pl.add_mesh(warped.extract_surface(algorithm="dataset_surface"), scalars="|u|", show_edges=False,
                 scalar_bar_args={"title": f"displacement per unit {WRENCH[case]} (mm)"})
     pl.add_text(f"{name}: unit {WRENCH[case]}, deformation x {scale:.3g}", font_size=10)
-    pl.view_isometric()  # type: ignore[call-arg]  # pyvista decorator hides the signature
+    pl.view_isometric()
     return pl

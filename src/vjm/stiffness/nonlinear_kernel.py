@@ -127,7 +127,10 @@ def workspace_lin(tab, nv):  # pragma: no cover - compiled
 @njit(cache=True, nogil=True, error_model="numpy")
 def linearize(tab, pt, z, P, hess, g, G, Hs):  # pragma: no cover - compiled
     """Closure residual g (nc,), gradient G (nc, nx + 6) and (``hess``) the Hessian Hs of ``lam . g``
-    (nx + 6, nx + 6) at the unknowns z = (x, u, lam) of one point (nonlinear._linearize)."""
+    (nx + 6, nx + 6) at the unknowns z = (x, u, lam) of one point (nonlinear._linearize).
+
+    Compiled callers pass ``hess`` as ``np.bool_(...)``: numba compiles a function once per literal
+    argument (``True``, ``False``, a non-contiguous ``Hs``), and these are the largest kernels to compile."""
     linearize_ws(tab, pt, z, P, hess, g, G, Hs, workspace_lin(tab, pt[0].shape[1]))
 
 
@@ -224,7 +227,7 @@ def newton_step(tab, pt, z, W, P, kappa, kd, xr):  # pragma: no cover - compiled
     nx, nz = kappa.size, z.size
     nc = nz - nx - 6
     g, G, Hs = np.empty(nc), np.empty((nc, nx + 6)), np.empty((nx + 6, nx + 6))
-    linearize(tab, pt, z, P, True, g, G, Hs)
+    linearize(tab, pt, z, P, np.bool_(True), g, G, Hs)
     b = np.empty(nz)
     _rhs(g, G, z, W, kappa, xr, b)
     y = np.empty(nz)
@@ -259,7 +262,7 @@ def residual_ok(tab, pt, z, W, P, kappa, xr, lref, rtol, roundoff):  # pragma: n
     nx, nz = kappa.size, z.size
     nc = nz - nx - 6
     g, G = np.empty(nc), np.empty((nc, nx + 6))
-    linearize(tab, pt, z, P, False, g, G, G[:0, :0])
+    linearize(tab, pt, z, P, np.bool_(False), g, G, np.empty((0, 0)))
     return _check(g, G, z, W, kappa, xr, lref, rtol, roundoff)
 
 
@@ -417,7 +420,7 @@ def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff,
         for q in range(nz):
             if not math.isfinite(zi[q]):
                 return False
-        linearize_ws(tab, pt, zi, Pi, False, g, G, Hs, wl)
+        linearize_ws(tab, pt, zi, Pi, np.bool_(False), g, G, Hs, wl)
         if taken > 0 and _check(g, G, zi, Wi, kap, xri, lref, rtol, roundoff):
             umax = 0.0
             for q in range(6):
@@ -434,7 +437,7 @@ def _settle(tab, pt, zi, Wi, Pi, kap, kdi, xri, max_steps, lref, rtol, roundoff,
         else:
             if full_left == 0:
                 return False
-            linearize_ws(tab, pt, zi, Pi, True, g, G, Hs, wl)
+            linearize_ws(tab, pt, zi, Pi, np.bool_(True), g, G, Hs, wl)
             _rhs(g, G, zi, Wi, kap, xri, b)
             have[0] = nonlinear_block.factor(tab, nx, kdi, G, Hs, ws)
             if have[0]:
