@@ -167,6 +167,29 @@ def add_parallelogram_leg(b: ChainBuilder, L: float, joint_springs: bool, last: 
         b.spring1("ry", r2y)
 
 
+#: the parallelogram compliances of the last bar compliances and angle sets: a fit that changes other
+#: springs (the actuators, a foot, joint springs, an additive term) evaluates the same legs again
+_LEGS: dict = {}
+_LEGS_MEMO_SIZE = 8
+
+
+def _leg_compliance(C_bar: np.ndarray, L: float, d: float, q: np.ndarray) -> np.ndarray:
+    """The legs' equivalent compliance (n, 6, 6) from bar compliance ``C_bar`` at angles q (read-only, memoized
+    for at most ``JACOBIAN_MEMO_POSES`` angles)."""
+    key = (C_bar.tobytes(), L, d, q.tobytes())
+    hit = _LEGS.get(key)
+    if hit is not None:
+        return hit
+    Kp, _ = parallelogram_stiffness(C_bar, L, d, q)
+    C = parallelogram_compliance(Kp, q)
+    C.flags.writeable = False
+    if q.size <= JACOBIAN_MEMO_POSES:
+        if len(_LEGS) >= _LEGS_MEMO_SIZE:
+            _LEGS.pop(next(iter(_LEGS)), None)   # the oldest
+        _LEGS[key] = C
+    return C
+
+
 def parallelogram_leg_compliances(model, chain_values, q_act) -> list[dict]:
     """Per chain, the spring compliances of a machine with parallelogram legs (3-PRPaR, Delta):
     the actuator, the foot, the leg's equivalent spring from its two bars at the chain's
@@ -180,8 +203,8 @@ def parallelogram_leg_compliances(model, chain_values, q_act) -> list[dict]:
     # evaluates this thousands of times on a few postures, where the calls' overhead is the cost)
     qs = [chain_values[k][:, ch.index("q2")] for k, ch in enumerate(model.chains)]
     q_all = np.concatenate(qs)
-    Kp, _ = parallelogram_stiffness(model.leg.compliance, L, d, q_all)
-    legs = np.split(parallelogram_compliance(Kp, q_all), np.cumsum([len(q) for q in qs])[:-1])
+    legs = np.split(_leg_compliance(np.asarray(model.leg.compliance, dtype=float), float(L), float(d), q_all),
+                    np.cumsum([len(q) for q in qs])[:-1])
     out = []
     for k in range(len(model.chains)):
         dct = {ACTUATOR: actuator_compliance(model, q_act[:, k]), LEG: legs[k]}

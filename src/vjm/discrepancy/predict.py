@@ -59,34 +59,58 @@ class Predictor:
         out[list(free)] = th
         return out
 
-    def build_model(self, names, theta):
-        """Model with the calibration and the model-kind effects of ``names`` applied."""
-        model, i = self.model, 0
-        blocks = []
+    def blocks(self, names, theta) -> list:
+        """[(name, full parameter vector)] of ``names`` from the fitted vector ``theta``."""
+        blocks, i = [], 0
         for nm in names:
             k = len(self.terms[nm].params)
             blocks.append((nm, self.full_theta(nm, np.asarray(theta[i:i + k], float))))
             i += k
+        return blocks
+
+    def build_model(self, names, theta):
+        """Model with the calibration and the model-kind effects of ``names`` applied."""
+        blocks = self.blocks(names, theta)
+        return self._build(blocks), blocks
+
+    def _build(self, blocks):
+        model = self.model
         for nm, th in blocks:
             if nm == CALIBRATION:
-                model = apply_calibration(model, th)
+                model = self.calibrated(th)
         for nm, th in blocks:
             if nm != CALIBRATION and REGISTRY[nm].kind == "model":
                 model = REGISTRY[nm].apply(model, th)
-        return model, blocks
+        return model
+
+    def calibrated(self, th):
+        """The model with calibration ``th``, kept for the last few: the finite differences of a fit's
+        other parameters all start from the same calibrated model."""
+        memo = self._cache.setdefault("calibrated", {})
+        key = th.tobytes()
+        model = memo.get(key)
+        if model is None:
+            if len(memo) >= 8:
+                memo.pop(next(iter(memo)))   # the oldest
+            model = memo[key] = apply_calibration(self.model, th)
+        return model
 
     def compliance(self, names, theta):
-        """(compliance at the unique postures, blocks, model, key): cached on the model-changing
-        parameters only (finite differences on additive parameters then cost no stiffness map)."""
-        model, blocks = self.build_model(names, theta)
+        """(compliance at the unique postures, blocks, model, key): the model and its map cached on the
+        model-changing parameters only (finite differences on additive parameters then cost neither)."""
+        blocks = self.blocks(names, theta)
         key = tuple((nm, th.tobytes()) for nm, th in blocks
                     if nm == CALIBRATION or REGISTRY[nm].kind == "model")
-        C = self._cache.get(key)
-        if C is None:
-            C = mo.compliance_map(model, self.ctx.P, repeated=True)   # a fit's map: compiled
+        hit = self._cache.get(key)
+        if hit is None:
+            model = self._build(blocks)
+            hit = (mo.compliance_map(model, self.kinematics(model), repeated=True), model)   # a fit's map: compiled
             if len(self._cache) > 64:
+                kept = {k: self._cache[k] for k in ("kinematics", "calibrated") if k in self._cache}
                 self._cache.clear()
-            self._cache[key] = C
+                self._cache.update(kept)
+            self._cache[key] = hit
+        C, model = hit
         return C, blocks, model, key
 
     def twists(self, names, theta) -> np.ndarray:
@@ -142,7 +166,20 @@ class Predictor:
     def kvalues(self, names, theta) -> np.ndarray:
         """(m, 2) k_tran, k_rot of the unique postures."""
         model, _ = self.build_model(names, theta)
-        return mo.kvalues_map(model, self.ctx.P, repeated=True)
+        return mo.kvalues_map(model, self.kinematics(model), repeated=True)
+
+    def kinematics(self, model):
+        """The kinematics of the unique postures for ``model`` (a parallel machine's, solved once per
+        kinematic key: a fit's models differ in their springs, and their maps then skip reading the poses
+        again), or the postures themselves for a model of another kind."""
+        key = getattr(model, "kinematic_key", None)
+        if key is None:
+            return self.ctx.P
+        kins = self._cache.setdefault("kinematics", {})
+        kin = kins.get(key)
+        if kin is None:
+            kin = kins[key] = model.kinematics(self.ctx.P)
+        return kin
 
 
 def deflection_problem(pred: Predictor, data: Deflections, sig, sigma_known, candidates) -> Problem:

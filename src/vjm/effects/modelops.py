@@ -20,8 +20,10 @@ from ..stiffness.linear import KERNEL_ENV
 
 #: a fit evaluates the map of the same poses thousands of times: its maps (``repeated=True``) run the
 #: compiled kernels from this many poses (loaded once per process, about 1 s; compiled once per install),
-#: far below the ``KERNEL_FROM`` of a single map.  ``VJM_MAP_KERNEL`` set in the environment decides instead.
-REPEATED_FROM = 16
+#: far below the ``KERNEL_FROM`` of a single map: from one pose on, a compiled map of the 3-PUU or the
+#: hexapod costs about 0.3 ms against 1.6-2.5 ms on the numpy path, the 3-PRPaR's 2-3 ms against 4-5 ms.
+#: ``VJM_MAP_KERNEL`` set in the environment decides instead.
+REPEATED_FROM = 1
 
 
 def stiffness_result(model, P, repeated: bool = False):
