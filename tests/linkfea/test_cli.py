@@ -83,11 +83,6 @@ def test_read_result_validates(run_ok, tmp_path):
         read_result(tmp_path / "short.json")
 
 
-def _linkfea(args, env):
-    return subprocess.run([sys.executable, "-m", "linkfea", *args], capture_output=True, text=True, env=env,
-                          timeout=300)
-
-
 @pytest.mark.parametrize("args", [
     ["bar", "--param", "length=0"],
     ["bar", "--param", "width=nan"],
@@ -101,7 +96,8 @@ def _linkfea(args, env):
 ])
 def test_bad_input_gives_one_error_line_and_no_file(args, env, tmp_path, monkeypatch):
     """In process, as the bad-input table runs its cases (``main`` returns the exit status); the status of a
-    real ``linkfea`` process is test_broken_step_via_cli's."""
+    real ``linkfea`` process is test_surface.py's test_open_stl_is_one_error_line_and_no_file (three refused surfaces) and
+    test_ctrl_c_during_meshing_stops_at_once's."""
     monkeypatch.setenv("LINKFEA_CACHE_DIR", env["LINKFEA_CACHE_DIR"])
     res = run(Case("", shlex.join(["linkfea", "compute", *args, "--out", "o/r.json"]), ""), tmp_path)
     assert res.status == 2, res.stderr
@@ -110,17 +106,23 @@ def test_bad_input_gives_one_error_line_and_no_file(args, env, tmp_path, monkeyp
     assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
 
 
-def test_broken_step_via_cli(env, tmp_path):
+def test_broken_step_via_cli(env, tmp_path, monkeypatch):
+    """An open shell written as STEP: one ``error:`` line naming the missing closed solid, exit 2, nothing
+    written (in process, as the cases above)."""
     import cadquery as cq
 
     box = cq.Workplane().box(100, 10, 10, centered=(False, True, True)).val()
     shell = cq.Shell.makeShell([f for f in box.Faces() if f.Center().x < 99.0])
     step = tmp_path / "open.step"
     cq.exporters.export(cq.Workplane().add(shell), str(step))
-    out = tmp_path / "o" / "r.json"
-    p = _linkfea(["compute", str(step), "--base", "plane:x=0", "--tip", "plane:x=100", "--out", str(out)], env)
-    assert p.returncode == 2 and p.stderr.strip().startswith("error: ") and "closed solid" in p.stderr
-    assert not out.exists() and not out.with_suffix(".png").exists()
+    monkeypatch.setenv("LINKFEA_CACHE_DIR", env["LINKFEA_CACHE_DIR"])
+    (tmp_path / "run").mkdir()
+    res = run(Case("", shlex.join(["linkfea", "compute", str(step), "--base", "plane:x=0", "--tip", "plane:x=100",
+                                   "--out", "o/r.json"]), ""), tmp_path / "run")
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert res.status == 2 and len(lines) == 1 and lines[0].startswith("error: ") and "closed solid" in lines[0], \
+        res.stderr
+    assert res.changed == [] and not (tmp_path / "run" / "o").exists()
 
 
 def _children(pid: int) -> list[int]:

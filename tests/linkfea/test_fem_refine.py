@@ -43,23 +43,23 @@ def test_tolerance_options_are_checked():
         compute("bar", ComputeOptions(tolerance=0.01, mesher="pytetwild"))
 
 
-def test_tolerance_not_reached_is_a_warning_line_and_exit_status_3(tmp_path):
+def test_tolerance_not_reached_is_a_warning_line_and_exit_status_3(tmp_path, monkeypatch):
     """A DOF budget that stops the refinement before the tolerance: the result set is written (reached: false),
     stderr says so in one ``warning:`` line (the pipeline's LinkFeaWarning, which the Python API gives too), and
-    the exit status is 3, not 0 (a coarse bar: 441 DOF, whose first refinement would pass the budget of 1000)."""
+    the exit status is 3, not 0 (a coarse bar: 441 DOF, whose first refinement would pass the budget of 1000).
+    In process, as the bad-input table runs its cases (``main`` returns the exit status, the one a ``linkfea``
+    process ends with: test_cli.py's test_broken_step_via_cli checks a real process's status)."""
     import json
-    import os
-    import subprocess
-    import sys
 
-    out = tmp_path / "o" / "r.json"
-    env = dict(os.environ, LINKFEA_CACHE_DIR=str(tmp_path / "cache"))
-    p = subprocess.run([sys.executable, "-m", "linkfea", "compute", "bar", "--mesh-size", "40", "--tolerance",
-                        "0.001%", "--max-dofs", "1000", "--no-picture", "-q", "--out", str(out)],
-                       capture_output=True, text=True, env=env, timeout=300)
-    lines = p.stderr.strip().splitlines()
-    assert p.returncode == 3, p.stderr
-    assert len(lines) == 1 and lines[0].startswith("warning: tolerance 0.001% not reached: stopped at "), p.stderr
+    from bad_inputs import Case, run
+
+    monkeypatch.setenv("LINKFEA_CACHE_DIR", str(tmp_path / "cache"))
+    (tmp_path / "run").mkdir()
+    res = run(Case("", "linkfea compute bar --mesh-size 40 --tolerance 0.001% --max-dofs 1000 --no-picture -q "
+                       "--out o/r.json", ""), tmp_path / "run")
+    lines = res.stderr.strip().splitlines()
+    assert res.status == 3, res.stderr
+    assert len(lines) == 1 and lines[0].startswith("warning: tolerance 0.001% not reached: stopped at "), res.stderr
     assert "budget of 1000 DOF" in lines[0]
-    ref = json.loads(out.read_text())["diagnostics"]["refinement"]
+    ref = json.loads((tmp_path / "run" / "o" / "r.json").read_text())["diagnostics"]["refinement"]
     assert ref["reached"] is False and ref["steps"][-1]["error"] > 1e-5

@@ -54,21 +54,31 @@ def test_concurrent_cold_cache_runs_produce_one_mesh(three_runs):
     assert sorted(p.name for p in (root / "cache").iterdir()) == [entries[0], entries[0] + ".lock"]
 
 
-def test_truncated_entry_is_a_miss_warned_once_and_replaced(three_runs, tmp_path):
+def _run_here(folder):
+    """`linkfea compute` of COMPUTE in process in ``folder``, as the bad-input table runs its cases: the
+    concurrency of :func:`three_runs` needs processes, a single run does not (its stderr and status are main's)."""
+    from bad_inputs import Case, run
+
+    return run(Case("", " ".join(["linkfea", *COMPUTE, "--out", "r.json"]), ""), folder)
+
+
+def test_truncated_entry_is_a_miss_warned_once_and_replaced(three_runs, tmp_path, monkeypatch):
     root, docs = three_runs
     cache = tmp_path / "cache"
     cache.mkdir()
     (entry,) = (root / "cache").glob("*.npz")
     data = entry.read_bytes()
     (cache / entry.name).write_bytes(data[: len(data) // 2])  # a run killed by a full disk, say
-    env = {**os.environ, "LINKFEA_CACHE_DIR": str(cache)}
-    p = _start([*COMPUTE, "--out", str(tmp_path / "r.json")], env, tmp_path)
-    _, err = p.communicate(timeout=600)
-    assert p.returncode == 0, err
+    monkeypatch.setenv("LINKFEA_CACHE_DIR", str(cache))
+    work = tmp_path / "work"
+    work.mkdir()
+    res = _run_here(work)
+    err = res.stderr
+    assert res.status == 0, err
     assert "Traceback" not in err
     warn = [ln for ln in err.splitlines() if ln.startswith("warning:")]
     assert len(warn) == 1 and "damaged" in warn[0] and entry.name in warn[0], err
-    doc = json.loads((tmp_path / "r.json").read_text())
+    doc = json.loads((work / "r.json").read_text())
     # a fresh mesh of the same key: the compliance agrees with the other mesh to the mesh error
     # (entries scaled by sqrt(C_ii C_jj), so the near-zero couplings are judged by the diagonal)
     new, old = np.array(doc["compliance"]), np.array(docs[0]["compliance"])
@@ -96,7 +106,7 @@ def test_default_folder_is_the_platform_cache(monkeypatch, tmp_path):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="XDG_CACHE_HOME places the cache on Linux only")
-def test_a_run_from_any_folder_reads_the_platform_cache(three_runs, tmp_path):
+def test_a_run_from_any_folder_reads_the_platform_cache(three_runs, tmp_path, monkeypatch):
     """The entry of a key, placed in the platform's cache folder, is what a run without $LINKFEA_CACHE_DIR
     reads (same key, same matrix bit for bit: pytetwild would give another mesh), and the folder the run
     starts from gets the result only."""
@@ -107,11 +117,10 @@ def test_a_run_from_any_folder_reads_the_platform_cache(three_runs, tmp_path):
     (platform / entry.name).write_bytes(entry.read_bytes())
     work = tmp_path / "work"
     work.mkdir()
-    env = {k: v for k, v in os.environ.items() if k != "LINKFEA_CACHE_DIR"}
-    env["XDG_CACHE_HOME"] = str(tmp_path / "xdg")
-    p = _start([*COMPUTE, "--out", "r.json"], env, work)
-    _, err = p.communicate(timeout=600)
-    assert p.returncode == 0, err
+    monkeypatch.delenv("LINKFEA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    res = _run_here(work)
+    assert res.status == 0, res.stderr
     doc = json.loads((work / "r.json").read_text())
     assert doc["mesh"]["cache_key"] == entry.name[:-4]
     assert doc["compliance"] == docs[0]["compliance"]

@@ -144,10 +144,12 @@ def test_interface_area_gate_names_the_face_and_the_figure():
 def test_block_mode_on_a_bore_tip_converges_to_rigid_mode():
     """A bore as the tip: the block fills it (a pin, fused by an OCC fragment, so the interface is
     conforming), and block mode tends to rigid coupling of the same mesh as E_block/E grows: the
-    gap shrinks about tenfold per decade (it is O(E/E_block))."""
+    gap shrinks about tenfold per decade (it is O(E/E_block)).  A 6 mm edge: the bore's curvature sets
+    the mesh near the pin (3.8k tets, against 4.6k at 4 mm), and the gaps are the same to 5%
+    (ratio 9.9 per decade at both sizes)."""
     link = build_link("parallelogram_bar", params={"pitch": 100}, tip="box:88,-8,-7,112,8,7", with_block=True)
     assert link.block.Volume() == pytest.approx(math.pi * 5.0 ** 2 * 12.0, rel=1e-9)
-    m = mesh_link(link, 4.0, with_block=True)
+    m = mesh_link(link, 6.0, with_block=True)
     assert abs(m.quality["tip_area_error"]) < 0.01 and m.block.any()
     alu = get_material("aluminium")
     rigid = compliance_from_solution(solve_link(m, alu, mode="rigid")).matrix
@@ -163,17 +165,17 @@ def test_block_mode_on_a_bore_tip_converges_to_rigid_mode():
 
 def test_filleted_bracket_mesh_convergence(bracket):
     """The default gmsh mesh against one with 1.5x smaller elements: every diagonal entry of the
-    6x6 within 0.5% (P2 on CAD-exact faces; the clamp and the coupled face are complete)."""
-    from linkfea import ComputeOptions
+    6x6 within 0.5% (P2 on CAD-exact faces; the clamp and the coupled face are complete).  The mesh,
+    solve and fit of :func:`linkfea.pipeline.compute` (rigid mode, steel), without its error estimate."""
     from linkfea.mesh import default_mesh_size
-    from linkfea.pipeline import compute
 
     link = build_link(str(bracket), base=BASE, tip=TIP, with_block=False)
     H = default_mesh_size(link)
-    coarse = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP))
-    fine = compute(str(bracket), ComputeOptions(base=BASE, tip=TIP, mesh_size=H / 1.5))
-    assert coarse.mesh.mesher == "gmsh" and fine.solution.n_dofs > 1.5 * coarse.solution.n_dofs
-    d = np.abs(np.diag(coarse.compliance) / np.diag(fine.compliance) - 1)
+    steel = get_material("steel")
+    coarse, fine = (mesh_link(link, h, with_block=False) for h in (H, H / 1.5))
+    sc, sf = solve_link(coarse, steel), solve_link(fine, steel)
+    assert coarse.mesher == "gmsh" and sf.n_dofs > 1.5 * sc.n_dofs
+    d = np.abs(np.diag(compliance_from_solution(sc).matrix) / np.diag(compliance_from_solution(sf).matrix) - 1)
     assert d.max() <= 0.005, d
 
 

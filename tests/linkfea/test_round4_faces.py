@@ -78,10 +78,18 @@ def test_a_selector_that_finds_nothing_names_the_nearest(listed):
 
 
 def test_faces_refuses_a_script_and_a_preview_without_selectors(listed, tmp_path):
+    import shlex
+
+    from bad_inputs import Case, run
+
     step, _, _ = listed
-    for args in (["bar"], [str(step), "--preview", str(tmp_path / "p.png")]):
-        p = subprocess.run([sys.executable, "-m", "linkfea", "faces", *args], capture_output=True, text=True,
-                           timeout=300)
-        lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
-        assert p.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), p.stderr
+    # the script through a real `linkfea` process (its exit status), the preview in process as the bad-input
+    # table runs its cases (``main`` returns the status the process would end with)
+    p = subprocess.run([sys.executable, "-m", "linkfea", "faces", "bar"], capture_output=True, text=True, timeout=300)
+    lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
+    assert p.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), p.stderr
+    res = run(Case("", shlex.join(["linkfea", "faces", str(step), "--preview", str(tmp_path / "p.png")]), ""),
+              tmp_path)
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert res.status == 2 and len(lines) == 1 and lines[0].startswith("error: "), res.stderr
     assert not (tmp_path / "p.png").exists()

@@ -51,7 +51,7 @@ def test_stl_of_the_bar_gives_the_cad_compliance(bar_stl, tmp_path):
     assert np.abs((s.compliance - c.compliance) / d).max() <= 0.01
 
 
-def test_open_stl_is_one_error_line_and_no_file(bar_stl, tmp_path):
+def test_open_stl_is_one_error_line_and_no_file(bar_stl, tmp_path, monkeypatch):
     import trimesh
 
     tm = trimesh.load(str(bar_stl))
@@ -61,13 +61,22 @@ def test_open_stl_is_one_error_line_and_no_file(bar_stl, tmp_path):
         build_link(str(open_path), base="plane:x=0", tip="plane:x=200")
     out = tmp_path / "o" / "r.json"
     env = dict(os.environ, LINKFEA_CACHE_DIR=str(tmp_path / "cache"))
-    for args in ([str(open_path), "--base", "plane:x=0", "--tip", "plane:x=200"],
-                 [str(bar_stl)],
-                 [str(tmp_path / "missing.ply"), "--base", "plane:x=0", "--tip", "plane:x=200"]):
-        p = subprocess.run([sys.executable, "-m", "linkfea", "compute", *args, "--out", str(out)],
-                           capture_output=True, text=True, env=env, timeout=300)
-        lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
-        assert p.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), p.stderr
+    # the open surface through a real `linkfea` process (its exit status), the other two in process as the
+    # bad-input table runs its cases (``main`` returns the status the process would end with)
+    p = subprocess.run([sys.executable, "-m", "linkfea", "compute", str(open_path), "--base", "plane:x=0", "--tip",
+                        "plane:x=200", "--out", str(out)], capture_output=True, text=True, env=env, timeout=300)
+    lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
+    assert p.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), p.stderr
+    assert not out.parent.exists() or not any(out.parent.iterdir())
+    import shlex
+
+    from bad_inputs import Case, run
+
+    monkeypatch.setenv("LINKFEA_CACHE_DIR", env["LINKFEA_CACHE_DIR"])
+    for args in ([str(bar_stl)], [str(tmp_path / "missing.ply"), "--base", "plane:x=0", "--tip", "plane:x=200"]):
+        res = run(Case("", shlex.join(["linkfea", "compute", *args, "--out", str(out)]), ""), tmp_path)
+        lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+        assert res.status == 2 and len(lines) == 1 and lines[0].startswith("error: "), res.stderr
         assert not out.parent.exists() or not any(out.parent.iterdir())
 
 
