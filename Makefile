@@ -9,10 +9,13 @@ STAMP  := $(VENV)/.installed
 install: $(STAMP)
 
 # constraints.txt pins the versions the test suite was run with (numbers reproduce bit for bit).
+# The compiled kernels are compiled as part of the install (cached beside the source, about a minute
+# on two cores), as pip compiles the bytecode: no first toolpath, diagnosis or test run waits for them.
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -c constraints.txt -e '.[dev]'
+	$(PY) -m vjm.kernels
 	touch $(STAMP)
 
 BIN    := $(VENV)/bin
@@ -44,9 +47,10 @@ demo: $(STAMP)
 	    --feed-per-tooth 0.05 --depth 2 --width 8 --split-moves --step 5 --out $(OUT)/robot_path
 
 # Lint and type-check first (seconds), build the docs site (strict: a broken link or a stale reference
-# fails; output in .cache/site), then the suite.  Meanwhile the compiled kernels are compiled once
-# (python -m vjm.kernels, log in .cache/kernels.log), so that the two test workers load them from the
-# cache instead of each compiling them on first use; should that fail, the tests report why.  One BLAS
+# fails; output in .cache/site), then the suite.  Meanwhile the compiled kernels are loaded, or compiled
+# again where a source changed since the install (python -m vjm.kernels, log in .cache/kernels.log), so
+# that the two test workers load them from the cache instead of each compiling them on first use; should
+# that fail, the tests report why.  One BLAS
 # thread per test worker: two workers on two cores, each with two BLAS threads, wait on each other.
 test: $(STAMP)
 	@mkdir -p .cache
