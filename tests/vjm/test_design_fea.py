@@ -2,12 +2,10 @@
 and a run whose designs are all cached runs no FEA and gives the same answer."""
 import json
 import os
-import shlex
 import signal
 import sys
 from pathlib import Path
 
-import bad_inputs
 import freshrun
 import pytest
 
@@ -26,36 +24,34 @@ seed: 1
 ARGS = ["design", "s.yaml", "--out", "o", "--workers", "1"]
 
 
-def _killed(folder: Path, fault: str) -> freshrun.Result:
-    """A run SIGKILLed at ``fault``, in a process of its own (tests/freshrun.py), whose process group (its Dask
-    workers, still computing the next design) is killed after it."""
-    return freshrun.command(["vjm", *ARGS], folder, {**os.environ, "OMP_NUM_THREADS": "1", "LINKFEA_FAULT": fault})
-
-
-def _rerun(folder: Path, monkeypatch):
-    """A run that is not killed, in this process (as tests/test_faults.py runs them): the same command."""
-    monkeypatch.delenv("LINKFEA_FAULT", raising=False)
-    return bad_inputs.run(bad_inputs.Case("", shlex.join(["vjm", *ARGS]), ""), folder)
+def _run(folder: Path, fault: str | None = None) -> freshrun.Result:
+    """The command in a process of its own (tests/freshrun.py), SIGKILLed at ``fault`` if given; its process group
+    (the Dask workers of a killed run, still computing the next design) is killed after it."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    env.pop("LINKFEA_FAULT", None)
+    if fault:
+        env["LINKFEA_FAULT"] = fault
+    return freshrun.command(["vjm", *ARGS], folder, env)
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL")
-def test_a_killed_run_resumes_from_the_cache_and_a_cached_rerun_runs_no_fea(tmp_path, monkeypatch):
+def test_a_killed_run_resumes_from_the_cache_and_a_cached_rerun_runs_no_fea(tmp_path):
     (tmp_path / "s.yaml").write_text(SPEC)
-    killed = _killed(tmp_path, "design-written:2")
+    killed = _run(tmp_path, "design-written:2")
     assert killed.returncode == -signal.SIGKILL, killed.stderr
     results = tmp_path / "o" / "links" / "leg" / "results"
     kept = sorted(p.name for p in results.glob("*.json"))
     assert len(kept) == 2 and not (tmp_path / "o" / "design.json").exists()
 
-    resumed = _rerun(tmp_path, monkeypatch)
-    assert resumed.status == 0, resumed.stderr
+    resumed = _run(tmp_path)
+    assert resumed.returncode == 0, resumed.stderr
     doc = json.loads((tmp_path / "o" / "design.json").read_text())
     assert doc["fea_computed"] == doc["fea_runs"] - 2           # the two killed-run designs were not redone
     assert set(kept) <= {Path(h["result"]).name for h in doc["history"]}
     assert doc["fea_runs"] <= 4 and doc["feasible"] and doc["k_tran_max"] <= 0.0153
 
-    again = _rerun(tmp_path, monkeypatch)
-    assert again.status == 0, again.stderr
+    again = _run(tmp_path)
+    assert again.returncode == 0, again.stderr
     doc2 = json.loads((tmp_path / "o" / "design.json").read_text())
     assert doc2["fea_computed"] == 0
     for k in ("parameters", "moving_mass_kg", "k_tran_max", "history", "fea_runs"):
