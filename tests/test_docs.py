@@ -1,9 +1,10 @@
 """The docs site's pages hold code that runs: every ```python block of docs/ (any depth), as tests/test_readme.py
 does for the README.
 
-Each block runs in a fresh interpreter from a scratch folder (a block may register an effect or set a
+Each block runs in a process of its own from a scratch folder (a block may register an effect or set a
 backend: nothing leaks into the other tests), with this checkout's ``src`` first on the path and the mesh
-cache in the scratch folder.  Two kinds of block do not run here, each for a stated reason:
+cache in the scratch folder; the process is forked from one that has imported the heavy packages once
+(tests/freshrun.py), not a new interpreter that imports them again for every block.  Two kinds of block do not run here, each for a stated reason:
 
 * a block whose only line is a snippet include of a script of ``docs/examples/`` (``--8<-- "docs/
   examples/NAME.py"``): tests/test_examples.py runs those scripts and checks what they print;
@@ -17,10 +18,10 @@ from __future__ import annotations
 
 import os
 import re
-import subprocess
 import sys
 from pathlib import Path
 
+import freshrun
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -67,8 +68,7 @@ def test_docs_block_runs(page, k, code, tmp_path):
                PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
     script = tmp_path / f"{Path(page).stem}_block{k}.py"
     script.write_text(code, encoding="utf-8")
-    res = subprocess.run([sys.executable, str(script)], cwd=tmp_path, env=env, capture_output=True,
-                         text=True, timeout=600)
+    res = freshrun.script(script, tmp_path, env)
     assert res.returncode == 0, f"{page} block {k}:\n{res.stderr[-3000:]}"
 
 

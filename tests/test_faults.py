@@ -11,10 +11,10 @@ import os
 import shlex
 import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import bad_inputs
+import freshrun
 import pytest
 
 import linkfea
@@ -22,7 +22,6 @@ from linkfea.files.outputs import MANIFEST, read_manifest, recover, sha256
 from linkfea.runtime.errors import LinkFeaError
 
 ROOT = Path(__file__).resolve().parents[1]
-BIN = Path(sys.executable).parent
 PUU = str(ROOT / "data" / "orthoglide" / "puu.yaml")
 #: killed before the journal is written: the old set; after: the new one
 POINTS = [("members-written", "old"), ("journal-written", "new"), ("renamed-one", "new")]
@@ -37,17 +36,12 @@ def env(tmp_path_factory):
 
 
 def run(tool, args, env, fault=None, cwd=None):
-    """Run ``tool args`` in its own process group; kill what is left of the group afterwards
-    (the workers of a killed sweep)."""
+    """Run ``tool args`` in a process of its own (tests/freshrun.py: forked from one that has imported the
+    packages, in its own process group); what is left of the group afterwards (the workers of a killed sweep)
+    is killed."""
     e = dict(env, **({"LINKFEA_FAULT": fault} if fault else {}))
-    p = subprocess.Popen([str(BIN / tool), *args], env=e, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         text=True, start_new_session=True)
-    out, err = p.communicate(timeout=600)
-    try:
-        os.killpg(p.pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    return p.returncode, err
+    res = freshrun.command([tool, *args], cwd or os.getcwd(), e)
+    return res.returncode, res.stderr
 
 
 def in_process(tool, args, env, monkeypatch, cwd):

@@ -3,10 +3,10 @@ and a run whose designs are all cached runs no FEA and gives the same answer."""
 import json
 import os
 import signal
-import subprocess
 import sys
 from pathlib import Path
 
+import freshrun
 import pytest
 
 PUU = Path(__file__).resolve().parents[2] / "data" / "orthoglide" / "puu.yaml"
@@ -21,15 +21,17 @@ constraints: {{k_tran_max: 0.0153}}
 budget: 4
 seed: 1
 """
+ARGS = ["design", "s.yaml", "--out", "o", "--workers", "1"]
 
 
-def _run(folder: Path, fault: str | None = None, *extra: str) -> subprocess.CompletedProcess:
+def _run(folder: Path, fault: str | None = None) -> freshrun.Result:
+    """The command in a process of its own (tests/freshrun.py), SIGKILLed at ``fault`` if given; its process group
+    (the Dask workers of a killed run, still computing the next design) is killed after it."""
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     env.pop("LINKFEA_FAULT", None)
     if fault:
         env["LINKFEA_FAULT"] = fault
-    return subprocess.run([sys.executable, "-m", "vjm.cli", "design", "s.yaml", "--out", "o", "--workers", "1", *extra],
-                          cwd=folder, env=env, capture_output=True, text=True, timeout=600)
+    return freshrun.command(["vjm", *ARGS], folder, env)
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL")

@@ -264,13 +264,18 @@ def propose(search: Search, cons: tuple, margin: float, rnd: int, inc: Combo, ra
         surr.append((link, LinkSurrogate.fit(U, C, np.array([s.mass for s in ok]))))
     counts = [search.machine.count(link.name) for link in links]
 
+    known: dict = {}  # SLSQP asks again for points it has seen (a constraint's value, then its gradient there)
+
     def predict(u):
-        comps, mass = {}, 0.0
-        for (link, s), k, part in zip(surr, counts, sl):
-            C, m = s.predict(u[part][None, :])
-            comps[link.name] = C[0]
-            mass += k * float(m[0])
-        return comps, mass
+        key = u.tobytes()
+        if key not in known:
+            comps, mass = {}, 0.0
+            for (link, s), k, part in zip(surr, counts, sl):
+                C, m = s.predict(u[part][None, :])
+                comps[link.name] = C[0]
+                mass += k * float(m[0])
+            known[key] = comps, mass
+        return known[key]
 
     here = np.concatenate([link.unit(next(s for s in search.samples[link.name] if s.key == k).params)
                            for link, k in zip(links, inc.keys)])
@@ -285,8 +290,14 @@ def propose(search: Search, cons: tuple, margin: float, rnd: int, inc: Combo, ra
     def mass(u):
         return predict(np.clip(u, 0.0, 1.0))[1]
 
+    seen: dict = {}
+
     def pointwise(u):
-        return near.pointwise(predict(np.clip(u, 0.0, 1.0))[0], cons)
+        u = np.clip(u, 0.0, 1.0)
+        key = u.tobytes()
+        if key not in seen:
+            seen[key] = near.pointwise(predict(u)[0], cons)
+        return seen[key]
 
     pool = qmc.Sobol(d=dim, rng=np.random.default_rng([search.spec.seed, 1000 + rnd])).random(POOL)
     if radius is not None:
