@@ -13,28 +13,29 @@ import numpy as np
 
 from ..errors import VjmError
 from ..model.links import LinkSpring
-from ..stiffness.linear import KERNEL_ENV
+from ..stiffness.linear import KERNEL_ENV, kernels_compiled
 
 # --------------------------------------------------------------- per-pose quantities
 
 
 #: a fit evaluates the map of the same poses thousands of times: its maps (``repeated=True``) run the
-#: compiled kernels from this many poses (loaded once per process, about 1 s; compiled once per install),
-#: far below the ``KERNEL_FROM`` of a single map: from one pose on, a compiled map of the 3-PUU or the
-#: hexapod costs about 0.3 ms against 1.6-2.5 ms on the numpy path, the 3-PRPaR's 2-3 ms against 4-5 ms.
-#: ``VJM_MAP_KERNEL`` set in the environment decides instead.
-REPEATED_FROM = 1
+#: compiled kernels (loaded once per process, about 1 s) whenever they are compiled already -- from one pose
+#: on, a compiled map of the 3-PUU or the hexapod costs about 0.3 ms against 1.6-2.5 ms on the numpy path,
+#: the 3-PRPaR's 2-3 ms against 4-5 ms -- and, where they are not, from this many poses, where a fit saves
+#: about what their compile costs once per install (about 20 s).  ``VJM_MAP_KERNEL`` set in the environment
+#: decides instead.
+REPEATED_FROM = 16
 
 
 def stiffness_result(model, P, repeated: bool = False):
     """``model.stiffness_map(P)``.  The model keeps the kinematics of recent pose batches and
     shares them (and its chains) with the models ``replace`` derives from it (same geometry), so a
     fit that changes stiffness parameters only redoes the spring part (eq. 11, 13).  ``repeated``: the
-    map of a fit, compiled from :data:`REPEATED_FROM` poses.  Only the fits ask for it: a caller that
+    map of a fit, compiled (see :data:`REPEATED_FROM`).  Only the fits ask for it: a caller that
     cuts its poses into chunks (``simulate``, for its progress) keeps the default, so that its numbers do
     not depend on the chunks."""
     n = np.shape(getattr(P, "frames", P))[0]
-    compiled = repeated and n >= REPEATED_FROM and not os.environ.get(KERNEL_ENV)
+    compiled = repeated and not os.environ.get(KERNEL_ENV) and (n >= REPEATED_FROM or kernels_compiled())
     return model.stiffness_map(P, kernel="numba" if compiled else None)
 
 

@@ -454,6 +454,22 @@ def _map_kernel():
     return map_kernel
 
 
+def kernels_compiled() -> bool:
+    """Whether the map kernels are compiled already: loaded in this process, or in numba's cache beside the
+    source (``python -m vjm.kernels``, ``make install``, an earlier run); a stale cache (a source changed) is
+    compiled again on first use.  False where numba is not installed."""
+    mk = _map_kernel()
+    if mk is None:
+        return False
+    entry = mk.machine_block
+    if entry.signatures:
+        return True
+    try:   # numba's cache index of the entry point (a private attribute: any failure reads "not compiled")
+        return os.path.exists(entry._cache._cache_file._index_path)
+    except Exception:
+        return False
+
+
 def use_kernel(n: int, kernel: str | None = None) -> bool:
     """Whether a block of ``n`` poses runs the compiled kernels: ``kernel`` (or, if None, the
     environment variable ``VJM_MAP_KERNEL``) is ``auto`` (from ``KERNEL_FROM`` poses), ``numba``
