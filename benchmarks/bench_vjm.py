@@ -152,7 +152,7 @@ def machines(n=30):
     load0 = os.getloadavg()[0]
 
     def fresh_map(m, P, kernel=None):
-        m._kin_cache._kin.clear()  # time the inverse kinematics too, not the model's cache of small batches
+        m._kin_cache.clear()  # time the inverse kinematics too, not the model's cache of small batches
         return m.stiffness_map(P, kernel=kernel)
 
     side = interleaved_times({k: (lambda k=k: fresh_map(hexa, X, k)) for k in ("numba", "numpy")})

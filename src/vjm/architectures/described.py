@@ -14,13 +14,14 @@ from ..errors import VjmError
 from ..kinematics.chain import ChainBuilder, jacobian
 from ..kinematics.ik import chain_size, conjugate, solve_chain
 from ..kinematics.poses import as_poses
+from ..memo import Recent
 from ..modelio.description import constant_matrix, seed_frame
 from .base import ACTUATOR, Architecture, actuator_compliance, joint_spring_compliance
 from .parallelogram import parallelogram_compliance, parallelogram_stiffness
 
 NAME = "description"
 #: kinematic keys of the models that passed ``validate`` (oldest first)
-_VALID: dict = {}
+_VALID = Recent(64)
 
 
 def _fmt(frame: np.ndarray, dof: int) -> str:
@@ -57,13 +58,7 @@ class Described(Architecture):
             raise VjmError("a 'description' model needs a machine description (platform and chains)")
         # what is checked depends on the kinematics only: a copy changed in its springs (as a
         # calibration makes hundreds of) is not checked again
-        key = model.kinematic_key
-        if key in _VALID:
-            return
-        self._validate(model)
-        if len(_VALID) >= 64:
-            _VALID.pop(next(iter(_VALID)))
-        _VALID[key] = True
+        _VALID.get(model.kinematic_key, lambda: self._validate(model) or True)
 
     def _validate(self, model):
         desc = model.description

@@ -21,6 +21,7 @@ import numpy as np
 from ..errors import VjmError
 from ..kinematics.chain import ChainBuilder, jacobian
 from ..kinematics.transforms import homogeneous
+from ..memo import Recent
 from ..stiffness.linalg import cholesky, lower_inverse
 from ..stiffness.linear import chain_stiffness
 from .base import ACTUATOR, FOOT, LEG, actuator_compliance, joint_spring_compliance
@@ -74,30 +75,30 @@ def parallelogram_stiffness(C_bar, L: float, d: float, q) -> tuple[np.ndarray, n
 
 #: the bar chains' Jacobians of the last angle sets: a fit of a bar's compliance evaluates the same
 #: poses again and again, and the Jacobians (half of a parallelogram's cost) depend on the angles only
-_JACOBIANS: dict = {}
+_JACOBIANS = Recent(8)
 #: ... kept for angle sets of at most this many poses (a large map computes them once anyway)
 JACOBIAN_MEMO_POSES = 4096
-_JACOBIAN_MEMO_SIZE = 8
+
+
+def _recent(memo: Recent, key, q: np.ndarray, compute):
+    """``compute()``, kept in ``memo`` under ``key`` for angle sets q of at most JACOBIAN_MEMO_POSES."""
+    return memo.get(key, compute) if q.size <= JACOBIAN_MEMO_POSES else compute()
 
 
 def _bar_jacobians(L: float, d: float, q: np.ndarray) -> tuple:
     """The Jacobians of :func:`bar_chains` at parallelogram angles q (read-only arrays, memoized)."""
-    key = (L, d, q.tobytes())
-    if q.size <= JACOBIAN_MEMO_POSES and key in _JACOBIANS:
-        return _JACOBIANS[key]
-    out = []
-    for ch in bar_chains(L, d):
-        v = np.zeros((q.size, ch.n_vars))
-        v[:, ch.index("p1")] = q
-        v[:, ch.index("p2")] = -q
-        J = jacobian(ch, v)[1]
-        J.flags.writeable = False
-        out.append(J)
-    if q.size <= JACOBIAN_MEMO_POSES:
-        if len(_JACOBIANS) >= _JACOBIAN_MEMO_SIZE:
-            _JACOBIANS.pop(next(iter(_JACOBIANS)))   # the oldest
-        _JACOBIANS[key] = tuple(out)
-    return tuple(out)
+    def compute():
+        out = []
+        for ch in bar_chains(L, d):
+            v = np.zeros((q.size, ch.n_vars))
+            v[:, ch.index("p1")] = q
+            v[:, ch.index("p2")] = -q
+            J = jacobian(ch, v)[1]
+            J.flags.writeable = False
+            out.append(J)
+        return tuple(out)
+
+    return _recent(_JACOBIANS, (L, d, q.tobytes()), q, compute)
 
 
 def mobility_direction(q) -> np.ndarray:
@@ -169,25 +170,17 @@ def add_parallelogram_leg(b: ChainBuilder, L: float, joint_springs: bool, last: 
 
 #: the parallelogram compliances of the last bar compliances and angle sets: a fit that changes other
 #: springs (the actuators, a foot, joint springs, an additive term) evaluates the same legs again
-_LEGS: dict = {}
-_LEGS_MEMO_SIZE = 8
+_LEGS = Recent(8)
 
 
 def _leg_compliance(C_bar: np.ndarray, L: float, d: float, q: np.ndarray) -> np.ndarray:
-    """The legs' equivalent compliance (n, 6, 6) from bar compliance ``C_bar`` at angles q (read-only, memoized
-    for at most ``JACOBIAN_MEMO_POSES`` angles)."""
-    key = (C_bar.tobytes(), L, d, q.tobytes())
-    hit = _LEGS.get(key)
-    if hit is not None:
-        return hit
-    Kp, _ = parallelogram_stiffness(C_bar, L, d, q)
-    C = parallelogram_compliance(Kp, q)
-    C.flags.writeable = False
-    if q.size <= JACOBIAN_MEMO_POSES:
-        if len(_LEGS) >= _LEGS_MEMO_SIZE:
-            _LEGS.pop(next(iter(_LEGS)), None)   # the oldest
-        _LEGS[key] = C
-    return C
+    """The legs' equivalent compliance (n, 6, 6) from bar compliance ``C_bar`` at angles q (read-only, memoized)."""
+    def compute():
+        C = parallelogram_compliance(parallelogram_stiffness(C_bar, L, d, q)[0], q)
+        C.flags.writeable = False
+        return C
+
+    return _recent(_LEGS, (C_bar.tobytes(), L, d, q.tobytes()), q, compute)
 
 
 def parallelogram_leg_compliances(model, chain_values, q_act) -> list[dict]:

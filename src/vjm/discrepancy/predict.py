@@ -14,6 +14,7 @@ import numpy as np
 from ..effects import REGISTRY
 from ..effects import modelops as mo
 from ..effects.context import Context
+from ..memo import Recent
 from ..stats.terms import Param, Problem, Term
 from .data import Deflections, StiffnessObs
 
@@ -46,7 +47,11 @@ class Predictor:
     #: name -> (n_full, free indices, full default vector): parameters held fixed because the
     #: data cannot see them (the Term then lists the free ones only)
     fixed: dict = field(default_factory=dict)
-    _cache: dict = field(default_factory=dict, repr=False)
+    #: the maps (and models) of the last model-changing parameter vectors, the models of the last
+    #: calibrations, the postures' kinematics per kinematic key: a fit's finite differences ask again
+    _maps: Recent = field(default_factory=lambda: Recent(64), repr=False)
+    _calibrated: Recent = field(default_factory=lambda: Recent(8), repr=False)
+    _kinematics: Recent = field(default_factory=lambda: Recent(8), repr=False)
     #: (needs_model effect, model-changing effects) -> whether the calibration leaves what it reads
     _calibration_free: dict = field(default_factory=dict, repr=False)
 
@@ -86,14 +91,7 @@ class Predictor:
     def calibrated(self, th):
         """The model with calibration ``th``, kept for the last few: the finite differences of a fit's
         other parameters all start from the same calibrated model."""
-        memo = self._cache.setdefault("calibrated", {})
-        key = th.tobytes()
-        model = memo.get(key)
-        if model is None:
-            if len(memo) >= 8:
-                memo.pop(next(iter(memo)))   # the oldest
-            model = memo[key] = apply_calibration(self.model, th)
-        return model
+        return self._calibrated.get(th.tobytes(), lambda: apply_calibration(self.model, th))
 
     def compliance(self, names, theta):
         """(compliance at the unique postures, blocks, model, key): the model and its map cached on the
@@ -101,16 +99,11 @@ class Predictor:
         blocks = self.blocks(names, theta)
         key = tuple((nm, th.tobytes()) for nm, th in blocks
                     if nm == CALIBRATION or REGISTRY[nm].kind == "model")
-        hit = self._cache.get(key)
-        if hit is None:
+        def compute():
             model = self._build(blocks)
-            hit = (mo.compliance_map(model, self.kinematics(model), repeated=True), model)   # a fit's map: compiled
-            if len(self._cache) > 64:
-                kept = {k: self._cache[k] for k in ("kinematics", "calibrated") if k in self._cache}
-                self._cache.clear()
-                self._cache.update(kept)
-            self._cache[key] = hit
-        C, model = hit
+            return mo.compliance_map(model, self.kinematics(model), repeated=True), model   # a fit's map: compiled
+
+        C, model = self._maps.get(key, compute)
         return C, blocks, model, key
 
     def twists(self, names, theta) -> np.ndarray:
@@ -175,11 +168,7 @@ class Predictor:
         key = getattr(model, "kinematic_key", None)
         if key is None:
             return self.ctx.P
-        kins = self._cache.setdefault("kinematics", {})
-        kin = kins.get(key)
-        if kin is None:
-            kin = kins[key] = model.kinematics(self.ctx.P)
-        return kin
+        return self._kinematics.get(key, lambda: model.kinematics(self.ctx.P))
 
 
 def deflection_problem(pred: Predictor, data: Deflections, sig, sigma_known, candidates) -> Problem:

@@ -8,7 +8,6 @@ model, validated again.
 from __future__ import annotations
 
 import dataclasses
-import threading
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -23,6 +22,7 @@ from ..kinematics.chain import _frame_product
 from ..kinematics.poses import Kinematics, as_poses
 from ..kinematics.transforms import rotation_vector
 from ..maps.grid import CHUNK, Grid, Workspace
+from ..memo import Recent
 from ..modelio.description import Description
 from ..stiffness.linear import (
     StiffnessResult,
@@ -90,30 +90,6 @@ class Joints:
             raise VjmError(f"joints.passive_stiffness must be a number > 0 (N mm/rad), got {k!r}")
 
 
-class _KinematicsCache:
-    """Kinematics of recent small pose batches.
-
-    Shared between the models :meth:`ParallelModel.replace` derives with the same kinematic key (the
-    kinematics do not depend on the springs), so it is locked: ``vjm path`` evaluates one model
-    from a thread pool."""
-
-    def __init__(self):
-        self._lock = threading.Lock()
-        self._kin: dict = {}
-
-    def kinematics(self, key, solve):
-        """The kinematics cached under ``key``, else ``solve()`` kept under it (the oldest dropped)."""
-        with self._lock:
-            kin = self._kin.get(key)
-        if kin is None:
-            kin = solve()  # outside the lock: two threads may solve the same poses, never block each other
-            with self._lock:
-                if len(self._kin) >= KIN_CACHE:
-                    self._kin.pop(next(iter(self._kin)))
-                self._kin[key] = kin
-        return kin
-
-
 @dataclass(frozen=True, eq=False, kw_only=True)
 class ParallelModel(Model):
     """Immutable VJM model of a parallel machine: the ``"parallel"`` kind of :class:`vjm.Model`.
@@ -149,8 +125,8 @@ class ParallelModel(Model):
     path: str | None = None
     description: Description | None = None
     #: kinematics of recent small pose batches (see :meth:`kinematics`), shared with the copies of the
-    #: same kinematic key; not a parameter
-    _kin_cache: _KinematicsCache = field(default_factory=_KinematicsCache, init=False, repr=False, compare=False)
+    #: same kinematic key (the kinematics do not depend on the springs); not a parameter
+    _kin_cache: Recent = field(default_factory=lambda: Recent(KIN_CACHE), init=False, repr=False, compare=False)
     #: the load sharing of the last kinematics asked for (see :meth:`joint_forces`); this model's own
     _sharing: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -338,7 +314,7 @@ class ParallelModel(Model):
         frames = as_poses(P, self.dof)
         if frames.shape[0] > MAP_BLOCK:
             return self._solve_kinematics(frames)
-        return self._kin_cache.kinematics(frames.tobytes(), lambda: self._solve_kinematics(frames))
+        return self._kin_cache.get(frames.tobytes(), lambda: self._solve_kinematics(frames))
 
     def _check_kinematics(self, kin: Kinematics) -> Kinematics:
         if kin.key != self.kinematic_key:
