@@ -46,18 +46,19 @@ demo: $(STAMP)
 	$(BIN)/vjm path data/robots/ur10/ur10.yaml data/toolpaths/robot_square.nc --tool 0,0,150 --kc 700 \
 	    --feed-per-tooth 0.05 --depth 2 --width 8 --split-moves --step 5 --out $(OUT)/robot_path
 
-# Lint and type-check first (seconds), build the docs site (strict: a broken link or a stale reference
-# fails; output in .cache/site), then the suite.  Meanwhile the compiled kernels are loaded, or compiled
-# again where a source changed since the install (python -m vjm.kernels, log in .cache/kernels.log), so
-# that the two test workers load them from the cache instead of each compiling them on first use; should
-# that fail, the tests report why.  One BLAS
+# Lint and type-check (ruff, mypy) while the docs site is built beside them (strict: a broken link or a
+# stale reference fails; output in .cache/site, log in .cache/mkdocs.log, shown if it fails), then the
+# suite.  Meanwhile the compiled kernels are loaded, or compiled again where a source changed since the
+# install (python -m vjm.kernels, log in .cache/kernels.log), so that the two test workers load them from
+# the cache instead of each compiling them on first use; should that fail, the tests report why.  One BLAS
 # thread per test worker: two workers on two cores, each with two BLAS threads, wait on each other.
 test: $(STAMP)
 	@mkdir -p .cache
-	$(PY) -m vjm.kernels > .cache/kernels.log 2>&1 & pid=$$!; \
-	$(BIN)/ruff check src tests docs/examples docs/tools && $(BIN)/mypy src && \
-	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict; rc=$$?; \
-	wait $$pid || cat .cache/kernels.log; exit $$rc
+	$(PY) -m vjm.kernels > .cache/kernels.log 2>&1 & kpid=$$!; \
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict > .cache/mkdocs.log 2>&1 & dpid=$$!; \
+	$(BIN)/ruff check src tests docs/examples docs/tools && $(BIN)/mypy src; rc=$$?; \
+	wait $$dpid || { cat .cache/mkdocs.log; rc=1; }; \
+	wait $$kpid || cat .cache/kernels.log; exit $$rc
 	DOCS_SITE=$(CURDIR)/.cache/site OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -m pytest -n 2 --dist loadfile --durations=15
 
 clean:
